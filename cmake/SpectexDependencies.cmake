@@ -1,0 +1,21 @@
+# Imported targets of Debian 12's packages (see DESIGN.md, "Facts about Debian 12's packages").
+find_package(Eigen3 3.3 REQUIRED NO_MODULE)
+find_package(Imath REQUIRED CONFIG)
+find_package(OpenEXR REQUIRED CONFIG)
+find_package(OpenImageIO REQUIRED CONFIG)
+
+# Debian's OpenImageIO target names /usr/include/opencv4, which need not exist.
+get_target_property(_oiio_inc OpenImageIO::OpenImageIO INTERFACE_INCLUDE_DIRECTORIES)
+if(_oiio_inc)
+  list(FILTER _oiio_inc EXCLUDE REGEX "opencv4")
+  set_target_properties(OpenImageIO::OpenImageIO PROPERTIES INTERFACE_INCLUDE_DIRECTORIES "${_oiio_inc}")
+endif()
+
+# find_package(OpenColorIO CONFIG) resolves its prefix to "/" on Debian 12: use pkg-config.
+find_package(PkgConfig REQUIRED)
+pkg_check_modules(OCIO REQUIRED IMPORTED_TARGET OpenColorIO)
+if(NOT TARGET OpenColorIO::OpenColorIO)
+  add_library(OpenColorIO::OpenColorIO ALIAS PkgConfig::OCIO)
+endif()
+
+find_package(Threads REQUIRED)

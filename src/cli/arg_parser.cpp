@@ -1,0 +1,167 @@
+#include "cli/arg_parser.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <sstream>
+
+namespace spectex {
+
+ArgParser::ArgParser(std::string command, std::string synopsis, std::string description)
+    : command_(std::move(command)), synopsis_(std::move(synopsis)), description_(std::move(description)) {
+    flag("-h, --help", "Show this help and exit.", [this] { help_ = true; });
+}
+
+void ArgParser::section(const std::string& title) {
+    Entry e;
+    e.label = title;
+    e.is_section = true;
+    entries_.push_back(e);
+}
+
+static std::vector<std::string> split_names(const std::string& names) {
+    std::vector<std::string> out;
+    std::stringstream ss(names);
+    std::string item;
+    while (std::getline(ss, item, ',')) {
+        size_t a = item.find_first_not_of(' ');
+        size_t b = item.find_last_not_of(' ');
+        if (a != std::string::npos) out.push_back(item.substr(a, b - a + 1));
+    }
+    return out;
+}
+
+void ArgParser::flag(const std::string& names, const std::string& help, std::function<void()> on) {
+    Entry e;
+    e.names = split_names(names);
+    e.label = names;
+    e.help = help;
+    e.on_flag = std::move(on);
+    entries_.push_back(e);
+}
+
+void ArgParser::option(const std::string& names, const std::string& metavar, const std::string& help,
+                       std::function<void(const std::string&)> on) {
+    Entry e;
+    e.names = split_names(names);
+    e.label = names + " " + metavar;
+    e.metavar = metavar;
+    e.help = help;
+    e.on_value = std::move(on);
+    entries_.push_back(e);
+}
+
+const ArgParser::Entry* ArgParser::find(const std::string& name) const {
+    for (const auto& e : entries_)
+        for (const auto& n : e.names)
+            if (n == name) return &e;
+    return nullptr;
+}
+
+std::vector<std::string> ArgParser::parse(const std::vector<std::string>& args) {
+    std::vector<std::string> pos;
+    for (size_t i = 0; i < args.size(); ++i) {
+        const std::string& a = args[i];
+        if (a == "--") {
+            pos.insert(pos.end(), args.begin() + static_cast<long>(i) + 1, args.end());
+            break;
+        }
+        if (a.size() < 2 || a[0] != '-' || a == "-") {
+            pos.push_back(a);
+            continue;
+        }
+        std::string name = a, value;
+        bool inline_value = false;
+        if (a.compare(0, 2, "--") == 0) {
+            size_t eq = a.find('=');
+            if (eq != std::string::npos) {
+                name = a.substr(0, eq);
+                value = a.substr(eq + 1);
+                inline_value = true;
+            }
+        }
+        const Entry* e = find(name);
+        if (!e) throw UsageError("unknown option '" + name + "'");
+        if (e->on_flag) {
+            if (inline_value) throw UsageError("option '" + name + "' takes no value");
+            e->on_flag();
+            if (help_) return pos;
+            continue;
+        }
+        if (!inline_value) {
+            if (i + 1 >= args.size()) throw UsageError("option '" + name + "' needs a value (" + e->metavar + ")");
+            value = args[++i];
+        }
+        e->on_value(value);
+    }
+    return pos;
+}
+
+std::string ArgParser::help() const {
+    std::ostringstream o;
+    o << "Usage: " << synopsis_ << "\n\n" << description_ << "\n";
+    for (const auto& e : entries_) {
+        if (e.is_section) {
+            o << "\n" << e.label << ":\n";
+            continue;
+        }
+        std::string label = "  " + e.label;
+        if (label.size() < 28) {
+            o << label << std::string(28 - label.size(), ' ');
+        } else {
+            o << label << "\n" << std::string(28, ' ');
+        }
+        // Wrap the help at 100 columns.
+        std::istringstream words(e.help);
+        std::string word;
+        size_t col = 28;
+        bool first = true;
+        while (words >> word) {
+            if (!first && col + 1 + word.size() > 100) {
+                o << "\n" << std::string(28, ' ');
+                col = 28;
+                first = true;
+            }
+            if (!first) {
+                o << ' ';
+                ++col;
+            }
+            o << word;
+            col += word.size();
+            first = false;
+        }
+        o << "\n";
+    }
+    return o.str();
+}
+
+int parse_int(const std::string& option, const std::string& value, int min, int max) {
+    char* end = nullptr;
+    errno = 0;
+    long v = std::strtol(value.c_str(), &end, 10);
+    if (value.empty() || *end != '\0' || errno == ERANGE || v < min || v > max)
+        throw UsageError(option + ": '" + value + "' is not a whole number from " + std::to_string(min) +
+                         " to " + std::to_string(max));
+    return static_cast<int>(v);
+}
+
+double parse_number(const std::string& option, const std::string& value) {
+    char* end = nullptr;
+    errno = 0;
+    double v = std::strtod(value.c_str(), &end);
+    if (value.empty() || *end != '\0' || errno == ERANGE || !std::isfinite(v))
+        throw UsageError(option + ": '" + value + "' is not a number");
+    return v;
+}
+
+uint64_t parse_count(const std::string& option, const std::string& value) {
+    char* end = nullptr;
+    errno = 0;
+    unsigned long long v = std::strtoull(value.c_str(), &end, 10);
+    if (value.empty() || value[0] == '-' || *end != '\0' || errno == ERANGE || v == 0)
+        throw UsageError(option + ": '" + value + "' is not a positive whole number");
+    return static_cast<uint64_t>(v);
+}
+
+}  // namespace spectex

@@ -1,0 +1,51 @@
+#pragma once
+// A small declarative option parser: every option is declared once, with its help text, and the
+// same table drives parsing, --help and usage errors (exit status 2).
+#include <functional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace spectex {
+
+class UsageError : public std::runtime_error {
+public:
+    explicit UsageError(const std::string& what) : std::runtime_error(what) {}
+};
+
+class ArgParser {
+public:
+    ArgParser(std::string command, std::string synopsis, std::string description);
+
+    void section(const std::string& title);
+    void flag(const std::string& names, const std::string& help, std::function<void()> on);
+    void option(const std::string& names, const std::string& metavar, const std::string& help,
+                std::function<void(const std::string&)> on);
+
+    // Returns the positional arguments. Throws UsageError. Sets help_requested() on -h/--help.
+    std::vector<std::string> parse(const std::vector<std::string>& args);
+    bool help_requested() const { return help_; }
+    std::string help() const;
+    const std::string& command() const { return command_; }
+
+private:
+    struct Entry {
+        std::vector<std::string> names;
+        std::string label, metavar, help;
+        std::function<void()> on_flag;
+        std::function<void(const std::string&)> on_value;
+        bool is_section = false;
+    };
+    const Entry* find(const std::string& name) const;
+
+    std::string command_, synopsis_, description_;
+    std::vector<Entry> entries_;
+    bool help_ = false;
+};
+
+// Typed parsing at the edge: "--threads 4" etc. Throw UsageError naming the option.
+int parse_int(const std::string& option, const std::string& value, int min, int max);
+double parse_number(const std::string& option, const std::string& value);
+uint64_t parse_count(const std::string& option, const std::string& value);
+
+}  // namespace spectex

@@ -1,0 +1,118 @@
+#include "io/atomic_file.h"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <climits>
+#include <cstring>
+#include <mutex>
+#include <vector>
+
+#include "spectral/error.h"
+
+namespace spectex {
+
+namespace {
+
+// Live temporary files, readable from a signal handler (fixed storage, no allocation).
+constexpr int kSlots = 64;
+char g_paths[kSlots][PATH_MAX];
+std::atomic<bool> g_used[kSlots];
+std::mutex g_slot_mutex;
+
+int take_slot(const std::string& path) {
+    if (path.size() >= PATH_MAX) return -1;
+    std::lock_guard<std::mutex> lock(g_slot_mutex);
+    for (int i = 0; i < kSlots; ++i) {
+        if (!g_used[i].load()) {
+            std::memcpy(g_paths[i], path.c_str(), path.size() + 1);
+            g_used[i].store(true);
+            return i;
+        }
+    }
+    return -1;
+}
+
+void release_slot(int slot) {
+    if (slot >= 0) g_used[slot].store(false);
+}
+
+extern "C" void cleanup_and_reraise(int sig) {
+    for (int i = 0; i < kSlots; ++i)
+        if (g_used[i].load()) ::unlink(g_paths[i]);
+    ::signal(sig, SIG_DFL);
+    ::raise(sig);
+}
+
+mode_t current_umask() {
+    static const mode_t mask = [] {
+        mode_t m = ::umask(022);
+        ::umask(m);
+        return m;
+    }();
+    return mask;
+}
+
+std::string dir_of(const std::string& path) {
+    size_t slash = path.find_last_of('/');
+    if (slash == std::string::npos) return ".";
+    if (slash == 0) return "/";
+    return path.substr(0, slash);
+}
+
+}  // namespace
+
+void install_signal_cleanup() {
+    current_umask();
+    struct sigaction sa;
+    std::memset(&sa, 0, sizeof sa);
+    sa.sa_handler = cleanup_and_reraise;
+    sigemptyset(&sa.sa_mask);
+    for (int sig : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(sig, &sa, nullptr);
+    ::signal(SIGXFSZ, SIG_IGN);
+}
+
+AtomicFile::AtomicFile(const std::string& final_path) : final_(final_path) {
+    std::string dir = dir_of(final_path);
+    std::string base = final_path.substr(final_path.find_last_of('/') + 1);
+    std::string tmpl = (dir == "." && final_path.find('/') == std::string::npos ? "" : dir + "/") + base +
+                       ".spectex-XXXXXX.tmp";
+    std::vector<char> buf(tmpl.begin(), tmpl.end());
+    buf.push_back('\0');
+    current_umask();
+    fd_ = ::mkstemps(buf.data(), 4);
+    if (fd_ < 0)
+        throw Error(final_path + ": cannot create a temporary file in " + dir + ": " + std::strerror(errno));
+    temp_ = buf.data();
+    slot_ = take_slot(temp_);
+}
+
+AtomicFile::~AtomicFile() {
+    if (fd_ >= 0) ::close(fd_);
+    if (!committed_) ::unlink(temp_.c_str());
+    release_slot(slot_);
+}
+
+void AtomicFile::commit() {
+    auto fail = [&](const char* what) {
+        throw Error(final_ + ": " + what + ": " + std::strerror(errno));
+    };
+    if (::fsync(fd_) != 0) fail("fsync failed");
+    if (::fchmod(fd_, 0666 & ~current_umask()) != 0) fail("cannot set the file mode");
+    int fd = fd_;
+    fd_ = -1;
+    if (::close(fd) != 0) fail("close failed");
+    if (::rename(temp_.c_str(), final_.c_str()) != 0) fail("cannot rename the temporary file");
+    committed_ = true;
+    int dfd = ::open(dir_of(final_).c_str(), O_RDONLY | O_DIRECTORY);
+    if (dfd >= 0) {
+        ::fsync(dfd);  // best effort: makes the rename durable
+        ::close(dfd);
+    }
+}
+
+}  // namespace spectex

@@ -1,0 +1,34 @@
+#pragma once
+// Atomic output: a temporary file in the destination folder, fsync, then rename over the final
+// name. Until commit() the final name is untouched; a failure, an exception or SIGINT/SIGTERM/SIGHUP
+// removes the temporary file (SIGKILL cannot be caught: it leaves the temporary, never a partial
+// file under the final name).
+#include <string>
+
+namespace spectex {
+
+class AtomicFile {
+public:
+    explicit AtomicFile(const std::string& final_path);   // creates the temporary file
+    ~AtomicFile();                                         // removes it unless committed
+    AtomicFile(const AtomicFile&) = delete;
+    AtomicFile& operator=(const AtomicFile&) = delete;
+
+    int fd() const { return fd_; }
+    const std::string& temp_path() const { return temp_; }
+    const std::string& final_path() const { return final_; }
+    // fsync, mode from the umask, close, rename, fsync the folder.
+    void commit();
+
+private:
+    std::string final_, temp_;
+    int fd_ = -1;
+    int slot_ = -1;
+    bool committed_ = false;
+};
+
+// Installs the handlers that remove live temporary files on SIGINT/SIGTERM/SIGHUP and ignores
+// SIGXFSZ, so that a file-size limit gives EFBIG (an error we report) instead of killing us.
+void install_signal_cleanup();
+
+}  // namespace spectex

@@ -1,0 +1,45 @@
+#include "io/data_dir.h"
+
+#include <climits>
+#include <cstdlib>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "spectral/error.h"
+
+namespace spectex {
+
+namespace {
+
+bool has_config(const std::string& dir) {
+    struct stat st;
+    return ::stat((dir + "/spectex.ocio").c_str(), &st) == 0 && S_ISREG(st.st_mode);
+}
+
+std::string executable_dir() {
+    char buf[PATH_MAX];
+    ssize_t n = ::readlink("/proc/self/exe", buf, sizeof buf - 1);
+    if (n <= 0) return "";
+    std::string p(buf, static_cast<size_t>(n));
+    return p.substr(0, p.find_last_of('/'));
+}
+
+}  // namespace
+
+std::string find_data_dir() {
+    if (const char* env = std::getenv("SPECTEX_DATA_DIR"); env && *env) {
+        if (!has_config(env))
+            throw Error(std::string(env) + ": SPECTEX_DATA_DIR has no spectex.ocio");
+        return env;
+    }
+    std::string exe = executable_dir();
+    if (!exe.empty()) {
+        std::string installed = exe + "/../share/spectex/config";
+        if (has_config(installed)) return installed;
+    }
+    if (has_config(SPECTEX_SOURCE_DATADIR)) return SPECTEX_SOURCE_DATADIR;
+    if (has_config(SPECTEX_INSTALL_DATADIR)) return SPECTEX_INSTALL_DATADIR;
+    throw Error("cannot find spectex's data folder (spectex.ocio); set SPECTEX_DATA_DIR");
+}
+
+}  // namespace spectex

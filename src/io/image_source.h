@@ -1,0 +1,47 @@
+#pragma once
+// Reading textures with OpenImageIO, a band of scanlines at a time, as float RGBA.
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace spectex {
+
+enum class AlphaKind { None, Associated, Unassociated };
+
+struct SourceInfo {
+    std::string path;
+    std::string format_name;       // OIIO's format name: "png", "openexr", ...
+    int x = 0, y = 0, width = 0, height = 0;                    // data window
+    int full_x = 0, full_y = 0, full_width = 0, full_height = 0;  // display window
+    int channels = 0;              // in the file
+    int alpha_channel = -1;        // index in the file, -1 when none
+    AlphaKind alpha = AlphaKind::None;
+    bool is_float = false;         // float or half samples
+    int bits = 8;                  // bits per sample in the file (8, 16, 32, ...)
+    std::string colorspace_hint;   // oiio:ColorSpace
+    int subimages = 1;
+    int miplevels = 1;
+};
+
+class ImageSource {
+public:
+    // Opens `path` and checks its header; refuses images above max_pixels before allocating.
+    static std::unique_ptr<ImageSource> open(const std::string& path, uint64_t max_pixels);
+    ~ImageSource();
+
+    const SourceInfo& info() const { return info_; }
+    // Reads rows [y0, y1) of the data window (0-based, relative to info().y) as packed RGBA float;
+    // grey is replicated to RGB and alpha is 1 when the file has none. Values are as stored
+    // (associated or not: see info().alpha).
+    void read_rgba(int y0, int y1, float* rgba);
+
+private:
+    ImageSource() = default;
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+    SourceInfo info_;
+    std::vector<float> scratch_;
+};
+
+}  // namespace spectex

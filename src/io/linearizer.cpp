@@ -1,0 +1,180 @@
+#include "io/linearizer.h"
+
+#include <OpenColorIO/OpenColorIO.h>
+
+#include <algorithm>
+#include <cstdlib>
+
+#include "spectral/error.h"
+
+namespace OCIO = OCIO_NAMESPACE;
+
+namespace spectex {
+
+namespace {
+
+// Names under which configs in the wild (ours, the ACES CG/Studio configs) call linear Rec.709.
+const std::vector<std::string> kLinearRec709Names = {
+    "lin_rec709_srgb", "lin_srgb", "Linear Rec.709 (sRGB)", "Utility - Linear - sRGB", "lin_rec709",
+    "Utility - Linear - Rec.709"};
+const std::vector<std::string> kSrgbTextureNames = {"srgb_tx", "sRGB - Texture", "Utility - sRGB - Texture",
+                                                    "sRGB"};
+
+std::string lower(std::string s) {
+    for (char& c : s)
+        if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
+    return s;
+}
+
+size_t edit_distance(const std::string& a, const std::string& b) {
+    std::vector<size_t> prev(b.size() + 1), cur(b.size() + 1);
+    for (size_t j = 0; j <= b.size(); ++j) prev[j] = j;
+    for (size_t i = 1; i <= a.size(); ++i) {
+        cur[0] = i;
+        for (size_t j = 1; j <= b.size(); ++j)
+            cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (a[i - 1] != b[j - 1])});
+        std::swap(prev, cur);
+    }
+    return prev[b.size()];
+}
+
+// Canonical name of a colour space (name, alias or role), or "" when the config lacks it.
+std::string find_space(const OCIO::ConstConfigRcPtr& cfg, const std::string& name) {
+    if (name.empty()) return "";
+    OCIO::ConstColorSpaceRcPtr cs = cfg->getColorSpace(name.c_str());
+    return cs ? cs->getName() : "";
+}
+
+std::string find_first(const OCIO::ConstConfigRcPtr& cfg, const std::vector<std::string>& names) {
+    for (const auto& n : names)
+        if (auto c = find_space(cfg, n); !c.empty()) return c;
+    return "";
+}
+
+std::vector<std::string> all_names(const OCIO::ConstConfigRcPtr& cfg) {
+    std::vector<std::string> out;
+    for (int i = 0; i < cfg->getNumColorSpaces(OCIO::SEARCH_REFERENCE_SPACE_ALL, OCIO::COLORSPACE_ALL); ++i) {
+        const char* n = cfg->getColorSpaceNameByIndex(OCIO::SEARCH_REFERENCE_SPACE_ALL, OCIO::COLORSPACE_ALL, i);
+        out.emplace_back(n);
+        auto cs = cfg->getColorSpace(n);
+        for (size_t a = 0; cs && a < cs->getNumAliases(); ++a) out.emplace_back(cs->getAlias(a));
+    }
+    return out;
+}
+
+// OIIO's generic oiio:ColorSpace values, mapped to the names configs use for them.
+std::vector<std::string> names_for_hint(const std::string& hint) {
+    std::string h = lower(hint);
+    if (h == "srgb" || h == "srgb_texture") return kSrgbTextureNames;
+    if (h == "linear" || h == "scene_linear" || h == "lin_srgb") {
+        std::vector<std::string> v = kLinearRec709Names;
+        v.push_back("scene_linear");
+        return v;
+    }
+    if (h == "gamma2.2") return {"g22_rec709_tx", "Gamma 2.2 Rec.709 - Texture"};
+    return {hint};
+}
+
+}  // namespace
+
+struct Linearizer::Impl {
+    OCIO::ConstCPUProcessorRcPtr cpu;
+};
+
+Linearizer::Linearizer() = default;
+Linearizer::~Linearizer() = default;
+Linearizer::Linearizer(Linearizer&&) noexcept = default;
+Linearizer& Linearizer::operator=(Linearizer&&) noexcept = default;
+
+std::vector<std::string> close_colour_space_names(const std::vector<std::string>& known,
+                                                  const std::string& name, size_t max) {
+    std::vector<std::pair<size_t, std::string>> scored;
+    for (const auto& k : known) scored.emplace_back(edit_distance(lower(k), lower(name)), k);
+    std::stable_sort(scored.begin(), scored.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::vector<std::string> out;
+    for (const auto& s : scored) {
+        if (out.size() >= max) break;
+        if (s.first <= std::max<size_t>(3, name.size() / 2)) out.push_back(s.second);
+    }
+    return out;
+}
+
+Linearizer Linearizer::make(const ColourRequest& req) {
+    Linearizer lin;
+    lin.impl_ = std::make_unique<Impl>();
+    const std::string shipped = req.data_dir + "/spectex.ocio";
+    std::string path = req.config_override;
+    if (path.empty())
+        if (const char* env = std::getenv("OCIO"); env && *env) path = env;
+    if (path.empty()) path = shipped;
+    lin.config_path_ = path;
+
+    OCIO::ConstConfigRcPtr cfg;
+    try {
+        cfg = OCIO::Config::CreateFromFile(path.c_str());
+    } catch (const OCIO::Exception& e) {
+        throw Error(path + ": cannot load OCIO config: " + e.what());
+    }
+
+    // 1. --colorspace, 2. the file's own metadata when the config knows it, 3. the file rules.
+    std::string src;
+    if (!req.colorspace.empty()) {
+        src = find_space(cfg, req.colorspace);
+        if (src.empty()) {
+            std::string msg = "unknown colour space '" + req.colorspace + "' in " + path;
+            auto close = close_colour_space_names(all_names(cfg), req.colorspace);
+            if (!close.empty()) {
+                msg += " (did you mean";
+                for (size_t i = 0; i < close.size(); ++i) msg += (i ? ", '" : " '") + close[i] + "'";
+                msg += "?)";
+            }
+            throw Error(msg);
+        }
+        lin.how_ = "--colorspace";
+    }
+    if (src.empty() && !req.file_hint.empty()) {
+        src = find_first(cfg, names_for_hint(req.file_hint));
+        if (!src.empty()) lin.how_ = "file metadata (" + req.file_hint + ")";
+    }
+    if (src.empty()) {
+        try {
+            src = cfg->getColorSpaceFromFilepath(req.file_path.c_str());
+        } catch (const OCIO::Exception& e) {
+            throw Error(path + ": file rules failed: " + e.what());
+        }
+        src = find_space(cfg, src);
+        if (src.empty()) throw Error(path + ": the config's file rules name no known colour space");
+        lin.how_ = "config file rules";
+    }
+    lin.input_space_ = src;
+
+    try {
+        OCIO::ConstProcessorRcPtr proc;
+        std::string dst = find_first(cfg, kLinearRec709Names);
+        if (!dst.empty()) {
+            proc = cfg->getProcessor(src.c_str(), dst.c_str());
+        } else {
+            // A foreign config without linear Rec.709: bridge to ours through ACES2065-1.
+            if (!cfg->hasRole("aces_interchange"))
+                throw Error(path + ": config has no linear Rec.709 space (lin_srgb) and no aces_interchange role");
+            auto ours = OCIO::Config::CreateFromFile(shipped.c_str());
+            proc = OCIO::Config::GetProcessorFromConfigs(cfg, src.c_str(), ours, "lin_srgb");
+        }
+        lin.identity_ = proc->isNoOp();
+        // Full-precision ops only: no LUT approximations of the transfer curves.
+        lin.impl_->cpu = proc->getOptimizedCPUProcessor(OCIO::BIT_DEPTH_F32, OCIO::BIT_DEPTH_F32,
+                                                        OCIO::OPTIMIZATION_LOSSLESS);
+    } catch (const OCIO::Exception& e) {
+        throw Error(path + ": cannot build the transform from '" + src + "' to linear Rec.709: " + e.what());
+    }
+    return lin;
+}
+
+void Linearizer::apply_rgba(float* rgba, long pixels) const {
+    if (identity_ || pixels <= 0) return;
+    OCIO::PackedImageDesc desc(rgba, pixels, 1, 4);
+    impl_->cpu->apply(desc);
+}
+
+}  // namespace spectex

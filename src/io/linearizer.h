@@ -1,0 +1,46 @@
+#pragma once
+// Linearisation with OpenColorIO: the input colour space -> linear Rec.709 (sRGB primaries, D65).
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace spectex {
+
+struct ColourRequest {
+    std::string data_dir;          // shipped config lives here
+    std::string config_override;   // --config; empty: $OCIO, else the shipped config
+    std::string colorspace;        // --colorspace; empty: file metadata, then file rules
+    std::string file_path;         // for the config's file_rules
+    std::string file_hint;         // OIIO's oiio:ColorSpace of the file ("sRGB", "Linear", ...)
+};
+
+class Linearizer {
+public:
+    // Throws Error with the cause (unknown colour space with suggestions, bad config, ...).
+    static Linearizer make(const ColourRequest& req);
+
+    const std::string& input_space() const { return input_space_; }
+    const std::string& config_path() const { return config_path_; }
+    const std::string& how_chosen() const { return how_; }   // "--colorspace", "file metadata", ...
+    bool is_identity() const { return identity_; }
+
+    // In place on `pixels` packed RGBA float pixels (alpha passes through).
+    void apply_rgba(float* rgba, long pixels) const;
+
+    Linearizer();
+    ~Linearizer();
+    Linearizer(Linearizer&&) noexcept;
+    Linearizer& operator=(Linearizer&&) noexcept;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+    std::string input_space_, config_path_, how_;
+    bool identity_ = false;
+};
+
+// Closest names (colour spaces and aliases) to `name` in a config, for "did you mean" messages.
+std::vector<std::string> close_colour_space_names(const std::vector<std::string>& known,
+                                                  const std::string& name, size_t max = 3);
+
+}  // namespace spectex

@@ -1,0 +1,37 @@
+#pragma once
+// Reads the header of a spectral OpenEXR (Fichet 2021 layout, ours or another tool's).
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace spectex {
+
+struct SpectralBin {
+    double lambda = 0;        // nm
+    std::string channel;      // as spelt in the file, e.g. "T.380,000000nm"
+    std::string type;         // "half", "float", "uint"
+};
+
+struct SpectralExrInfo {
+    std::string path;
+    int width = 0, height = 0;
+    int data_x0 = 0, data_y0 = 0, data_x1 = -1, data_y1 = -1;
+    int display_x0 = 0, display_y0 = 0, display_x1 = -1, display_y1 = -1;
+    std::vector<SpectralBin> reflective;   // sorted by wavelength
+    int emissive_channels = 0;             // S0..S3.<λ>nm
+    std::string sample_type;               // of the reflective channels: "half", "float", "mixed"
+    std::string compression;
+    bool tiled = false;
+    int tile_width = 0, tile_height = 0;
+    int parts = 1;
+    bool alpha = false;
+    std::string alpha_type;
+    bool preview = false;                  // R, G, B present
+    std::string layout_version;            // spectralLayoutVersion, "" when absent
+    std::vector<std::pair<std::string, std::string>> attributes;  // every other attribute, as text
+};
+
+// Throws Error("<path>: <cause>") for unreadable files and for files with no reflective channels.
+SpectralExrInfo read_spectral_exr_info(const std::string& path);
+
+}  // namespace spectex

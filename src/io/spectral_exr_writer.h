@@ -1,0 +1,53 @@
+#pragma once
+// Writes the Fichet–Pacanowski–Wilkie (JCGT 2021) reflective layout: channels T.<λ>nm, optional A
+// and preview R,G,B, header spectralLayoutVersion = "1.0", through an AtomicFile.
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace spectex {
+
+class AtomicFile;
+
+enum class SampleType { Half, Float };
+
+struct ExrCompression {
+    std::string name;   // none, rle, zips, zip, piz, pxr24, b44, b44a, dwaa, dwab
+    int id = 0;         // Imf::Compression value
+    int lines_per_chunk = 1;
+    static ExrCompression parse(const std::string& name);   // throws Error listing valid names
+    static std::vector<std::string> names();
+};
+
+struct SpectralExrLayout {
+    int x = 0, y = 0, width = 0, height = 0;                     // data window origin and size
+    int full_x = 0, full_y = 0, full_width = 0, full_height = 0;  // display window
+    std::vector<double> lambda;
+    SampleType type = SampleType::Half;
+    bool alpha = false;
+    SampleType alpha_type = SampleType::Half;
+    bool preview = false;
+    ExrCompression compression = ExrCompression::parse("zip");
+    std::vector<std::pair<std::string, std::string>> attributes;  // extra string attributes
+};
+
+class SpectralExrWriter {
+public:
+    SpectralExrWriter(AtomicFile& file, const SpectralExrLayout& layout);
+    ~SpectralExrWriter();
+
+    // Writes the next `rows` rows. spectral: bin k of pixel i at spectral[k*plane_stride + i]
+    // (uint16_t half bits or float, as layout.type); alpha and preview (r,g,b planes) are float,
+    // width*rows each, and ignored when the layout has none.
+    void write_rows(int rows, const void* spectral, size_t plane_stride, const float* alpha,
+                    const float* preview_r, const float* preview_g, const float* preview_b);
+    // Completes the file (offset table) and flushes it to the AtomicFile.
+    void finish();
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace spectex

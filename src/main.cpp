@@ -1,0 +1,77 @@
+// spectex: sRGB textures to spectral reflectance OpenEXR. Subcommand dispatch only.
+#include <clocale>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "cli/commands.h"
+#include "io/atomic_file.h"
+#include "spectex/version.h"
+
+namespace spectex {
+
+void print_error(const std::string& message) { std::cerr << "spectex: " << message << std::endl; }
+
+int usage_error(const std::string& command, const std::string& message) {
+    std::cerr << "spectex " << command << ": " << message << "\n"
+              << "Try 'spectex " << command << " --help'." << std::endl;
+    return 2;
+}
+
+}  // namespace spectex
+
+namespace {
+
+const char* kUsage =
+    "Usage: spectex <command> [options]\n"
+    "\n"
+    "Spectral reflectance OpenEXR textures from sRGB (and other) textures, with the spectral\n"
+    "primary decomposition of Mallett & Yuksel (2019).\n"
+    "\n"
+    "Commands:\n"
+    "  bake     turn a texture into a spectral OpenEXR (channels T.<wavelength>nm)\n"
+    "  info     describe a spectral OpenEXR\n"
+    "\n"
+    "Options:\n"
+    "  -h, --help     show this help; 'spectex <command> --help' for a command's options\n"
+    "  --version      show the version\n"
+    "\n"
+    "Exit status: 0 success, 1 the work failed, 2 usage error.\n";
+
+std::string quote(const std::string& s) {
+    if (!s.empty() && s.find_first_of(" \t\"'\\$`;&|<>()*?") == std::string::npos) return s;
+    std::string q = "'";
+    for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    return q + "'";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    // Channel names hold commas and numbers are parsed with strtod: one locale, always.
+    std::setlocale(LC_ALL, "C");
+    std::locale::global(std::locale::classic());
+    spectex::install_signal_cleanup();
+
+    std::vector<std::string> args(argv + 1, argv + argc);
+    if (args.empty()) {
+        std::cerr << kUsage;
+        return 2;
+    }
+    const std::string cmd = args[0];
+    if (cmd == "-h" || cmd == "--help" || cmd == "help") {
+        std::cout << kUsage;
+        return 0;
+    }
+    if (cmd == "--version") {
+        std::cout << "spectex " << SPECTEX_VERSION << "\n";
+        return 0;
+    }
+    std::string command_line = "spectex";
+    for (const auto& a : args) command_line += " " + quote(a);
+    std::vector<std::string> rest(args.begin() + 1, args.end());
+    if (cmd == "bake") return spectex::run_bake(rest, command_line);
+    if (cmd == "info") return spectex::run_info(rest);
+    std::cerr << "spectex: unknown command '" << cmd << "'\n" << kUsage;
+    return 2;
+}

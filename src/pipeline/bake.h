@@ -1,0 +1,55 @@
+#pragma once
+// The streaming bake of one texture: read (OIIO) -> linearise (OCIO) -> policies -> expand ->
+// write (OpenEXR), a strip of rows at a time, into an atomic output file.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "io/spectral_exr_writer.h"
+#include "spectral/basis.h"
+#include "spectral/wavelength_grid.h"
+
+namespace spectex {
+
+enum class RangePolicy { Clamp, Keep, Error };
+enum class NanPolicy { Replace, Error };
+enum class AlphaMode { Associated, Unassociated };
+
+struct BakeSettings {
+    std::string colorspace;          // --colorspace ("" = metadata, then file rules)
+    std::string config;              // --config ("" = $OCIO, then the shipped config)
+    std::string data_dir;
+    Basis basis;                     // already on the output grid
+    std::string basis_source;        // how the basis was obtained (for the header)
+    std::string observer = "cie1931-2";
+    std::string illuminant = "D65";
+    WavelengthGrid grid;
+    SampleType type = SampleType::Half;
+    ExrCompression compression = ExrCompression::parse("zip");
+    bool preview = false;
+    AlphaMode alpha = AlphaMode::Associated;
+    RangePolicy range = RangePolicy::Clamp;
+    NanPolicy nan = NanPolicy::Replace;
+    uint64_t max_pixels = 268435456;  // 16384 x 16384
+    std::string command_line;
+};
+
+struct BakeResult {
+    std::string input, output;
+    std::string colorspace, colorspace_how;
+    uint64_t pixels = 0;
+    int bins = 0;
+    uint64_t bytes = 0;
+    uint64_t clamped_pixels = 0;     // pixels with a linear component moved into [0, 1]
+    uint64_t replaced_pixels = 0;    // pixels with a NaN/Inf component replaced
+    double seconds = 0;
+    std::vector<std::string> notes;  // e.g. "input has 3 MIP levels: the first was used"
+};
+
+// Throws Error ("<file>: <cause>") on failure; the output then does not exist under its name.
+BakeResult bake_file(const std::string& input, const std::string& output, const BakeSettings& s);
+
+std::string to_string(RangePolicy p);
+std::string to_string(NanPolicy p);
+
+}  // namespace spectex

@@ -1,0 +1,63 @@
+#include "spectral/basis.h"
+
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <ostream>
+#include <sys/stat.h>
+
+#include "spectral/csv_table.h"
+#include "spectral/error.h"
+
+namespace spectex {
+
+namespace {
+
+void fnv1a(uint64_t& h, const std::vector<double>& v) {
+    for (double d : v) {
+        uint64_t bits;
+        std::memcpy(&bits, &d, sizeof bits);
+        for (int i = 0; i < 8; ++i) {
+            h ^= (bits >> (8 * i)) & 0xffu;
+            h *= 0x100000001b3ull;
+        }
+    }
+}
+
+}  // namespace
+
+std::string Basis::checksum() const {
+    uint64_t h = 0xcbf29ce484222325ull;
+    fnv1a(h, lambda);
+    fnv1a(h, r);
+    fnv1a(h, g);
+    fnv1a(h, b);
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "fnv1a64:%016llx", static_cast<unsigned long long>(h));
+    return buf;
+}
+
+Basis read_basis_csv(const std::string& path, const std::string& name) {
+    CsvTable t = read_csv_table(path, {"wavelength", "r", "g", "b"});
+    return Basis{name, t.data[0], t.data[1], t.data[2], t.data[3]};
+}
+
+void write_basis_csv(std::ostream& out, const Basis& basis, const std::vector<std::string>& comments) {
+    CsvTable t;
+    t.comments = comments;
+    t.columns = {"wavelength", "r", "g", "b"};
+    t.data = {basis.lambda, basis.r, basis.g, basis.b};
+    write_csv_table(out, t);
+}
+
+std::vector<std::string> shipped_bases() { return {"mallett2019"}; }
+
+Basis load_basis(const std::string& data_dir, const std::string& name_or_file) {
+    for (const auto& b : shipped_bases())
+        if (b == name_or_file) return read_basis_csv(data_dir + "/spectral/basis_" + b + ".csv", b);
+    struct stat st;
+    if (::stat(name_or_file.c_str(), &st) == 0) return read_basis_csv(name_or_file, name_or_file);
+    throw Error("unknown basis '" + name_or_file + "' (known: mallett2019, or a CSV file)");
+}
+
+}  // namespace spectex

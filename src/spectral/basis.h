@@ -1,0 +1,27 @@
+#pragma once
+// A spectral basis: three reflectance spectra S_r, S_g, S_b on a wavelength grid.
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+namespace spectex {
+
+struct Basis {
+    std::string name;                 // "mallett2019", a file path, or a fitted basis' description
+    std::vector<double> lambda;       // nm
+    std::vector<double> r, g, b;
+
+    size_t size() const { return lambda.size(); }
+    // "fnv1a64:<16 hex digits>" over the little-endian IEEE bytes of lambda, r, g, b in that order.
+    std::string checksum() const;
+};
+
+// CSV with header "wavelength,r,g,b" (DESIGN.md conventions).
+Basis read_basis_csv(const std::string& path, const std::string& name);
+void write_basis_csv(std::ostream& out, const Basis& basis, const std::vector<std::string>& comments);
+
+// "mallett2019" (the published table shipped in <data_dir>/spectral/), or a CSV file path.
+Basis load_basis(const std::string& data_dir, const std::string& name_or_file);
+std::vector<std::string> shipped_bases();
+
+}  // namespace spectex

@@ -1,0 +1,146 @@
+#include "spectral/csv_table.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <ostream>
+#include <sstream>
+
+#include "spectral/error.h"
+
+namespace spectex {
+
+namespace {
+
+constexpr size_t kMaxBytes = 64u << 20;   // a spectral table is kilobytes; refuse anything absurd
+constexpr size_t kMaxColumns = 4096;
+
+std::string trim(const std::string& s) {
+    size_t a = s.find_first_not_of(" \t\r");
+    if (a == std::string::npos) return "";
+    size_t b = s.find_last_not_of(" \t\r");
+    return s.substr(a, b - a + 1);
+}
+
+std::string lower(std::string s) {
+    for (char& c : s)
+        if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
+    return s;
+}
+
+std::vector<std::string> split_commas(const std::string& line) {
+    std::vector<std::string> out;
+    std::string cur;
+    for (char c : line) {
+        if (c == ',') {
+            out.push_back(trim(cur));
+            cur.clear();
+        } else {
+            cur += c;
+        }
+    }
+    out.push_back(trim(cur));
+    return out;
+}
+
+bool to_double(const std::string& s, double* v) {
+    if (s.empty()) return false;
+    char* end = nullptr;
+    errno = 0;
+    *v = std::strtod(s.c_str(), &end);
+    return end == s.c_str() + s.size() && errno != ERANGE && std::isfinite(*v);
+}
+
+}  // namespace
+
+CsvTable parse_csv_table(const std::string& text, const std::string& source,
+                         const std::vector<std::string>& expected) {
+    if (text.size() > kMaxBytes) throw Error(source + ": file too large for a spectral table");
+    CsvTable t;
+    std::istringstream in(text);
+    std::string line;
+    size_t lineno = 0;
+    bool have_header = false;
+    while (std::getline(in, line)) {
+        ++lineno;
+        std::string s = trim(line);
+        if (s.empty()) continue;
+        if (s[0] == '#') {
+            if (!have_header) t.comments.push_back(trim(s.substr(1)));
+            continue;
+        }
+        auto fields = split_commas(s);
+        std::string where = source + ":" + std::to_string(lineno) + ": ";
+        if (!have_header) {
+            if (fields.size() < 2 || fields.size() > kMaxColumns)
+                throw Error(where + "expected a header line such as 'wavelength,value'");
+            if (!expected.empty()) {
+                bool ok = fields.size() == expected.size();
+                for (size_t i = 0; ok && i < fields.size(); ++i)
+                    ok = lower(fields[i]) == lower(expected[i]);
+                if (!ok) {
+                    std::string want;
+                    for (size_t i = 0; i < expected.size(); ++i) want += (i ? "," : "") + expected[i];
+                    throw Error(where + "header is '" + s + "', expected '" + want + "'");
+                }
+            }
+            t.columns = fields;
+            t.data.assign(fields.size(), {});
+            have_header = true;
+            continue;
+        }
+        if (fields.size() != t.columns.size())
+            throw Error(where + "expected " + std::to_string(t.columns.size()) + " values, found " +
+                        std::to_string(fields.size()));
+        for (size_t i = 0; i < fields.size(); ++i) {
+            double v;
+            if (!to_double(fields[i], &v))
+                throw Error(where + "'" + fields[i] + "' is not a finite number");
+            t.data[i].push_back(v);
+        }
+        const auto& wl = t.data[0];
+        size_t n = wl.size();
+        if (wl[n - 1] <= 0) throw Error(where + "wavelength must be positive");
+        if (n > 1 && !(wl[n - 1] > wl[n - 2]))
+            throw Error(where + "wavelengths must be strictly increasing");
+    }
+    if (!have_header) throw Error(source + ": no header line (empty or comment-only file)");
+    if (t.rows() == 0) throw Error(source + ": no data rows");
+    return t;
+}
+
+CsvTable read_csv_table(const std::string& path, const std::vector<std::string>& expected) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw Error(path + ": cannot open: " + std::string(std::strerror(errno)));
+    std::string text;
+    char buf[65536];
+    while (in.read(buf, sizeof buf) || in.gcount() > 0) {
+        text.append(buf, static_cast<size_t>(in.gcount()));
+        if (text.size() > kMaxBytes) throw Error(path + ": file too large for a spectral table");
+    }
+    if (in.bad()) throw Error(path + ": read error");
+    return parse_csv_table(text, path, expected);
+}
+
+void write_csv_table(std::ostream& out, const CsvTable& table) {
+    for (const auto& c : table.comments) out << "# " << c << "\n";
+    for (size_t i = 0; i < table.columns.size(); ++i) out << (i ? "," : "") << table.columns[i];
+    out << "\n";
+    char buf[64];
+    for (size_t r = 0; r < table.rows(); ++r) {
+        for (size_t c = 0; c < table.columns.size(); ++c) {
+            double v = table.data[c][r];
+            if (c == 0 && v == std::floor(v) && std::fabs(v) < 1e15)
+                std::snprintf(buf, sizeof buf, "%.0f", v);
+            else
+                std::snprintf(buf, sizeof buf, "%.17g", v);
+            out << (c ? "," : "") << buf;
+        }
+        out << "\n";
+    }
+}
+
+}  // namespace spectex

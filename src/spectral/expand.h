@@ -1,0 +1,24 @@
+#pragma once
+// The expansion kernel: spectrum = r·S_r + g·S_g + b·S_b for every pixel of a strip.
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "spectral/basis.h"
+
+namespace spectex {
+
+struct ExpansionMatrix {
+    int bins = 0;
+    std::vector<float> coeff;  // bins×3, row k = (S_r, S_g, S_b) at bin k
+
+    static ExpansionMatrix from_basis(const Basis& basis);
+};
+
+// r, g, b: planes of n linear values. Bin k of pixel i goes to out[k * plane_stride + i].
+void expand_to_half(const ExpansionMatrix& m, const float* r, const float* g, const float* b, size_t n,
+                    uint16_t* out, size_t plane_stride);
+void expand_to_float(const ExpansionMatrix& m, const float* r, const float* g, const float* b, size_t n,
+                     float* out, size_t plane_stride);
+
+}  // namespace spectex

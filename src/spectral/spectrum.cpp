@@ -1,0 +1,80 @@
+#include "spectral/spectrum.h"
+
+#include <algorithm>
+#include <sys/stat.h>
+
+#include "spectral/csv_table.h"
+#include "spectral/error.h"
+
+namespace spectex {
+
+namespace {
+
+bool is_regular_file(const std::string& path) {
+    struct stat st;
+    return ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
+}
+
+std::string upper(std::string s) {
+    for (char& c : s)
+        if (c >= 'a' && c <= 'z') c = static_cast<char>(c - 'a' + 'A');
+    return s;
+}
+
+}  // namespace
+
+std::vector<double> Spectrum::sample(const WavelengthGrid& grid) const {
+    std::vector<double> out(grid.size());
+    const double tol = 1e-6;
+    if (lambda.empty()) throw Error(name + ": empty table");
+    for (size_t k = 0; k < grid.size(); ++k) {
+        double l = grid.lambda[k];
+        if (l < lambda.front() - tol || l > lambda.back() + tol)
+            throw Error("wavelength " + format_wavelength(l) + " nm lies outside the " + name +
+                        " table (" + format_wavelength(lambda.front()) + "-" +
+                        format_wavelength(lambda.back()) + " nm)");
+        auto it = std::lower_bound(lambda.begin(), lambda.end(), l - tol);
+        size_t i = static_cast<size_t>(it - lambda.begin());
+        if (i < lambda.size() && std::abs(lambda[i] - l) <= tol) {
+            out[k] = value[i];  // on a table node: exact, no interpolation rounding
+            continue;
+        }
+        if (i == 0) i = 1;
+        if (i >= lambda.size()) i = lambda.size() - 1;
+        double t = (l - lambda[i - 1]) / (lambda[i] - lambda[i - 1]);
+        out[k] = value[i - 1] + t * (value[i] - value[i - 1]);
+    }
+    return out;
+}
+
+Spectrum load_illuminant_csv(const std::string& path, const std::string& name) {
+    CsvTable t = read_csv_table(path, {"wavelength", "value"});
+    return Spectrum{name, t.data[0], t.data[1]};
+}
+
+Observer load_observer_csv(const std::string& path, const std::string& name) {
+    CsvTable t = read_csv_table(path, {"wavelength", "x", "y", "z"});
+    return Observer{name, Spectrum{name + " x", t.data[0], t.data[1]},
+                    Spectrum{name + " y", t.data[0], t.data[2]},
+                    Spectrum{name + " z", t.data[0], t.data[3]}};
+}
+
+std::vector<std::string> shipped_observers() { return {"cie1931-2", "cie1964-10"}; }
+std::vector<std::string> shipped_illuminants() { return {"D65", "A", "FL11"}; }
+
+Observer load_observer(const std::string& data_dir, const std::string& name) {
+    for (const auto& o : shipped_observers())
+        if (o == name) return load_observer_csv(data_dir + "/spectral/observer_" + o + ".csv", o);
+    if (is_regular_file(name)) return load_observer_csv(name, name);
+    throw Error("unknown observer '" + name + "' (known: cie1931-2, cie1964-10, or a CSV file)");
+}
+
+Spectrum load_illuminant(const std::string& data_dir, const std::string& name_or_file) {
+    for (const auto& i : shipped_illuminants())
+        if (upper(name_or_file) == upper(i))
+            return load_illuminant_csv(data_dir + "/spectral/illuminant_" + i + ".csv", i);
+    if (is_regular_file(name_or_file)) return load_illuminant_csv(name_or_file, name_or_file);
+    throw Error("unknown illuminant '" + name_or_file + "' (known: D65, A, FL11, or a CSV file)");
+}
+
+}  // namespace spectex

@@ -1,0 +1,37 @@
+#pragma once
+// Wavelength grids: the bins of the output file, and the weights used to integrate over them.
+#include <string>
+#include <vector>
+
+namespace spectex {
+
+struct WavelengthGrid {
+    std::vector<double> lambda;   // nm, strictly increasing
+    std::vector<double> weight;   // integration weight of each bin, nm
+    bool uniform = true;
+    double step = 0.0;            // for uniform grids
+
+    size_t size() const { return lambda.size(); }
+    // "380:780:5" for uniform grids, else "list of N wavelengths"
+    std::string describe() const;
+
+    // START:END:STEP; lambda_k = START + k*STEP; END included when on the grid within 1e-6 nm.
+    static WavelengthGrid parse(const std::string& spec);
+    static WavelengthGrid uniform_grid(double start, double end, double step);
+    // Arbitrary strictly increasing list: trapezoid weights (a uniform list gets uniform weights).
+    static WavelengthGrid from_list(std::vector<double> lambdas);
+    // One wavelength per line; '#' comments and blank lines ignored.
+    static WavelengthGrid from_file(const std::string& path);
+};
+
+// Shortest decimal that holds lambda to 1e-6 nm, '.' as separator: "380", "383.7".
+std::string format_wavelength(double lambda_nm);
+// Fichet 2021 reflective channel name: "T.380nm", "T.383,7nm".
+std::string reflective_channel_name(double lambda_nm);
+// Parses "T.<λ>nm" (comma or dot decimal separator); false if the name is not a reflective channel.
+bool parse_reflective_channel(const std::string& name, double* lambda_nm);
+
+// Same wavelengths within tol nm.
+bool same_wavelengths(const std::vector<double>& a, const std::vector<double>& b, double tol = 1e-6);
+
+}  // namespace spectex

@@ -1,0 +1,61 @@
+#include "spectral/expand.h"
+
+#include <Imath/half.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "spectral/half.h"
+
+using namespace spectex;
+
+TEST(Half, MatchesImathOnEveryHalfAndBetween) {
+    // Every half value converts back exactly, and every float between two halves rounds like Imath.
+    for (uint32_t h = 0; h < 0x10000; ++h) {
+        uint16_t bits = static_cast<uint16_t>(h);
+        Imath::half ih;
+        ih.setBits(bits);
+        float f = ih;
+        if (std::isnan(f)) continue;
+        ASSERT_EQ(half_to_float(bits), f) << h;
+        ASSERT_EQ(float_to_half(f), bits) << h;
+    }
+    std::mt19937 rng(1);
+    std::uniform_int_distribution<uint32_t> any;
+    for (int i = 0; i < 2000000; ++i) {
+        uint32_t u = any(rng);
+        float f;
+        std::memcpy(&f, &u, 4);
+        if (std::isnan(f)) continue;
+        ASSERT_EQ(float_to_half(f), Imath::half(f).bits()) << f;
+    }
+    EXPECT_EQ(float_to_half(65519.f), Imath::half(65519.f).bits());
+    EXPECT_EQ(float_to_half(65520.f), 0x7c00);
+    EXPECT_TRUE(std::isnan(half_to_float(float_to_half(NAN))));
+}
+
+TEST(Expand, IsTheLinearCombination) {
+    Basis b{"t", {400, 500, 600}, {0.0, 0.25, 1.0}, {0.5, 0.5, 0.0}, {0.5, 0.25, 0.0}};
+    auto m = ExpansionMatrix::from_basis(b);
+    const size_t n = 1000;  // more than one block
+    std::vector<float> r(n), g(n), bl(n);
+    for (size_t i = 0; i < n; ++i) {
+        r[i] = static_cast<float>(i % 7) / 6.0f;
+        g[i] = static_cast<float>(i % 11) / 10.0f;
+        bl[i] = static_cast<float>(i % 13) / 12.0f;
+    }
+    std::vector<float> out(3 * n);
+    std::vector<uint16_t> hout(3 * n);
+    expand_to_float(m, r.data(), g.data(), bl.data(), n, out.data(), n);
+    expand_to_half(m, r.data(), g.data(), bl.data(), n, hout.data(), n);
+    for (size_t k = 0; k < 3; ++k) {
+        for (size_t i = 0; i < n; ++i) {
+            double want = b.r[k] * r[i] + b.g[k] * g[i] + b.b[k] * bl[i];
+            // float arithmetic on values <= 1: a few ulps of 1.0
+            EXPECT_NEAR(out[k * n + i], want, 4e-7);
+            // half: half an ulp of half (2^-11 relative) plus the float error
+            EXPECT_NEAR(half_to_float(hout[k * n + i]), want, std::ldexp(1.0, -11) * std::fabs(want) + 4e-7);
+        }
+    }
+}
