@@ -1,0 +1,136 @@
+#include "io/linearizer.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <unistd.h>
+
+#include "spectral/error.h"
+
+using namespace spectex;
+
+namespace {
+
+const std::string kData = SPECTEX_TEST_DATA_DIR;
+
+// IEC 61966-2-1 sRGB decoding, written out here so the test shares nothing with the config.
+double iec_srgb_to_linear(double v) { return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4); }
+
+Linearizer make(const std::string& cs, const std::string& config = "", const std::string& file = "x.png",
+                const std::string& hint = "") {
+    return Linearizer::make(ColourRequest{kData, config, cs, file, hint});
+}
+
+std::vector<float> linearize(const Linearizer& lin, const std::vector<float>& grey) {
+    std::vector<float> rgba;
+    for (float v : grey) rgba.insert(rgba.end(), {v, v, v, 1.0f});
+    lin.apply_rgba(rgba.data(), static_cast<long>(grey.size()));
+    std::vector<float> out;
+    for (size_t i = 0; i < grey.size(); ++i) out.push_back(rgba[4 * i]);
+    return out;
+}
+
+struct UnsetOcio {
+    UnsetOcio() { unsetenv("OCIO"); }
+};
+UnsetOcio unset_ocio;
+
+}  // namespace
+
+TEST(Linearizer, ShippedSrgbMatchesIecFormulaOnAll8BitCodes) {
+    Linearizer lin = make("srgb_tx");
+    std::vector<float> codes;
+    for (int c = 0; c < 256; ++c) codes.push_back(static_cast<float>(c / 255.0));
+    auto lin_values = linearize(lin, codes);
+    double worst = 0;
+    for (int c = 0; c < 256; ++c) worst = std::max(worst, std::fabs(lin_values[c] - iec_srgb_to_linear(c / 255.0)));
+    // OCIO 2.1's ExponentWithLinear uses toe slope 12.923 (not 12.92): up to 7.6e-7 absolute at
+    // code 10, plus float rounding of ~6e-8. 1e-6 absolute bounds both.
+    EXPECT_LT(worst, 1e-6);
+    EXPECT_GT(worst, 0.0);  // and it is OCIO doing the work, not a copy of the formula
+}
+
+TEST(Linearizer, ShippedSrgbMatchesIecFormulaOn16BitSpotChecks) {
+    Linearizer lin = make("sRGB - Texture");
+    std::vector<float> codes;
+    for (int c : {0, 1, 100, 2650, 2651, 10000, 32768, 50000, 65534, 65535}) codes.push_back(static_cast<float>(c / 65535.0));
+    auto v = linearize(lin, codes);
+    for (size_t i = 0; i < codes.size(); ++i) EXPECT_NEAR(v[i], iec_srgb_to_linear(codes[i]), 1e-6) << codes[i];
+}
+
+TEST(Linearizer, AliasesAndRulesPickTheRightSpace) {
+    EXPECT_EQ(make("lin_srgb").input_space(), "Linear Rec.709 (sRGB)");
+    EXPECT_TRUE(make("lin_srgb").is_identity());
+    EXPECT_TRUE(make("raw").is_identity());
+    EXPECT_EQ(make("acescg").input_space(), "ACEScg");
+    // No --colorspace: file metadata the config knows wins, else the file rules.
+    EXPECT_EQ(make("", "", "a.png", "sRGB").input_space(), "sRGB - Texture");
+    EXPECT_EQ(make("", "", "a.exr", "Linear").input_space(), "Linear Rec.709 (sRGB)");
+    EXPECT_EQ(make("", "", "a.exr", "").input_space(), "Linear Rec.709 (sRGB)");
+    EXPECT_EQ(make("", "", "a.EXR", "").input_space(), "Linear Rec.709 (sRGB)");
+    EXPECT_EQ(make("", "", "a.tif", "").input_space(), "sRGB - Texture");
+    EXPECT_EQ(make("", "", "a.png", "SomethingOdd").input_space(), "sRGB - Texture");
+}
+
+TEST(Linearizer, UnknownSpaceSuggestsCloseNames) {
+    try {
+        make("srgbtx");
+        FAIL();
+    } catch (const Error& e) {
+        std::string m = e.what();
+        EXPECT_NE(m.find("unknown colour space 'srgbtx'"), std::string::npos) << m;
+        EXPECT_NE(m.find("srgb_tx"), std::string::npos) << m;
+    }
+}
+
+TEST(Linearizer, AnotherConfigChangesTheResultAsItSays) {
+    // A copy of the shipped config whose sRGB texture space is a pure 2.2 power: the output must
+    // follow it, so no sRGB formula is hard-wired anywhere.
+    std::ifstream in(kData + "/spectex.ocio");
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::string from = "from_scene_reference: !<ExponentWithLinearTransform> {gamma: 2.4, offset: 0.055, direction: inverse}";
+    size_t pos = text.find(from);
+    ASSERT_NE(pos, std::string::npos);
+    text.replace(pos, from.size(), "from_scene_reference: !<ExponentTransform> {value: 2.2, style: pass_thru, direction: inverse}");
+    char tmpl[] = "/tmp/spectex-ocio-XXXXXX";
+    std::string dir = mkdtemp(tmpl);
+    std::string path = dir + "/g22.ocio";
+    std::ofstream(path) << text;
+
+    std::vector<float> codes{0.1f, 0.5f, 0.9f};
+    auto v = linearize(make("srgb_tx", path), codes);
+    for (size_t i = 0; i < codes.size(); ++i) EXPECT_NEAR(v[i], std::pow(codes[i], 2.2), 1e-6);
+    // $OCIO does the same when --config is absent...
+    setenv("OCIO", path.c_str(), 1);
+    auto w = linearize(make("srgb_tx"), codes);
+    // ...and --config wins over $OCIO.
+    auto x = linearize(make("srgb_tx", kData + "/spectex.ocio"), codes);
+    unsetenv("OCIO");
+    for (size_t i = 0; i < codes.size(); ++i) {
+        EXPECT_NEAR(w[i], std::pow(codes[i], 2.2), 1e-6);
+        EXPECT_NEAR(x[i], iec_srgb_to_linear(codes[i]), 1e-6);
+    }
+    std::remove(path.c_str());
+    rmdir(dir.c_str());
+}
+
+TEST(Linearizer, WideGamutSpacesGiveNegativeRec709) {
+    // Pure ACEScg green lies outside Rec.709: its red and blue come out negative.
+    Linearizer lin = make("acescg");
+    std::vector<float> rgba{0, 1, 0, 1};
+    lin.apply_rgba(rgba.data(), 1);
+    EXPECT_LT(rgba[0], 0.0f);
+    EXPECT_LT(rgba[2], 0.0f);
+    EXPECT_NEAR(rgba[1], 1.1407357748225044, 1e-6);  // the config's matrix entry (float precision)
+}
+
+TEST(Linearizer, BrokenConfigIsAClearError) {
+    try {
+        make("srgb_tx", "/nonexistent/config.ocio");
+        FAIL();
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("/nonexistent/config.ocio"), std::string::npos);
+    }
+}
