@@ -72,7 +72,9 @@ void install_signal_cleanup() {
     std::memset(&sa, 0, sizeof sa);
     sa.sa_handler = cleanup_and_reraise;
     sigemptyset(&sa.sa_mask);
-    for (int sig : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(sig, &sa, nullptr);
+    // Termination requests, and crashes too: a crash must not leave the temporary file behind.
+    for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT})
+        ::sigaction(sig, &sa, nullptr);
     ::signal(SIGXFSZ, SIG_IGN);
 }
 
@@ -113,6 +115,22 @@ void AtomicFile::commit() {
         ::fsync(dfd);  // best effort: makes the rename durable
         ::close(dfd);
     }
+}
+
+}  // namespace spectex
+
+namespace spectex {
+
+void write_text_atomically(const std::string& path, const std::string& text) {
+    AtomicFile f(path);
+    size_t done = 0;
+    while (done < text.size()) {
+        ssize_t n = ::write(f.fd(), text.data() + done, text.size() - done);
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) throw Error(path + ": write failed: " + std::strerror(n < 0 ? errno : EIO));
+        done += static_cast<size_t>(n);
+    }
+    f.commit();
 }
 
 }  // namespace spectex

@@ -32,3 +32,8 @@ private:
 void install_signal_cleanup();
 
 }  // namespace spectex
+
+namespace spectex {
+// Writes a small text file atomically (temporary file, fsync, rename).
+void write_text_atomically(const std::string& path, const std::string& text);
+}  // namespace spectex

@@ -13,6 +13,8 @@ namespace spectex {
 struct ImageSource::Impl {
     std::unique_ptr<OIIO::ImageInput> in;
     int color_channels[3] = {0, 0, 0};
+    bool tiled = false;
+    std::vector<float> whole;  // tiled inputs: the whole first level, read once
 };
 
 ImageSource::~ImageSource() {
@@ -93,6 +95,7 @@ std::unique_ptr<ImageSource> ImageSource::open(const std::string& path, uint64_t
     if (alpha >= 0)
         info.alpha = spec.get_int_attribute("oiio:UnassociatedAlpha", 0) ? AlphaKind::Unassociated
                                                                          : AlphaKind::Associated;
+    src->impl_->tiled = spec.tile_width > 0;
     src->impl_->in = std::move(in);
     return src;
 }
@@ -101,15 +104,28 @@ void ImageSource::read_rgba(int y0, int y1, float* rgba) {
     const int nch = info_.channels;
     const size_t w = static_cast<size_t>(info_.width);
     const size_t rows = static_cast<size_t>(y1 - y0);
-    scratch_.resize(w * rows * static_cast<size_t>(nch));
     OIIO::ImageInput* in = impl_->in.get();
-    if (!in->read_scanlines(0, 0, info_.y + y0, info_.y + y1, 0, 0, nch, OIIO::TypeDesc::FLOAT,
-                            scratch_.data()))
-        throw Error(info_.path + ": read failed at rows " + std::to_string(y0) + "-" +
-                    std::to_string(y1 - 1) + ": " + oiio_error(in));
+    const float* s;
+    if (impl_->tiled) {
+        // OIIO 2.4's read_scanlines divides by zero on tiled TIFFs when it converts types, and
+        // bands of rows need not be tile-aligned: read the whole level once (the RGB input is the
+        // one thing DESIGN.md allows to be whole in memory).
+        if (impl_->whole.empty()) {
+            impl_->whole.resize(w * static_cast<size_t>(info_.height) * static_cast<size_t>(nch));
+            if (!in->read_image(0, 0, 0, nch, OIIO::TypeDesc::FLOAT, impl_->whole.data()))
+                throw Error(info_.path + ": read failed: " + oiio_error(in));
+        }
+        s = impl_->whole.data() + static_cast<size_t>(y0) * w * static_cast<size_t>(nch);
+    } else {
+        scratch_.resize(w * rows * static_cast<size_t>(nch));
+        if (!in->read_scanlines(0, 0, info_.y + y0, info_.y + y1, 0, 0, nch, OIIO::TypeDesc::FLOAT,
+                                scratch_.data()))
+            throw Error(info_.path + ": read failed at rows " + std::to_string(y0) + "-" +
+                        std::to_string(y1 - 1) + ": " + oiio_error(in));
+        s = scratch_.data();
+    }
     const int* cc = impl_->color_channels;
     const int a = info_.alpha_channel;
-    const float* s = scratch_.data();
     for (size_t i = 0; i < w * rows; ++i, s += nch, rgba += 4) {
         rgba[0] = s[cc[0]];
         rgba[1] = s[cc[1]];

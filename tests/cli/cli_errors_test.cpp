@@ -1,0 +1,421 @@
+// End-to-end tests of spectex's exit statuses and messages: 0 success, 1 a failed file
+// ("spectex: <file>: <cause>" on stderr), 2 a usage error. After every failed bake the output
+// name must not exist and no temporary file (<output>.spectex-XXXXXX.tmp) may be left behind.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstdint>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "cli/cli_util.h"
+
+using namespace spectex_test;
+
+namespace {
+
+std::string dir_of(const std::string& p) {
+    size_t s = p.find_last_of('/');
+    return s == std::string::npos ? "." : (s == 0 ? "/" : p.substr(0, s));
+}
+
+bool is_dir(const std::string& p) {
+    struct stat st;
+    return ::stat(p.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
+}
+
+// Names in `dir` that look like spectex's temporary files.
+std::vector<std::string> temp_files_in(const std::string& dir) {
+    std::vector<std::string> v;
+    if (!is_dir(dir)) return v;
+    for (const auto& n : list_dir(dir))
+        if (n.find(".spectex-") != std::string::npos && n.size() >= 4 && n.compare(n.size() - 4, 4, ".tmp") == 0)
+            v.push_back(n);
+    return v;
+}
+
+// The checks made after every failing bake.
+void expect_no_output(const std::string& output) {
+    struct stat st;
+    EXPECT_NE(::lstat(output.c_str(), &st), 0) << output << " exists after a failed bake";
+    EXPECT_TRUE(temp_files_in(dir_of(output)).empty())
+        << "temporary file left in " << dir_of(output) << ": " << temp_files_in(dir_of(output)).front();
+}
+
+// A small valid sRGB PNG.
+void write_png(const std::string& path, int w = 4, int h = 3) {
+    std::vector<uint8_t> px(static_cast<size_t>(w * h * 3));
+    for (size_t i = 0; i < px.size(); ++i) px[i] = static_cast<uint8_t>(17 * i + 3);
+    write_image(path, w, h, 3, OIIO::TypeDesc::UINT8, px.data());
+}
+
+bool contains(const std::string& haystack, const std::string& needle) {
+    return haystack.find(needle) != std::string::npos;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Help and version
+
+TEST(CliHelp, NoArgumentsIsUsageError) {
+    RunResult r = run_spectex({});
+    EXPECT_EQ(r.status, 2);
+    EXPECT_TRUE(contains(r.err, "Usage: spectex")) << r.err;
+    EXPECT_TRUE(r.out.empty()) << r.out;
+}
+
+TEST(CliHelp, UnknownCommandIsUsageError) {
+    RunResult r = run_spectex({"bakee", "x.png"});
+    EXPECT_EQ(r.status, 2);
+    EXPECT_TRUE(contains(r.err, "unknown command 'bakee'")) << r.err;
+    EXPECT_TRUE(r.out.empty()) << r.out;
+}
+
+TEST(CliHelp, TopLevelHelp) {
+    for (const char* opt : {"--help", "-h"}) {
+        RunResult r = run_spectex({opt});
+        EXPECT_EQ(r.status, 0) << opt;
+        EXPECT_TRUE(contains(r.out, "Usage: spectex")) << r.out;
+        EXPECT_TRUE(contains(r.out, "bake")) << r.out;
+        EXPECT_TRUE(contains(r.out, "info")) << r.out;
+        EXPECT_TRUE(contains(r.out, "--version")) << r.out;
+        EXPECT_TRUE(r.err.empty()) << r.err;
+    }
+}
+
+TEST(CliHelp, BakeHelpListsOptions) {
+    RunResult r = run_spectex({"bake", "--help"});
+    EXPECT_EQ(r.status, 0);
+    EXPECT_TRUE(r.err.empty()) << r.err;
+    for (const char* opt : {"Usage: spectex bake", "--output", "--type", "--compression", "--preview", "--alpha",
+                            "--colorspace", "--config", "--out-of-range", "--nan", "--basis", "--wavelengths",
+                            "--threads", "--max-pixels", "--quiet", "--verbose"})
+        EXPECT_TRUE(contains(r.out, opt)) << "bake --help does not mention " << opt << ":\n" << r.out;
+}
+
+TEST(CliHelp, BakeHelpWinsOverOtherArguments) {
+    // --help is honoured even when the rest of the command line is incomplete.
+    RunResult r = run_spectex({"bake", "--help", "-o"});
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_TRUE(contains(r.out, "--colorspace")) << r.out;
+}
+
+TEST(CliHelp, InfoHelp) {
+    RunResult r = run_spectex({"info", "--help"});
+    EXPECT_EQ(r.status, 0);
+    EXPECT_TRUE(r.err.empty()) << r.err;
+    EXPECT_TRUE(contains(r.out, "Usage: spectex info")) << r.out;
+    EXPECT_TRUE(contains(r.out, "--help")) << r.out;
+}
+
+TEST(CliHelp, Version) {
+    RunResult r = run_spectex({"--version"});
+    EXPECT_EQ(r.status, 0);
+    EXPECT_TRUE(r.err.empty()) << r.err;
+    ASSERT_EQ(r.out.rfind("spectex ", 0), 0u) << r.out;
+    // "spectex X.Y.Z\n"
+    std::string v = r.out.substr(8);
+    ASSERT_FALSE(v.empty());
+    EXPECT_TRUE(v[0] >= '0' && v[0] <= '9') << r.out;
+    EXPECT_EQ(v.back(), '\n');
+}
+
+// ---------------------------------------------------------------------------------------------
+// Inputs that cannot be read (exit 1, "spectex: <input>: <cause>")
+
+TEST(CliErrors, MissingInput) {
+    ScratchDir d;
+    std::string in = d / "nope.png", out = d / "out.exr";
+    RunResult r = run_spectex({"bake", in, "-o", out});
+    EXPECT_EQ(r.status, 1);
+    EXPECT_TRUE(contains(r.err, "spectex: " + in + ": ")) << r.err;
+    EXPECT_TRUE(contains(r.err, "No such file")) << r.err;
+    expect_no_output(out);
+}
+
+TEST(CliErrors, RandomBytesNamedPng) {
+    ScratchDir d;
+    std::string in = d / "x.png", out = d / "out.exr";
+    {
+        std::mt19937 rng(1234);
+        std::string bytes(4096, '\0');
+        for (auto& c : bytes) c = static_cast<char>(rng() & 0xff);
+        bytes[0] = 'Z';  // never a PNG (0x89), JPEG (0xff) or EXR (0x76) signature
+        std::ofstream(in, std::ios::binary) << bytes;
+    }
+    const std::string before = read_file(in);
+    RunResult r = run_spectex({"bake", in, "-o", out});
+    EXPECT_EQ(r.status, 1);
+    EXPECT_TRUE(contains(r.err, "spectex: " + in + ": ")) << r.err;
+    EXPECT_EQ(read_file(in), before);
+    expect_no_output(out);
+}
+
+TEST(CliErrors, EmptyInput) {
+    ScratchDir d;
+    std::string in = d / "empty.png", out = d / "out.exr";
+    std::ofstream(in).close();
+    RunResult r = run_spectex({"bake", in, "-o", out});
+    EXPECT_EQ(r.status, 1);
+    EXPECT_TRUE(contains(r.err, "spectex: " + in + ": ")) << r.err;
+    EXPECT_TRUE(contains(r.err, "empty")) << r.err;
+    expect_no_output(out);
+}
+
+TEST(CliErrors, TruncatedPngLeavesNoPartialOutput) {
+    // A valid header followed by too little pixel data: the failure happens after the output's
+    // temporary file exists, which must then be removed.
+    ScratchDir d;
+    std::string full = d / "full.png", in = d / "cut.png", out = d / "out.exr";
+    const int w = 64, h = 64;
+    std::vector<uint8_t> px(static_cast<size_t>(w * h * 3));
+    std::mt19937 rng(7);
+    for (auto& v : px) v = static_cast<uint8_t>(rng() & 0xff);  // incompressible
+    write_image(full, w, h, 3, OIIO::TypeDesc::UINT8, px.data());
+    std::string bytes = read_file(full);
+    ASSERT_GT(bytes.size(), 2000u);
+    std::ofstream(in, std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+    RunResult r = run_spectex({"bake", in, "-o", out});
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_TRUE(contains(r.err, "spectex: " + in + ": ")) << r.err;
+    expect_no_output(out);
+}
+
+TEST(CliErrors, DirectoryAsInput) {
+    ScratchDir d;
+    std::string in = d / "folder.png", out = d / "out.exr";
+    ASSERT_EQ(::mkdir(in.c_str(), 0755), 0);
+    RunResult r = run_spectex({"bake", in, "-o", out});
+    EXPECT_EQ(r.status, 1);
+    EXPECT_TRUE(contains(r.err, "spectex: " + in + ": ")) << r.err;
+    EXPECT_TRUE(contains(r.err, "directory")) << r.err;
+    expect_no_output(out);
+}
+
+TEST(CliErrors, UnknownColourSpaceSuggestsClosest) {
+    ScratchDir d;
+    std::string in = d / "in.png", out = d / "out.exr";
+    write_png(in);
+    RunResult r = run_spectex({"bake", in, "-o", out, "--colorspace", "srgbtx"});
+    EXPECT_EQ(r.status, 1);
+    EXPECT_EQ(r.err.rfind("spectex: ", 0), 0u) << r.err;
+    EXPECT_TRUE(contains(r.err, "unknown colour space 'srgbtx'")) << r.err;
+    EXPECT_TRUE(contains(r.err, "srgb_tx")) << r.err;
+    expect_no_output(out);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Outputs that cannot be written
+
+TEST(CliErrors, OutputFolderDoesNotExist) {
+    ScratchDir d;
+    std::string in = d / "in.png", out = d / "no/such/folder/out.exr";
+    write_png(in);
+    RunResult r = run_spectex({"bake", in, "-o", out});
+    EXPECT_EQ(r.status, 1);
+    EXPECT_TRUE(contains(r.err, "spectex: " + out + ": ")) << r.err;
+    EXPECT_FALSE(is_dir(d / "no")) << "spectex created the output's folder";
+    expect_no_output(out);
+    EXPECT_TRUE(temp_files_in(d.path()).empty());
+}
+
+TEST(CliErrors, OutputFolderNotWritable) {
+    // Tests run as root, for whom a chmod 0555 folder is still writable: /proc refuses new files
+    // to everyone.
+    ScratchDir d;
+    std::string in = d / "in.png", out = "/proc/spectex-cli-test-out.exr";
+    write_png(in);
+    RunResult r = run_spectex({"bake", in, "-o", out});
+    EXPECT_EQ(r.status, 1);
+    EXPECT_TRUE(contains(r.err, "spectex: " + out + ": ")) << r.err;
+    expect_no_output(out);
+}
+
+TEST(CliErrors, OutputIsTheInput) {
+    ScratchDir d;
+    std::string in = d / "in.png";
+    write_png(in);
+    const std::string before = read_file(in);
+    RunResult r = run_spectex({"bake", in, "-o", in});
+    EXPECT_EQ(r.status, 1);
+    EXPECT_TRUE(contains(r.err, "spectex: " + in + ": ")) << r.err;
+    EXPECT_TRUE(contains(r.err, "input")) << r.err;
+    EXPECT_EQ(read_file(in), before) << "the input was modified";
+    EXPECT_TRUE(temp_files_in(d.path()).empty());
+}
+
+TEST(CliErrors, OutputIsTheInputThroughAnotherPath) {
+    // Same file, spelled differently ("dir/./in.png").
+    ScratchDir d;
+    std::string in = d / "in.png", out = d.path() + "/./in.png";
+    write_png(in);
+    const std::string before = read_file(in);
+    RunResult r = run_spectex({"bake", in, "-o", out});
+    EXPECT_EQ(r.status, 1);
+    EXPECT_TRUE(contains(r.err, "spectex: " + out + ": ")) << r.err;
+    EXPECT_EQ(read_file(in), before);
+    EXPECT_TRUE(temp_files_in(d.path()).empty());
+}
+
+TEST(CliErrors, OutputIsASymlinkToTheInput) {
+    ScratchDir d;
+    std::string in = d / "in.png", out = d / "link.exr";
+    write_png(in);
+    ASSERT_EQ(::symlink(in.c_str(), out.c_str()), 0);
+    const std::string before = read_file(in);
+    RunResult r = run_spectex({"bake", in, "-o", out});
+    EXPECT_EQ(r.status, 1);
+    EXPECT_TRUE(contains(r.err, "spectex: " + out + ": ")) << r.err;
+    EXPECT_EQ(read_file(in), before) << "the input was modified";
+    struct stat st;
+    ASSERT_EQ(::lstat(out.c_str(), &st), 0);
+    EXPECT_TRUE(S_ISLNK(st.st_mode)) << "the symlink was replaced";
+    EXPECT_TRUE(temp_files_in(d.path()).empty());
+}
+
+TEST(CliErrors, OutputIsAHardLinkToTheInput) {
+    ScratchDir d;
+    std::string in = d / "in.png", out = d / "hard.exr";
+    write_png(in);
+    ASSERT_EQ(::link(in.c_str(), out.c_str()), 0);
+    const std::string before = read_file(in);
+    struct stat si;
+    ASSERT_EQ(::stat(in.c_str(), &si), 0);
+    RunResult r = run_spectex({"bake", in, "-o", out});
+    EXPECT_EQ(r.status, 1);
+    EXPECT_TRUE(contains(r.err, "spectex: " + out + ": ")) << r.err;
+    EXPECT_EQ(read_file(in), before) << "the input was modified";
+    struct stat so;
+    ASSERT_EQ(::stat(out.c_str(), &so), 0);
+    EXPECT_EQ(so.st_ino, si.st_ino) << "the hard link was replaced";
+    EXPECT_TRUE(temp_files_in(d.path()).empty());
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bad option values: usage errors (exit 2) naming the option
+
+namespace {
+
+void expect_usage_error(const std::vector<std::string>& extra, const std::string& option) {
+    ScratchDir d;
+    std::string in = d / "in.png", out = d / "out.exr";
+    write_png(in);
+    std::vector<std::string> args{"bake", in, "-o", out};
+    args.insert(args.end(), extra.begin(), extra.end());
+    RunResult r = run_spectex(args);
+    EXPECT_EQ(r.status, 2) << option << ": " << r.err;
+    EXPECT_EQ(r.err.rfind("spectex bake: ", 0), 0u) << r.err;
+    EXPECT_TRUE(contains(r.err, option)) << "message does not name " << option << ": " << r.err;
+    EXPECT_TRUE(r.out.empty()) << r.out;
+    expect_no_output(out);
+}
+
+}  // namespace
+
+TEST(CliErrors, BadType) { expect_usage_error({"--type", "double"}, "--type"); }
+TEST(CliErrors, BadCompression) { expect_usage_error({"--compression", "lzma"}, "--compression"); }
+TEST(CliErrors, NegativeThreads) { expect_usage_error({"--threads", "-1"}, "--threads"); }
+TEST(CliErrors, WavelengthsWithoutStep) { expect_usage_error({"--wavelengths", "380:780"}, "--wavelengths"); }
+TEST(CliErrors, UnknownOption) { expect_usage_error({"--frobnicate"}, "--frobnicate"); }
+TEST(CliErrors, BadAlpha) { expect_usage_error({"--alpha", "straight"}, "--alpha"); }
+TEST(CliErrors, OptionWithoutValue) { expect_usage_error({"--type"}, "--type"); }
+
+TEST(CliErrors, BakeWithoutOutputIsUsageError) {
+    ScratchDir d;
+    std::string in = d / "in.png";
+    write_png(in);
+    RunResult r = run_spectex({"bake", in});
+    EXPECT_EQ(r.status, 2);
+    EXPECT_TRUE(contains(r.err, "-o")) << r.err;
+    EXPECT_TRUE(temp_files_in(d.path()).empty());
+}
+
+TEST(CliErrors, BakeWithoutInputIsUsageError) {
+    ScratchDir d;
+    std::string out = d / "out.exr";
+    RunResult r = run_spectex({"bake", "-o", out});
+    EXPECT_EQ(r.status, 2);
+    EXPECT_TRUE(contains(r.err, "no input")) << r.err;
+    expect_no_output(out);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Spectral settings that cannot be honoured (exit 1)
+
+TEST(CliErrors, WavelengthsNotOnTheBasisGrid) {
+    ScratchDir d;
+    std::string in = d / "in.png", out = d / "out.exr";
+    write_png(in);
+    // The published table exists on 380:780:5 only; the default fitted basis works on any grid.
+    RunResult r = run_spectex({"bake", in, "-o", out, "--wavelengths", "400:700:10", "--basis", "mallett2019"});
+    EXPECT_EQ(r.status, 1);
+    EXPECT_EQ(r.err.rfind("spectex: ", 0), 0u) << r.err;
+    EXPECT_TRUE(contains(r.err, "400:700:10")) << r.err;
+    EXPECT_TRUE(contains(r.err, "not on the output grid")) << r.err;
+    expect_no_output(out);
+}
+
+TEST(CliErrors, BasisFileMissing) {
+    ScratchDir d;
+    std::string in = d / "in.png", out = d / "out.exr", basis = d / "missing.csv";
+    write_png(in);
+    RunResult r = run_spectex({"bake", in, "-o", out, "--basis", basis});
+    EXPECT_EQ(r.status, 1);
+    EXPECT_EQ(r.err.rfind("spectex: ", 0), 0u) << r.err;
+    EXPECT_TRUE(contains(r.err, basis)) << r.err;
+    expect_no_output(out);
+}
+
+// ---------------------------------------------------------------------------------------------
+// info on files that are not spectral
+
+TEST(CliErrors, InfoOnNonExr) {
+    ScratchDir d;
+    std::string in = d / "in.png";
+    write_png(in);
+    RunResult r = run_spectex({"info", in});
+    EXPECT_EQ(r.status, 1);
+    EXPECT_TRUE(contains(r.err, "spectex: " + in + ": ")) << r.err;
+    EXPECT_TRUE(contains(r.err, "not an OpenEXR file") || contains(r.err, "not a spectral")) << r.err;
+}
+
+TEST(CliErrors, InfoOnRgbExr) {
+    ScratchDir d;
+    std::string in = d / "rgb.exr";
+    std::vector<float> px(4 * 3 * 3, 0.25f);
+    write_image(in, 4, 3, 3, OIIO::TypeDesc::FLOAT, px.data());
+    RunResult r = run_spectex({"info", in});
+    EXPECT_EQ(r.status, 1);
+    EXPECT_TRUE(contains(r.err, "spectex: " + in + ": ")) << r.err;
+    EXPECT_TRUE(contains(r.err, "not a spectral reflectance image")) << r.err;
+}
+
+TEST(CliErrors, InfoOnMissingFile) {
+    ScratchDir d;
+    std::string in = d / "nope.exr";
+    RunResult r = run_spectex({"info", in});
+    EXPECT_EQ(r.status, 1);
+    EXPECT_TRUE(contains(r.err, "spectex: " + in + ": ")) << r.err;
+    EXPECT_TRUE(contains(r.err, "No such file")) << r.err;
+}
+
+TEST(CliErrors, InfoWithoutFileIsUsageError) {
+    RunResult r = run_spectex({"info"});
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err.rfind("spectex info: ", 0), 0u) << r.err;
+}
+
+TEST(CliErrors, InfoReportsEveryFailedFileAndFailsOverall) {
+    // One good file and one bad: the good one is described, the bad one named, exit 1.
+    ScratchDir d;
+    std::string png = d / "in.png", good = d / "good.exr", bad = d / "nope.exr";
+    write_png(png);
+    RunResult b = run_spectex({"bake", png, "-o", good});
+    ASSERT_EQ(b.status, 0) << b.err;
+    RunResult r = run_spectex({"info", good, bad});
+    EXPECT_EQ(r.status, 1);
+    EXPECT_TRUE(contains(r.out, good)) << r.out;
+    EXPECT_TRUE(contains(r.err, "spectex: " + bad + ": ")) << r.err;
+}
