@@ -30,6 +30,7 @@ const char* kUsage =
     "\n"
     "Commands:\n"
     "  bake     turn a texture into a spectral OpenEXR (channels T.<wavelength>nm)\n"
+    "  basis    fit a spectral basis on any wavelength grid, with a certificate\n"
     "  info     describe a spectral OpenEXR\n"
     "\n"
     "Options:\n"
@@ -72,6 +73,7 @@ int main(int argc, char** argv) {
     std::vector<std::string> rest(args.begin() + 1, args.end());
     if (cmd == "bake") return spectex::run_bake(rest, command_line);
     if (cmd == "info") return spectex::run_info(rest);
+    if (cmd == "basis") return spectex::run_basis(rest, command_line);
     std::cerr << "spectex: unknown command '" << cmd << "'\n" << kUsage;
     return 2;
 }

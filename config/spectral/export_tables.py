@@ -76,7 +76,22 @@ def main():
         write_msds(fname, CMFS_SOURCE, f"colour.MSDS_CMFS['{key}']", CIE_LICENCE,
                    colour.MSDS_CMFS[key], ["x", "y", "z"])
 
-    for key in ["D65", "A", "FL11"]:
+    # colour-science's D65 table stops at 780 nm; CIE S 014-2 defines D65 to 830 nm by the daylight
+    # formula S0 + M1 S1 + M2 S2. Grids that reach past 780 nm (e.g. 360:830) need those values: they
+    # are appended from colour.sd_CIE_illuminant_D_series at D65's chromaticity, scaled by the ratio
+    # table/formula at 780 nm (1.0004) so that the spectrum is continuous.
+    d65 = colour.SDS_ILLUMINANTS["D65"]
+    xy = colour.temperature.CCT_to_xy_CIE_D(6500 * 1.4388 / 1.4380)
+    formula = colour.sd_CIE_illuminant_D_series(xy)
+    scale = d65[780] / formula[780]
+    ext = np.arange(785, 831, 5, dtype=float)
+    write_table("illuminant_D65.csv",
+                ILLUM_SOURCE["D65"] + "; 785-830 nm: CIE daylight formula (colour.sd_CIE_illuminant_D_series "
+                f"at CCT 6504 K), scaled by {scale!r} to join the table at 780 nm",
+                "colour.SDS_ILLUMINANTS['D65'] + colour.sd_CIE_illuminant_D_series", CIE_LICENCE,
+                np.concatenate([d65.wavelengths, ext]),
+                [np.concatenate([d65.values, np.array([formula[w] * scale for w in ext])])], ["value"])
+    for key in ["A", "FL11"]:
         write_sd(f"illuminant_{key}.csv", ILLUM_SOURCE[key], f"colour.SDS_ILLUMINANTS['{key}']",
                  CIE_LICENCE, colour.SDS_ILLUMINANTS[key])
 

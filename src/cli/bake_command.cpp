@@ -9,6 +9,7 @@
 #include "io/data_dir.h"
 #include "io/atomic_file.h"
 #include "pipeline/bake.h"
+#include "pipeline/basis_cache.h"
 #include "spectral/error.h"
 
 namespace spectex {
@@ -16,8 +17,10 @@ namespace spectex {
 namespace {
 
 struct BakeCli {
-    std::string output, basis = "mallett2019", wavelengths, type = "half", compression = "zip";
+    std::string output, basis = "fit", wavelengths = "380:780:5", type = "half", compression = "zip";
     std::string alpha = "associated", range = "clamp", nan = "replace";
+    std::string wavelengths_file;
+    FitSpec fit;
     int threads = 0;
     bool quiet = false, verbose = false;
     BakeSettings settings;
@@ -67,13 +70,20 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
     p.option("--nan", "replace|error", "NaN and infinite values: replace with 0 (default) or fail.",
              [&](const std::string& v) { c.nan = v; });
     p.section("Spectra");
-    p.option("--basis", "NAME|FILE",
-             "Spectral basis: mallett2019 (the published table, default) or a CSV with header wavelength,r,g,b.",
-             [&](const std::string& v) { c.basis = v; });
-    p.option("--wavelengths", "START:END:STEP",
-             "Output wavelength grid in nm (default: the basis's grid, 380:780:5 for mallett2019); must match "
-             "the basis's grid.",
+    p.option("--wavelengths", "START:END:STEP", "Output wavelength grid in nm (default 380:780:5).",
              [&](const std::string& v) { c.wavelengths = v; });
+    p.option("--wavelengths-file", "FILE", "Output wavelengths, one per line (any strictly increasing list).",
+             [&](const std::string& v) { c.wavelengths_file = v; });
+    p.option("--basis", "fit|mallett2019|FILE",
+             "fit (default): a basis fitted on the output grid by 'spectex basis' rules, exact on any grid; "
+             "mallett2019: the published table (380:780:5 only); or a CSV wavelength,r,g,b on the output grid.",
+             [&](const std::string& v) { c.basis = v; });
+    p.option("--objective", "smooth|norm", "Objective of the fitted basis (default smooth; see spectex basis).",
+             [&](const std::string& v) { c.fit.objective = v; });
+    p.option("--observer", "NAME|FILE", "Observer of the fitted basis: cie1931-2 (default), cie1964-10, or a CSV.",
+             [&](const std::string& v) { c.fit.observer = v; });
+    p.option("--illuminant", "NAME|FILE", "Illuminant under which the fitted basis is exact: D65 (default), or a CSV.",
+             [&](const std::string& v) { c.fit.illuminant = v; });
     p.section("Resources");
     p.option("--threads", "N", "Threads for OpenEXR compression and decoding (default: all cores).",
              [&](const std::string& v) { c.threads = parse_int("--threads", v, 0, 1024); });
@@ -103,7 +113,9 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         } catch (const Error& e) {
             throw UsageError(std::string("--compression: ") + e.what());
         }
-        if (!c.wavelengths.empty()) {
+        if (c.fit.objective != "smooth" && c.fit.objective != "norm")
+            throw UsageError("--objective: '" + c.fit.objective + "' is not one of smooth, norm");
+        if (c.wavelengths_file.empty()) {
             try {
                 c.settings.grid = WavelengthGrid::parse(c.wavelengths);
             } catch (const Error& e) {
@@ -117,14 +129,24 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
     const std::string& input = inputs[0];
     try {
         c.settings.data_dir = find_data_dir();
-        c.settings.basis = load_basis(c.settings.data_dir, c.basis);
-        c.settings.basis_source = c.basis == "mallett2019" ? "published table (Mallett & Yuksel 2019)" : "file";
-        WavelengthGrid basis_grid = WavelengthGrid::from_list(c.settings.basis.lambda);
-        if (c.wavelengths.empty()) {
-            c.settings.grid = basis_grid;
-        } else if (!same_wavelengths(c.settings.grid.lambda, basis_grid.lambda)) {
-            throw Error("--wavelengths " + c.wavelengths + " does not match the grid of basis " + c.basis + " (" +
-                        basis_grid.describe() + "); a basis on another grid must be given with --basis");
+        if (!c.wavelengths_file.empty()) c.settings.grid = WavelengthGrid::from_file(c.wavelengths_file);
+        c.settings.observer = c.fit.observer;
+        c.settings.illuminant = c.fit.illuminant;
+        if (c.basis == "fit") {
+            c.fit.data_dir = c.settings.data_dir;
+            c.fit.grid = c.settings.grid;
+            FitResult fit = fit_basis_for(c.fit);
+            c.settings.basis = fit.basis;
+            c.settings.basis_source = "fitted by spectex: " + c.fit.describe();
+        } else {
+            c.settings.basis = load_basis(c.settings.data_dir, c.basis);
+            c.settings.basis_source = c.basis == "mallett2019" ? "published table (Mallett & Yuksel 2019)" : "file";
+            // A given basis is exact for the conditions it was made for; the default ones are recorded.
+            if (c.basis == "mallett2019") c.settings.observer = "cie1931-2", c.settings.illuminant = "D65";
+            WavelengthGrid basis_grid = WavelengthGrid::from_list(c.settings.basis.lambda);
+            if (!same_wavelengths(c.settings.grid.lambda, basis_grid.lambda))
+                throw Error("basis " + c.basis + " is on " + basis_grid.describe() + ", not on the output grid " +
+                            c.settings.grid.describe() + " (the default --basis fit works on any grid)");
         }
     } catch (const Error& e) {
         print_error(e.what());

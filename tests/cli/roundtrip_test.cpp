@@ -1,6 +1,7 @@
 // Round trip: sRGB codes -> spectex bake -> spectral EXR -> independent integration under D65 with
 // CIE 1931 2° on the file's bins -> linear sRGB, compared with the IEC formula's decoding of the codes.
 #include <ImfOutputFile.h>
+#include <OpenColorIO/OpenColorIO.h>
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -11,6 +12,7 @@
 
 using namespace spectex_test;
 
+namespace OCIO = OCIO_NAMESPACE;
 namespace {
 
 const std::string kData = SPECTEX_TEST_DATA_DIR;
@@ -26,7 +28,22 @@ struct Stats {
 //    these propagate through |rgb_weight|, whose rows sum to about 2-3;
 //  - the published basis reproduces the primaries to 3.5e-8 (DESIGN.md), and OCIO's sRGB curve
 //    differs from the IEC formula by up to 7.6e-7: 1e-6 absolute covers both.
-Stats check(const std::string& exr, const std::function<std::array<int, 3>(int, int)>& codes_at) {
+// Linear value of each 8-bit code through the shipped OCIO config (OCIO directly, not spectex).
+std::array<double, 256> ocio_decode_table() {
+    auto cfg = OCIO::Config::CreateFromFile((kData + "/spectex.ocio").c_str());
+    auto cpu = cfg->getProcessor("srgb_tx", "lin_srgb")->getDefaultCPUProcessor();
+    std::array<double, 256> t;
+    for (int c = 0; c < 256; ++c) {
+        float px[3] = {static_cast<float>(c / 255.0), 0, 0};
+        cpu->applyRGB(px);
+        t[c] = px[0];
+    }
+    return t;
+}
+
+// reference: linear value of an 8-bit code; the IEC formula unless given.
+Stats check(const std::string& exr, const std::function<std::array<int, 3>(int, int)>& codes_at,
+            const std::array<double, 256>* reference = nullptr, double extra_tolerance = 1e-6) {
     Imf::InputFile probe(exr.c_str());
     auto chans = spectral_channels(probe.header());
     const bool half = probe.header().channels().begin().channel().type == Imf::HALF;
@@ -36,7 +53,7 @@ Stats check(const std::string& exr, const std::function<std::array<int, 3>(int, 
     Stats st;
     for_each_spectrum(exr, [&](int x, int y, const std::vector<float>& s, float) {
         auto codes = codes_at(x, y);
-        double rgb[3] = {0, 0, 0}, bound[3] = {1e-6, 1e-6, 1e-6};
+        double rgb[3] = {0, 0, 0}, bound[3] = {extra_tolerance, extra_tolerance, extra_tolerance};
         for (size_t k = 0; k < s.size(); ++k) {
             double e = half ? std::max(std::fabs(s[k]) * std::ldexp(1.0, -11), std::ldexp(1.0, -25))
                             : std::fabs(s[k]) * std::ldexp(1.0, -24);
@@ -48,7 +65,7 @@ Stats check(const std::string& exr, const std::function<std::array<int, 3>(int, 
         }
         bool ok = true, match = true;
         for (int c = 0; c < 3; ++c) {
-            double want = iec_srgb_to_linear(codes[c] / 255.0);
+            double want = reference ? (*reference)[codes[c]] : iec_srgb_to_linear(codes[c] / 255.0);
             double err = std::fabs(rgb[c] - want);
             st.max_err = std::max(st.max_err, err);
             st.sum_err += err;
@@ -104,10 +121,11 @@ std::string edited_basis(const ScratchDir& dir, const std::string& name,
 
 }  // namespace
 
-TEST(RoundTripSlow, EveryEightBitColourHalf) {
+TEST(RoundTripSlow, EveryEightBitColourHalfPublishedBasis) {
     ScratchDir dir;
     write_codes_png(dir / "all.png", 4096, 4096, all_colours);
-    auto r = run_spectex({"bake", dir / "all.png", "-o", dir / "all.exr", "--compression", "none"});
+    auto r = run_spectex({"bake", dir / "all.png", "-o", dir / "all.exr", "--compression", "none", "--basis",
+                          "mallett2019"});
     ASSERT_EQ(r.status, 0) << r.err;
     Stats st = check(dir / "all.exr", all_colours);
     EXPECT_EQ(st.pixels, 16777216u);
@@ -120,12 +138,31 @@ TEST(RoundTripSlow, EveryEightBitColourHalf) {
     EXPECT_GT(st.code_match, st.pixels - st.pixels / 10000);
 }
 
+TEST(RoundTripSlow, EveryEightBitColourFloatFittedBasis) {
+    // The default (fitted) basis in float: every colour within 1e-6 of the linear value that went
+    // in (OCIO's decoding of the code), and every code re-encodes exactly.
+    ScratchDir dir;
+    write_codes_png(dir / "all.png", 4096, 4096, all_colours);
+    auto r = run_spectex({"bake", dir / "all.png", "-o", dir / "all.exr", "--compression", "none", "--type", "float"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    auto table = ocio_decode_table();
+    // Tolerance: 0 extra (the fitted basis is exact to 1e-15); the bound is then the float
+    // rounding of each bin and of the expansion through the weights, ~3e-7 at most.
+    Stats st = check(dir / "all.exr", all_colours, &table, 0.0);
+    std::printf("round trip, 16777216 colours, fitted smooth basis, float: max |err| %.3g, mean %.3g, "
+                "bound <= %.3g, codes exact: %llu\n", st.max_err, st.sum_err / (3.0 * st.pixels), st.max_bound,
+                static_cast<unsigned long long>(st.code_match));
+    EXPECT_EQ(st.over_bound, 0u);
+    EXPECT_LT(st.max_err, 1e-6);
+    EXPECT_EQ(st.code_match, st.pixels);
+}
+
 TEST(RoundTrip, SampleOfColoursFloatAndHalf) {
     ScratchDir dir;
     write_codes_png(dir / "s.png", 256, 256, sample_colours);
     for (const char* type : {"half", "float"}) {
         std::string out = dir / (std::string("s_") + type + ".exr");
-        auto r = run_spectex({"bake", dir / "s.png", "-o", out, "--type", type});
+        auto r = run_spectex({"bake", dir / "s.png", "-o", out, "--type", type, "--basis", "mallett2019"});
         ASSERT_EQ(r.status, 0) << r.err;
         Stats st = check(out, sample_colours);
         EXPECT_EQ(st.over_bound, 0u) << type << " max err " << st.max_err;
@@ -153,7 +190,7 @@ TEST(RoundTrip, CheckFailsWhenTheBasisIsPerturbedOrSwapped) {
 TEST(RoundTrip, CheckFailsWhenAChannelIsDropped) {
     ScratchDir dir;
     write_codes_png(dir / "s.png", 256, 256, sample_colours);
-    ASSERT_EQ(run_spectex({"bake", dir / "s.png", "-o", dir / "ok.exr", "--type", "float"}).status, 0);
+    ASSERT_EQ(run_spectex({"bake", dir / "s.png", "-o", dir / "ok.exr", "--type", "float", "--basis", "mallett2019"}).status, 0);
     ASSERT_EQ(check(dir / "ok.exr", sample_colours).over_bound, 0u);
     // Copy every channel but T.550nm with OpenEXR.
     Imf::InputFile in((dir / "ok.exr").c_str());

@@ -1,0 +1,33 @@
+#include "pipeline/basis_cache.h"
+
+#include <map>
+#include <mutex>
+
+#include "spectral/colorimetry.h"
+#include "spectral/spectrum.h"
+
+namespace spectex {
+
+std::string FitSpec::describe() const {
+    return primaries + " primaries, " + observer + ", " + illuminant + ", " + grid.describe() + ", " + objective +
+           (allow_infeasible ? ", infeasible allowed" : "");
+}
+
+FitResult fit_basis_for(const FitSpec& spec) {
+    static std::mutex mutex;
+    static std::map<std::string, FitResult> cache;
+    std::string key = spec.describe() + "|" + spec.data_dir;
+    for (double l : spec.grid.lambda) key += "|" + format_wavelength(l);
+    std::lock_guard<std::mutex> lock(mutex);
+    if (auto it = cache.find(key); it != cache.end()) return it->second;
+    Observer obs = load_observer(spec.data_dir, spec.observer);
+    Spectrum ill = load_illuminant(spec.data_dir, spec.illuminant);
+    FitRequest req{Colorimetry::make(obs, ill, spec.grid, primaries_by_name(spec.primaries)),
+                   parse_objective(spec.objective), spec.allow_infeasible};
+    FitResult r = fit_basis(req);
+    r.basis.name = "fit:" + spec.objective;
+    cache.emplace(key, r);
+    return r;
+}
+
+}  // namespace spectex
