@@ -138,6 +138,21 @@ TEST(RoundTripSlow, EveryEightBitColourHalfPublishedBasis) {
     EXPECT_GT(st.code_match, st.pixels - st.pixels / 10000);
 }
 
+TEST(RoundTripSlow, EveryEightBitColourHalfFittedBasis) {
+    // The default: fitted basis, half. Every pixel within its derived half-rounding bound (the
+    // basis itself is exact; the extra 1e-6 covers OCIO's curve against the IEC formula).
+    ScratchDir dir;
+    write_codes_png(dir / "all.png", 4096, 4096, all_colours);
+    auto r = run_spectex({"bake", dir / "all.png", "-o", dir / "all.exr", "--compression", "none"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    Stats st = check(dir / "all.exr", all_colours);
+    std::printf("round trip, 16777216 colours, fitted smooth basis, half: max |err| %.3g, mean %.3g, bound <= %.3g, "
+                "codes exact: %llu of %llu\n", st.max_err, st.sum_err / (3.0 * st.pixels), st.max_bound,
+                static_cast<unsigned long long>(st.code_match), static_cast<unsigned long long>(st.pixels));
+    EXPECT_EQ(st.over_bound, 0u);
+    EXPECT_GT(st.code_match, st.pixels - st.pixels / 10000);
+}
+
 TEST(RoundTripSlow, EveryEightBitColourFloatFittedBasis) {
     // The default (fitted) basis in float: every colour within 1e-6 of the linear value that went
     // in (OCIO's decoding of the code), and every code re-encodes exactly.
