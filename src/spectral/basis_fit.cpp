@@ -23,13 +23,13 @@ Eigen::SparseMatrix<double> objective_matrix(FitObjective o, const WavelengthGri
     if (o == FitObjective::Norm || n < 2) {
         for (int i = 0; i < 3 * n; ++i) t.emplace_back(i, i, 1.0);
     } else {
-        // Sum over k of (S_{k+1} - S_k)^2 / h_k, scaled by the mean step: plain squared first
-        // differences on a uniform grid, the integral of the squared slope on any grid.
-        double mean_h = (g.lambda.back() - g.lambda.front()) / (n - 1);
+        // Sum over k of (S_{k+1} - S_k)^2, plain first differences on any grid. (Dividing by the
+        // spacing would follow the slope more closely on uneven grids, but near-duplicate
+        // wavelengths would then get weights of 1e6 and wreck the conditioning.)
         for (int s = 0; s < 3; ++s) {
             int o0 = s * n;
             for (int k = 0; k + 1 < n; ++k) {
-                double w = 2.0 * mean_h / (g.lambda[k + 1] - g.lambda[k]);  // 0.5 x'Px convention
+                const double w = 2.0;  // 0.5 x'Px convention
                 t.emplace_back(o0 + k, o0 + k, w);
                 t.emplace_back(o0 + k + 1, o0 + k + 1, w);
                 t.emplace_back(o0 + k, o0 + k + 1, -w);
@@ -177,7 +177,7 @@ FitResult fit_basis(const FitRequest& req) {
         FitCertificate cert = certify_basis(closest, c);
         double worst = std::max({cert.colour_residual[0], cert.colour_residual[1], cert.colour_residual[2]});
         if (!req.allow_infeasible) {
-            char buf[160];
+            char buf[256];
             std::snprintf(buf, sizeof buf,
                           "no basis reproduces these primaries with 0 <= S <= 1 on this grid (infeasible: the "
                           "closest basis misses by %.3g in linear RGB); --allow-infeasible writes it",

@@ -33,9 +33,12 @@ std::vector<double> Spectrum::sample(const WavelengthGrid& grid) const {
             throw Error("wavelength " + format_wavelength(l) + " nm lies outside the " + name +
                         " table (" + format_wavelength(lambda.front()) + "-" +
                         format_wavelength(lambda.back()) + " nm)");
-        auto it = std::lower_bound(lambda.begin(), lambda.end(), l - tol);
+        // Snap to a node only when the grid point is that node up to rounding: a grid point 1e-6 nm
+        // away (a near-duplicate wavelength) must be interpolated like any other.
+        const double node_tol = 1e-9;
+        auto it = std::lower_bound(lambda.begin(), lambda.end(), l - node_tol);
         size_t i = static_cast<size_t>(it - lambda.begin());
-        if (i < lambda.size() && std::abs(lambda[i] - l) <= tol) {
+        if (i < lambda.size() && std::abs(lambda[i] - l) <= node_tol) {
             out[k] = value[i];  // on a table node: exact, no interpolation rounding
             continue;
         }
