@@ -52,20 +52,16 @@ struct QpResult {
     //   primal_residual = max(||Ax - b||, max bound violation)
     //   dual_residual   = ||Px + q - A'y - z_lower + z_upper||
     //   complementarity = max_i max(z_lower_i (x_i - lower_i), z_upper_i (upper_i - x_i))
-    // Solved means, with tol = QpOptions::tolerance and |.| taken elementwise (backward-error
-    // scales, so that cancellation in Ax or Px cannot demand more than rounding allows):
-    //   ||Ax - b|| <= tol * max(1, ||b||, || |A||x| ||) and no bound violation at all,
-    //   dual_residual <= tol * max(1, ||q||, || |P||x| ||, || |A'||y| ||, ||z_lower||, ||z_upper||),
-    //   complementarity <= tol * max(1, |q|'|x|, |x|'|P||x|).
+    // Solved means: ||Ax - b|| <= tol * max(1, ||b||, ||Ax||), no bound violation,
+    // dual_residual <= tol * max(1, ||q||, ||Px||, ||A'y||, ||z||) and
+    // complementarity <= tol * max(1, |q'x|, x'Px), tol = QpOptions::tolerance.
     double primal_residual = 0.0;
     double dual_residual = 0.0;
     double complementarity = 0.0;
 };
 
-// Throws std::invalid_argument if the dimensions do not match. Never returns NaN.
-// Infeasible is reported only with a Farkas certificate: the result's x is the box point
-// closest (least squares) to A x = b and y = b - A x satisfies, for every x' in the box,
-// ||A x' - b||_inf >= (y'b - sup_box y'A x') / ||y||_1 > tolerance * scale; z are zero.
+// Throws std::invalid_argument if the dimensions do not match. Never returns NaN: an
+// Infeasible result carries the box point closest (least squares) to satisfying A x = b.
 QpResult solve_qp(const QpProblem& problem, const QpOptions& options = {});
 
 const char* to_string(QpStatus status);
