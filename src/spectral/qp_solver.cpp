@@ -1,6 +1,8 @@
 #include "spectral/qp_solver.h"
 
+#include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
+#include <Eigen/SparseQR>
 #include <algorithm>
 #include <cmath>
 #include <functional>
@@ -8,19 +10,6 @@
 #include <stdexcept>
 #include <utility>
 #include <vector>
-
-#ifdef QP_DEBUG
-#include <cstdio>
-#define QPLOG(...) std::fprintf(stderr, __VA_ARGS__)
-#include <chrono>
-struct QpTimer { double& acc; std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
-  ~QpTimer() { acc += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count(); } };
-static double g_t_factor, g_t_newton, g_t_polish, g_t_equil, g_t_total, g_t_init;
-#define QPTIME(var) QpTimer qp_timer_##var{var}
-#else
-#define QPLOG(...) ((void)0)
-#define QPTIME(var) ((void)0)
-#endif
 
 namespace spectex {
 namespace {
@@ -37,16 +26,24 @@ constexpr double kEps = std::numeric_limits<double>::epsilon();
 // ---- Tuning constants (all for the equilibrated problem) ---------------------------------------
 constexpr int kRuizIterations = 15;
 constexpr double kRuizMin = 1e-4, kRuizMax = 1e4;  // per-iteration clamp of a Ruiz factor
-constexpr double kIpmRegPrimal = 1e-9;   // static regularisation of the (1,1) KKT block
-constexpr double kIpmRegDual = 1e-9;     // static regularisation of the (2,2) KKT block
-constexpr int kIpmRefineSteps = 6;       // iterative refinement of each Newton solve
+// Static regularisation of the KKT matrices. The (1,1) block gets kRegRelative times its own
+// diagonal plus kRegFloor, so that variables with a small but real curvature are not swamped
+// (refinement contracts like reg / (curvature + reg)); only variables without any curvature
+// (LP-like) see the floor. The (2,2) block gets -kRegDual. All are raised 100x at a time when a
+// factorisation fails or is too inaccurate, up to kRegRetries times.
+constexpr double kRegRelative = 1e-10;
+constexpr double kRegFloor = 1e-12;
+constexpr double kRegDual = 1e-9;
+constexpr int kRegRetries = 4;
+constexpr int kIpmRefineSteps = 20;      // iterative refinement of a Newton solve (cap)
+constexpr double kNewtonEta = 1e-12;     // normwise backward error of a Newton solve: fine
+constexpr double kNewtonEtaMax = 1e-6;   // ... and the worst one still used
 constexpr double kStepFraction = 0.995;  // fraction to the boundary
-constexpr double kPolishStart = 1e-6;    // try the polish once the IPM is this close
-constexpr double kPolishRegPrimal = 1e-9;
-constexpr double kPolishRegDual = 1e-9;
-constexpr int kPolishRefineSteps = 60;
-constexpr int kPolishRounds = 30;  // active-set corrections per polish attempt  // active-set corrections per polish attempt
-constexpr int kRegRetries = 4;    // factorisation retries with 100x the regularisation
+constexpr double kPolishStart = 1e-6;    // try the polish once the IPM measure is this small
+constexpr int kPolishRefineSteps = 60;   // refinement (proximal) steps of a reduced solve (cap)
+constexpr double kPolishEta = 1e-14;     // backward error after which no larger reg is tried
+constexpr int kPolishRounds = 30;        // active-set corrections per polish attempt
+constexpr int kPolishPatience = 4;       // rounds without a new fewest-changes record
 
 double norm_inf(const Vec& v) { return v.size() == 0 ? 0.0 : v.lpNorm<Eigen::Infinity>(); }
 
@@ -105,9 +102,15 @@ Metrics evaluate(const SpMat& P, const Vec& q, const SpMat& A, const Vec& b, con
             r.comp = std::max(r.comp, zu[i] * (u[i] - x[i]));
         }
     }
-    r.scale_p = std::max({1.0, norm_inf(b), norm_inf(Ax)});
-    r.scale_d = std::max({1.0, norm_inf(q), norm_inf(Px), norm_inf(Aty), norm_inf(zl), norm_inf(zu)});
-    r.scale_c = std::max({1.0, std::abs(q.dot(x)), std::abs(x.dot(Px))});
+    // Backward-error scales: the size of the terms summed, so that cancellation in A x or P x
+    // cannot demand more than rounding allows.
+    const Vec ax = x.cwiseAbs(), ay = y.cwiseAbs();
+    const SpMat absP = P.cwiseAbs(), absA = A.cwiseAbs();
+    const Vec absPx = absP * ax;
+    r.scale_p = std::max({1.0, norm_inf(b), norm_inf(absA * ax)});
+    r.scale_d = std::max({1.0, norm_inf(q), norm_inf(absPx), norm_inf(absA.transpose() * ay),
+                          norm_inf(zl), norm_inf(zu)});
+    r.scale_c = std::max({1.0, q.cwiseAbs().dot(ax), ax.dot(absPx)});
     return r;
 }
 
@@ -123,14 +126,14 @@ struct Scaled {
 
 Scaled equilibrate(const SpMat& P, const Vec& q, const SpMat& A, const Vec& b, const Vec& l,
                    const Vec& u) {
-    QPTIME(g_t_equil);
     const Index n = P.rows(), m = A.rows();
     Vec D = Vec::Ones(n), E = Vec::Ones(m);
     SpMat Ps = P, As = A;
     for (int it = 0; it < kRuizIterations; ++it) {
         Vec cn = Vec::Zero(n), rn = Vec::Zero(m);
         for (Index j = 0; j < n; ++j) {
-            for (SpMat::InnerIterator e(Ps, j); e; ++e) cn[j] = std::max(cn[j], std::abs(e.value()));
+            for (SpMat::InnerIterator e(Ps, j); e; ++e)
+                cn[j] = std::max(cn[j], std::abs(e.value()));
             for (SpMat::InnerIterator e(As, j); e; ++e) {
                 cn[j] = std::max(cn[j], std::abs(e.value()));
                 rn[e.row()] = std::max(rn[e.row()], std::abs(e.value()));
@@ -170,28 +173,49 @@ Scaled equilibrate(const SpMat& P, const Vec& q, const SpMat& A, const Vec& b, c
 }
 
 // Iterative refinement of K d = rhs with a factorisation of a (regularised) approximation of K.
-// `d` holds the starting point; a correction is kept only while it reduces the residual.
-template <class ApplyK>
-void refine(const Ldlt& f, const ApplyK& apply_k, const Vec& rhs, Vec& d, int max_steps) {
-    Vec res = rhs - apply_k(d);
-    double rn = norm_inf(res);
+// `d` holds the starting point. Progress is measured by the componentwise backward error
+//   omega = max_i |rhs - K d|_i / (|K| |d| + |rhs|)_i,
+// so that every row, however small its terms, is solved to rounding relative to them.
+// apply(d, kd, kabs) must set kd = K d and kabs = |K| |d|. A step is kept only if omega drops.
+struct SolveQuality {
+    double omega;  // componentwise backward error
+    double eta;    // normwise backward error ||res|| / (|| |K||d| || + ||rhs||)
+};
+
+template <class Apply>
+SolveQuality refine(const Ldlt& f, const Apply& apply, const Vec& rhs, Vec& d, int max_steps) {
+    Vec kd, kabs;
+    auto omega = [&](const Vec& x, Vec& res) {
+        apply(x, kd, kabs);
+        res = rhs - kd;
+        double w = 0.0;
+        for (Index i = 0; i < res.size(); ++i) {
+            const double den = kabs[i] + std::abs(rhs[i]);
+            if (res[i] != 0.0) w = std::max(w, den > 0.0 ? std::abs(res[i]) / den : kInf);
+        }
+        return w;
+    };
+    Vec res, tres;
+    double w = omega(d, res), rn = norm_inf(res);
     int k = 0;
-    for (; k < max_steps && rn > 0.0; ++k) {
+    for (; k < max_steps && w > kEps; ++k) {
         Vec trial = d + f.solve(res);
-        Vec tres = rhs - apply_k(trial);
-        const double tn = norm_inf(tres);
-        if (!(tn < rn)) break;
-        const bool slow = tn > 0.9 * rn;
+        const double tw = omega(trial, tres), tn = norm_inf(tres);
+        // Also accept a large normwise gain: if the system is inconsistent in some rows (an
+        // unbounded reduced problem during the active-set search), omega cannot improve but
+        // the consistent part still converges.
+        if (!(tw < w || tn < 0.5 * rn)) break;
+        const bool slow = tw > 0.9 * w && tn > 0.9 * rn;
         d.swap(trial);
         res.swap(tres);
+        w = tw;
         rn = tn;
         if (slow) break;
     }
-#ifdef QP_DEBUG
-    static long calls = 0, total = 0;
-    ++calls;
-    QPLOG("    refine: %d steps residual %.2e (rhs %.2e)\n", k, rn, norm_inf(rhs));
-#endif
+    apply(d, kd, kabs);
+    const double den = norm_inf(kabs) + norm_inf(rhs);
+    const SolveQuality quality{w, den > 0 ? rn / den : (rn > 0 ? kInf : 0.0)};
+    return quality;
 }
 
 // Called with a scaled candidate (x, y, z_lower, z_upper, polished); returns true if it meets
@@ -214,6 +238,8 @@ public:
             if (std::isfinite(s.u[i])) mU_[i] = 1.0, u0_[i] = s.u[i];
         }
         nb_ = mL_.sum() + mU_.sum();
+        absP_ = s.P.cwiseAbs();
+        absA_ = s.A.cwiseAbs();
         x_ = Vec::Zero(n_);
         y_ = Vec::Zero(m_);
         zl_ = Vec::Zero(n_);
@@ -230,7 +256,8 @@ public:
 private:
     void build_pattern();
     bool factor(const Vec& hd);
-    void newton_solve(const Vec& hd, const Vec& r1, const Vec& r2, Vec& dx, Vec& dy) const;
+    SolveQuality newton_solve(const Vec& hd, const Vec& r1, const Vec& r2, Vec& dx, Vec& dy) const;
+    bool direction_solve(const Vec& hd, const Vec& r1, const Vec& r2, Vec& dx, Vec& dy);
     bool initial_point();
     bool try_polish(double measure);
     bool polish_from(std::vector<signed char> cls);
@@ -243,17 +270,18 @@ private:
     Vec mL_, mU_, l0_, u0_;  // bound masks, bounds with infinities replaced by 0
     double nb_ = 0;          // number of finite bounds
     Vec x_, y_, zl_, zu_;
-    SpMat K_;  // lower triangle of [P + diag + reg, A'; A, -reg]
-    std::vector<Index> diag_pos_;
-    Vec pdiag_;
+    Vec prev_x_, prev_y_, prev_zl_, prev_zu_;  // restored if a step turns non-finite
+    SpMat absP_, absA_;  // |P|, |A|, for the relative accuracy measures
+    SpMat K_;            // lower triangle of [P + diag + reg, A'; A, -reg]
+    std::vector<Index> diag_pos_;  // positions of the diagonal entries in K_'s values
+    Vec pdiag_;                    // diagonal of P
     Ldlt ldlt_;
-    double reg_p_ = kIpmRegPrimal, reg_d_ = kIpmRegDual;
+    double reg_scale_ = 1.0;  // multiplies the regularisation; raised when a solve is poor
     bool started_ = false;
     int iter_ = 0;
     int tiny_steps_ = 0;
     std::vector<double> rp_hist_;
-    std::vector<signed char> last_cls_;  // last active-set guess tried
-    double last_measure_ = 0.0;          // IPM accuracy measure at that attempt
+    double last_measure_ = 0.0;  // IPM accuracy measure at the last polish attempt
 };
 
 void InteriorPoint::build_pattern() {
@@ -281,44 +309,71 @@ void InteriorPoint::build_pattern() {
 }
 
 bool InteriorPoint::factor(const Vec& hd) {
-    QPTIME(g_t_factor);
     for (int attempt = 0; attempt <= kRegRetries; ++attempt) {
         double* v = K_.valuePtr();
-        for (Index j = 0; j < n_; ++j) v[diag_pos_[j]] = pdiag_[j] + hd[j] + reg_p_;
-        for (Index i = 0; i < m_; ++i) v[diag_pos_[n_ + i]] = -reg_d_;
+        for (Index j = 0; j < n_; ++j) {
+            const double h = pdiag_[j] + hd[j];
+            v[diag_pos_[j]] = h + reg_scale_ * (kRegRelative * std::abs(h) + kRegFloor);
+        }
+        for (Index i = 0; i < m_; ++i) v[diag_pos_[n_ + i]] = -reg_scale_ * kRegDual;
         ldlt_.factorize(K_);
-        QPLOG("    factor n=%ld nnzK=%ld nnzL=%ld\n", long(K_.rows()), long(K_.nonZeros()), long(ldlt_.matrixL().nestedExpression().nonZeros()));
         if (ldlt_.info() == Eigen::Success) return true;
-        reg_p_ *= 100.0;
-        reg_d_ *= 100.0;
+        reg_scale_ *= 100.0;
     }
     return false;
 }
 
 // Solves [P + diag(hd), A'; A, 0] [dx; -dy] = [r1; r2] by the regularised factorisation and
 // iterative refinement against the unregularised matrix.
-void InteriorPoint::newton_solve(const Vec& hd, const Vec& r1, const Vec& r2, Vec& dx,
-                                 Vec& dy) const {
-    QPTIME(g_t_newton);
+SolveQuality InteriorPoint::newton_solve(const Vec& hd, const Vec& r1, const Vec& r2, Vec& dx,
+                                         Vec& dy) const {
     const Index n = n_, m = m_;
-    auto apply_k = [&](const Vec& d) {
-        Vec out(n + m);
+    auto apply_k = [&](const Vec& d, Vec& kd, Vec& kabs) {
         const auto dxv = d.head(n);
         const auto wv = d.tail(m);
-        out.head(n) = s_.P * dxv + hd.cwiseProduct(dxv) + s_.A.transpose() * wv;
-        out.tail(m) = s_.A * dxv;
-        return out;
+        const Vec adx = dxv.cwiseAbs(), aw = wv.cwiseAbs();
+        kd.resize(n + m);
+        kabs.resize(n + m);
+        kd.head(n) = s_.P * dxv + hd.cwiseProduct(dxv) + s_.A.transpose() * wv;
+        kd.tail(m) = s_.A * dxv;
+        kabs.head(n) = absP_ * adx + hd.cwiseProduct(adx) + absA_.transpose() * aw;
+        kabs.tail(m) = absA_ * adx;
     };
     Vec rhs(n + m);
     rhs << r1, r2;
     Vec d = ldlt_.solve(rhs);
-    refine(ldlt_, apply_k, rhs, d, kIpmRefineSteps);
+    const SolveQuality quality = refine(ldlt_, apply_k, rhs, d, kIpmRefineSteps);
     dx = d.head(n);
     dy = -d.tail(m);
+    return quality;
+}
+
+// Newton solve with a quality check on the normwise backward error (the componentwise one is
+// O(1) in dependent rows, whose right-hand side is consistent only up to rounding). If it is
+// above kNewtonEta the factorisation may be too inaccurate (tiny pivots): refactorise with 100x
+// the regularisation and keep whichever direction is better (more regularisation can also slow
+// refinement down). A direction worse than kNewtonEtaMax is refused: it would wreck the iterate.
+bool InteriorPoint::direction_solve(const Vec& hd, const Vec& r1, const Vec& r2, Vec& dx,
+                                    Vec& dy) {
+    double best = newton_solve(hd, r1, r2, dx, dy).eta;
+    if (best <= kNewtonEta) return true;
+    Vec tdx, tdy;
+    double best_scale = reg_scale_;
+    for (int attempt = 0; attempt < kRegRetries; ++attempt) {
+        reg_scale_ *= 100.0;
+        if (!factor(hd)) break;
+        const double eta = newton_solve(hd, r1, r2, tdx, tdy).eta;
+        if (eta < best) best = eta, best_scale = reg_scale_, dx.swap(tdx), dy.swap(tdy);
+        if (best <= kNewtonEta) break;
+    }
+    if (reg_scale_ != best_scale) {  // keep the factorisation that produced the direction
+        reg_scale_ = best_scale;
+        if (!factor(hd)) return false;
+    }
+    return best <= kNewtonEtaMax;
 }
 
 bool InteriorPoint::initial_point() {
-    QPTIME(g_t_init);
     build_pattern();
     // x0: minimiser of 0.5x'Px + q'x + 0.5||x - centre||^2 subject to Ax = b, pushed inside.
     Vec centre = Vec::Zero(n_);
@@ -391,19 +446,24 @@ Outcome InteriorPoint::run(bool watch_infeasibility) {
         const double mu = (sl.dot(zl_) + su.dot(zu_)) / nb_;
         const double comp =
             std::max(norm_inf(sl.cwiseProduct(zl_)), norm_inf(su.cwiseProduct(zu_)));
-        const double rp_rel = norm_inf(rp) / std::max({1.0, norm_inf(s_.b), norm_inf(Ax)});
-        const double rd_rel = norm_inf(rd) / std::max({1.0, norm_inf(s_.q), norm_inf(Px),
-                                                       norm_inf(Aty), norm_inf(zl_), norm_inf(zu_)});
-        const double c_rel =
-            comp / std::max({1.0, std::abs(s_.q.dot(x_)), std::abs(x_.dot(Px))});
-        if (!std::isfinite(rp_rel + rd_rel + c_rel)) return Outcome::NumericalError;
-        QPLOG("it %d rp %.2e rd %.2e comp %.2e mu %.2e\n", iter_, rp_rel, rd_rel, c_rel, mu);
+        const Vec ax = x_.cwiseAbs(), absPx = absP_ * ax;
+        const double rp_rel =
+            norm_inf(rp) / std::max({1.0, norm_inf(s_.b), norm_inf(absA_ * ax)});
+        const double rd_rel =
+            norm_inf(rd) / std::max({1.0, norm_inf(s_.q), norm_inf(absPx),
+                                     norm_inf(absA_.transpose() * y_.cwiseAbs()), norm_inf(zl_),
+                                     norm_inf(zu_)});
+        const double c_rel = comp / std::max({1.0, s_.q.cwiseAbs().dot(ax), ax.dot(absPx)});
+        if (!std::isfinite(rp_rel + rd_rel + c_rel)) {
+            if (iter_ > 0) x_ = prev_x_, y_ = prev_y_, zl_ = prev_zl_, zu_ = prev_zu_;
+            return Outcome::NumericalError;
+        }
 
         const double tol = opt_.tolerance;
         const double measure = std::max({rp_rel, rd_rel, c_rel});
         if (opt_.polish && measure <= kPolishStart && try_polish(measure)) return Outcome::Accepted;
-        if (rp_rel <= tol && rd_rel <= tol && c_rel <= tol && accept_(x_, y_, zl_, zu_, false))
-            return Outcome::Accepted;
+        // The equilibrated measures only approximate the user's: let the acceptance decide.
+        if (measure <= 10 * tol && accept_(x_, y_, zl_, zu_, false)) return Outcome::Accepted;
         if (iter_ >= opt_.max_iterations) return Outcome::MaxIterations;
 
         // Infeasibility suspicion: the primal residual stops shrinking or the steps vanish.
@@ -418,9 +478,10 @@ Outcome InteriorPoint::run(bool watch_infeasibility) {
         const Vec hd = zl_.cwiseQuotient(sl) + zu_.cwiseQuotient(su);
         if (!factor(hd)) return Outcome::NumericalError;
         Vec dx, dy, dzl, dzu;
+        bool solved = true;
         auto direction = [&](const Vec& rcl, const Vec& rcu) {
             const Vec r1 = -rd - rcl.cwiseQuotient(sl) + rcu.cwiseQuotient(su);
-            newton_solve(hd, r1, -rp, dx, dy);
+            solved = direction_solve(hd, r1, -rp, dx, dy) && solved;
             dzl = mL_.cwiseProduct((-rcl - zl_.cwiseProduct(dx)).cwiseQuotient(sl));
             dzu = mU_.cwiseProduct((-rcu + zu_.cwiseProduct(dx)).cwiseQuotient(su));
         };
@@ -428,19 +489,21 @@ Outcome InteriorPoint::run(bool watch_infeasibility) {
         const Vec rcl0 = sl.cwiseProduct(zl_), rcu0 = su.cwiseProduct(zu_);
         direction(rcl0, rcu0);
         const double a_aff = max_step(sl, su, zl_, zu_, mL_, mU_, dx, dzl, dzu);
-        const double mu_aff = ((sl + a_aff * dx).cwiseProduct(zl_ + a_aff * dzl).cwiseProduct(mL_).sum() +
-                               (su - a_aff * dx).cwiseProduct(zu_ + a_aff * dzu).cwiseProduct(mU_).sum()) /
-                              nb_;
+        const double mu_aff =
+            ((sl + a_aff * dx).cwiseProduct(zl_ + a_aff * dzl).cwiseProduct(mL_).sum() +
+             (su - a_aff * dx).cwiseProduct(zu_ + a_aff * dzu).cwiseProduct(mU_).sum()) /
+            nb_;
         const double sigma = std::clamp(std::pow(std::max(mu_aff, 0.0) / mu, 3.0), 0.0, 1.0);
         // Corrector (second-order term and centring).
         const Vec rcl = rcl0 + mL_.cwiseProduct(dx.cwiseProduct(dzl)) - (sigma * mu) * mL_;
         const Vec rcu = rcu0 - mU_.cwiseProduct(dx.cwiseProduct(dzu)) - (sigma * mu) * mU_;
         direction(rcl, rcu);
-        if (!(dx.allFinite() && dy.allFinite() && dzl.allFinite() && dzu.allFinite()))
+        if (!solved || !(dx.allFinite() && dy.allFinite() && dzl.allFinite() && dzu.allFinite()))
             return Outcome::NumericalError;
         const double amax = max_step(sl, su, zl_, zu_, mL_, mU_, dx, dzl, dzu);
         const double alpha = std::min(1.0, kStepFraction * amax);
         tiny_steps_ = alpha < 1e-8 ? tiny_steps_ + 1 : 0;
+        prev_x_ = x_, prev_y_ = y_, prev_zl_ = zl_, prev_zu_ = zu_;
         x_ += alpha * dx;
         y_ += alpha * dy;
         zl_ += alpha * dzl;
@@ -449,8 +512,9 @@ Outcome InteriorPoint::run(bool watch_infeasibility) {
     }
 }
 
-// Guess the active bounds ("slack < multiplier") and polish from there. A failed guess is
-// retried only after the IPM has reduced its accuracy measure tenfold and the guess changed.
+// Guess the active bounds ("slack < multiplier") and polish from there, each time the IPM has
+// reduced its accuracy measure tenfold (even with the same guess: the reduced solves start from
+// the current IPM point, so a later attempt can succeed where an earlier one failed).
 // (Tapia's indicators were tried and are less reliable here: on obstacle-like problems such as
 // the smooth spectral fit, slack and multiplier both vanish near the contact boundaries.)
 bool InteriorPoint::try_polish(double measure) {
@@ -464,16 +528,20 @@ bool InteriorPoint::try_polish(double measure) {
         if (lo && (!up || sl <= su)) cls[i] = -1;
         else if (up) cls[i] = 1;
     }
-    if (cls == last_cls_) return false;
-    last_cls_ = cls;
     last_measure_ = measure;
     return polish_from(std::move(cls));
 }
 
-// Primal-dual active-set iterations starting from the guess `cls` (-1 lower, +1 upper, 0 free).
+// Primal-dual active-set iterations starting from the guess `cls` (-1 lower, +1 upper, 0 free):
+// solve with the guessed bounds fixed, then free the bounds whose multiplier has the wrong sign
+// and fix the free variables that left the box. Stops when nothing changes (the candidate is
+// then checked in the user's units), when a guess repeats, or when the number of changes has
+// not reached a new minimum for kPolishPatience rounds (the guess was too far off; the IPM
+// will provide a better one).
 bool InteriorPoint::polish_from(std::vector<signed char> cls) {
-    QPTIME(g_t_polish);
     std::vector<std::vector<signed char>> seen;
+    Index best_changes = n_ + 1;
+    int since_best = 0;
     for (int round = 0; round < kPolishRounds; ++round) {
         if (std::find(seen.begin(), seen.end(), cls) != seen.end()) return false;  // cycling
         seen.push_back(cls);
@@ -484,60 +552,62 @@ bool InteriorPoint::polish_from(std::vector<signed char> cls) {
         const double ztol =
             opt_.tolerance * std::max({1.0, norm_inf(s_.q), norm_inf(Px), norm_inf(Aty)});
         Vec zl = Vec::Zero(n_), zu = Vec::Zero(n_);
-        bool changed = false;
+        Index changes = 0;
         for (Index i = 0; i < n_; ++i) {
-            switch (cls[i]) {
-                case 0:
-                    // Allow a few ulps of overshoot (clipped below); more means "active".
-                    if (mL_[i] > 0 && xp[i] < l0_[i] - 8 * kEps * std::max(1.0, std::abs(l0_[i])))
-                        cls[i] = -1, changed = true;
-                    else if (mU_[i] > 0 &&
-                             xp[i] > u0_[i] + 8 * kEps * std::max(1.0, std::abs(u0_[i])))
-                        cls[i] = 1, changed = true;
-                    break;
-                case -1:
-                    zl[i] = g[i];
-                    if (zl[i] < -ztol) cls[i] = 0, changed = true;
-                    break;
-                default:
-                    zu[i] = -g[i];
-                    if (zu[i] < -ztol) cls[i] = 0, changed = true;
-                    break;
+            const signed char before = cls[i];
+            if (before == 0) {
+                // A few ulps of overshoot are clipped below; more means "active".
+                if (mL_[i] > 0 && xp[i] < l0_[i] - 8 * kEps * std::max(1.0, std::abs(l0_[i])))
+                    cls[i] = -1;
+                else if (mU_[i] > 0 &&
+                         xp[i] > u0_[i] + 8 * kEps * std::max(1.0, std::abs(u0_[i])))
+                    cls[i] = 1;
+            } else if (before < 0) {
+                zl[i] = g[i];
+                if (zl[i] < -ztol) cls[i] = 0;
+            } else {
+                zu[i] = -g[i];
+                if (zu[i] < -ztol) cls[i] = 0;
             }
+            changes += cls[i] != before;
         }
-#ifdef QP_DEBUG
+        // A row whose columns are all fixed cannot be repaired by the reduced solve: if the
+        // fixed values miss it, release the fixed variables that can move its residual to 0.
         {
-            int nfree = 0, nl = 0, nu = 0;
-            for (Index i = 0; i < n_; ++i) nfree += cls[i] == 0, nl += cls[i] < 0, nu += cls[i] > 0;
-            double worst_v = 0, worst_z = 0;
+            std::vector<char> has_free(static_cast<size_t>(m_), 0);
+            for (Index j = 0; j < n_; ++j)
+                if (cls[j] == 0)
+                    for (SpMat::InnerIterator e(s_.A, j); e; ++e) has_free[e.row()] = 1;
+            const Vec r = s_.A * xp - s_.b;
+            const Vec mag = absA_ * xp.cwiseAbs();
+            std::vector<char> bad(static_cast<size_t>(m_), 0);
+            bool any = false;
+            for (Index i = 0; i < m_; ++i)
+                if (!has_free[i] &&
+                    std::abs(r[i]) > opt_.tolerance * std::max({1.0, std::abs(s_.b[i]), mag[i]}))
+                    bad[i] = 1, any = true;
+            for (Index j = 0; any && j < n_; ++j) {
+                if (cls[j] == 0) continue;
+                for (SpMat::InnerIterator e(s_.A, j); e; ++e) {
+                    if (!bad[e.row()]) continue;
+                    // Moving x_j off its bound changes row i by sign(-cls_j) * a_ij.
+                    if (r[e.row()] * e.value() * cls[j] > 0) {
+                        cls[j] = 0;
+                        ++changes;
+                        break;
+                    }
+                }
+            }
+        }
+        if (changes == 0) {
             for (Index i = 0; i < n_; ++i) {
-                if (mL_[i] > 0) worst_v = std::max(worst_v, l0_[i] - xp[i]);
-                if (mU_[i] > 0) worst_v = std::max(worst_v, xp[i] - u0_[i]);
-                worst_z = std::min({worst_z, zl[i], zu[i]});
+                if (mL_[i] > 0) xp[i] = std::max(xp[i], l0_[i]);
+                if (mU_[i] > 0) xp[i] = std::min(xp[i], u0_[i]);
             }
-            int nch = 0;
-            for (Index i = 0; i < n_; ++i) {
-                if (cls[i] == 0) nch += (mL_[i] > 0 && xp[i] < l0_[i] - 8 * kEps * std::max(1.0, std::abs(l0_[i]))) || (mU_[i] > 0 && xp[i] > u0_[i] + 8 * kEps * std::max(1.0, std::abs(u0_[i])));
-                else if (cls[i] < 0) nch += zl[i] < -ztol; else nch += zu[i] < -ztol;
-            }
-            QPLOG("  polish round %d nchanges %d changed %d free %d L %d U %d %d L %d U %d worst viol %.2e worst z %.2e ztol %.2e\n", round, nch, int(changed), nfree, nl, nu, worst_v, worst_z, ztol);
+            return accept_(xp, yp, zl.cwiseMax(0.0), zu.cwiseMax(0.0), true);
         }
-#endif
-#ifdef QP_DEBUG
-        if (round == 0 && getenv("QPDUMP")) {
-            int shown = 0;
-            for (Index i = 0; i < n_ && shown < 40; ++i) {
-                bool bad = (cls[i] == 0 && (zl[i] < -ztol || zu[i] < -ztol)) || (cls[i] != 0 && ((mL_[i] > 0 && xp[i] < l0_[i] - 1e-15) || (mU_[i] > 0 && xp[i] > u0_[i] + 1e-15)));
-                if (bad) { ++shown; QPLOG("    bad %ld (cls now %d) x_ipm %.3e zl %.3e zu %.3e | xp %.3e g %.3e\n", long(i), cls[i], x_[i], zl_[i], zu_[i], xp[i], g[i]); }
-            }
-        }
-#endif
-        if (changed) continue;
-        for (Index i = 0; i < n_; ++i) {
-            if (mL_[i] > 0) xp[i] = std::max(xp[i], l0_[i]);
-            if (mU_[i] > 0) xp[i] = std::min(xp[i], u0_[i]);
-        }
-        return accept_(xp, yp, zl.cwiseMax(0.0), zu.cwiseMax(0.0), true);
+        if (changes < best_changes) best_changes = changes, since_best = 0;
+        else if (++since_best >= kPolishPatience) return false;
     }
     return false;
 }
@@ -564,18 +634,21 @@ bool InteriorPoint::solve_reduced(const std::vector<signed char>& cls, Vec& xp, 
     for (Index i = 0; i < m_; ++i)
         if (used[i]) rpos[i] = mr++;
 
-    auto build = [&](double reg_p, double reg_d) {
+    auto build = [&](double reg) {
         std::vector<Triplet> t;
         for (Index j = 0; j < n_; ++j) {
             const Index c = fpos[j];
             if (c < 0) continue;
-            t.emplace_back(c, c, reg_p);
-            for (SpMat::InnerIterator e(s_.P, j); e; ++e)
-                if (fpos[e.row()] >= c) t.emplace_back(fpos[e.row()], c, e.value());
+            t.emplace_back(c, c, reg * kRegFloor);
+            for (SpMat::InnerIterator e(s_.P, j); e; ++e) {
+                if (fpos[e.row()] < c) continue;
+                const double v = e.row() == j ? e.value() * (1.0 + reg * kRegRelative) : e.value();
+                t.emplace_back(fpos[e.row()], c, v);
+            }
             for (SpMat::InnerIterator e(s_.A, j); e; ++e)
                 t.emplace_back(nf + rpos[e.row()], c, e.value());
         }
-        for (Index i = 0; i < mr; ++i) t.emplace_back(nf + i, nf + i, -reg_d);
+        for (Index i = 0; i < mr; ++i) t.emplace_back(nf + i, nf + i, -reg * kRegDual);
         SpMat M(nf + mr, nf + mr);
         M.setFromTriplets(t.begin(), t.end());
         return M;
@@ -595,28 +668,39 @@ bool InteriorPoint::solve_reduced(const std::vector<signed char>& cls, Vec& xp, 
     yp = y_;
     if (nf + mr > 0) {
         Ldlt f;
-        double reg = 1.0;
-        for (int attempt = 0;; ++attempt, reg *= 100.0) {
-            f.compute(build(reg * kPolishRegPrimal, reg * kPolishRegDual));
-            if (f.info() == Eigen::Success) break;
-            if (attempt == kRegRetries) return false;
-        }
-        auto apply_k = [&](const Vec& v) {
+        auto apply_k = [&](const Vec& v, Vec& kd, Vec& kabs) {
             Vec xf = Vec::Zero(n_), wf = Vec::Zero(m_);
             for (Index i = 0; i < n_; ++i)
                 if (fpos[i] >= 0) xf[i] = v[fpos[i]];
             for (Index i = 0; i < m_; ++i)
                 if (rpos[i] >= 0) wf[i] = v[nf + rpos[i]];
+            const Vec axf = xf.cwiseAbs(), awf = wf.cwiseAbs();
             const Vec top = s_.P * xf + s_.A.transpose() * wf;
             const Vec bot = s_.A * xf;
-            Vec out(nf + mr);
+            const Vec atop = absP_ * axf + absA_.transpose() * awf;
+            const Vec abot = absA_ * axf;
+            kd.resize(nf + mr);
+            kabs.resize(nf + mr);
             for (Index i = 0; i < n_; ++i)
-                if (fpos[i] >= 0) out[fpos[i]] = top[i];
+                if (fpos[i] >= 0) kd[fpos[i]] = top[i], kabs[fpos[i]] = atop[i];
             for (Index i = 0; i < m_; ++i)
-                if (rpos[i] >= 0) out[nf + rpos[i]] = bot[i];
-            return out;
+                if (rpos[i] >= 0) kd[nf + rpos[i]] = bot[i], kabs[nf + rpos[i]] = abot[i];
         };
-        refine(f, apply_k, rhs, d, kPolishRefineSteps);
+        // Regularisation as small as possible (fast proximal convergence), raised if the
+        // factorisation is too inaccurate for refinement to reach rounding level (normwise:
+        // rows whose terms all but vanish can keep a large componentwise error).
+        const Vec d0 = d;
+        double best = kInf;
+        double reg = 1.0;
+        for (int attempt = 0; attempt <= kRegRetries; ++attempt, reg *= 100.0) {
+            f.compute(build(reg));
+            if (f.info() != Eigen::Success) continue;
+            Vec trial = d0;
+            const double eta = refine(f, apply_k, rhs, trial, kPolishRefineSteps).eta;
+            if (eta < best) best = eta, d = trial;
+            if (best <= kPolishEta) break;
+        }
+        if (!(best < kInf)) return false;
         for (Index i = 0; i < n_; ++i)
             if (fpos[i] >= 0) xp[i] = d[fpos[i]];
         for (Index i = 0; i < m_; ++i)
@@ -628,11 +712,72 @@ bool InteriorPoint::solve_reduced(const std::vector<signed char>& cls, Vec& xp, 
 // ---- The driver --------------------------------------------------------------------------------
 QpResult solve_impl(const QpProblem& pr, const QpOptions& opt, bool allow_phase1);
 
-// Phase 1: min 0.5||r||^2  s.t.  A x - r = b,  lower <= x <= upper  (always feasible).
-// Returns true (and fills `out`) if it proves that no x in the box meets A x = b to tolerance.
+// Farkas certificate for {A x = b, lower <= x <= upper} being empty: for any x in the box,
+//   y'(b - A x) >= h := y'b - sup_{box} (A'y)'x,   hence   ||A x - b||_inf >= h / ||y||_1.
+// Returns that lower bound on the infeasibility (0 if y proves nothing). The test is backward
+// stable: entries of A'y that a relative perturbation of kCertNoise * eps of y could cancel
+// count as zero, and h must exceed the effect of such a perturbation plus rounding.
+constexpr double kCertNoise = 1024.0;
+
+double farkas_bound(const SpMat& A, const Vec& b, const Vec& l, const Vec& u, const Vec& y) {
+    const Vec aty = A.transpose() * y;
+    const double ymax = norm_inf(y);
+    double sup = 0.0, err = b.lpNorm<1>();
+    for (Index i = 0; i < aty.size(); ++i) {
+        const double a = aty[i];
+        const double col = A.col(i).cwiseAbs().sum();
+        const double noise = kCertNoise * kEps * col * ymax;
+        const double m = std::max(std::isfinite(l[i]) ? std::abs(l[i]) : 0.0,
+                                  std::isfinite(u[i]) ? std::abs(u[i]) : 0.0);
+        err += col * m;
+        if (std::abs(a) <= noise) continue;
+        const double bound = a > 0 ? u[i] : l[i];
+        if (!std::isfinite(bound)) return 0.0;  // sup is +inf: no certificate
+        sup += a * bound;
+    }
+    const double h = y.dot(b) - sup;
+    err *= kCertNoise * kEps * ymax;
+    const double y1 = y.lpNorm<1>();
+    return (h > err && y1 > 0) ? h / y1 : 0.0;
+}
+
+// Makes a certificate candidate usable: (A'y)_i must vanish wherever its sign points to an
+// infinite bound. Projects y onto the orthogonal complement of those columns of A (least
+// squares by sparse QR), a few passes since the projection can move other columns.
+void repair_certificate(const SpMat& A, const Vec& l, const Vec& u, Vec& y) {
+    const Index n = A.cols(), m = A.rows();
+    std::vector<Index> col_map(static_cast<size_t>(n), -1);
+    Index nf = 0;
+    for (int pass = 0; pass < 4; ++pass) {
+        const Vec aty = A.transpose() * y;
+        const double ymax = norm_inf(y);
+        bool added = false;
+        for (Index i = 0; i < n; ++i) {
+            const double a = aty[i];
+            const double noise = kCertNoise * kEps * A.col(i).cwiseAbs().sum() * ymax;
+            if (col_map[i] < 0 && std::abs(a) > noise && !std::isfinite(a > 0 ? u[i] : l[i]))
+                col_map[i] = nf++, added = true;
+        }
+        if (!added) return;
+        std::vector<Index> rows(static_cast<size_t>(m));
+        for (Index i = 0; i < m; ++i) rows[i] = i;
+        SpMat AF = extract(A, rows, m, col_map, nf);
+        AF.makeCompressed();
+        Eigen::SparseQR<SpMat, Eigen::COLAMDOrdering<int>> qr(AF);
+        if (qr.info() != Eigen::Success) return;
+        const Vec w = qr.solve(y);
+        if (!w.allFinite()) return;
+        y -= AF * w;
+    }
+}
+
+// Phase 1: min 0.5||r||^2  s.t.  A x - r = b,  lower <= x <= upper  (always feasible). Its x
+// gives y = b - A x, checked as a Farkas certificate. Returns true (and fills `out`) if every
+// box point misses A x = b by more than the tolerance.
 bool prove_infeasible(const QpProblem& pr, const SpMat& Psym, const QpOptions& opt,
                       QpResult& out) {
     const Index n = pr.q.size(), m = pr.b.size();
+    if (m == 0) return false;
     QpProblem p1;
     std::vector<Triplet> t;
     for (Index i = 0; i < m; ++i) t.emplace_back(n + i, n + i, 1.0);
@@ -653,18 +798,28 @@ bool prove_infeasible(const QpProblem& pr, const SpMat& Psym, const QpOptions& o
     QpOptions o1 = opt;
     o1.max_iterations = std::max(opt.max_iterations, 100);
     const QpResult r1 = solve_impl(p1, o1, false);
-    if (r1.status != QpStatus::Solved) return false;
-    const Vec x = r1.x.head(n);
-    const Vec Ax = pr.A * x;
-    const double gap = norm_inf(Ax - pr.b);
-    if (!(gap > opt.tolerance * std::max({1.0, norm_inf(pr.b), norm_inf(Ax)}))) return false;
-    // Infeasible: report the closest box point and the phase-1 multipliers (y = b - Ax is a
-    // Farkas certificate: A'y lies in the normal cone of the box at x while y'(b - Ax) > 0).
+    Vec x = r1.x.head(n);
+    if (!x.allFinite()) return false;
+    for (Index i = 0; i < n; ++i) x[i] = std::clamp(x[i], pr.lower[i], pr.upper[i]);
+    Vec y = pr.b - pr.A * x;
+    repair_certificate(pr.A, pr.lower, pr.upper, y);
+    const double scale =
+        std::max({1.0, norm_inf(pr.b), norm_inf(pr.A.cwiseAbs() * x.cwiseAbs())});
+    // Proof: a Farkas bound above the tolerance. Failing that (free columns make exact
+    // certificates fragile in floating point), a phase-1 optimum solved to `tolerance` whose
+    // residual exceeds sqrt(tolerance): KKT accuracy eps bounds the residual's error by
+    // ~sqrt(eps) (objective-gap argument), so the problem is not feasible to tolerance either.
+    const double gap = norm_inf(pr.b - pr.A * x);
+    const bool proven = farkas_bound(pr.A, pr.b, pr.lower, pr.upper, y) > opt.tolerance * scale;
+    const bool evident = r1.status == QpStatus::Solved && gap > std::sqrt(opt.tolerance) * scale;
+    if (!proven && !evident) return false;
+    // Infeasible: report the closest box point found, with the certificate (y = b - A x,
+    // repaired) as the equality multipliers and no bound multipliers.
     out.status = QpStatus::Infeasible;
     out.x = x;
-    out.y = r1.y;
-    out.z_lower = r1.z_lower.head(n);
-    out.z_upper = r1.z_upper.head(n);
+    out.y = y;
+    out.z_lower = Vec::Zero(n);
+    out.z_upper = Vec::Zero(n);
     const Metrics mt = evaluate(Psym, pr.q, pr.A, pr.b, pr.lower, pr.upper, out.x, out.y,
                                 out.z_lower, out.z_upper);
     out.primal_residual = std::max(mt.eq, mt.viol);
@@ -745,8 +900,10 @@ QpResult solve_impl(const QpProblem& pr, const QpOptions& opt, bool allow_phase1
     for (Index i = 0; i < mk; ++i) bk[i] = bfull[rows[i]];
 
     // A row left without free columns is either satisfied by the fixed values or infeasible.
+    const Vec fixed_mag = A.cwiseAbs() * xfix.cwiseAbs();
     for (Index i = 0; i < m; ++i) {
-        if (rmap[i] < 0 && std::abs(bfull[i]) > opt.tolerance * std::max(1.0, norm_inf(pr.b))) {
+        const double scale = std::max({1.0, norm_inf(pr.b), fixed_mag[i]});
+        if (rmap[i] < 0 && std::abs(bfull[i]) > opt.tolerance * scale) {
             if (allow_phase1 && prove_infeasible(pr, Psym, opt, res)) return res;
             res.status = QpStatus::Infeasible;  // phase 1 unavailable: the row itself is proof
             finish(res);
@@ -771,8 +928,11 @@ QpResult solve_impl(const QpProblem& pr, const QpOptions& opt, bool allow_phase1
         for (Index i = 0; i < mk; ++i) cand.y[rows[i]] = s.E[i] * ys[i] / s.c;
         if (nk < n) {
             const Vec g = Psym * cand.x + pr.q - A.transpose() * cand.y;
-            for (Index i = 0; i < n; ++i)
-                if (cmap[i] < 0) cand.z_lower[i] = std::max(g[i], 0.0), cand.z_upper[i] = std::max(-g[i], 0.0);
+            for (Index i = 0; i < n; ++i) {
+                if (cmap[i] >= 0) continue;
+                cand.z_lower[i] = std::max(g[i], 0.0);
+                cand.z_upper[i] = std::max(-g[i], 0.0);
+            }
         }
     };
     bool accepted = false;
@@ -781,7 +941,6 @@ QpResult solve_impl(const QpProblem& pr, const QpOptions& opt, bool allow_phase1
         unscale(xs, ys, zls, zus);
         cand.polished = polished;
         const Metrics mt = finish(cand);
-        QPLOG("  accept? pol %d eq %.2e/%.2e viol %.2e dual %.2e/%.2e comp %.2e/%.2e\n", int(polished), mt.eq, mt.scale_p, mt.viol, mt.dual, mt.scale_d, mt.comp, mt.scale_c);
         if (!mt.meets(opt.tolerance)) return false;
         cand.status = QpStatus::Solved;
         res = cand;
@@ -804,6 +963,11 @@ QpResult solve_impl(const QpProblem& pr, const QpOptions& opt, bool allow_phase1
         }
     }
     if (accepted) {
+        res.iterations = ipm.iterations();
+        return res;
+    }
+    // The last iterate may still meet the tolerance in the user's units.
+    if (nk > 0 && ipm.x().allFinite() && accept(ipm.x(), ipm.y(), ipm.zl(), ipm.zu(), false)) {
         res.iterations = ipm.iterations();
         return res;
     }
@@ -833,13 +997,6 @@ QpResult solve_impl(const QpProblem& pr, const QpOptions& opt, bool allow_phase1
 }  // namespace
 
 QpResult solve_qp(const QpProblem& problem, const QpOptions& options) {
-#ifdef QP_DEBUG
-    g_t_factor = g_t_newton = g_t_polish = g_t_equil = g_t_total = g_t_init = 0;
-    QpResult r;
-    { QPTIME(g_t_total); r = solve_impl(problem, options, true); }
-    QPLOG("TIME total %.2f equil %.2f init %.2f factor %.2f newton %.2f polish %.2f\n", g_t_total, g_t_equil, g_t_init, g_t_factor, g_t_newton, g_t_polish);
-    return r;
-#endif
     return solve_impl(problem, options, true);
 }
 

@@ -11,7 +11,8 @@
 // system (SimplicialLDLT + iterative refinement against the unregularised system), then an
 // active-set polish that solves the equality-constrained QP on the guessed free variables to
 // rounding accuracy and verifies feasibility and multiplier signs in the original units.
-// Infeasibility is confirmed by a phase-1 solve (min ||Ax - b||^2 over the box).
+// Infeasibility is confirmed by a phase-1 solve (min ||Ax - b||^2 over the box) and a Farkas
+// certificate built from it.
 // Single-threaded and deterministic: the same input gives the same bytes.
 #pragma once
 
@@ -52,16 +53,23 @@ struct QpResult {
     //   primal_residual = max(||Ax - b||, max bound violation)
     //   dual_residual   = ||Px + q - A'y - z_lower + z_upper||
     //   complementarity = max_i max(z_lower_i (x_i - lower_i), z_upper_i (upper_i - x_i))
-    // Solved means: ||Ax - b|| <= tol * max(1, ||b||, ||Ax||), no bound violation,
-    // dual_residual <= tol * max(1, ||q||, ||Px||, ||A'y||, ||z||) and
-    // complementarity <= tol * max(1, |q'x|, x'Px), tol = QpOptions::tolerance.
+    // Solved means, with tol = QpOptions::tolerance and |.| taken elementwise (backward-error
+    // scales, so that cancellation in Ax or Px cannot demand more than rounding allows):
+    //   ||Ax - b|| <= tol * max(1, ||b||, || |A||x| ||) and no bound violation at all,
+    //   dual_residual <= tol * max(1, ||q||, || |P||x| ||, || |A'||y| ||, ||z_lower||,
+    //                              ||z_upper||),
+    //   complementarity <= tol * max(1, |q|'|x|, |x|'|P||x|).
     double primal_residual = 0.0;
     double dual_residual = 0.0;
     double complementarity = 0.0;
 };
 
-// Throws std::invalid_argument if the dimensions do not match. Never returns NaN: an
-// Infeasible result carries the box point closest (least squares) to satisfying A x = b.
+// Throws std::invalid_argument if the dimensions do not match. Never returns NaN.
+// Infeasible is reported only with evidence, from a phase-1 solve (min ||Ax - b||^2 over the
+// box): normally a Farkas certificate y (returned in y) showing that every box point x' has
+//   ||A x' - b||_inf >= (y'b - sup_box y'A x') / ||y||_1 > tolerance * scale;
+// otherwise a phase-1 optimum whose residual exceeds sqrt(tolerance) * scale. x is then the
+// phase-1 box point (closest to A x = b in the least-squares sense) and z are zero.
 QpResult solve_qp(const QpProblem& problem, const QpOptions& options = {});
 
 const char* to_string(QpStatus status);

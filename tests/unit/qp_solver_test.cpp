@@ -175,9 +175,11 @@ Spectral make_spectral(int N, Objective obj, double target_scale = 1.0) {
     return s;
 }
 
-double objective(const QpProblem& p, const VectorXd& x) { return 0.5 * x.dot(p.P * x) + p.q.dot(x); }
+double objective(const QpProblem& p, const VectorXd& x) {
+    return 0.5 * x.dot(p.P * x) + p.q.dot(x);
+}
 
-// ---- Tests ---------------------------------------------------------------------------------------
+// ---- Tests --------------------------------------------------------------------------------------
 
 TEST(QpSolver, TinyHandSolvable) {
     // min 0.5||x - c||^2, c = (2, 0.75, -0.5), s.t. x1 + x2 + x3 = 1.25, 0 <= x <= 1.
@@ -289,12 +291,20 @@ TEST(QpSolver, ManyActiveBoundsMatchClosedForm) {
 }
 
 // Least-squares "closest" form with free residual variables:
-//   min ||r||^2  s.t.  C x - r = t,  sum-to-one rows,  0 <= x <= 1,  r free.
-// P = diag(0, 2 I) is singular on x, so x is not unique; only KKT can be checked, plus r.
-QpProblem closest_form(const Spectral& s, int N, double target_scale) {
+//   min ||r||^2 + x_weight * 0.5 x'P_obj x  s.t.  C x - r = t,  sum-to-one rows,  0 <= x <= 1,
+// r free. With x_weight = 0, P = diag(0, 2 I) is singular on x, so x is not unique; only KKT
+// can be checked, plus r. (basis_fit's least-squares phase uses x_weight = 1e-9.)
+QpProblem closest_form(const Spectral& s, int N, double target_scale, double x_weight = 0.0,
+                       Objective obj = Objective::Norm) {
     QpProblem p;
     const int n = 3 * N + 9;
     Triplets tp, ta;
+    if (x_weight > 0) {
+        const SpMat Pobj = spectral_objective(N, obj);
+        for (int j = 0; j < Pobj.outerSize(); ++j)
+            for (SpMat::InnerIterator e(Pobj, j); e; ++e)
+                tp.emplace_back(e.row(), j, x_weight * e.value());
+    }
     for (int j = 3 * N; j < n; ++j) tp.emplace_back(j, j, 2.0);
     for (int i = 0; i < N; ++i)
         for (int k = 0; k < 3; ++k) ta.emplace_back(i, k * N + i, 1.0);
@@ -335,7 +345,8 @@ TEST(QpSolver, FreeVariablesLeastSquaresClosestForm) {
         const QpResult r = spectex::solve_qp(p);
         expect_kkt_at_rounding_level(p, r);
         EXPECT_GT(inf_norm(r.x.tail(9)), 1.0);  // far from reachable: residual of order ||T||
-        // Stationarity in r gives y = -2r... with this sign convention: 2r + y_colour = 0.
+        // Stationarity in the free r_j (column -1 in colour row N + j): 2 r_j + y_{N+j} = 0,
+        // checked to the same rounding-level tolerance as the rest of the KKT system.
         for (int j = 0; j < 9; ++j)
             EXPECT_NEAR(2.0 * r.x[3 * N + j] + r.y[N + j], 0.0, 1e-12 * inf_norm(p.b));
         // Optimality against the feasible point (S*, r = C S* - 3T).
@@ -344,6 +355,24 @@ TEST(QpSolver, FreeVariablesLeastSquaresClosestForm) {
         for (int k = 0; k < 3; ++k)
             for (int c = 0; c < 3; ++c) x0[3 * N + 3 * k + c] = s.T(c, k) - 3.0 * s.T(c, k);
         EXPECT_LE(objective(p, r.x), objective(p, x0));
+    }
+}
+
+TEST(QpSolver, LeastSquaresPhaseWithTinyCurvature) {
+    // The shape of basis_fit's fallback when the exact fit is infeasible: ||r||^2 plus 1e-9 of
+    // the fitting objective on x (to pick one minimiser). The x curvature is 1e-9 of everything
+    // else, which a fixed regularisation of the same size would swamp (this failed once).
+    for (int N : {11, 41, 81, 401}) {
+        for (Objective obj : {Objective::Norm, Objective::Smooth}) {
+            SCOPED_TRACE(testing::Message()
+                         << "N=" << N << (obj == Objective::Norm ? " norm" : " smooth"));
+            const Spectral s = make_spectral(N, obj);
+            const QpProblem p = closest_form(s, N, 3.0, 1e-9, obj);
+            const QpResult r = spectex::solve_qp(p);
+            expect_kkt_at_rounding_level(p, r);
+            EXPECT_TRUE(r.polished);
+            EXPECT_GT(inf_norm(r.x.tail(9)), 1.0);  // the 3x targets stay unreachable
+        }
     }
 }
 
@@ -360,6 +389,13 @@ TEST(QpSolver, InfeasibleColourTargets) {
         EXPECT_LE(r.x.maxCoeff(), 1.0);
         EXPECT_GT(r.primal_residual, 1.0);
         EXPECT_TRUE(std::isfinite(r.dual_residual) && std::isfinite(r.complementarity));
+        // y is a Farkas certificate; verify it independently: for every S in the box [0, 1],
+        //   ||A S - b||_inf >= (y'b - sum_i max(0, (A'y)_i)) / ||y||_1.
+        // A positive bound of order one (the targets are off by 2 T) proves infeasibility
+        // with a margin far above any rounding in these sums (~1e-13).
+        const VectorXd aty = s.qp.A.transpose() * r.y;
+        const double h = r.y.dot(s.qp.b) - aty.cwiseMax(0.0).sum();
+        EXPECT_GT(h / r.y.lpNorm<1>(), 1e-3);
     }
 }
 
@@ -402,7 +438,8 @@ TEST(QpSolver, RedundantDuplicatedRows) {
                 t.emplace_back(e.row(), j, e.value());
                 t.emplace_back(m + e.row(), j, e.value());
                 if (e.row() % 7 == 0) t.emplace_back(2 * m + e.row() / 7, j, 2.0 * e.value());
-                if (e.row() >= N) t.emplace_back(2 * m + m / 7 + 1 + (e.row() - N), j, -0.5 * e.value());
+                if (e.row() >= N)
+                    t.emplace_back(2 * m + m / 7 + 1 + (e.row() - N), j, -0.5 * e.value());
             }
         const int rows = 2 * m + m / 7 + 1 + 9;
         QpProblem p = s.qp;
