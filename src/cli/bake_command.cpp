@@ -1,6 +1,13 @@
 #include <OpenEXR/ImfThreading.h>
 #include <OpenImageIO/imageio.h>
 
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+
+#include <algorithm>
 #include <iostream>
 #include <thread>
 
@@ -10,6 +17,8 @@
 #include "io/atomic_file.h"
 #include "pipeline/bake.h"
 #include "pipeline/basis_cache.h"
+#include "pipeline/batch.h"
+#include "cli/batch_runner.h"
 #include "spectral/error.h"
 
 namespace spectex {
@@ -21,8 +30,9 @@ struct BakeCli {
     std::string alpha = "associated", range = "clamp", nan = "replace";
     std::string wavelengths_file;
     FitSpec fit;
-    int threads = 0;
-    bool quiet = false, verbose = false;
+    std::string output_dir, from_list, json, shard;
+    int threads = 0, jobs = 1;
+    bool quiet = false, verbose = false, progress = false, update = false, force = false, fail_fast = false;
     BakeSettings settings;
 };
 
@@ -40,13 +50,18 @@ T pick(const std::string& option, const std::string& value, std::initializer_lis
 
 int run_bake(const std::vector<std::string>& args, const std::string& command_line) {
     BakeCli c;
-    ArgParser p("bake", "spectex bake [options] INPUT -o OUTPUT.exr",
-                "Turns a texture into a spectral reflectance OpenEXR (Fichet 2021 layout, channels\n"
+    ArgParser p("bake", "spectex bake [options] INPUT... (-o OUTPUT.exr | -o TEMPLATE | --output-dir DIR)",
+                "Turns textures into spectral reflectance OpenEXRs (Fichet 2021 layout, channels\n"
                 "T.<wavelength>nm): read with OpenImageIO, linearise with OpenColorIO, expand each pixel\n"
-                "with the spectral primary decomposition (Mallett & Yuksel 2019).");
+                "with the spectral primary decomposition (Mallett & Yuksel 2019). Inputs may hold <UDIM> or\n"
+                "<UVTILE>, expanded to the existing tiles. Exit status 0 only when every file succeeded.");
     p.section("Output");
-    p.option("-o, --output", "FILE", "Output OpenEXR file (required). Written atomically; never the input.",
+    p.option("-o, --output", "FILE|TEMPLATE",
+             "Output OpenEXR file, or a template with {dir}, {stem}, {ext} (e.g. '{dir}/{stem}.spectral.exr') "
+             "for several inputs. Written atomically; never the input.",
              [&](const std::string& v) { c.output = v; });
+    p.option("--output-dir", "DIR", "Write <DIR>/<stem>.exr for every input (or -o TEMPLATE inside DIR).",
+             [&](const std::string& v) { c.output_dir = v; });
     p.option("--type", "half|float", "Sample type of the spectral channels (default half).",
              [&](const std::string& v) { c.type = v; });
     p.option("--compression", "NAME",
@@ -84,8 +99,24 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
              [&](const std::string& v) { c.fit.observer = v; });
     p.option("--illuminant", "NAME|FILE", "Illuminant under which the fitted basis is exact: D65 (default), or a CSV.",
              [&](const std::string& v) { c.fit.illuminant = v; });
+    p.section("Batches");
+    p.option("--from-list", "FILE", "Read input paths from FILE, one per line ('-' = stdin), after those given.",
+             [&](const std::string& v) { c.from_list = v; });
+    p.option("--jobs", "N", "Bake N files at once (default 1); with --threads, N x threads in all.",
+             [&](const std::string& v) { c.jobs = parse_int("--jobs", v, 1, 256); });
+    p.option("--shard", "K/N",
+             "Bake only file i (0-based, in the byte-sorted, tile-expanded input list) with i mod N = K-1.",
+             [&](const std::string& v) { c.shard = v; });
+    p.flag("--update", "Skip files whose output is newer than the input and was made with the same settings.",
+           [&] { c.update = true; });
+    p.flag("--force", "Rebuild every file even with --update.", [&] { c.force = true; });
+    p.flag("--fail-fast", "Stop at the first failed file (default: bake the others and fail at the end).",
+           [&] { c.fail_fast = true; });
+    p.option("--json", "FILE", "Write one JSON record per file (JSON Lines, schema_version 1); '-' = stdout.",
+             [&](const std::string& v) { c.json = v; });
+    p.flag("--progress", "Show progress on stderr even when it is not a terminal.", [&] { c.progress = true; });
     p.section("Resources");
-    p.option("--threads", "N", "Threads for OpenEXR compression and decoding (default: all cores).",
+    p.option("--threads", "N", "Threads per file for OpenEXR compression and decoding (default: cores / jobs).",
              [&](const std::string& v) { c.threads = parse_int("--threads", v, 0, 1024); });
     p.option("--max-pixels", "N", "Refuse inputs with more pixels than this (default 268435456 = 16384^2).",
              [&](const std::string& v) { c.settings.max_pixels = parse_count("--max-pixels", v); });
@@ -99,9 +130,15 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
             std::cout << p.help();
             return 0;
         }
-        if (inputs.empty()) throw UsageError("no input file");
-        if (inputs.size() > 1) throw UsageError("one input file at a time (got " + std::to_string(inputs.size()) + ")");
-        if (c.output.empty()) throw UsageError("no output file (-o OUTPUT.exr)");
+        if (inputs.empty() && c.from_list.empty()) throw UsageError("no input file");
+        if (c.output.empty() && c.output_dir.empty()) throw UsageError("no output (-o OUTPUT.exr, -o TEMPLATE or --output-dir DIR)");
+        if (!c.shard.empty()) {
+            try {
+                Shard::parse(c.shard);
+            } catch (const Error& e) {
+                throw UsageError(e.what());
+            }
+        }
         c.settings.type = pick<SampleType>("--type", c.type, {{"half", SampleType::Half}, {"float", SampleType::Float}});
         c.settings.alpha = pick<AlphaMode>("--alpha", c.alpha,
                                            {{"associated", AlphaMode::Associated}, {"unassociated", AlphaMode::Unassociated}});
@@ -126,7 +163,6 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         return usage_error("bake", e.what());
     }
 
-    const std::string& input = inputs[0];
     try {
         c.settings.data_dir = find_data_dir();
         if (!c.wavelengths_file.empty()) c.settings.grid = WavelengthGrid::from_file(c.wavelengths_file);
@@ -153,34 +189,60 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         return 1;
     }
     c.settings.command_line = command_line;
-    unsigned hw = std::max(1u, std::thread::hardware_concurrency());
-    int threads = c.threads > 0 ? c.threads : static_cast<int>(hw);
-    Imf::setGlobalThreadCount(threads);
-    OIIO::attribute("threads", threads);
+    c.settings.settings_hash = settings_hash(c.settings);
 
+    BatchPlan plan;
     try {
-        BakeResult r = bake_file(input, c.output, c.settings);
-        if (!c.quiet) {
-            for (const auto& n : r.notes) std::cerr << "spectex: " << input << ": note: " << n << "\n";
-            if (r.clamped_pixels)
-                std::cerr << "spectex: " << input << ": " << r.clamped_pixels
-                          << " pixels had linear values outside [0, 1] and were clamped\n";
-            if (r.replaced_pixels)
-                std::cerr << "spectex: " << input << ": " << r.replaced_pixels
-                          << " pixels had NaN/Inf values replaced with 0\n";
+        // --output-dir is created (with its parents) when missing, like mkdir -p.
+        if (!c.output_dir.empty()) {
+            std::string partial;
+            for (size_t pos = 0; pos != std::string::npos;) {
+                pos = c.output_dir.find('/', pos + 1);
+                partial = c.output_dir.substr(0, pos);
+                if (!partial.empty() && ::mkdir(partial.c_str(), 0777) != 0 && errno != EEXIST)
+                    throw Error(c.output_dir + ": cannot create the output folder: " + std::strerror(errno));
+            }
         }
-        if (c.verbose)
-            std::cerr << "spectex: " << input << " -> " << r.output << ": " << r.pixels << " pixels, " << r.bins
-                      << " bins, colour space '" << r.colorspace << "' (" << r.colorspace_how << "), "
-                      << r.bytes << " bytes, " << r.seconds << " s\n";
+        std::vector<std::string> listed = inputs;
+        if (!c.from_list.empty()) {
+            auto more = read_list(c.from_list);
+            listed.insert(listed.end(), more.begin(), more.end());
+        }
+        std::vector<std::string> expanded;
+        for (const auto& in : listed) {
+            auto tiles = expand_tiles(in);
+            expanded.insert(expanded.end(), tiles.begin(), tiles.end());
+        }
+        std::sort(expanded.begin(), expanded.end());
+        expanded.erase(std::unique(expanded.begin(), expanded.end()), expanded.end());
+        if (expanded.size() > 1 && c.output_dir.empty() && !has_template_tokens(c.output))
+            throw UsageError("several inputs need --output-dir DIR or an -o template with {stem}");
+        if (!c.shard.empty()) expanded = select_shard(expanded, Shard::parse(c.shard));
+        for (const auto& in : expanded)
+            plan.files.push_back({in, c.output_dir.empty() && !has_template_tokens(c.output)
+                                          ? c.output
+                                          : output_for(in, c.output, c.output_dir)});
+    } catch (const UsageError& e) {
+        return usage_error("bake", e.what());
     } catch (const Error& e) {
         print_error(e.what());
         return 1;
-    } catch (const std::exception& e) {
-        print_error(input + ": " + e.what());
-        return 1;
     }
-    return 0;
+
+    unsigned hw = std::max(1u, std::thread::hardware_concurrency());
+    plan.jobs = c.jobs;
+    plan.threads = c.threads > 0 ? c.threads : std::max(1, static_cast<int>(hw) / c.jobs);
+    // OpenEXR's pool is global to the process: size it for all jobs together.
+    Imf::setGlobalThreadCount(plan.jobs * plan.threads);
+    OIIO::attribute("threads", plan.threads);
+    c.settings.threads = plan.threads;
+    plan.update = c.update && !c.force;
+    plan.fail_fast = c.fail_fast;
+    plan.quiet = c.quiet;
+    plan.verbose = c.verbose;
+    plan.progress = c.progress || (!c.quiet && ::isatty(2));
+    plan.json = c.json;
+    return run_batch(plan, c.settings);
 }
 
 }  // namespace spectex

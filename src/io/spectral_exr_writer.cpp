@@ -9,6 +9,7 @@
 #include <ImfStringAttribute.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 
@@ -141,7 +142,7 @@ SpectralExrWriter::SpectralExrWriter(AtomicFile& out, const SpectralExrLayout& l
     header.insert("spectralLayoutVersion", Imf::StringAttribute("1.0"));
     for (const auto& [k, v] : L.attributes) header.insert(k, Imf::StringAttribute(v));
     impl_->stream = std::make_unique<FdOStream>(out.fd(), out.final_path());
-    impl_->file = std::make_unique<Imf::OutputFile>(*impl_->stream, header, Imf::globalThreadCount());
+    impl_->file = std::make_unique<Imf::OutputFile>(*impl_->stream, header, std::max(1, L.threads));
 }
 
 SpectralExrWriter::~SpectralExrWriter() = default;

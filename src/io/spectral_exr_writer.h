@@ -30,6 +30,7 @@ struct SpectralExrLayout {
     bool preview = false;
     ExrCompression compression = ExrCompression::parse("zip");
     std::vector<std::pair<std::string, std::string>> attributes;  // extra string attributes
+    int threads = 1;  // OpenEXR worker threads for this file (from the global pool)
 };
 
 class SpectralExrWriter {

@@ -110,7 +110,9 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
         {"spectex:alpha", has_alpha ? (s.alpha == AlphaMode::Associated ? "associated" : "unassociated") : "none"},
         {"spectex:outOfRange", to_string(s.range)},
         {"spectex:nan", to_string(s.nan)},
+        {"spectex:settingsHash", s.settings_hash},
     };
+    layout.threads = s.threads;
 
     AtomicFile out(output);
     SpectralExrWriter writer(out, layout);

@@ -32,6 +32,8 @@ struct BakeSettings {
     NanPolicy nan = NanPolicy::Replace;
     uint64_t max_pixels = 268435456;  // 16384 x 16384
     std::string command_line;
+    std::string settings_hash;       // recorded as spectex:settingsHash (for --update)
+    int threads = 1;                 // OpenEXR compression threads for this file
 };
 
 struct BakeResult {

@@ -1,0 +1,223 @@
+#include "pipeline/batch.h"
+
+#include <ImfHeader.h>
+#include <ImfMultiPartInputFile.h>
+#include <ImfStringAttribute.h>
+#include <dirent.h>
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <iostream>
+#include <regex>
+#include <sstream>
+
+#include "spectex/version.h"
+#include "spectral/error.h"
+
+namespace spectex {
+
+namespace {
+
+std::string dir_part(const std::string& p) {
+    size_t s = p.find_last_of('/');
+    return s == std::string::npos ? "." : (s == 0 ? "/" : p.substr(0, s));
+}
+std::string base_part(const std::string& p) {
+    size_t s = p.find_last_of('/');
+    return s == std::string::npos ? p : p.substr(s + 1);
+}
+
+std::string regex_quote(const std::string& s) {
+    static const std::string special = R"(\^$.|?*+()[]{})";
+    std::string out;
+    for (char c : s) {
+        if (special.find(c) != std::string::npos) out += '\\';
+        out += c;
+    }
+    return out;
+}
+
+void fnv(uint64_t& h, const std::string& s) {
+    for (unsigned char c : s) {
+        h ^= c;
+        h *= 0x100000001b3ull;
+    }
+    h ^= 0xff;  // separator: "ab"+"c" differs from "a"+"bc"
+    h *= 0x100000001b3ull;
+}
+
+std::string file_contents(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+}  // namespace
+
+bool has_template_tokens(const std::string& s) {
+    return s.find("{dir}") != std::string::npos || s.find("{stem}") != std::string::npos ||
+           s.find("{ext}") != std::string::npos;
+}
+
+std::vector<std::string> expand_tiles(const std::string& path) {
+    const bool udim = path.find("<UDIM>") != std::string::npos;
+    const bool uvtile = path.find("<UVTILE>") != std::string::npos;
+    if (!udim && !uvtile) return {path};
+    std::string dir = dir_part(path), base = base_part(path);
+    if (dir_part(path).find('<') != std::string::npos)
+        throw Error(path + ": tile tokens are only expanded in the file name, not in folders");
+    std::string pattern = regex_quote(base);
+    auto replace_all = [&](const std::string& from, const std::string& to) {
+        std::string q = regex_quote(from);
+        for (size_t pos; (pos = pattern.find(q)) != std::string::npos;) pattern.replace(pos, q.size(), to);
+    };
+    replace_all("<UDIM>", "(1[0-9][0-9][1-9]|[2-9][0-9][0-9][0-9])");
+    replace_all("<UVTILE>", "u[1-9][0-9]*_v[1-9][0-9]*");
+    std::regex re(pattern);
+    std::vector<std::string> out;
+    DIR* d = ::opendir(dir.c_str());
+    if (!d) throw Error(path + ": cannot list " + dir + ": " + std::strerror(errno));
+    while (dirent* e = ::readdir(d))
+        if (std::regex_match(e->d_name, re)) out.push_back(path.find('/') == std::string::npos ? e->d_name : dir + "/" + e->d_name);
+    ::closedir(d);
+    if (out.empty()) throw Error(path + ": no existing tiles match");
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+std::vector<std::string> read_list(const std::string& file) {
+    std::vector<std::string> out;
+    std::ifstream f;
+    std::istream* in = &std::cin;
+    if (file != "-") {
+        f.open(file);
+        if (!f) throw Error(file + ": cannot open the input list: " + std::strerror(errno));
+        in = &f;
+    }
+    std::string line;
+    while (std::getline(*in, line)) {
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        if (line.empty() || line[0] == '#') continue;
+        out.push_back(line);
+    }
+    return out;
+}
+
+std::string output_for(const std::string& input, const std::string& templ, const std::string& output_dir) {
+    std::string base = base_part(input);
+    size_t dot = base.find_last_of('.');
+    std::string stem = dot == std::string::npos || dot == 0 ? base : base.substr(0, dot);
+    std::string ext = dot == std::string::npos || dot == 0 ? "" : base.substr(dot + 1);
+    if (!output_dir.empty()) {
+        std::string name = templ.empty() ? stem + ".exr" : templ;
+        if (!templ.empty() && !has_template_tokens(templ)) name = stem + ".exr";
+        std::string out = output_dir + "/" + name;
+        return output_for(input, out, "");
+    }
+    std::string out = templ;
+    auto sub = [&](const std::string& token, const std::string& value) {
+        for (size_t pos; (pos = out.find(token)) != std::string::npos;) out.replace(pos, token.size(), value);
+    };
+    sub("{dir}", dir_part(input));
+    sub("{stem}", stem);
+    sub("{ext}", ext);
+    return out;
+}
+
+Shard Shard::parse(const std::string& spec) {
+    int k = 0, n = 0;
+    char extra;
+    if (std::sscanf(spec.c_str(), "%d/%d%c", &k, &n, &extra) != 2 || n < 1 || k < 1 || k > n)
+        throw Error("--shard '" + spec + "': expected K/N with 1 <= K <= N, e.g. 3/10");
+    return Shard{k, n};
+}
+
+std::vector<std::string> select_shard(const std::vector<std::string>& sorted_inputs, Shard s) {
+    std::vector<std::string> out;
+    for (size_t i = 0; i < sorted_inputs.size(); ++i)
+        if (static_cast<int>(i % static_cast<size_t>(s.n)) == s.k - 1) out.push_back(sorted_inputs[i]);
+    return out;
+}
+
+std::string settings_hash(const BakeSettings& s) {
+    uint64_t h = 0xcbf29ce484222325ull;
+    fnv(h, SPECTEX_VERSION);
+    fnv(h, s.basis.checksum());
+    for (double l : s.grid.lambda) fnv(h, format_wavelength(l));
+    fnv(h, s.type == SampleType::Half ? "half" : "float");
+    fnv(h, s.compression.name);
+    fnv(h, s.preview ? "preview" : "");
+    fnv(h, s.alpha == AlphaMode::Associated ? "associated" : "unassociated");
+    fnv(h, to_string(s.range));
+    fnv(h, to_string(s.nan));
+    fnv(h, s.observer);
+    fnv(h, s.illuminant);
+    fnv(h, s.colorspace);
+    // The colour config decides the linearisation: its path and its contents.
+    std::string config = s.config;
+    if (config.empty())
+        if (const char* env = std::getenv("OCIO"); env && *env) config = env;
+    if (config.empty()) config = s.data_dir + "/spectex.ocio";
+    fnv(h, config);
+    fnv(h, file_contents(config));
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "fnv1a64:%016llx", static_cast<unsigned long long>(h));
+    return buf;
+}
+
+bool up_to_date(const std::string& input, const std::string& output, const std::string& hash) {
+    struct stat si, so;
+    if (::stat(input.c_str(), &si) != 0 || ::stat(output.c_str(), &so) != 0) return false;
+    if (so.st_mtim.tv_sec < si.st_mtim.tv_sec ||
+        (so.st_mtim.tv_sec == si.st_mtim.tv_sec && so.st_mtim.tv_nsec <= si.st_mtim.tv_nsec))
+        return false;
+    try {
+        Imf::MultiPartInputFile f(output.c_str());
+        auto* a = f.header(0).findTypedAttribute<Imf::StringAttribute>("spectex:settingsHash");
+        return a && a->value() == hash;
+    } catch (const std::exception&) {
+        return false;
+    }
+}
+
+std::string json_escape(const std::string& s) {
+    std::string o;
+    for (unsigned char c : s) {
+        switch (c) {
+            case '"': o += "\\\""; break;
+            case '\\': o += "\\\\"; break;
+            case '\n': o += "\\n"; break;
+            case '\r': o += "\\r"; break;
+            case '\t': o += "\\t"; break;
+            default:
+                if (c < 0x20) {
+                    char b[8];
+                    std::snprintf(b, sizeof b, "\\u%04x", c);
+                    o += b;
+                } else {
+                    o += static_cast<char>(c);
+                }
+        }
+    }
+    return o;
+}
+
+std::string json_record(const FileRecord& r) {
+    std::ostringstream o;
+    char secs[32];
+    std::snprintf(secs, sizeof secs, "%.3f", r.result.seconds);
+    o << "{\"schema_version\":" << kJsonSchemaVersion << ",\"input\":\"" << json_escape(r.input) << "\",\"output\":\""
+      << json_escape(r.output) << "\",\"status\":\"" << r.status << "\",\"error\":"
+      << (r.error.empty() ? std::string("null") : "\"" + json_escape(r.error) + "\"") << ",\"seconds\":" << secs
+      << ",\"pixels\":" << r.result.pixels << ",\"bins\":" << r.result.bins << ",\"bytes\":" << r.result.bytes
+      << ",\"clamped_pixels\":" << r.result.clamped_pixels << ",\"replaced_pixels\":" << r.result.replaced_pixels
+      << ",\"colorspace\":\"" << json_escape(r.result.colorspace) << "\",\"settings_hash\":\""
+      << json_escape(r.settings_hash) << "\"}";
+    return o.str();
+}
+
+}  // namespace spectex

@@ -1,0 +1,48 @@
+#pragma once
+// Batches of files: input expansion (UDIM tiles, lists), output naming, sharding, the settings
+// hash used by --update, and one JSON Lines record per file.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "pipeline/bake.h"
+
+namespace spectex {
+
+// Expands <UDIM> (1001..) and <UVTILE> (u1_v1..) in a path to the existing files, byte-sorted; a
+// path without tokens is returned as is (whether or not it exists: the bake reports that).
+std::vector<std::string> expand_tiles(const std::string& path);
+
+// Reads one path per line ('-' = stdin); blank lines and lines starting with '#' are skipped.
+std::vector<std::string> read_list(const std::string& file);
+
+// Output name for an input: a template with {dir}, {stem}, {ext} (e.g. "{dir}/{stem}.exr"), or
+// "<output_dir>/<stem>.exr" when output_dir is given.
+std::string output_for(const std::string& input, const std::string& templ, const std::string& output_dir);
+bool has_template_tokens(const std::string& s);
+
+// --shard K/N: the inputs i (0-based in the sorted list) with i mod N == K-1.
+struct Shard {
+    int k = 1, n = 1;
+    static Shard parse(const std::string& spec);  // throws Error
+};
+std::vector<std::string> select_shard(const std::vector<std::string>& sorted_inputs, Shard s);
+
+// Hash of every setting that can change the output's pixels or layout (not threads, jobs, verbosity
+// or the command line): "fnv1a64:<hex>".
+std::string settings_hash(const BakeSettings& s);
+
+// --update: true when `output` exists, is newer than `input` and carries the same settings hash.
+bool up_to_date(const std::string& input, const std::string& output, const std::string& hash);
+
+struct FileRecord {
+    std::string input, output, status;  // status: ok, failed, skipped
+    std::string error;
+    BakeResult result;
+    std::string settings_hash;
+};
+constexpr int kJsonSchemaVersion = 1;
+std::string json_record(const FileRecord& r);
+std::string json_escape(const std::string& s);
+
+}  // namespace spectex
