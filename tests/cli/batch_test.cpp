@@ -1,0 +1,182 @@
+// Batches: several inputs, templates, UDIM tiles, lists, shards, --update, JSON Lines, failures.
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <utime.h>
+
+#include <map>
+#include <set>
+
+#include "cli/cli_util.h"
+
+using namespace spectex_test;
+
+namespace {
+
+void write_small_png(const std::string& path, int seed) {
+    std::vector<uint8_t> px(8 * 4 * 3);
+    for (size_t i = 0; i < px.size(); ++i) px[i] = static_cast<uint8_t>((i * 37 + seed * 11) & 255);
+    write_image(path, 8, 4, 3, OIIO::TypeDesc::UINT8, px.data());
+}
+
+bool contains(const std::string& h, const std::string& n) { return h.find(n) != std::string::npos; }
+
+size_t count_lines(const std::string& s, const std::string& needle) {
+    size_t n = 0;
+    std::istringstream in(s);
+    for (std::string line; std::getline(in, line);) n += contains(line, needle);
+    return n;
+}
+
+}  // namespace
+
+TEST(Batch, OutputDirAndTemplateAndFailuresDoNotStopOthers) {
+    ScratchDir d;
+    write_small_png(d / "a.png", 1);
+    write_small_png(d / "b.png", 2);
+    std::ofstream(d / "broken.png") << "not an image";
+    auto r = run_spectex({"bake", d / "a.png", d / "broken.png", d / "b.png", "--output-dir", d / "out", "--json", "-"});
+    EXPECT_EQ(r.status, 1) << r.err;  // one failed: the batch fails, the others are baked
+    EXPECT_TRUE(file_exists(d / "out/a.exr"));
+    EXPECT_TRUE(file_exists(d / "out/b.exr"));
+    EXPECT_FALSE(file_exists(d / "out/broken.exr"));
+    EXPECT_EQ(count_lines(r.out, "\"schema_version\":1"), 3u);
+    EXPECT_EQ(count_lines(r.out, "\"status\":\"ok\""), 2u);
+    EXPECT_EQ(count_lines(r.out, "\"status\":\"failed\""), 1u);
+    EXPECT_TRUE(contains(r.err, "2 baked, 0 up to date, 1 failed of 3")) << r.err;
+
+    auto t = run_spectex({"bake", d / "a.png", d / "b.png", "-o", "{dir}/{stem}_{ext}.spectral.exr"});
+    EXPECT_EQ(t.status, 0) << t.err;
+    EXPECT_TRUE(file_exists(d / "a_png.spectral.exr"));
+    EXPECT_TRUE(file_exists(d / "b_png.spectral.exr"));
+
+    // Several inputs with a plain -o: a usage error, nothing written.
+    auto u = run_spectex({"bake", d / "a.png", d / "b.png", "-o", d / "one.exr"});
+    EXPECT_EQ(u.status, 2);
+    EXPECT_FALSE(file_exists(d / "one.exr"));
+}
+
+TEST(Batch, FailFastStops) {
+    ScratchDir d;
+    std::ofstream(d / "0_broken.png") << "x";
+    write_small_png(d / "1.png", 1);
+    auto r = run_spectex({"bake", d / "0_broken.png", d / "1.png", "--output-dir", d / "out", "--fail-fast"});
+    EXPECT_EQ(r.status, 1);
+    EXPECT_FALSE(file_exists(d / "out/1.exr"));
+    EXPECT_TRUE(contains(r.err, "not attempted")) << r.err;
+}
+
+TEST(Batch, UdimTilesAndListFromStdinFile) {
+    ScratchDir d;
+    for (int t : {1001, 1002, 1011}) write_small_png(d / ("wood." + std::to_string(t) + ".png"), t);
+    write_small_png(d / "wood.999.png", 0);  // not a UDIM tile
+    auto r = run_spectex({"bake", d / "wood.<UDIM>.png", "--output-dir", d / "out"});
+    EXPECT_EQ(r.status, 0) << r.err;
+    auto names = list_dir(d / "out");
+    EXPECT_EQ(std::set<std::string>(names.begin(), names.end()),
+              (std::set<std::string>{"wood.1001.exr", "wood.1002.exr", "wood.1011.exr"}));
+    std::ofstream(d / "list.txt") << "# inputs\n" << (d / "wood.1001.png") << "\n\n" << (d / "wood.999.png") << "\n";
+    auto l = run_spectex({"bake", "--from-list", d / "list.txt", "--output-dir", d / "out2"});
+    EXPECT_EQ(l.status, 0) << l.err;
+    EXPECT_EQ(list_dir(d / "out2").size(), 2u);
+    auto none = run_spectex({"bake", d / "stone.<UDIM>.png", "--output-dir", d / "out3"});
+    EXPECT_EQ(none.status, 1);
+    EXPECT_TRUE(contains(none.err, "no existing tiles")) << none.err;
+}
+
+TEST(Batch, ShardsCoverEveryInputExactlyOnce) {
+    ScratchDir d;
+    std::vector<std::string> inputs;
+    for (int i = 0; i < 11; ++i) {
+        inputs.push_back(d / ("t" + std::to_string(i) + ".png"));
+        write_small_png(inputs.back(), i);
+    }
+    std::map<std::string, int> baked;
+    const int n = 3;
+    for (int k = 1; k <= n; ++k) {
+        std::vector<std::string> args{"bake"};
+        args.insert(args.end(), inputs.rbegin(), inputs.rend());  // order given must not matter
+        args.insert(args.end(), {"--output-dir", d / "out", "--shard", std::to_string(k) + "/" + std::to_string(n),
+                                 "--json", "-"});
+        auto r = run_spectex(args);
+        ASSERT_EQ(r.status, 0) << r.err;
+        std::istringstream in(r.out);
+        for (std::string line; std::getline(in, line);) {
+            auto a = line.find("\"input\":\"") + 9;
+            baked[line.substr(a, line.find('"', a) - a)]++;
+        }
+    }
+    ASSERT_EQ(baked.size(), inputs.size());
+    for (const auto& [in, times] : baked) EXPECT_EQ(times, 1) << in;
+    EXPECT_EQ(list_dir(d / "out").size(), inputs.size());
+    EXPECT_EQ(run_spectex({"bake", inputs[0], "--output-dir", d / "o", "--shard", "4/3"}).status, 2);
+    EXPECT_EQ(run_spectex({"bake", inputs[0], "--output-dir", d / "o", "--shard", "0/3"}).status, 2);
+}
+
+TEST(Batch, UpdateSkipsOnlyWhatIsCurrent) {
+    ScratchDir d;
+    write_small_png(d / "a.png", 1);
+    write_small_png(d / "b.png", 2);
+    ASSERT_EQ(run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out"}).status, 0);
+    auto r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update", "--json", "-"});
+    EXPECT_EQ(r.status, 0);
+    EXPECT_EQ(count_lines(r.out, "\"status\":\"skipped\""), 2u) << r.out;
+    // Threads and jobs do not change pixels: still up to date.
+    r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update", "--jobs", "2", "--threads",
+                     "1", "--json", "-"});
+    EXPECT_EQ(count_lines(r.out, "\"status\":\"skipped\""), 2u) << r.out;
+    // A setting that changes pixels rebuilds both.
+    r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update", "--type", "float", "--json", "-"});
+    EXPECT_EQ(count_lines(r.out, "\"status\":\"ok\""), 2u) << r.out;
+    // A newer input rebuilds that one only.
+    struct utimbuf future {time(nullptr) + 100, time(nullptr) + 100};
+    utime((d / "a.png").c_str(), &future);
+    r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update", "--type", "float", "--json", "-"});
+    EXPECT_EQ(count_lines(r.out, "\"status\":\"ok\""), 1u) << r.out;
+    EXPECT_EQ(count_lines(r.out, "\"status\":\"skipped\""), 1u) << r.out;
+    // --force rebuilds everything.
+    r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update", "--force", "--type", "float",
+                     "--json", "-"});
+    EXPECT_EQ(count_lines(r.out, "\"status\":\"ok\""), 2u) << r.out;
+}
+
+TEST(Batch, JobsGiveTheSameBytesAsOneJob) {
+    ScratchDir d;
+    std::vector<std::string> args1{"bake"}, args2{"bake"};
+    for (int i = 0; i < 4; ++i) {
+        std::string p = d / ("t" + std::to_string(i) + ".png");
+        write_small_png(p, i);
+        args1.push_back(p);
+        args2.push_back(p);
+    }
+    // Same command line except the folder and --jobs: compare everything after the header.
+    args1.insert(args1.end(), {"-o", "{dir}/j1/{stem}.exr", "--jobs", "1"});
+    args2.insert(args2.end(), {"-o", "{dir}/j2/{stem}.exr", "--jobs", "2"});
+    mkdir((d / "j1").c_str(), 0777);
+    mkdir((d / "j2").c_str(), 0777);
+    ASSERT_EQ(run_spectex(args1).status, 0);
+    ASSERT_EQ(run_spectex(args2).status, 0);
+    for (int i = 0; i < 4; ++i) {
+        std::string a = read_file(d / ("j1/t" + std::to_string(i) + ".exr"));
+        std::string b = read_file(d / ("j2/t" + std::to_string(i) + ".exr"));
+        ASSERT_FALSE(a.empty());
+        // Only spectex:commandLine differs ("1" vs "2", "j1" vs "j2": same length), so the bytes do
+        // not move: compare the pixel data after the header.
+        ASSERT_EQ(a.size(), b.size());
+        size_t header_end = a.find("spectex:version");
+        ASSERT_NE(header_end, std::string::npos);
+        EXPECT_EQ(a.substr(header_end), b.substr(header_end)) << i;
+    }
+}
+
+TEST(Batch, OutputRespectsUmask) {
+    ScratchDir d;
+    write_small_png(d / "a.png", 1);
+    // The child inherits our umask.
+    mode_t old = umask(027);
+    auto r = run_spectex({"bake", d / "a.png", "-o", d / "a.exr"});
+    umask(old);
+    ASSERT_EQ(r.status, 0) << r.err;
+    struct stat st;
+    ASSERT_EQ(stat((d / "a.exr").c_str(), &st), 0);
+    EXPECT_EQ(st.st_mode & 0777, 0640u);
+}
