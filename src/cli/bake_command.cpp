@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 
 #include <algorithm>
@@ -69,6 +70,20 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
              [&](const std::string& v) { c.compression = v; });
     p.flag("--preview", "Also write R, G, B channels (linear Rec.709) for image viewers.",
            [&] { c.settings.preview = true; });
+    p.option("--tile", "W[xH]", "Write a tiled file with W x H tiles (maketx's default is 64x64).",
+             [&](const std::string& v) {
+                 int w = 0, h = 0;
+                 char x = 0, extra = 0;
+                 int got = std::sscanf(v.c_str(), "%d%c%d%c", &w, &x, &h, &extra);
+                 if (got == 1) h = w;
+                 if (!((got == 1) || (got == 3 && x == 'x')) || w < 1 || h < 1 || w > 4096 || h > 4096)
+                     throw UsageError("--tile: '" + v + "' is not W or WxH with sizes from 1 to 4096");
+                 c.settings.tile_width = w;
+                 c.settings.tile_height = h;
+             });
+    p.flag("--mipmap", "Write a MIP-mapped tiled texture (64x64 tiles unless --tile) for renderers' texture systems; "
+                       "levels are filtered on linear RGB before expansion.",
+           [&] { c.settings.mipmap = true; });
     p.option("--alpha", "associated|unassociated",
              "Whether the spectral channels are premultiplied by A (default associated, OpenEXR's convention).",
              [&](const std::string& v) { c.alpha = v; });

@@ -5,6 +5,7 @@
 #include <ImfHeader.h>
 #include <ImfIO.h>
 #include <ImfOutputFile.h>
+#include <ImfTiledOutputFile.h>
 #include <ImfStandardAttributes.h>
 #include <ImfStringAttribute.h>
 #include <unistd.h>
@@ -115,6 +116,7 @@ struct SpectralExrWriter::Impl {
     SpectralExrLayout layout;
     std::unique_ptr<FdOStream> stream;
     std::unique_ptr<Imf::OutputFile> file;
+    std::unique_ptr<Imf::TiledOutputFile> tiled;
     std::vector<std::string> names;
     std::vector<uint16_t> half_scratch[4];  // A, R, G, B converted for half channels
     int next_row = 0;
@@ -142,16 +144,40 @@ SpectralExrWriter::SpectralExrWriter(AtomicFile& out, const SpectralExrLayout& l
     header.insert("spectralLayoutVersion", Imf::StringAttribute("1.0"));
     for (const auto& [k, v] : L.attributes) header.insert(k, Imf::StringAttribute(v));
     impl_->stream = std::make_unique<FdOStream>(out.fd(), out.final_path());
-    impl_->file = std::make_unique<Imf::OutputFile>(*impl_->stream, header, std::max(1, L.threads));
+    if (L.tile_width > 0) {
+        header.setTileDescription(Imf::TileDescription(
+            static_cast<unsigned>(L.tile_width), static_cast<unsigned>(L.tile_height),
+            L.mipmap ? Imf::MIPMAP_LEVELS : Imf::ONE_LEVEL, Imf::ROUND_DOWN));
+        // What OpenImageIO's texture system looks for (maketx writes the same).
+        header.insert("textureformat", Imf::StringAttribute("Plain Texture"));
+        header.insert("wrapmodes", Imf::StringAttribute("black,black"));
+        impl_->tiled = std::make_unique<Imf::TiledOutputFile>(*impl_->stream, header, std::max(1, L.threads));
+    } else {
+        impl_->file = std::make_unique<Imf::OutputFile>(*impl_->stream, header, std::max(1, L.threads));
+    }
+}
+
+int SpectralExrWriter::levels() const { return impl_->tiled ? impl_->tiled->numLevels() : 1; }
+int SpectralExrWriter::level_width(int level) const {
+    return impl_->tiled ? impl_->tiled->levelWidth(level) : impl_->layout.width;
+}
+int SpectralExrWriter::level_height(int level) const {
+    return impl_->tiled ? impl_->tiled->levelHeight(level) : impl_->layout.height;
 }
 
 SpectralExrWriter::~SpectralExrWriter() = default;
 
 void SpectralExrWriter::write_rows(int rows, const void* spectral, size_t plane_stride, const float* alpha,
                                    const float* pr, const float* pg, const float* pb) {
+    write_level_rows(0, impl_->next_row, rows, spectral, plane_stride, alpha, pr, pg, pb);
+    impl_->next_row += rows;
+}
+
+void SpectralExrWriter::write_level_rows(int level, int row0, int rows, const void* spectral, size_t plane_stride,
+                                         const float* alpha, const float* pr, const float* pg, const float* pb) {
     const auto& L = impl_->layout;
-    const size_t w = static_cast<size_t>(L.width);
-    const int y0 = L.y + impl_->next_row;
+    const size_t w = static_cast<size_t>(level_width(level));
+    const int y0 = L.y + row0;
     // Slice bases are addressed with absolute (x, y): shift by the strip's origin.
     const ptrdiff_t origin = static_cast<ptrdiff_t>(y0) * static_cast<ptrdiff_t>(w) + L.x;
     Imf::FrameBuffer fb;
@@ -180,13 +206,21 @@ void SpectralExrWriter::write_rows(int rows, const void* spectral, size_t plane_
         insert_float("G", pg, L.type, 2);
         insert_float("B", pb, L.type, 3);
     }
-    impl_->file->setFrameBuffer(fb);
-    impl_->file->writePixels(rows);
-    impl_->next_row += rows;
+    if (impl_->tiled) {
+        Imf::TiledOutputFile& t = *impl_->tiled;
+        t.setFrameBuffer(fb);
+        const int ty0 = row0 / L.tile_height;
+        const int ty1 = (row0 + rows - 1) / L.tile_height;
+        t.writeTiles(0, t.numXTiles(level) - 1, ty0, ty1, level, level);
+    } else {
+        impl_->file->setFrameBuffer(fb);
+        impl_->file->writePixels(rows);
+    }
 }
 
 void SpectralExrWriter::finish() {
     impl_->file.reset();  // writes the line offset table (its destructor swallows errors)
+    impl_->tiled.reset();
     impl_->stream->check();
 }
 

@@ -31,6 +31,9 @@ struct SpectralExrLayout {
     ExrCompression compression = ExrCompression::parse("zip");
     std::vector<std::pair<std::string, std::string>> attributes;  // extra string attributes
     int threads = 1;  // OpenEXR worker threads for this file (from the global pool)
+    // Tiled output (tile_width > 0), optionally MIP-mapped (levels rounded down, as maketx does).
+    int tile_width = 0, tile_height = 0;
+    bool mipmap = false;
 };
 
 class SpectralExrWriter {
@@ -43,6 +46,14 @@ public:
     // width*rows each, and ignored when the layout has none.
     void write_rows(int rows, const void* spectral, size_t plane_stride, const float* alpha,
                     const float* preview_r, const float* preview_g, const float* preview_b);
+    // Tiled files: writes rows [row0, row0 + rows) of MIP level `level` (whole tile rows; the planes
+    // are level_width wide). Levels and tile rows may come in any order.
+    void write_level_rows(int level, int row0, int rows, const void* spectral, size_t plane_stride,
+                          const float* alpha, const float* preview_r, const float* preview_g,
+                          const float* preview_b);
+    int levels() const;                       // 1 unless MIP-mapped
+    int level_width(int level) const;
+    int level_height(int level) const;
     // Completes the file (offset table) and flushes it to the AtomicFile.
     void finish();
 

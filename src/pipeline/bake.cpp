@@ -3,6 +3,7 @@
 #include <sys/stat.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <climits>
 #include <cmath>
@@ -38,6 +39,39 @@ void check_not_input(const std::string& input, const std::string& output) {
     std::string ri = real_path(input), ro = real_path(output);
     if (!ri.empty() && ri == ro)
         throw Error(output + ": output is the input file; refusing to overwrite it");
+}
+
+// Area-weighted box filter from sw x sh to dw x dh (dw <= sw, dh <= sh): every destination pixel
+// averages the source area it covers, fractional edges included (exact for odd sizes too).
+std::vector<float> box_downsample(const std::vector<float>& src, int sw, int sh, int dw, int dh) {
+    auto weights = [](int s, int d) {
+        // For each destination index: list of (source index, weight), weights summing to 1.
+        std::vector<std::vector<std::pair<int, double>>> w(static_cast<size_t>(d));
+        const double scale = static_cast<double>(s) / d;
+        for (int i = 0; i < d; ++i) {
+            double a = i * scale, b = (i + 1) * scale;
+            for (int j = static_cast<int>(std::floor(a)); j < std::min(s, static_cast<int>(std::ceil(b))); ++j) {
+                double cover = std::min(b, j + 1.0) - std::max(a, static_cast<double>(j));
+                if (cover > 0) w[static_cast<size_t>(i)].emplace_back(j, cover / scale);
+            }
+        }
+        return w;
+    };
+    auto wx = weights(sw, dw), wy = weights(sh, dh);
+    std::vector<float> tmp(static_cast<size_t>(dw) * static_cast<size_t>(sh)), out(static_cast<size_t>(dw) * static_cast<size_t>(dh));
+    for (int y = 0; y < sh; ++y)
+        for (int x = 0; x < dw; ++x) {
+            double acc = 0;
+            for (auto [j, wt] : wx[static_cast<size_t>(x)]) acc += wt * src[static_cast<size_t>(y) * sw + j];
+            tmp[static_cast<size_t>(y) * dw + x] = static_cast<float>(acc);
+        }
+    for (int y = 0; y < dh; ++y)
+        for (int x = 0; x < dw; ++x) {
+            double acc = 0;
+            for (auto [j, wt] : wy[static_cast<size_t>(y)]) acc += wt * tmp[static_cast<size_t>(j) * dw + x];
+            out[static_cast<size_t>(y) * dw + x] = static_cast<float>(acc);
+        }
+    return out;
 }
 
 std::string join_lambda(const std::vector<double>& l) {
@@ -114,27 +148,29 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     };
     layout.threads = s.threads;
 
+    layout.tile_width = s.mipmap && s.tile_width <= 0 ? 64 : s.tile_width;
+    layout.tile_height = s.mipmap && s.tile_height <= 0 ? 64 : s.tile_height;
+    layout.mipmap = s.mipmap;
+
     AtomicFile out(output);
     SpectralExrWriter writer(out, layout);
 
     const ExpansionMatrix m = ExpansionMatrix::from_basis(s.basis);
     const size_t w = static_cast<size_t>(info.width);
     const size_t es = s.type == SampleType::Half ? 2 : 4;
-    const int chunk = s.compression.lines_per_chunk;
+    const bool tiled = layout.tile_width > 0;
+    const int chunk = tiled ? layout.tile_height : s.compression.lines_per_chunk;
     size_t row_bytes = w * static_cast<size_t>(m.bins) * es;
     int strip = std::max(1, static_cast<int>(kStripBudget / std::max<size_t>(row_bytes, 1)) / chunk) * chunk;
     strip = std::min(strip, info.height);
 
-    const size_t cap = w * static_cast<size_t>(strip);
-    std::vector<float> rgba(cap * 4), r(cap), g(cap), b(cap), a(has_alpha ? cap : 0);
-    std::vector<uint16_t> half_planes(s.type == SampleType::Half ? cap * static_cast<size_t>(m.bins) : 0);
-    std::vector<float> float_planes(s.type == SampleType::Float ? cap * static_cast<size_t>(m.bins) : 0);
     const bool straighten = info.alpha == AlphaKind::Associated;
     const bool premultiply = has_alpha && s.alpha == AlphaMode::Associated;
-
-    for (int y0 = 0; y0 < info.height; y0 += strip) {
-        const int y1 = std::min(info.height, y0 + strip);
+    std::vector<float> rgba;
+    // Reads rows [y0, y1) and leaves linear, policed, (premultiplied) planes in r, g, b, a.
+    auto process_rows = [&](int y0, int y1, float* r, float* g, float* b, float* a) {
         const size_t n = w * static_cast<size_t>(y1 - y0);
+        rgba.resize(n * 4);
         src->read_rgba(y0, y1, rgba.data());
         if (straighten) {
             for (size_t i = 0; i < n; ++i) {
@@ -177,15 +213,67 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
             b[i] = p[2] * k;
             if (has_alpha) a[i] = al;
         }
+    };
+
+    std::vector<uint16_t> half_planes;
+    std::vector<float> float_planes;
+    // Expands n pixels and writes them as rows [row0, row0 + rows) of `level`.
+    auto expand_and_write = [&](int level, int row0, int rows, size_t n, const float* r, const float* g,
+                                const float* b, const float* a) {
         const void* planes;
         if (s.type == SampleType::Half) {
-            expand_to_half(m, r.data(), g.data(), b.data(), n, half_planes.data(), n);
+            half_planes.resize(n * static_cast<size_t>(m.bins));
+            expand_to_half(m, r, g, b, n, half_planes.data(), n);
             planes = half_planes.data();
         } else {
-            expand_to_float(m, r.data(), g.data(), b.data(), n, float_planes.data(), n);
+            float_planes.resize(n * static_cast<size_t>(m.bins));
+            expand_to_float(m, r, g, b, n, float_planes.data(), n);
             planes = float_planes.data();
         }
-        writer.write_rows(y1 - y0, planes, n, a.data(), r.data(), g.data(), b.data());
+        if (tiled)
+            writer.write_level_rows(level, row0, rows, planes, n, a, r, g, b);
+        else
+            writer.write_rows(rows, planes, n, a, r, g, b);
+    };
+
+    if (!s.mipmap) {
+        const size_t cap = w * static_cast<size_t>(strip);
+        std::vector<float> r(cap), g(cap), b(cap), a(has_alpha ? cap : 0);
+        for (int y0 = 0; y0 < info.height; y0 += strip) {
+            const int y1 = std::min(info.height, y0 + strip);
+            process_rows(y0, y1, r.data(), g.data(), b.data(), a.data());
+            expand_and_write(0, y0, y1 - y0, w * static_cast<size_t>(y1 - y0), r.data(), g.data(), b.data(), a.data());
+        }
+    } else {
+        // MIP-mapped: the expansion is linear, so every level is filtered on the linear (and
+        // premultiplied) RGBA and expanded afterwards; memory is the RGBA pyramid, not N bins.
+        const size_t n0 = w * static_cast<size_t>(info.height);
+        std::array<std::vector<float>, 4> level;
+        for (int c = 0; c < (has_alpha ? 4 : 3); ++c) level[static_cast<size_t>(c)].resize(n0);
+        for (int y0 = 0; y0 < info.height; y0 += strip) {
+            const int y1 = std::min(info.height, y0 + strip);
+            const size_t off = w * static_cast<size_t>(y0);
+            process_rows(y0, y1, level[0].data() + off, level[1].data() + off, level[2].data() + off,
+                         has_alpha ? level[3].data() + off : nullptr);
+        }
+        int lw = info.width, lh = info.height;
+        for (int l = 0; l < writer.levels(); ++l) {
+            if (l > 0) {
+                const int nw = writer.level_width(l), nh = writer.level_height(l);
+                for (auto& p : level)
+                    if (!p.empty()) p = box_downsample(p, lw, lh, nw, nh);
+                lw = nw;
+                lh = nh;
+            }
+            const int th = layout.tile_height;
+            for (int y0 = 0; y0 < lh; y0 += th) {
+                const int y1 = std::min(lh, y0 + th);
+                const size_t off = static_cast<size_t>(lw) * static_cast<size_t>(y0);
+                expand_and_write(l, y0, y1 - y0, static_cast<size_t>(lw) * static_cast<size_t>(y1 - y0),
+                                 level[0].data() + off, level[1].data() + off, level[2].data() + off,
+                                 has_alpha ? level[3].data() + off : nullptr);
+            }
+        }
     }
     writer.finish();
     struct stat st;

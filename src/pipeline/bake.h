@@ -34,6 +34,8 @@ struct BakeSettings {
     std::string command_line;
     std::string settings_hash;       // recorded as spectex:settingsHash (for --update)
     int threads = 1;                 // OpenEXR compression threads for this file
+    int tile_width = 0, tile_height = 0;  // tiled output when > 0
+    bool mipmap = false;             // MIP-mapped (tiled) output, levels filtered on linear RGB
 };
 
 struct BakeResult {
