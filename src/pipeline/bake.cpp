@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <future>
 #include <chrono>
 #include <climits>
 #include <cmath>
@@ -237,12 +238,57 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     };
 
     if (!s.mipmap) {
-        const size_t cap = w * static_cast<size_t>(strip);
-        std::vector<float> r(cap), g(cap), b(cap), a(has_alpha ? cap : 0);
-        for (int y0 = 0; y0 < info.height; y0 += strip) {
-            const int y1 = std::min(info.height, y0 + strip);
-            process_rows(y0, y1, r.data(), g.data(), b.data(), a.data());
-            expand_and_write(0, y0, y1 - y0, w * static_cast<size_t>(y1 - y0), r.data(), g.data(), b.data(), a.data());
+        // Two strips in flight: while OpenEXR compresses and writes strip k (on its thread pool),
+        // a producer thread decodes, linearises and expands strip k+1, so those stages hide
+        // under the encoder. The producer alone touches the reader and the counters.
+        struct Strip {
+            std::vector<float> r, g, b, a;
+            std::vector<uint16_t> half;
+            std::vector<float> flt;
+            int y0 = 0, y1 = 0;
+        };
+        std::array<Strip, 2> strips;
+        auto produce = [&](Strip& st, int y0) {
+            st.y0 = y0;
+            st.y1 = std::min(info.height, y0 + strip);
+            const size_t n = w * static_cast<size_t>(st.y1 - st.y0);
+            st.r.resize(n);
+            st.g.resize(n);
+            st.b.resize(n);
+            st.a.resize(has_alpha ? n : 0);
+            process_rows(st.y0, st.y1, st.r.data(), st.g.data(), st.b.data(), st.a.data());
+            if (s.type == SampleType::Half) {
+                st.half.resize(n * static_cast<size_t>(m.bins));
+                expand_to_half(m, st.r.data(), st.g.data(), st.b.data(), n, st.half.data(), n);
+            } else {
+                st.flt.resize(n * static_cast<size_t>(m.bins));
+                expand_to_float(m, st.r.data(), st.g.data(), st.b.data(), n, st.flt.data(), n);
+            }
+        };
+        auto consume = [&](const Strip& st) {
+            const size_t n = w * static_cast<size_t>(st.y1 - st.y0);
+            const void* planes = s.type == SampleType::Half ? static_cast<const void*>(st.half.data())
+                                                            : static_cast<const void*>(st.flt.data());
+            if (tiled)
+                writer.write_level_rows(0, st.y0, st.y1 - st.y0, planes, n, st.a.data(), st.r.data(), st.g.data(),
+                                        st.b.data());
+            else
+                writer.write_rows(st.y1 - st.y0, planes, n, st.a.data(), st.r.data(), st.g.data(), st.b.data());
+        };
+        produce(strips[0], 0);
+        for (int k = 0; strips[k % 2].y0 < info.height; ++k) {
+            const int next_y0 = strips[k % 2].y1;
+            std::future<void> next;
+            if (next_y0 < info.height)
+                next = std::async(std::launch::async, [&, next_y0, k] { produce(strips[(k + 1) % 2], next_y0); });
+            try {
+                consume(strips[k % 2]);
+            } catch (...) {
+                if (next.valid()) next.wait();  // never leave the producer running on our buffers
+                throw;
+            }
+            if (!next.valid()) break;
+            next.get();  // rethrows the producer's error
         }
     } else {
         // MIP-mapped: the expansion is linear, so every level is filtered on the linear (and
