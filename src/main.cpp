@@ -32,6 +32,7 @@ const char* kUsage =
     "  bake     turn a texture into a spectral OpenEXR (channels T.<wavelength>nm)\n"
     "  basis    fit a spectral basis on any wavelength grid, with a certificate\n"
     "  info     describe a spectral OpenEXR\n"
+    "  verify   integrate a spectral OpenEXR back to colour and compare with its source\n"
     "\n"
     "Options:\n"
     "  -h, --help     show this help; 'spectex <command> --help' for a command's options\n"
@@ -74,6 +75,7 @@ int main(int argc, char** argv) {
     if (cmd == "bake") return spectex::run_bake(rest, command_line);
     if (cmd == "info") return spectex::run_info(rest);
     if (cmd == "basis") return spectex::run_basis(rest, command_line);
+    if (cmd == "verify") return spectex::run_verify(rest);
     std::cerr << "spectex: unknown command '" << cmd << "'\n" << kUsage;
     return 2;
 }

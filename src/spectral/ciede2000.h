@@ -1,0 +1,21 @@
+#pragma once
+// CIE L*a*b* from XYZ with a given white, and the CIEDE2000 colour difference (CIE 142-2001,
+// as implemented and tested by Sharma, Wu & Dalal, "The CIEDE2000 color-difference formula:
+// implementation notes, supplementary test data, and mathematical observations", Color Research
+// & Application 30(1), 2005). Double precision throughout.
+#include <Eigen/Dense>
+
+namespace spectex {
+
+struct Lab {
+    double L = 0, a = 0, b = 0;
+};
+
+// CIE 1976 L*a*b* of `xyz` relative to `white` (the XYZ of the reference white, any scale as long
+// as both use the same one). Uses the CIE's exact constants (epsilon = 216/24389, kappa = 24389/27).
+Lab lab_from_xyz(const Eigen::Vector3d& xyz, const Eigen::Vector3d& white);
+
+// CIEDE2000 difference between two L*a*b* colours; kL = kC = kH = 1 by default. Symmetric.
+double ciede2000(const Lab& lab1, const Lab& lab2, double kL = 1.0, double kC = 1.0, double kH = 1.0);
+
+}  // namespace spectex
