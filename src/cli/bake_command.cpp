@@ -84,6 +84,13 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
     p.flag("--mipmap", "Write a MIP-mapped tiled texture (64x64 tiles unless --tile) for renderers' texture systems; "
                        "levels are filtered on linear RGB before expansion.",
            [&] { c.settings.mipmap = true; });
+    p.option("--half-rounding", "colour|nearest",
+             "colour (default): round each half bin up or down so that the spectrum's integrated colour stays "
+             "closest to the exact one (all 8-bit sRGB colours re-encode exactly); nearest: plain rounding.",
+             [&](const std::string& v) {
+                 if (v != "colour" && v != "nearest") throw UsageError("--half-rounding: '" + v + "' is not one of colour, nearest");
+                 c.settings.colour_rounding = v == "colour";
+             });
     p.option("--alpha", "associated|unassociated",
              "Whether the spectral channels are premultiplied by A (default associated, OpenEXR's convention).",
              [&](const std::string& v) { c.alpha = v; });

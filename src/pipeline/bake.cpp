@@ -17,6 +17,7 @@
 #include "io/linearizer.h"
 #include "spectex/version.h"
 #include "spectral/error.h"
+#include "spectral/colorimetry.h"
 #include "spectral/expand.h"
 
 namespace spectex {
@@ -145,6 +146,7 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
         {"spectex:alpha", has_alpha ? (s.alpha == AlphaMode::Associated ? "associated" : "unassociated") : "none"},
         {"spectex:outOfRange", to_string(s.range)},
         {"spectex:nan", to_string(s.nan)},
+        {"spectex:halfRounding", s.type == SampleType::Half ? (s.colour_rounding ? "colour" : "nearest") : "n/a"},
         {"spectex:settingsHash", s.settings_hash},
     };
     layout.threads = s.threads;
@@ -156,7 +158,17 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     AtomicFile out(output);
     SpectralExrWriter writer(out, layout);
 
-    const ExpansionMatrix m = ExpansionMatrix::from_basis(s.basis);
+    ExpansionMatrix m = ExpansionMatrix::from_basis(s.basis);
+    if (s.type == SampleType::Half && s.colour_rounding) {
+        // The colorimetry the basis is exact for: its observer and illuminant on the output bins.
+        Colorimetry c = Colorimetry::make(load_observer(s.data_dir, s.observer),
+                                          load_illuminant(s.data_dir, s.illuminant), s.grid,
+                                          primaries_by_name("srgb"));
+        const Eigen::Matrix3Xd R = c.rgb_weights();
+        m.rgb_weight.resize(3 * static_cast<size_t>(m.bins));
+        for (int k = 0; k < m.bins; ++k)
+            for (int ch = 0; ch < 3; ++ch) m.rgb_weight[3 * static_cast<size_t>(k) + ch] = static_cast<float>(R(ch, k));
+    }
     const size_t w = static_cast<size_t>(info.width);
     const size_t es = s.type == SampleType::Half ? 2 : 4;
     const bool tiled = layout.tile_width > 0;

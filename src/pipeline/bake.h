@@ -36,6 +36,7 @@ struct BakeSettings {
     int threads = 1;                 // OpenEXR compression threads for this file
     int tile_width = 0, tile_height = 0;  // tiled output when > 0
     bool mipmap = false;             // MIP-mapped (tiled) output, levels filtered on linear RGB
+    bool colour_rounding = true;     // half: round bins to keep the integrated colour closest
 };
 
 struct BakeResult {

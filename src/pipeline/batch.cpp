@@ -157,6 +157,7 @@ std::string settings_hash(const BakeSettings& s) {
     fnv(h, s.observer);
     fnv(h, s.illuminant);
     fnv(h, s.colorspace);
+    fnv(h, s.colour_rounding ? "colour-rounding" : "nearest");
     fnv(h, std::to_string(s.tile_width) + "x" + std::to_string(s.tile_height) + (s.mipmap ? "mip" : ""));
     // The colour config decides the linearisation: its path and its contents.
     std::string config = s.config;

@@ -11,11 +11,16 @@ namespace spectex {
 struct ExpansionMatrix {
     int bins = 0;
     std::vector<float> coeff;  // bins×3, row k = (S_r, S_g, S_b) at bin k
+    // Optional, bins×3: linear RGB of a unit spectrum at bin k (the colorimetry the basis is exact
+    // for). When set, half output rounds each bin up or down so that the colour the rounded
+    // spectrum integrates to stays closest to the exact one (error feedback along wavelength).
+    std::vector<float> rgb_weight;
 
     static ExpansionMatrix from_basis(const Basis& basis);
 };
 
 // r, g, b: planes of n linear values. Bin k of pixel i goes to out[k * plane_stride + i].
+// Half: round to nearest even, or with colour error feedback when m.rgb_weight is set.
 void expand_to_half(const ExpansionMatrix& m, const float* r, const float* g, const float* b, size_t n,
                     uint16_t* out, size_t plane_stride);
 void expand_to_float(const ExpansionMatrix& m, const float* r, const float* g, const float* b, size_t n,

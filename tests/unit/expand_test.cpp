@@ -59,3 +59,55 @@ TEST(Expand, IsTheLinearCombination) {
         }
     }
 }
+
+TEST(Expand, ColourFeedbackRoundingStaysWithinOneUlpAndBeatsNearest) {
+    // A synthetic 40-bin basis and colour weights; each rounded bin must be the nearest half or
+    // its neighbour on the other side of the exact value, and the integrated colour error of the
+    // feedback rounding must not exceed that of plain rounding (summed over many pixels).
+    const int bins = 40;
+    Basis b;
+    b.name = "t";
+    for (int k = 0; k < bins; ++k) {
+        double t = k / (bins - 1.0);
+        b.lambda.push_back(400 + 5 * k);
+        b.r.push_back(t * t);
+        b.b.push_back((1 - t) * (1 - t));
+        b.g.push_back(1 - b.r.back() - b.b.back());
+    }
+    auto plain = ExpansionMatrix::from_basis(b);
+    auto fb = plain;
+    for (int k = 0; k < bins; ++k) {
+        double t = k / (bins - 1.0);
+        fb.rgb_weight.insert(fb.rgb_weight.end(), {static_cast<float>(0.05 * t), static_cast<float>(0.05 * std::sin(3.1 * t)),
+                                                   static_cast<float>(0.05 * (1 - t))});
+    }
+    const size_t n = 4096;
+    std::vector<float> r(n), g(n), bl(n);
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<float> u(0, 1);
+    for (size_t i = 0; i < n; ++i) r[i] = u(rng), g[i] = u(rng), bl[i] = u(rng);
+    std::vector<uint16_t> hp(bins * n), hf(bins * n);
+    expand_to_half(plain, r.data(), g.data(), bl.data(), n, hp.data(), n);
+    expand_to_half(fb, r.data(), g.data(), bl.data(), n, hf.data(), n);
+    double err_plain = 0, err_fb = 0;
+    for (size_t i = 0; i < n; ++i) {
+        double ep[3] = {0, 0, 0}, ef[3] = {0, 0, 0};
+        for (int k = 0; k < bins; ++k) {
+            double exact = static_cast<double>(plain.coeff[3 * k]) * r[i] + plain.coeff[3 * k + 1] * g[i] +
+                           plain.coeff[3 * k + 2] * bl[i];
+            uint16_t p = hp[k * n + i], f = hf[k * n + i];
+            ASSERT_LE(std::abs(static_cast<int>(p) - static_cast<int>(f)), 1);
+            EXPECT_GE(half_to_float(f), 0.0f);
+            for (int c = 0; c < 3; ++c) {
+                ep[c] += fb.rgb_weight[3 * k + c] * (half_to_float(p) - exact);
+                ef[c] += fb.rgb_weight[3 * k + c] * (half_to_float(f) - exact);
+            }
+        }
+        for (int c = 0; c < 3; ++c) {
+            err_plain += ep[c] * ep[c];
+            err_fb += ef[c] * ef[c];
+        }
+    }
+    // Measured: the feedback error is several times smaller; require at least 2x in RMS.
+    EXPECT_LT(std::sqrt(err_fb), 0.5 * std::sqrt(err_plain));
+}
