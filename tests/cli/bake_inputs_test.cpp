@@ -11,8 +11,9 @@
 //    (kFloatArith);
 //  - the basis functions are non-negative, so an absolute error d on linear r, g, b gives at most
 //    d * (S_r + S_g + S_b) on a bin;
-//  - half output rounds to nearest with 10 stored mantissa bits: at most 2^-11 relative error
-//    (kHalfRel), and 2^-25 absolute in the subnormal range.
+//  - half output has 10 stored mantissa bits; the default colour-feedback rounding takes the
+//    nearest half or its neighbour, so at most one ulp: 2^-10 relative error (kHalfRel), and 2^-24
+//    absolute in the subnormal range.
 #include <gtest/gtest.h>
 #include <ImfOutputFile.h>
 
@@ -33,8 +34,8 @@ namespace {
 
 constexpr double kOcioVsIec = 7.6e-7;
 constexpr double kFloatArith = 5e-7;
-constexpr double kHalfRel = 1.0 / 2048.0;          // 2^-11
-constexpr double kHalfSubnormal = 1.0 / 33554432;  // 2^-25
+constexpr double kHalfRel = 1.0 / 1024.0;          // 2^-10
+constexpr double kHalfSubnormal = 1.0 / 16777216;  // 2^-24
 
 using Rgb = std::array<double, 3>;
 
