@@ -180,3 +180,21 @@ TEST(Batch, OutputRespectsUmask) {
     ASSERT_EQ(stat((d / "a.exr").c_str(), &st), 0);
     EXPECT_EQ(st.st_mode & 0777, 0640u);
 }
+
+TEST(Batch, TwoTasksWritingOneOutputLeaveAValidFile) {
+    // Two farm tasks baking to the same name at once: each writes its own temporary file and
+    // renames it, so the survivor is one complete file and no temporary file is left.
+    ScratchDir d;
+    std::vector<uint8_t> px(512 * 256 * 3);
+    for (size_t i = 0; i < px.size(); ++i) px[i] = static_cast<uint8_t>((i * 7919) >> 3);
+    write_image(d / "in.png", 512, 256, 3, OIIO::TypeDesc::UINT8, px.data());
+    std::string cmd = std::string(SPECTEX_BINARY) + " bake " + (d / "in.png") + " -o " + (d / "out.exr") + " -q";
+    int st = std::system(("(" + cmd + " & " + cmd + " & wait) ; exit 0").c_str());
+    ASSERT_EQ(st, 0);
+    auto names = list_dir(d.path());
+    EXPECT_EQ(std::set<std::string>(names.begin(), names.end()), (std::set<std::string>{"in.png", "out.exr"}));
+    auto info = run_spectex({"info", d / "out.exr"});
+    EXPECT_EQ(info.status, 0) << info.err;
+    auto v = run_spectex({"verify", d / "out.exr", "--source", d / "in.png", "--min-code-match", "100"});
+    EXPECT_EQ(v.status, 0) << v.out << v.err;
+}
