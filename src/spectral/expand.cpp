@@ -1,6 +1,7 @@
 #include "spectral/expand.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "spectral/half.h"
 
@@ -25,10 +26,22 @@ ExpansionMatrix ExpansionMatrix::from_basis(const Basis& basis) {
 
 namespace {
 
-// Error-feedback rounding: bins in wavelength order; for each, of the two halves around the exact
-// value (the nearest and its neighbour on the other side) take the one that leaves the running
-// integrated colour error (a linear RGB 3-vector per pixel) smallest. Plain rounding lets the
-// bins' errors add up; this keeps the sum near one bin's error. Deterministic, pixel by pixel.
+// Colour-aware rounding. Round every bin to nearest (as plain half output does) and add up, per
+// pixel, the linear-RGB error that rounding makes in the integrated colour. Only where that error
+// exceeds kColourTolerance, flip single bins to the half on the other side of their exact value,
+// each time the flip that shrinks the error most, until it is within tolerance. Few pixels and few
+// bins change, so the file compresses like a plain-rounded one, and the colour error stays below
+// the smallest half-step between 8-bit sRGB codes (1.5e-4 near black). Deterministic.
+constexpr float kColourTolerance = 1.0f / 16384.0f;  // 6.1e-5 linear
+constexpr int kMaxFlips = 16;
+
+uint16_t other_side(uint16_t h, float v, float s) {
+    // The neighbouring half of h on the side of s (h itself when v == s or at the range's edge).
+    if (v > s && (h & 0x7fffu) != 0) return (h & 0x8000u) ? static_cast<uint16_t>(h + 1) : static_cast<uint16_t>(h - 1);
+    if (v < s && (h & 0x7fffu) < 0x7bffu) return (h & 0x8000u) ? static_cast<uint16_t>(h - 1) : static_cast<uint16_t>(h + 1);
+    return h;
+}
+
 void expand_to_half_feedback(const ExpansionMatrix& m, const float* r, const float* g, const float* b, size_t n,
                              uint16_t* out, size_t plane_stride) {
     float er[kBlock], eg[kBlock], eb[kBlock];
@@ -43,20 +56,43 @@ void expand_to_half_feedback(const ExpansionMatrix& m, const float* r, const flo
             uint16_t* dst = out + static_cast<size_t>(k) * plane_stride + i0;
             for (size_t i = 0; i < len; ++i) {
                 const float s = cr * r[i0 + i] + cg * g[i0 + i] + cb * b[i0 + i];
-                const uint16_t h0 = float_to_half(s);
-                const float v0 = half_to_float(h0);
-                uint16_t h1 = h0;
-                // The neighbour on the other side of s (same sign region; never crosses to NaN/Inf).
-                if (v0 > s && (h0 & 0x7fffu) != 0) h1 = (h0 & 0x8000u) ? h0 + 1 : h0 - 1;
-                else if (v0 < s && (h0 & 0x7fffu) < 0x7bffu) h1 = (h0 & 0x8000u) ? h0 - 1 : h0 + 1;
-                const float d0 = v0 - s, d1 = half_to_float(h1) - s;
-                const float r0 = er[i] + wr * d0, g0 = eg[i] + wg * d0, b0 = eb[i] + wb * d0;
-                const float r1 = er[i] + wr * d1, g1 = eg[i] + wg * d1, b1 = eb[i] + wb * d1;
-                const bool take1 = r1 * r1 + g1 * g1 + b1 * b1 < r0 * r0 + g0 * g0 + b0 * b0;
-                dst[i] = take1 ? h1 : h0;
-                er[i] = take1 ? r1 : r0;
-                eg[i] = take1 ? g1 : g0;
-                eb[i] = take1 ? b1 : b0;
+                const uint16_t h = float_to_half(s);
+                const float d = half_to_float(h) - s;
+                dst[i] = h;
+                er[i] += wr * d;
+                eg[i] += wg * d;
+                eb[i] += wb * d;
+            }
+        }
+        for (size_t i = 0; i < len; ++i) {
+            float e[3] = {er[i], eg[i], eb[i]};
+            for (int flip = 0; flip < kMaxFlips; ++flip) {
+                if (std::max({std::fabs(e[0]), std::fabs(e[1]), std::fabs(e[2])}) <= kColourTolerance) break;
+                const float e2 = e[0] * e[0] + e[1] * e[1] + e[2] * e[2];
+                int best = -1;
+                float best_e2 = e2, best_delta = 0;
+                uint16_t best_h = 0;
+                for (int k = 0; k < m.bins; ++k) {
+                    const float s = m.coeff[3 * k] * r[i0 + i] + m.coeff[3 * k + 1] * g[i0 + i] +
+                                    m.coeff[3 * k + 2] * b[i0 + i];
+                    const uint16_t cur = out[static_cast<size_t>(k) * plane_stride + i0 + i];
+                    const float v = half_to_float(cur);
+                    const uint16_t alt = other_side(cur, v, s);
+                    if (alt == cur) continue;
+                    const float delta = half_to_float(alt) - v;
+                    const float x = e[0] + m.rgb_weight[3 * k] * delta, y = e[1] + m.rgb_weight[3 * k + 1] * delta,
+                                z = e[2] + m.rgb_weight[3 * k + 2] * delta;
+                    const float t = x * x + y * y + z * z;
+                    if (t < best_e2) {
+                        best_e2 = t;
+                        best = k;
+                        best_delta = delta;
+                        best_h = alt;
+                    }
+                }
+                if (best < 0) break;
+                out[static_cast<size_t>(best) * plane_stride + i0 + i] = best_h;
+                for (int c = 0; c < 3; ++c) e[c] += m.rgb_weight[3 * best + c] * best_delta;
             }
         }
     }

@@ -12,8 +12,8 @@ struct ExpansionMatrix {
     int bins = 0;
     std::vector<float> coeff;  // bins×3, row k = (S_r, S_g, S_b) at bin k
     // Optional, bins×3: linear RGB of a unit spectrum at bin k (the colorimetry the basis is exact
-    // for). When set, half output rounds each bin up or down so that the colour the rounded
-    // spectrum integrates to stays closest to the exact one (error feedback along wavelength).
+    // for). When set, half output rounds to nearest and then, only in pixels whose integrated
+    // colour error exceeds 6.1e-5, moves the fewest bins to their other neighbouring half.
     std::vector<float> rgb_weight;
 
     static ExpansionMatrix from_basis(const Basis& basis);
