@@ -1,0 +1,123 @@
+// The expansion kernel (spectrum = r·S_r + g·S_g + b·S_b per pixel, src/spectral/expand.h) on
+// 65536-pixel strips, one thread: pixels per second per core (items_per_second), at 81 bins (the
+// published mallett2019 table) and 401 bins (a basis fitted on 380:780:1), to half and to float.
+//
+// Every iteration also runs a naive scalar loop written here (pixel-major, one bin at a time,
+// the way a first version would be written), timed separately with the same clock, so that
+// `speedup_vs_naive` (naive time / kernel time) is measured interleaved in the same run and is
+// not skewed by other load on a shared machine. The reported time is the kernel's alone.
+//
+//   ninja -C build bench_expand && build/tests/bench/bench_expand
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "spectral/basis.h"
+#include "spectral/basis_fit.h"
+#include "spectral/expand.h"
+#include "spectral/half.h"
+
+using namespace spectex;
+
+namespace {
+
+constexpr size_t kPixels = 65536;
+
+const Basis& basis_for(int bins) {
+    static const Basis b81 = load_basis(SPECTEX_TEST_DATA_DIR, "mallett2019");
+    static const Basis b401 = [] {
+        WavelengthGrid g = WavelengthGrid::uniform_grid(380, 780, 1);
+        Observer o = load_observer(SPECTEX_TEST_DATA_DIR, "cie1931-2");
+        Spectrum d65 = load_illuminant(SPECTEX_TEST_DATA_DIR, "D65");
+        FitRequest req{Colorimetry::make(o, d65, g, primaries_by_name("srgb")), FitObjective::Smooth, false};
+        return fit_basis(req).basis;
+    }();
+    return bins == 401 ? b401 : b81;
+}
+
+// Linear RGB planes of a smooth, varied pattern in [0, 1] (no denormals, no constant runs).
+struct Planes {
+    std::vector<float> r, g, b;
+    Planes() : r(kPixels), g(kPixels), b(kPixels) {
+        uint32_t s = 12345;
+        for (size_t i = 0; i < kPixels; ++i) {
+            s = s * 1664525u + 1013904223u;
+            r[i] = static_cast<float>((s >> 8) & 0xffff) / 65535.0f;
+            g[i] = static_cast<float>((s >> 4) & 0xffff) / 65535.0f;
+            b[i] = static_cast<float>((i * 2654435761u >> 16) & 0xffff) / 65535.0f;
+        }
+    }
+};
+const Planes& planes() {
+    static const Planes p;
+    return p;
+}
+
+// The naive reference: pixel-major, doubles from the Basis, one scalar conversion per sample.
+template <typename T>
+void naive(const Basis& B, const float* r, const float* g, const float* b, size_t n, T* out, size_t stride) {
+    const size_t bins = B.size();
+    for (size_t i = 0; i < n; ++i)
+        for (size_t k = 0; k < bins; ++k) {
+            const float v = static_cast<float>(B.r[k] * r[i] + B.g[k] * g[i] + B.b[k] * b[i]);
+            if constexpr (sizeof(T) == 2)
+                out[k * stride + i] = float_to_half(v);
+            else
+                out[k * stride + i] = v;
+        }
+}
+
+template <typename T>
+void BM_Expand(benchmark::State& state) {
+    const int bins = static_cast<int>(state.range(0));
+    const Basis& B = basis_for(bins);
+    const ExpansionMatrix m = ExpansionMatrix::from_basis(B);
+    const Planes& p = planes();
+    std::vector<T> out(kPixels * static_cast<size_t>(bins)), ref(out.size());
+    using clock = std::chrono::steady_clock;
+    double kernel_s = 0, naive_s = 0;
+    for (auto _ : state) {
+        auto t0 = clock::now();
+        if constexpr (sizeof(T) == 2)
+            expand_to_half(m, p.r.data(), p.g.data(), p.b.data(), kPixels, out.data(), kPixels);
+        else
+            expand_to_float(m, p.r.data(), p.g.data(), p.b.data(), kPixels, out.data(), kPixels);
+        benchmark::ClobberMemory();
+        auto t1 = clock::now();
+        naive(B, p.r.data(), p.g.data(), p.b.data(), kPixels, ref.data(), kPixels);
+        benchmark::ClobberMemory();
+        auto t2 = clock::now();
+        const double k = std::chrono::duration<double>(t1 - t0).count();
+        kernel_s += k;
+        naive_s += std::chrono::duration<double>(t2 - t1).count();
+        state.SetIterationTime(k);
+    }
+    // Agreement with the naive loop (float vs double accumulation: rounding-level differences).
+    double max_diff = 0;
+    for (size_t i = 0; i < out.size(); ++i) {
+        if constexpr (sizeof(T) == 2)
+            max_diff = std::max(max_diff, static_cast<double>(std::fabs(half_to_float(out[i]) - half_to_float(ref[i]))));
+        else
+            max_diff = std::max(max_diff, static_cast<double>(std::fabs(out[i] - ref[i])));
+    }
+    state.SetItemsProcessed(static_cast<int64_t>(state.iterations()) * static_cast<int64_t>(kPixels));
+    state.SetBytesProcessed(static_cast<int64_t>(state.iterations()) * static_cast<int64_t>(kPixels) * bins *
+                            static_cast<int64_t>(sizeof(T)));
+    state.counters["bins"] = bins;
+    state.counters["speedup_vs_naive"] = kernel_s > 0 ? naive_s / kernel_s : 0;
+    state.counters["naive_pixels_per_second"] =
+        naive_s > 0 ? static_cast<double>(state.iterations()) * kPixels / naive_s : 0;
+    state.counters["max_abs_diff_vs_naive"] = max_diff;
+    state.SetLabel(sizeof(T) == 2 ? "half" : "float");
+}
+
+}  // namespace
+
+BENCHMARK_TEMPLATE(BM_Expand, uint16_t)->Arg(81)->Arg(401)->UseManualTime()->Unit(benchmark::kMicrosecond);
+BENCHMARK_TEMPLATE(BM_Expand, float)->Arg(81)->Arg(401)->UseManualTime()->Unit(benchmark::kMicrosecond);
+
+BENCHMARK_MAIN();

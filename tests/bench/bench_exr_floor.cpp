@@ -1,0 +1,287 @@
+// The floor: what writing a spectral scanline OpenEXR costs with nothing else to do. A W×H, N-bin
+// file in the Fichet layout (channels T.<λ>nm, spectralLayoutVersion) is written with
+// Imf::OutputFile from pixels expanded once, before the clock starts: a smooth synthetic pattern
+// is expanded into one strip buffer, which is handed to OpenEXR for every strip.
+//
+// The writer is configured as spectex's (src/io/spectral_exr_writer.cpp, src/pipeline/bake.cpp):
+// the same header (INCREASING_Y, the compression's default level unless --zip-level), the same
+// compression table (lines per chunk from spectex::ExrCompression), the same strip size (32 MB of
+// samples rounded down to whole compression chunks), Imf::setGlobalThreadCount(T) and
+// OutputFile numThreads = T, a 4 MB buffered pwrite stream on an AtomicFile (temporary file,
+// fsync, rename), as spectex bake does.
+//
+// --source IMAGE replaces the synthetic pattern by the first strip of that image (read and
+// linearised as spectex does, clamped to [0, 1]), so that the encoder sees the same kind of content
+// as the bake it is compared with (ZIP's cost depends on it); the size is then the image's unless
+// --width/--height are given. Still expanded once, before the clock.
+//
+// Prints one JSON line: wall seconds and CPU seconds (user + system, whole process) of the write
+// (from opening the file to the rename), output bytes, peak RSS.
+//
+//   bench_exr_floor --width 4096 --height 4096 --bins 81 --type half --compression zip --threads 2 --out /tmp/floor.exr
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfIO.h>
+#include <ImfOutputFile.h>
+#include <ImfStringAttribute.h>
+#include <ImfThreading.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <memory>
+#include <vector>
+
+#include "io/atomic_file.h"
+#include "io/image_source.h"
+#include "io/linearizer.h"
+#include "io/spectral_exr_writer.h"
+#include "spectral/basis.h"
+#include "spectral/basis_fit.h"
+#include "spectral/expand.h"
+#include "spectral/wavelength_grid.h"
+
+using namespace spectex;
+
+namespace {
+
+constexpr size_t kStripBudget = 32u << 20;  // as src/pipeline/bake.cpp
+
+// Buffered pwrite stream, as spectex's FdOStream (4 MB buffer, pwrite so the offset table's
+// seek back works).
+class FdOStream : public Imf::OStream {
+public:
+    FdOStream(int fd, const std::string& name) : Imf::OStream(name.c_str()), fd_(fd) { buf_.reserve(kBuf); }
+    void write(const char c[], int n) override {
+        if (pos_ != start_ + buf_.size()) {
+            flush();
+            start_ = pos_;
+        }
+        buf_.insert(buf_.end(), c, c + n);
+        pos_ += static_cast<uint64_t>(n);
+        if (buf_.size() >= kBuf) flush();
+    }
+    uint64_t tellp() override { return pos_; }
+    void seekp(uint64_t pos) override {
+        flush();
+        pos_ = start_ = pos;
+    }
+    void flush() {
+        size_t done = 0;
+        while (done < buf_.size()) {
+            ssize_t n = ::pwrite(fd_, buf_.data() + done, buf_.size() - done, static_cast<off_t>(start_ + done));
+            if (n < 0 && errno == EINTR) continue;
+            if (n <= 0) throw std::runtime_error(std::string("write failed: ") + std::strerror(errno));
+            done += static_cast<size_t>(n);
+        }
+        start_ += buf_.size();
+        buf_.clear();
+    }
+
+private:
+    static constexpr size_t kBuf = 4u << 20;
+    int fd_;
+    uint64_t pos_ = 0, start_ = 0;
+    std::vector<char> buf_;
+};
+
+double cpu_seconds() {
+    rusage ru{};
+    getrusage(RUSAGE_SELF, &ru);
+    return ru.ru_utime.tv_sec + ru.ru_utime.tv_usec * 1e-6 + ru.ru_stime.tv_sec + ru.ru_stime.tv_usec * 1e-6;
+}
+
+[[noreturn]] void usage(const char* msg) {
+    std::fprintf(stderr,
+                 "%s\nusage: bench_exr_floor [--width W] [--height H] [--bins N | --wavelengths S:E:STEP]\n"
+                 "                       [--type half|float] [--compression NAME] [--threads T]\n"
+                 "                       [--zip-level L] [--source IMAGE] [--out FILE.exr] [--keep]\n"
+                 "defaults: 4096 x 4096, 81 bins (380:780:5), half, zip, T = cores, /tmp/bench_exr_floor.exr\n",
+                 msg);
+    std::exit(2);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    int width = 0, height = 0, bins = 81, threads = static_cast<int>(std::thread::hardware_concurrency());
+    int zip_level = -1;
+    std::string type = "half", compression = "zip", out = "/tmp/bench_exr_floor.exr", wavelengths, source;
+    bool keep = false;
+    for (int i = 1; i < argc; ++i) {
+        std::string a = argv[i];
+        auto val = [&]() -> std::string {
+            if (i + 1 >= argc) usage(("missing value for " + a).c_str());
+            return argv[++i];
+        };
+        if (a == "--width") width = std::stoi(val());
+        else if (a == "--height") height = std::stoi(val());
+        else if (a == "--bins") bins = std::stoi(val());
+        else if (a == "--wavelengths") wavelengths = val();
+        else if (a == "--type") type = val();
+        else if (a == "--compression") compression = val();
+        else if (a == "--threads") threads = std::stoi(val());
+        else if (a == "--zip-level") zip_level = std::stoi(val());
+        else if (a == "--out") out = val();
+        else if (a == "--keep") keep = true;
+        else if (a == "--source") source = val();
+        else if (a == "-h" || a == "--help") usage("bench_exr_floor: the OpenEXR-only floor of spectex bake");
+        else usage(("unknown option " + a).c_str());
+    }
+    std::unique_ptr<ImageSource> src;
+    try {
+        if (!source.empty()) {
+            src = ImageSource::open(source, 1ull << 32);
+            if (width <= 0) width = src->info().width;
+            if (height <= 0) height = src->info().height;
+        }
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "bench_exr_floor: %s\n", e.what());
+        return 1;
+    }
+    if (width <= 0) width = 4096;
+    if (height <= 0) height = 4096;
+    if (width < 1 || height < 1 || threads < 1 || (type != "half" && type != "float"))
+        usage("bad width, height, threads or type");
+    try {
+        const WavelengthGrid grid = !wavelengths.empty()
+                                        ? WavelengthGrid::parse(wavelengths)
+                                        : (bins < 3 ? throw std::runtime_error("--bins must be >= 3")
+                                                    : WavelengthGrid::uniform_grid(380, 780, 400.0 / (bins - 1)));
+        bins = static_cast<int>(grid.size());
+        const ExrCompression comp = ExrCompression::parse(compression);
+        const bool half = type == "half";
+        const size_t es = half ? 2 : 4;
+
+        // Strip size exactly as bake.cpp computes it.
+        const size_t w = static_cast<size_t>(width);
+        const size_t row_bytes = w * static_cast<size_t>(bins) * es;
+        const int chunk = comp.lines_per_chunk;
+        int strip = std::max(1, static_cast<int>(kStripBudget / std::max<size_t>(row_bytes, 1)) / chunk) * chunk;
+        strip = std::min(strip, height);
+
+        // A smooth synthetic pattern, expanded once with a basis fitted on the grid (realistic
+        // spectra, so that compression sees realistic data).
+        Basis basis;
+        try {
+            Observer o = load_observer(SPECTEX_TEST_DATA_DIR, "cie1931-2");
+            Spectrum d65 = load_illuminant(SPECTEX_TEST_DATA_DIR, "D65");
+            basis = fit_basis({Colorimetry::make(o, d65, grid, primaries_by_name("srgb")), FitObjective::Smooth, true})
+                        .basis;
+        } catch (const std::exception&) {
+            basis.lambda = grid.lambda;  // no fit on this grid: a plain smooth ramp basis
+            for (size_t k = 0; k < grid.size(); ++k) {
+                double t = static_cast<double>(k) / std::max<size_t>(1, grid.size() - 1);
+                basis.r.push_back(t * t);
+                basis.b.push_back((1 - t) * (1 - t));
+                basis.g.push_back(1 - t * t - (1 - t) * (1 - t));
+            }
+        }
+        const ExpansionMatrix m = ExpansionMatrix::from_basis(basis);
+        const size_t n = w * static_cast<size_t>(strip);
+        std::vector<float> r(n), g(n), b(n);
+        for (int y = 0; y < strip; ++y)
+            for (size_t x = 0; x < w; ++x) {
+                const double u = static_cast<double>(x) / static_cast<double>(w), v = static_cast<double>(y) / height;
+                const size_t i = static_cast<size_t>(y) * w + x;
+                r[i] = static_cast<float>(0.5 + 0.45 * std::sin(6.2831853 * (u * 3 + v)));
+                g[i] = static_cast<float>(0.5 + 0.45 * std::sin(6.2831853 * (u * 2 - v * 5) + 1.0));
+                b[i] = static_cast<float>(0.5 + 0.45 * std::cos(6.2831853 * (u + v * 2) + 2.0));
+            }
+        if (src) {  // the first strip of the image, tiled over the strip buffer
+            const int sw = src->info().width, sh = std::min(src->info().height, strip);
+            std::vector<float> rgba(static_cast<size_t>(sw) * sh * 4);
+            src->read_rgba(0, sh, rgba.data());
+            Linearizer lin = Linearizer::make(ColourRequest{SPECTEX_TEST_DATA_DIR, "", "", source, src->info().colorspace_hint});
+            lin.apply_rgba(rgba.data(), static_cast<long>(rgba.size() / 4));
+            auto c01 = [](float v) { return std::isfinite(v) ? std::min(1.0f, std::max(0.0f, v)) : 0.0f; };
+            for (int y = 0; y < strip; ++y)
+                for (size_t x = 0; x < w; ++x) {
+                    const float* p = &rgba[4 * (static_cast<size_t>(y % sh) * sw + x % static_cast<size_t>(sw))];
+                    const size_t i = static_cast<size_t>(y) * w + x;
+                    r[i] = c01(p[0]);
+                    g[i] = c01(p[1]);
+                    b[i] = c01(p[2]);
+                }
+        }
+        std::vector<uint16_t> hbuf;
+        std::vector<float> fbuf;
+        const char* planes;
+        if (half) {
+            hbuf.resize(n * static_cast<size_t>(bins));
+            expand_to_half(m, r.data(), g.data(), b.data(), n, hbuf.data(), n);
+            planes = reinterpret_cast<const char*>(hbuf.data());
+        } else {
+            fbuf.resize(n * static_cast<size_t>(bins));
+            expand_to_float(m, r.data(), g.data(), b.data(), n, fbuf.data(), n);
+            planes = reinterpret_cast<const char*>(fbuf.data());
+        }
+        std::vector<std::string> names;
+        for (double l : grid.lambda) names.push_back(reflective_channel_name(l));
+
+        Imf::setGlobalThreadCount(threads);
+        const double c0 = cpu_seconds();
+        const auto t0 = std::chrono::steady_clock::now();
+        uint64_t bytes = 0;
+        int level = -1;
+        {
+            AtomicFile file(out);
+            Imath::Box2i win(Imath::V2i(0, 0), Imath::V2i(width - 1, height - 1));
+            Imf::Header header(win, win, 1.0f, Imath::V2f(0, 0), 1.0f, Imf::INCREASING_Y,
+                               static_cast<Imf::Compression>(comp.id));
+            if (zip_level >= 0) header.zipCompressionLevel() = zip_level;
+            level = header.zipCompressionLevel();
+            const Imf::PixelType pt = half ? Imf::HALF : Imf::FLOAT;
+            for (const auto& nm : names) header.channels().insert(nm, Imf::Channel(pt));
+            header.insert("spectralLayoutVersion", Imf::StringAttribute("1.0"));
+            FdOStream stream(file.fd(), out);
+            {
+                Imf::OutputFile exr(stream, header, threads);
+                for (int y0 = 0; y0 < height; y0 += strip) {
+                    const int rows = std::min(strip, height - y0);
+                    const ptrdiff_t origin = static_cast<ptrdiff_t>(y0) * static_cast<ptrdiff_t>(w);
+                    Imf::FrameBuffer fb;
+                    for (size_t k = 0; k < names.size(); ++k) {
+                        const char* base = planes + k * n * es;
+                        fb.insert(names[k], Imf::Slice(pt, const_cast<char*>(base - origin * static_cast<ptrdiff_t>(es)),
+                                                       es, es * w));
+                    }
+                    exr.setFrameBuffer(fb);
+                    exr.writePixels(rows);
+                }
+            }  // the destructor writes the line offset table
+            stream.flush();
+            struct stat st;
+            if (::fstat(file.fd(), &st) == 0) bytes = static_cast<uint64_t>(st.st_size);
+            file.commit();
+        }
+        const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        const double cpu = cpu_seconds() - c0;
+        if (!keep) ::unlink(out.c_str());
+        rusage ru{};
+        getrusage(RUSAGE_SELF, &ru);
+        std::printf(
+            "{\"width\": %d, \"height\": %d, \"bins\": %d, \"type\": \"%s\", \"compression\": \"%s\", "
+            "\"zip_level\": %d, \"threads\": %d, \"strip_rows\": %d, \"lines_per_chunk\": %d, "
+            "\"pattern\": \"%s\", \"wall_s\": %.4f, \"cpu_s\": %.4f, \"bytes\": %llu, \"megapixels_per_s\": %.3f, \"peak_rss_mb\": %.1f}\n",
+            width, height, bins, type.c_str(), comp.name.c_str(), level, threads, strip, chunk,
+            src ? "source first strip" : "synthetic smooth", wall, cpu,
+            static_cast<unsigned long long>(bytes), static_cast<double>(width) * height / 1e6 / wall,
+            ru.ru_maxrss / 1024.0);
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "bench_exr_floor: %s\n", e.what());
+        return 1;
+    }
+    return 0;
+}

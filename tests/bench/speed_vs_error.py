@@ -1,0 +1,470 @@
+#!/usr/bin/env python3
+"""Speed against error of `spectex bake`, one configuration per row, with the floor and peers.
+
+    build/venv/bin/python tests/bench/speed_vs_error.py --spectex build/src/spectex \\
+        --floor build/tests/bench/bench_exr_floor --out bench-report/ [--size 1024] [--quick]
+
+Writes OUT/report.md (Markdown tables), OUT/report.csv and OUT/report.svg (MP/s against mean
+ΔE00 under illuminant A). See tests/bench/README.md for what each column means.
+
+Configurations vary one axis at a time from the default (380:780:5, half, zip, smooth fitted
+basis): grids 380:780:10, 380:780:20, 400:700:10, 380:780:1; float; compressions none, zips,
+piz, dwaa; objective norm; the published mallett2019 table (380:780:5 only).
+"""
+import argparse
+import csv
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent.parent
+SPECTRAL = ROOT / "config" / "spectral"
+
+DEFAULT = dict(grid="380:780:5", type="half", compression="zip", basis="smooth")
+
+
+def configurations():
+    rows = [dict(DEFAULT, name="default")]
+    for g in ["380:780:10", "380:780:20", "400:700:10", "380:780:1"]:
+        rows.append(dict(DEFAULT, grid=g, name=f"grid {g}"))
+    rows.append(dict(DEFAULT, type="float", name="float"))
+    for c in ["none", "zips", "piz", "dwaa"]:
+        rows.append(dict(DEFAULT, compression=c, name=f"{c}"))
+    rows.append(dict(DEFAULT, basis="norm", name="objective norm"))
+    rows.append(dict(DEFAULT, basis="mallett2019", name="mallett2019"))
+    return rows
+
+
+def log(*a):
+    print(*a, file=sys.stderr, flush=True)
+
+
+# ---------------------------------------------------------------- inputs
+
+def write_png(path, rgb8):
+    import OpenImageIO as oiio
+
+    h, w, _ = rgb8.shape
+    out = oiio.ImageOutput.create(str(path))
+    out.open(str(path), oiio.ImageSpec(w, h, 3, oiio.UINT8))
+    out.write_image(np.ascontiguousarray(rgb8))
+    out.close()
+
+
+def photographic_png(path, size, seed=7):
+    """A deterministic photograph-like image: smooth multi-scale colour fields, hard-edged shapes,
+    soft shading and sensor-like grain, 8-bit sRGB."""
+    rng = np.random.default_rng(seed)
+    y, x = np.mgrid[0:size, 0:size].astype(np.float32) / size
+    img = np.zeros((size, size, 3), np.float32)
+    for scale, amp in [(4, 0.35), (16, 0.15), (64, 0.06)]:
+        coarse = rng.random((scale + 1, scale + 1, 3)).astype(np.float32)
+        # bilinear upsampling of a coarse random field
+        gx, gy = x * scale, y * scale
+        ix, iy = np.minimum(gx.astype(int), scale - 1), np.minimum(gy.astype(int), scale - 1)
+        fx, fy = (gx - ix)[..., None], (gy - iy)[..., None]
+        c = (coarse[iy, ix] * (1 - fx) * (1 - fy) + coarse[iy, ix + 1] * fx * (1 - fy)
+             + coarse[iy + 1, ix] * (1 - fx) * fy + coarse[iy + 1, ix + 1] * fx * fy)
+        img += amp * (c - 0.5)
+    img += 0.45
+    for _ in range(12):  # objects with edges
+        cx, cy, r = rng.random(), rng.random(), 0.05 + 0.15 * rng.random()
+        col = rng.random(3).astype(np.float32)
+        mask = ((x - cx) ** 2 + (y - cy) ** 2) < r * r
+        shade = (1.0 - 0.6 * np.clip(((x - cx) + (y - cy)) / r, -1, 1))[..., None] * 0.5 + 0.5
+        img = np.where(mask[..., None], col * shade, img)
+    img *= (0.6 + 0.4 * (1 - y))[..., None]  # vignette-like light falloff
+    img += rng.normal(0, 0.012, img.shape).astype(np.float32)  # grain
+    write_png(path, (np.clip(img, 0, 1) * 255 + 0.5).astype(np.uint8))
+
+
+def cube_subsample_png(path):
+    """65536 distinct colours of the 8-bit sRGB cube, spread by a multiplicative hash: colour
+    i·K mod 2^24 (K odd, so distinct), 256×256."""
+    k = 0x9E3779B1 & 0xFFFFFF | 1
+    c = (np.arange(65536, dtype=np.uint64) * k) & 0xFFFFFF
+    rgb = np.stack([(c >> 16) & 255, (c >> 8) & 255, c & 255], -1).astype(np.uint8)
+    rgb[-1] = 255  # include white (black is colour 0)
+    write_png(path, rgb.reshape(256, 256, 3))
+
+
+def cube_full_png(path):
+    """All 16,777,216 8-bit sRGB colours, 4096×4096."""
+    c = np.arange(1 << 24, dtype=np.uint32)
+    rgb = np.stack([(c >> 16) & 255, (c >> 8) & 255, c & 255], -1).astype(np.uint8)
+    write_png(path, rgb.reshape(4096, 4096, 3))
+
+
+# ---------------------------------------------------------------- running things
+
+def timed(cmd, **kw):
+    """Runs cmd under /usr/bin/time: (wall s, peak RSS MB, stdout)."""
+    with tempfile.NamedTemporaryFile("r", suffix=".time") as tf:
+        p = subprocess.run(["/usr/bin/time", "-f", "%e %M", "-o", tf.name, *map(str, cmd)],
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kw)
+        if p.returncode != 0:
+            raise RuntimeError(f"{' '.join(map(str, cmd))} failed ({p.returncode}):\n{p.stderr[-2000:]}")
+        wall, kb = tf.read().split()[-2:]
+    return float(wall), float(kb) / 1024.0, p.stdout
+
+
+def basis_args(cfg):
+    if cfg["basis"] == "mallett2019":
+        return ["--basis", "mallett2019"]
+    return ["--objective", cfg["basis"]]
+
+
+def bake(a, cfg, src, out, jsonl):
+    cmd = [a.spectex, "bake", src, "-o", out, "--wavelengths", cfg["grid"], "--type", cfg["type"],
+           "--compression", cfg["compression"], *basis_args(cfg), "--threads", a.threads, "-q",
+           "--json", jsonl]
+    wall, mb, _ = timed(cmd)
+    rec = json.loads(Path(jsonl).read_text().strip().splitlines()[-1])
+    return wall, mb, rec
+
+
+def floor(a, cfg, size, out, source):
+    cmd = [a.floor, "--source", source, "--width", size, "--height", size, "--wavelengths", cfg["grid"], "--type", cfg["type"],
+           "--compression", cfg["compression"], "--threads", a.threads, "--out", out]
+    wall, mb, stdout = timed(cmd)
+    return json.loads(stdout.strip().splitlines()[-1])
+
+
+def verify(a, exr, src):
+    p = subprocess.run([str(x) for x in [a.spectex, "verify", exr, "--source", src, "--json", "--threads", a.threads]],
+                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    if p.returncode not in (0, 1):
+        raise RuntimeError(f"verify failed: {p.stderr}")
+    return json.loads(p.stdout)
+
+
+def get_basis(a, cfg):
+    """(wavelengths, N×3) of the configuration's basis, from spectex itself."""
+    if cfg["basis"] == "mallett2019":
+        text = (SPECTRAL / "basis_mallett2019.csv").read_text()
+    else:
+        text = subprocess.run([a.spectex, "basis", "--wavelengths", cfg["grid"], "--objective", cfg["basis"],
+                               "-q", "-o", "-"], check=True, stdout=subprocess.PIPE, text=True).stdout
+    rows = [l for l in text.splitlines() if l.strip() and not l.startswith("#") and l[0].isdigit()]
+    d = np.array([[float(v) for v in l.split(",")] for l in rows])
+    return d[:, 0], d[:, 1:4]
+
+
+# ---------------------------------------------------------------- ColorChecker under other light
+
+def colorchecker_errors(a, cfg):
+    """Mean and max ΔE00 between baked and measured ColorChecker spectra under A and FL11."""
+    import colour
+
+    wl, B = get_basis(a, cfg)
+    lines = [l for l in (SPECTRAL / "colorchecker_ohta.csv").read_text().splitlines()
+             if l.strip() and not l.startswith("#")]
+    cc = np.array([[float(v) for v in l.split(",")] for l in lines[1:]])  # wavelength, 24 patches
+    measured = np.stack([np.interp(wl, cc[:, 0], cc[:, j]) for j in range(1, cc.shape[1])])  # 24×N on the grid
+
+    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
+    xyz_bar = np.stack([np.interp(wl, cmfs.wavelengths, cmfs.values[:, i]) for i in range(3)], 1)
+    dl = np.gradient(wl) if len(wl) > 1 else np.ones(1)
+
+    def weights(name):
+        sd = colour.SDS_ILLUMINANTS[name]
+        e = np.interp(wl, sd.wavelengths, sd.values)
+        W = (xyz_bar * (e * dl)[:, None]).T  # 3×N
+        return W / (W[1].sum())  # perfect reflector: Y = 1
+
+    # Linear sRGB of each patch under D65 with the white-consistent matrix (white = W·1).
+    W65 = weights("D65")
+    white = W65.sum(1)
+    white_xy = white[:2] / white.sum()
+    npm = colour.normalised_primary_matrix(colour.RGB_COLOURSPACES["sRGB"].primaries, white_xy)
+    rgb = np.clip((np.linalg.inv(npm) @ (W65 @ measured.T)).T, 0, 1)
+    baked = rgb @ B.T  # 24×N
+
+    out = {}
+    for ill in ["A", "FL11"]:
+        W = weights(ill)
+        wxy = colour.XYZ_to_xy(W.sum(1))
+        lab_m = colour.XYZ_to_Lab((W @ measured.T).T, wxy)
+        lab_b = colour.XYZ_to_Lab((W @ baked.T).T, wxy)
+        de = colour.delta_E(lab_m, lab_b, method="CIE 2000")
+        out[f"cc_{ill}_mean"], out[f"cc_{ill}_max"] = float(de.mean()), float(de.max())
+    return out
+
+
+# ---------------------------------------------------------------- report
+
+COLUMNS = [
+    ("name", "configuration"), ("grid", "grid"), ("bins", "bins"), ("type", "type"),
+    ("compression", "compression"), ("basis", "basis"),
+    ("mp_s", "MP/s"), ("wall_s", "bake s"), ("bytes", "output bytes"), ("peak_mb", "peak MB"),
+    ("floor_s", "floor s"), ("ratio_floor", "× floor"),
+    ("d65_max", "ΔE00 D65 max"), ("d65_mean", "ΔE00 D65 mean"), ("code_match", "codes kept %"),
+    ("cc_A_mean", "CC ΔE00 A mean"), ("cc_A_max", "CC ΔE00 A max"),
+    ("cc_FL11_mean", "CC ΔE00 FL11 mean"), ("cc_FL11_max", "CC ΔE00 FL11 max"),
+]
+
+
+def fmt(key, v):
+    if v is None or v == "":
+        return "–"
+    if isinstance(v, str):
+        return v
+    if key in ("bytes", "bins"):
+        return f"{int(v):,}"
+    if key in ("d65_max", "d65_mean"):
+        return f"{v:.2g}" if v < 0.01 else f"{v:.3f}"
+    if key == "code_match":
+        return f"{v:.4f}" if v < 100 else "100"
+    return f"{v:.2f}"
+
+
+def svg_plot(rows, path):
+    W, H, L, R, T, Bm = 760, 480, 70, 200, 30, 55
+    pts = [(r["cc_A_mean"], r["mp_s"], r["name"]) for r in rows if r.get("mp_s") and r.get("cc_A_mean") is not None]
+    xs, ys = [p[0] for p in pts], [p[1] for p in pts]
+    x0, x1 = min(xs) * 0.95, max(xs) * 1.05
+    y0, y1 = 0, max(ys) * 1.1
+    if x1 - x0 < 1e-9:
+        x1 = x0 + 1
+
+    def px(x):
+        return L + (x - x0) / (x1 - x0) * (W - L - R)
+
+    def py(y):
+        return H - Bm - (y - y0) / (y1 - y0) * (H - T - Bm)
+
+    o = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{H}" font-family="sans-serif" font-size="11">',
+         f'<rect width="{W}" height="{H}" fill="white"/>',
+         f'<text x="{W / 2 - 100}" y="18" font-size="13">spectex bake: speed against error</text>']
+    for i in range(6):
+        xv = x0 + (x1 - x0) * i / 5
+        yv = y0 + (y1 - y0) * i / 5
+        o.append(f'<line x1="{px(xv):.1f}" y1="{T}" x2="{px(xv):.1f}" y2="{H - Bm}" stroke="#eee"/>')
+        o.append(f'<line x1="{L}" y1="{py(yv):.1f}" x2="{W - R}" y2="{py(yv):.1f}" stroke="#eee"/>')
+        o.append(f'<text x="{px(xv):.1f}" y="{H - Bm + 15}" text-anchor="middle">{xv:.2f}</text>')
+        o.append(f'<text x="{L - 6}" y="{py(yv) + 4:.1f}" text-anchor="end">{yv:.2f}</text>')
+    o.append(f'<rect x="{L}" y="{T}" width="{W - L - R}" height="{H - T - Bm}" fill="none" stroke="black"/>')
+    o.append(f'<text x="{(L + W - R) / 2}" y="{H - 15}" text-anchor="middle">mean ΔE00 under illuminant A, '
+             f'24 ColorChecker patches (lower is better)</text>')
+    o.append(f'<text transform="translate(18,{(T + H - Bm) / 2}) rotate(-90)" text-anchor="middle">'
+             f'megapixels per second (higher is better)</text>')
+    for k, (x, y, name) in enumerate(pts):
+        o.append(f'<circle cx="{px(x):.1f}" cy="{py(y):.1f}" r="4" fill="#1f77b4"/>')
+        o.append(f'<text x="{px(x) + 6:.1f}" y="{py(y) - 4 + (k % 3) * 4:.1f}" font-size="10">{name}</text>')
+    o.append("</svg>")
+    Path(path).write_text("\n".join(o) + "\n")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--spectex", default=str(ROOT / "build/src/spectex"))
+    ap.add_argument("--floor", default=str(ROOT / "build/tests/bench/bench_exr_floor"))
+    ap.add_argument("--out", default="bench-report")
+    ap.add_argument("--size", type=int, default=1024, help="side of the speed input PNG (default 1024)")
+    ap.add_argument("--peer-size", type=int, default=None,
+                    help="side of the peers' input (default 1024; with --quick, --size)")
+    ap.add_argument("--threads", type=int, default=os.cpu_count(), help="threads for spectex and the floor")
+    ap.add_argument("--repeat", type=int, default=None, help="timed runs per row, best kept (default 3; --quick 1)")
+    ap.add_argument("--quick", action="store_true",
+                    help="one timed run per row, no 4096² all-colours cube, peers at --size")
+    ap.add_argument("--no-peers", action="store_true")
+    ap.add_argument("--python", default=sys.executable, help="interpreter for the peers")
+    a = ap.parse_args()
+    a.repeat = a.repeat or (1 if a.quick else 3)
+    a.peer_size = a.peer_size or (a.size if a.quick else 1024)
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    work = Path(tempfile.mkdtemp(prefix="spectex-bench-"))
+    t_start = time.time()
+    try:
+        run(a, out, work)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    log(f"done in {time.time() - t_start:.0f} s: {out}/report.md, report.csv, report.svg")
+
+
+def run(a, out, work):
+    speed_png, cube_png = work / "photo.png", work / "cube.png"
+    log(f"inputs: {a.size}² photograph-like PNG, 256² all-colours subsample")
+    photographic_png(speed_png, a.size)
+    cube_subsample_png(cube_png)
+    full_cube = None
+    if not a.quick:
+        full_cube = work / "cube4096.png"
+        log("input: 4096² all-colours PNG (default row)")
+        cube_full_png(full_cube)
+
+    rows = []
+    for cfg in configurations():
+        log(f"- {cfg['name']}")
+        r = dict(cfg)
+        exr, jsonl = work / "speed.exr", work / "bake.jsonl"
+        best = None
+        for _ in range(a.repeat):
+            jsonl.unlink(missing_ok=True)
+            wall, mb, rec = bake(a, cfg, speed_png, exr, jsonl)
+            if best is None or wall < best[0]:
+                best = (wall, mb, rec)
+        wall, mb, rec = best
+        r.update(wall_s=wall, peak_mb=mb, bytes=rec["bytes"], bins=rec["bins"], bake_internal_s=rec["seconds"],
+                 mp_s=a.size * a.size / 1e6 / wall)
+        exr.unlink(missing_ok=True)
+        fl = min((floor(a, cfg, a.size, work / "floor.exr", speed_png) for _ in range(a.repeat)), key=lambda f: f["wall_s"])
+        r.update(floor_s=fl["wall_s"], floor_cpu_s=fl["cpu_s"], floor_bytes=fl["bytes"],
+                 ratio_floor=wall / fl["wall_s"], ratio_floor_internal=rec["seconds"] / fl["wall_s"])
+        # Round trip on the all-colours subsample.
+        cexr = work / "cube.exr"
+        bake(a, cfg, cube_png, cexr, work / "cube.jsonl")
+        v = verify(a, cexr, cube_png)["source"]
+        r.update(d65_max=v["ciede2000"]["max"], d65_mean=v["ciede2000"]["mean"],
+                 code_match=100.0 * v["code_match"]["share"], cube="256² hashed subsample (65,536 colours)")
+        cexr.unlink(missing_ok=True)
+        if full_cube is not None and cfg["name"] == "default":
+            fexr = work / "cube4096.exr"
+            bake(a, cfg, full_cube, fexr, work / "cube4096.jsonl")
+            v = verify(a, fexr, full_cube)["source"]
+            r.update(full_d65_max=v["ciede2000"]["max"], full_d65_mean=v["ciede2000"]["mean"],
+                     full_code_match=100.0 * v["code_match"]["share"],
+                     full_code_matched=v["code_match"]["matched"])
+            fexr.unlink(missing_ok=True)
+        r.update(colorchecker_errors(a, cfg))
+        rows.append(r)
+        log(f"  {r['mp_s']:.2f} MP/s, {r['ratio_floor']:.2f}× floor, ΔE D65 max {r['d65_max']:.3g}, "
+            f"CC A mean {r['cc_A_mean']:.2f}")
+
+    kernel = expand_kernel(a)
+    peers = [] if a.no_peers else run_peers(a, work)
+    write_report(a, out, rows, peers, kernel)
+
+
+def expand_kernel(a):
+    """Per-core rate of the expansion kernel (bench_expand next to the floor), if built."""
+    exe = Path(a.floor).with_name("bench_expand")
+    if not exe.exists():
+        return None
+    p = subprocess.run([str(exe), "--benchmark_filter=/81/", "--benchmark_min_time=0.2", "--benchmark_format=json"],
+                       stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    try:
+        return {b["label"]: b for b in json.loads(p.stdout)["benchmarks"]}
+    except (ValueError, KeyError):
+        return None
+
+
+def run_peers(a, work):
+    log(f"peers at {a.peer_size}²")
+    src = work / "peer.png"
+    photographic_png(src, a.peer_size, seed=11)
+    mp = a.peer_size ** 2 / 1e6
+    basis = SPECTRAL / "basis_fit_smooth_380-780-5.csv"  # the default basis, as a file
+    res = []
+    exr = work / "peer.exr"
+    best = min((bake(a, dict(DEFAULT), src, exr, work / f"peer{i}.jsonl") for i in range(a.repeat)),
+               key=lambda t: t[0])
+    spx = dict(peer="spectex bake (default settings)", wall_s=best[0], peak_mb=best[1], bytes=best[2]["bytes"])
+    exr.unlink(missing_ok=True)
+    fl = floor(a, dict(DEFAULT), a.peer_size, work / "floor.exr", src)
+    res.append(dict(peer="OpenEXR floor (bench_exr_floor)", wall_s=fl["wall_s"], peak_mb=fl["peak_rss_mb"],
+                    bytes=fl["bytes"]))
+    for kind, label in [("numpy", "NumPy + OpenImageIO script"),
+                        ("colour", "colour-science write_spectral_image_Fichet2021")]:
+        try:
+            wall, mb, stdout = timed([a.python, HERE / "peers_numpy_oiio.py", kind, src, basis, exr])
+            stages = json.loads(stdout.strip().splitlines()[-1])
+            v = verify(a, exr, src)
+            res.append(dict(peer=label, wall_s=wall, peak_mb=mb, bytes=exr.stat().st_size, stages=stages,
+                            d65_max=v["source"]["ciede2000"]["max"]))
+        except Exception as e:  # a peer failing is reported, not fatal
+            res.append(dict(peer=label, error=str(e)[-300:]))
+        exr.unlink(missing_ok=True)
+    for p in [spx] + res:
+        if "wall_s" in p:
+            p["mp_s"] = mp / p["wall_s"]
+            p["spectex_ratio"] = spx["wall_s"] / p["wall_s"]
+    return [spx] + res
+
+
+def write_report(a, out, rows, peers, kernel):
+    with open(out / "report.csv", "w", newline="") as f:
+        keys = [k for k, _ in COLUMNS] + ["bake_internal_s", "floor_cpu_s", "floor_bytes", "ratio_floor_internal",
+                                          "cube", "full_d65_max", "full_d65_mean", "full_code_match",
+                                          "full_code_matched", "size", "threads"]
+        w = csv.DictWriter(f, fieldnames=keys, extrasaction="ignore")
+        w.writeheader()
+        for r in rows:
+            w.writerow(dict(r, size=a.size, threads=a.threads))
+    svg_plot(rows, out / "report.svg")
+
+    L = [f"# spectex: speed against error\n",
+         f"Machine: {os.cpu_count()} cores, `--threads {a.threads}` for spectex and the floor; speed input "
+         f"{a.size}×{a.size} 8-bit photograph-like PNG (generated); {'one timed run' if a.repeat == 1 else f'best of {a.repeat} runs'} "
+         f"per row{' (--quick)' if a.quick else ''}. Generated by `tests/bench/speed_vs_error.py` on "
+         f"{time.strftime('%Y-%m-%d %H:%M')}.\n",
+         "One axis varies per row from the default (380:780:5, half, zip, smooth fitted basis). "
+         "Round-trip ΔE00 under D65 is on a 256×256 subsample of the 8-bit sRGB cube (65,536 distinct colours "
+         "spread by a multiplicative hash, black and white included)"
+         + (", and for the default row also on all 16,777,216 colours (below)." if not a.quick else
+            "; the full 4096×4096 cube is skipped with --quick.") + "\n",
+         "ColorChecker columns (CC): the 24 patches of `config/spectral/colorchecker_ohta.csv` (Ohta's "
+         "measured spectra), each patch's linear sRGB under D65 (white-consistent matrix, clamped to [0, 1]) "
+         "expanded with the row's basis, against the measured spectrum, both integrated on the row's grid "
+         "with CIE 1931 2°; L*a*b* relative to the illuminant's own white (A or FL11). Both spectra are seen under "
+         "the same light, so no chromatic adaptation is applied (or needed).\n",
+         "| " + " | ".join(h for _, h in COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
+    for r in rows:
+        L.append("| " + " | ".join(fmt(k, r.get(k)) for k, _ in COLUMNS) + " |")
+    d = next(r for r in rows if r["name"] == "default")
+    if "full_d65_max" in d:
+        L.append(f"\nDefault row on all 16,777,216 sRGB colours (4096² PNG): ΔE00 max {d['full_d65_max']:.3g}, "
+                 f"mean {d['full_d65_mean']:.3g}, {d['full_code_matched']:,} colours re-encode to their codes "
+                 f"({d['full_code_match']:.5f} %).")
+    L.append("\n## Stages\n")
+    L.append("`spectex bake` reports its total time only. The floor (`bench_exr_floor`: the same OpenEXR writer, "
+             "compression, strip size and threads, fed pre-expanded pixels: the first strip of the same input "
+             "PNG, expanded once and handed to OpenEXR for every strip) is the write stage alone; "
+             "`floor share` = floor / bake (internal time, without process start-up), the rest is reading, "
+             "linearising, expanding and whatever of them is not hidden under the encoder.\n")
+    L.append("| configuration | bake s (process) | bake s (internal) | floor s | floor CPU s | floor share | other s |")
+    L.append("|---|---|---|---|---|---|---|")
+    for r in rows:
+        L.append(f"| {r['name']} | {r['wall_s']:.3f} | {r['bake_internal_s']:.3f} | {r['floor_s']:.3f} | "
+                 f"{r['floor_cpu_s']:.3f} | {100 * r['floor_s'] / max(r['bake_internal_s'], 1e-9):.0f} % | "
+                 f"{max(0.0, r['bake_internal_s'] - r['floor_s']):.3f} |")
+    if kernel:
+        L.append("")
+        for lab, b in kernel.items():
+            rate = b.get("items_per_second", 0)
+            L.append(f"Expansion kernel alone (bench_expand, 81 bins, {lab}, one core): {rate / 1e6:.1f} Mpixel/s "
+                     f"({b.get('speedup_vs_naive', 0):.1f}× a naive scalar loop), i.e. "
+                     f"{a.size ** 2 / max(rate, 1):.3f} s of one core for the {a.size}² input.")
+    if peers:
+        L.append(f"\n## Peers\n")
+        L.append(f"Same run, same {a.peer_size}×{a.peer_size} input (another generated photograph-like PNG), 81 bins "
+                 "380:780:5, half, ZIP, the default smooth basis. Python peers are timed as whole processes "
+                 "(interpreter start-up and imports included, as a user runs them) with `/usr/bin/time`; "
+                 "`spectex ÷ peer` is spectex's wall time over the peer's (below 1: spectex is faster).\n")
+        L.append("| peer | wall s | MP/s | peak MB | output bytes | spectex ÷ peer | in-process stages |")
+        L.append("|---|---|---|---|---|---|---|")
+        for p in peers:
+            if "error" in p:
+                L.append(f"| {p['peer']} | failed: {p['error'].splitlines()[-1] if p['error'] else ''} | | | | | |")
+                continue
+            st = p.get("stages")
+            sts = ", ".join(f"{k[:-2]} {v:.2f}" for k, v in st.items() if k.endswith("_s")) if st else ""
+            L.append(f"| {p['peer']} | {p['wall_s']:.2f} | {p['mp_s']:.2f} | {p['peak_mb']:.0f} | {p['bytes']:,} | "
+                     f"{p['spectex_ratio']:.2f} | {sts} |")
+    L.append("\n![speed against error](report.svg)\n")
+    (out / "report.md").write_text("\n".join(L) + "\n")
+    print("\n".join(L))
+
+
+if __name__ == "__main__":
+    main()
