@@ -2,6 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
 
 #include "spectral/half.h"
 
@@ -10,7 +14,59 @@ namespace spectex {
 namespace {
 // Pixels per block: r, g, b of a block stay in L1 while every bin is written.
 constexpr size_t kBlock = 512;
+
+// float <-> half for a block. The x86-64 baseline has no F16C, so the instructions are chosen at
+// run time (farm nodes run one binary); both paths round to nearest even and give the same bits
+// (tests/unit/expand_test.cpp checks it on every half value and millions of floats).
+void to_half_scalar(const float* in, uint16_t* out, size_t n) {
+    for (size_t i = 0; i < n; ++i) out[i] = float_to_half(in[i]);
+}
+void from_half_scalar(const uint16_t* in, float* out, size_t n) {
+    for (size_t i = 0; i < n; ++i) out[i] = half_to_float(in[i]);
+}
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+__attribute__((target("avx,f16c"))) void to_half_f16c(const float* in, uint16_t* out, size_t n) {
+    size_t i = 0;
+    for (; i + 8 <= n; i += 8)
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(out + i),
+                         _mm256_cvtps_ph(_mm256_loadu_ps(in + i), _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC));
+    for (; i < n; ++i) out[i] = float_to_half(in[i]);
+}
+__attribute__((target("avx,f16c"))) void from_half_f16c(const uint16_t* in, float* out, size_t n) {
+    size_t i = 0;
+    for (; i + 8 <= n; i += 8)
+        _mm256_storeu_ps(out + i, _mm256_cvtph_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(in + i))));
+    for (; i < n; ++i) out[i] = half_to_float(in[i]);
+}
+bool have_f16c() {
+    static const bool yes = [] {
+        if (const char* e = std::getenv("SPECTEX_NO_F16C"); e && *e) return false;  // for tests
+        __builtin_cpu_init();
+        return __builtin_cpu_supports("avx") && __builtin_cpu_supports("f16c");
+    }();
+    return yes;
+}
+#else
+bool have_f16c() { return false; }
+void to_half_f16c(const float* in, uint16_t* out, size_t n) { to_half_scalar(in, out, n); }
+void from_half_f16c(const uint16_t* in, float* out, size_t n) { from_half_scalar(in, out, n); }
+#endif
+
+void to_half(const float* in, uint16_t* out, size_t n) {
+    if (have_f16c()) to_half_f16c(in, out, n);
+    else to_half_scalar(in, out, n);
+}
+void from_half(const uint16_t* in, float* out, size_t n) {
+    if (have_f16c()) from_half_f16c(in, out, n);
+    else from_half_scalar(in, out, n);
+}
+
 }  // namespace
+
+void floats_to_half(const float* in, uint16_t* out, size_t n) { to_half(in, out, n); }
+void half_to_floats(const uint16_t* in, float* out, size_t n) { from_half(in, out, n); }
+bool expansion_uses_f16c() { return have_f16c(); }
 
 ExpansionMatrix ExpansionMatrix::from_basis(const Basis& basis) {
     ExpansionMatrix m;
@@ -50,15 +106,16 @@ void expand_to_half_feedback(const ExpansionMatrix& m, const float* r, const flo
         std::fill(er, er + len, 0.0f);
         std::fill(eg, eg + len, 0.0f);
         std::fill(eb, eb + len, 0.0f);
+        float tmp[kBlock], back[kBlock];
         for (int k = 0; k < m.bins; ++k) {
             const float cr = m.coeff[3 * k], cg = m.coeff[3 * k + 1], cb = m.coeff[3 * k + 2];
             const float wr = m.rgb_weight[3 * k], wg = m.rgb_weight[3 * k + 1], wb = m.rgb_weight[3 * k + 2];
             uint16_t* dst = out + static_cast<size_t>(k) * plane_stride + i0;
+            for (size_t i = 0; i < len; ++i) tmp[i] = cr * r[i0 + i] + cg * g[i0 + i] + cb * b[i0 + i];
+            to_half(tmp, dst, len);
+            from_half(dst, back, len);
             for (size_t i = 0; i < len; ++i) {
-                const float s = cr * r[i0 + i] + cg * g[i0 + i] + cb * b[i0 + i];
-                const uint16_t h = float_to_half(s);
-                const float d = half_to_float(h) - s;
-                dst[i] = h;
+                const float d = back[i] - tmp[i];
                 er[i] += wr * d;
                 eg[i] += wg * d;
                 eb[i] += wb * d;
@@ -112,8 +169,7 @@ void expand_to_half(const ExpansionMatrix& m, const float* r, const float* g, co
         for (int k = 0; k < m.bins; ++k) {
             const float cr = m.coeff[3 * k], cg = m.coeff[3 * k + 1], cb = m.coeff[3 * k + 2];
             for (size_t i = 0; i < len; ++i) tmp[i] = cr * r[i0 + i] + cg * g[i0 + i] + cb * b[i0 + i];
-            uint16_t* dst = out + static_cast<size_t>(k) * plane_stride + i0;
-            for (size_t i = 0; i < len; ++i) dst[i] = float_to_half(tmp[i]);
+            to_half(tmp, out + static_cast<size_t>(k) * plane_stride + i0, len);
         }
     }
 }

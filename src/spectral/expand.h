@@ -23,6 +23,11 @@ struct ExpansionMatrix {
 // Half: round to nearest even, or with colour error feedback when m.rgb_weight is set.
 void expand_to_half(const ExpansionMatrix& m, const float* r, const float* g, const float* b, size_t n,
                     uint16_t* out, size_t plane_stride);
+// Block conversions (F16C when the CPU has it, else the scalar code of half.h: the same bits).
+void floats_to_half(const float* in, uint16_t* out, size_t n);
+void half_to_floats(const uint16_t* in, float* out, size_t n);
+bool expansion_uses_f16c();
+
 void expand_to_float(const ExpansionMatrix& m, const float* r, const float* g, const float* b, size_t n,
                      float* out, size_t plane_stride);
 

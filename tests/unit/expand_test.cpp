@@ -126,3 +126,31 @@ TEST(Expand, ColourRoundingBoundsTheIntegratedErrorAndChangesFewSamples) {
     EXPECT_LT(worst_fb, 0.5 * worst_plain);
     EXPECT_LT(changed, bins * n / 20);           // under 5 % of the samples differ
 }
+
+TEST(Half, BlockConversionsMatchTheScalarCodeBitForBit) {
+    // The F16C path (chosen at run time) and the scalar path must give the same bits, so that
+    // files are byte-identical on every farm node. NaN is excluded: bake never writes one.
+    std::printf("block conversions use F16C: %s\n", expansion_uses_f16c() ? "yes" : "no");
+    std::mt19937 rng(7);
+    std::uniform_int_distribution<uint32_t> any;
+    std::vector<float> f;
+    while (f.size() < (1u << 21)) {
+        uint32_t u = any(rng);
+        float x;
+        std::memcpy(&x, &u, 4);
+        if (!std::isnan(x)) f.push_back(x);
+    }
+    for (uint32_t h = 0; h < 0x10000; ++h) {
+        float x = half_to_float(static_cast<uint16_t>(h));
+        if (!std::isnan(x)) f.push_back(x), f.push_back(std::nextafter(x, 0.0f));
+    }
+    std::vector<uint16_t> block(f.size());
+    floats_to_half(f.data(), block.data(), f.size());
+    std::vector<float> back(f.size());
+    half_to_floats(block.data(), back.data(), f.size());
+    for (size_t i = 0; i < f.size(); ++i) {
+        ASSERT_EQ(block[i], float_to_half(f[i])) << f[i];
+        float s = half_to_float(block[i]);
+        ASSERT_EQ(std::memcmp(&back[i], &s, 4), 0) << i;
+    }
+}
