@@ -6,6 +6,7 @@
 
 #include "cli/commands.h"
 #include "io/atomic_file.h"
+#include "io/library_stderr.h"
 #include "spectex/version.h"
 
 namespace spectex {
@@ -54,6 +55,7 @@ int main(int argc, char** argv) {
     std::setlocale(LC_ALL, "C");
     std::locale::global(std::locale::classic());
     spectex::install_signal_cleanup();
+    spectex::capture_library_stderr();
 
     std::vector<std::string> args(argv + 1, argv + argc);
     if (args.empty()) {

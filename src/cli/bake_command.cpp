@@ -15,6 +15,7 @@
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
 #include "io/data_dir.h"
+#include "io/library_stderr.h"
 #include "io/atomic_file.h"
 #include "pipeline/bake.h"
 #include "pipeline/basis_cache.h"
@@ -262,7 +263,7 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
     plan.fail_fast = c.fail_fast;
     plan.quiet = c.quiet;
     plan.verbose = c.verbose;
-    plan.progress = c.progress || (!c.quiet && ::isatty(2));
+    plan.progress = c.progress || (!c.quiet && stderr_is_terminal());
     plan.json = c.json;
     return run_batch(plan, c.settings);
 }

@@ -2,7 +2,9 @@
 
 #include <OpenImageIO/imageio.h>
 
+#include <fcntl.h>
 #include <sys/stat.h>
+#include <unistd.h>
 #include <cerrno>
 #include <cstring>
 
@@ -37,6 +39,11 @@ std::unique_ptr<ImageSource> ImageSource::open(const std::string& path, uint64_t
     if (S_ISDIR(st.st_mode)) throw Error(path + ": is a directory");
     if (!S_ISREG(st.st_mode)) throw Error(path + ": not a regular file");
     if (st.st_size == 0) throw Error(path + ": empty file");
+    // OIIO says only "Could not open file": ask the system for the cause first.
+    if (int fd = ::open(path.c_str(), O_RDONLY); fd < 0)
+        throw Error(path + ": " + std::strerror(errno));
+    else
+        ::close(fd);
 
     // Unassociated alpha as stored: OIIO would otherwise premultiply PNG alpha on gamma-encoded
     // 8-bit values, before we linearise.
@@ -80,6 +87,7 @@ std::unique_ptr<ImageSource> ImageSource::open(const std::string& path, uint64_t
     info.subimages = 1;
     while (in->seek_subimage(info.subimages, 0)) ++info.subimages;
     if (!in->seek_subimage(0, 0)) throw Error(path + ": " + oiio_error(in.get()));
+    (void)in->geterror();  // counting levels probed one past the last: forget that error
 
     // Channels: grey, grey+alpha, RGB, RGBA; extra channels are ignored.
     int alpha = spec.alpha_channel;
@@ -124,6 +132,8 @@ void ImageSource::read_rgba(int y0, int y1, float* rgba) {
                         std::to_string(y1 - 1) + ": " + oiio_error(in));
         s = scratch_.data();
     }
+    // Some readers (JPEG) report a truncated file as an error but still return true.
+    if (in->has_error()) throw Error(info_.path + ": read failed: " + oiio_error(in));
     const int* cc = impl_->color_channels;
     const int a = info_.alpha_channel;
     for (size_t i = 0; i < w * rows; ++i, s += nch, rgba += 4) {

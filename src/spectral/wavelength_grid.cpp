@@ -28,6 +28,22 @@ bool parse_double(const std::string& s, double* out) {
     return true;
 }
 
+// Every bin must get a channel name that reads back as its wavelength, and no two bins one name.
+void check_names(const std::vector<double>& lambda, const std::string& label) {
+    std::string prev;
+    for (size_t k = 0; k < lambda.size(); ++k) {
+        std::string name = reflective_channel_name(lambda[k]);
+        double back = 0;
+        if (!parse_reflective_channel(name, &back) || std::fabs(back - lambda[k]) > kOnGridTolerance)
+            throw Error(label + ": wavelength " + std::to_string(lambda[k]) +
+                        " nm cannot be named as a channel (T.<nm>nm to 1e-6 nm; use 1e-6 to 1e9 nm)");
+        if (name == prev)
+            throw Error(label + ": wavelengths " + std::to_string(lambda[k - 1]) + " and " +
+                        std::to_string(lambda[k]) + " nm are closer than 1e-6 nm (one channel name)");
+        prev = name;
+    }
+}
+
 }  // namespace
 
 std::string WavelengthGrid::describe() const {
@@ -59,6 +75,7 @@ WavelengthGrid make_uniform(double start, double end, double step, const std::st
     g.weight.assign(n, step);
     g.uniform = true;
     g.step = step;
+    check_names(g.lambda, label);
     return g;
 }
 
@@ -101,6 +118,7 @@ WavelengthGrid WavelengthGrid::from_list(std::vector<double> lambdas) {
             throw Error("wavelength list: wavelengths must be strictly increasing (entry " +
                         std::to_string(i + 1) + ")");
     }
+    check_names(lambdas, "wavelength list");
     WavelengthGrid g;
     g.lambda = std::move(lambdas);
     size_t n = g.lambda.size();

@@ -322,7 +322,9 @@ TEST(VerifySlow, BoundedMemoryOnA2KFile) {
     EXPECT_EQ(m.status, 0);
     EXPECT_GT(m.max_rss_kib, 0);
     const long added = m.max_rss_kib - base.max_rss_kib;
-    EXPECT_LT(added, 48 * 1024) << "peak RSS " << m.max_rss_kib << " KiB, baseline " << base.max_rss_kib << " KiB";
+    // Under AddressSanitizer allocations carry redzones and quarantine: allow 4x there.
+    const long limit = std::getenv("ASAN_OPTIONS") ? 4 * 48 * 1024 : 48 * 1024;
+    EXPECT_LT(added, limit) << "peak RSS " << m.max_rss_kib << " KiB, baseline " << base.max_rss_kib << " KiB";
     EXPECT_LT(m.max_rss_kib, base.max_rss_kib + 150 * 1024);
     std::printf("verify 2048x2048x81 half with --source: %.2f s, peak RSS %.1f MiB (64x64 baseline %.1f MiB, "
                 "+%.1f MiB)\n",

@@ -1,0 +1,56 @@
+#include "io/library_stderr.h"
+
+#include <ext/stdio_filebuf.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <iostream>
+#include <string>
+#include <thread>
+
+namespace spectex {
+
+namespace {
+bool g_tty = false;
+}
+
+bool stderr_is_terminal() { return g_tty; }
+
+void capture_library_stderr() {
+    static bool done = false;
+    if (done) return;
+    g_tty = ::isatty(2) == 1;
+    int real = ::dup(2);
+    int p[2];
+    if (real < 0 || ::pipe(p) != 0) return;  // keep things as they are rather than lose messages
+    std::cerr.flush();
+    static __gnu_cxx::stdio_filebuf<char> ours(real, std::ios::out);
+    std::cerr.rdbuf(&ours);
+    ::dup2(p[1], 2);
+    ::close(p[1]);
+    const bool forward = [] {
+        const char* e = std::getenv("SPECTEX_LIBRARY_MESSAGES");
+        return e && std::strcmp(e, "1") == 0;
+    }();
+    std::thread([fd = p[0], real, forward] {
+        std::string line;
+        char buf[4096];
+        for (;;) {
+            ssize_t n = ::read(fd, buf, sizeof buf);
+            if (n <= 0) return;
+            if (!forward) continue;
+            for (ssize_t i = 0; i < n; ++i) {
+                line += buf[i];
+                if (buf[i] == '\n') {
+                    std::string out = "spectex: library: " + line;
+                    (void)!::write(real, out.data(), out.size());
+                    line.clear();
+                }
+            }
+        }
+    }).detach();
+    done = true;
+}
+
+}  // namespace spectex
