@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdlib>
 #if defined(__x86_64__)
+#include <cpuid.h>
 #include <immintrin.h>
 #endif
 
@@ -42,8 +43,14 @@ __attribute__((target("avx,f16c"))) void from_half_f16c(const uint16_t* in, floa
 bool have_f16c() {
     static const bool yes = [] {
         if (const char* e = std::getenv("SPECTEX_NO_F16C"); e && *e) return false;  // for tests
-        __builtin_cpu_init();
-        return __builtin_cpu_supports("avx") && __builtin_cpu_supports("f16c");
+        // CPUID leaf 1: ECX bit 27 OSXSAVE, 28 AVX, 29 F16C; and the OS must save YMM state
+        // (XCR0 bits 1 and 2). clang 14's __builtin_cpu_supports does not know "f16c".
+        unsigned a = 0, b = 0, c = 0, d = 0;
+        if (!__get_cpuid(1, &a, &b, &c, &d)) return false;
+        if (!(c & (1u << 27)) || !(c & (1u << 28)) || !(c & (1u << 29))) return false;
+        unsigned lo = 0, hi = 0;
+        __asm__ volatile("xgetbv" : "=a"(lo), "=d"(hi) : "c"(0));
+        return (lo & 6u) == 6u;
     }();
     return yes;
 }
