@@ -133,7 +133,7 @@ def bake(a, cfg, src, out, jsonl):
 
 
 def floor(a, cfg, size, out, source):
-    cmd = [a.floor, "--source", source, "--width", size, "--height", size, "--wavelengths", cfg["grid"], "--type", cfg["type"],
+    cmd = [a.floor, "--source", source, "--whole", "--width", size, "--height", size, "--wavelengths", cfg["grid"], "--type", cfg["type"],
            "--compression", cfg["compression"], "--threads", a.threads, "--out", out]
     wall, mb, stdout = timed(cmd)
     return json.loads(stdout.strip().splitlines()[-1])
