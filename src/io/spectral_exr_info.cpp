@@ -21,6 +21,7 @@
 #include <cstring>
 #include <fstream>
 
+#include "io/exr_preflight.h"
 #include "spectral/error.h"
 #include "spectral/wavelength_grid.h"
 
@@ -92,6 +93,7 @@ SpectralExrInfo read_spectral_exr_info(const std::string& path) {
     SpectralExrInfo info;
     info.path = path;
     try {
+        exr_preflight(path);
         Imf::MultiPartInputFile file(path.c_str());
         info.parts = file.parts();
         const Imf::Header& h = file.header(0);

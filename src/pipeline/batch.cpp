@@ -14,6 +14,7 @@
 #include <regex>
 #include <sstream>
 
+#include "io/exr_preflight.h"
 #include "spectex/version.h"
 #include "spectral/error.h"
 
@@ -178,6 +179,7 @@ bool up_to_date(const std::string& input, const std::string& output, const std::
         (so.st_mtim.tv_sec == si.st_mtim.tv_sec && so.st_mtim.tv_nsec <= si.st_mtim.tv_nsec))
         return false;
     try {
+        exr_preflight(output);
         Imf::MultiPartInputFile f(output.c_str());
         auto* a = f.header(0).findTypedAttribute<Imf::StringAttribute>("spectex:settingsHash");
         return a && a->value() == hash;

@@ -20,6 +20,7 @@
 #include "io/spectral_exr_info.h"
 #include "spectral/ciede2000.h"
 #include "spectral/colorimetry.h"
+#include "io/exr_preflight.h"
 #include "spectral/error.h"
 #include "spectral/spectrum.h"
 #include "spectral/wavelength_grid.h"
@@ -325,6 +326,7 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
     }
 
     try {
+        exr_preflight(exr_path);
         Imf::InputFile file(exr_path.c_str());
         const Imf::Header& h = file.header();
         const Imath::Box2i dw = h.dataWindow();

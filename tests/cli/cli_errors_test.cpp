@@ -419,3 +419,43 @@ TEST(CliErrors, InfoReportsEveryFailedFileAndFailsOverall) {
     EXPECT_TRUE(contains(r.out, good)) << r.out;
     EXPECT_TRUE(contains(r.err, "spectex: " + bad + ": ")) << r.err;
 }
+
+TEST(CliErrors, HostileExrHeadersAreRefusedBeforeOpenExrAllocates) {
+    // OpenEXR 3.1 sizes its chunk tables from the header; the fuzzer found a header that made it
+    // allocate past 2 GB. exr_preflight refuses such headers first (info and verify share it).
+    ScratchDir d;
+    const std::string seed = std::string(SPECTEX_TEST_SOURCE_DIR) +
+                             "/tests/fuzz/corpus/fuzz_exr_header/regress_oom_header_without_datawindow";
+    RunResult r = run_spectex({"info", seed});
+    EXPECT_EQ(r.status, 1);
+    EXPECT_TRUE(contains(r.err, "corrupt OpenEXR header")) << r.err;
+    // A well-formed header claiming 2^20 x 2^20 pixels in 1x1 tiles.
+    std::string h;
+    auto put32 = [&](int32_t v) { h.append(reinterpret_cast<const char*>(&v), 4); };
+    auto attr = [&](const std::string& name, const std::string& type, const std::string& value) {
+        h += name;
+        h += '\0';
+        h += type;
+        h += '\0';
+        put32(static_cast<int32_t>(value.size()));
+        h += value;
+    };
+    put32(20000630);
+    put32(2 | 0x200);
+    std::string box;
+    for (int32_t v : {0, 0, (1 << 20) - 1, (1 << 20) - 1}) box.append(reinterpret_cast<const char*>(&v), 4);
+    std::string tiles;
+    for (int32_t v : {1, 1}) tiles.append(reinterpret_cast<const char*>(&v), 4);
+    tiles += '\0';
+    attr("dataWindow", "box2i", box);
+    attr("displayWindow", "box2i", box);
+    attr("tiles", "tiledesc", tiles);
+    h += '\0';
+    std::ofstream(d / "huge.exr", std::ios::binary) << h;
+    r = run_spectex({"info", d / "huge.exr"});
+    EXPECT_EQ(r.status, 1);
+    EXPECT_TRUE(contains(r.err, "refusing")) << r.err;
+    r = run_spectex({"verify", d / "huge.exr"});
+    EXPECT_EQ(r.status, 1);
+    EXPECT_TRUE(contains(r.err, "refusing")) << r.err;
+}

@@ -43,7 +43,7 @@ compile() {  # compile SRC OBJ EXTRA_FLAGS...
 declare -A deps
 deps[fuzz_wavelength_grid]="spectral/wavelength_grid.cpp"
 deps[fuzz_basis_csv]="spectral/csv_table.cpp"
-deps[fuzz_exr_header]="spectral/wavelength_grid.cpp io/spectral_exr_info.cpp"
+deps[fuzz_exr_header]="spectral/wavelength_grid.cpp io/spectral_exr_info.cpp io/exr_preflight.cpp"
 
 status=0
 summary=()

@@ -1,0 +1,102 @@
+#include "io/exr_preflight.h"
+
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "spectral/error.h"
+
+namespace spectex {
+
+namespace {
+
+constexpr uint64_t kMaxChunks = 1ull << 24;
+constexpr uint64_t kMaxPixels = 1ull << 31;
+constexpr size_t kMaxHeaderBytes = 64u << 20;
+
+int32_t le32(const unsigned char* p) {
+    uint32_t v = static_cast<uint32_t>(p[0]) | static_cast<uint32_t>(p[1]) << 8 | static_cast<uint32_t>(p[2]) << 16 |
+                 static_cast<uint32_t>(p[3]) << 24;
+    int32_t s;
+    std::memcpy(&s, &v, 4);
+    return s;
+}
+
+}  // namespace
+
+void exr_preflight(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw Error(path + ": cannot open");
+    std::vector<unsigned char> buf(kMaxHeaderBytes);
+    in.read(reinterpret_cast<char*>(buf.data()), static_cast<std::streamsize>(buf.size()));
+    const size_t n = static_cast<size_t>(in.gcount());
+    buf.resize(n);
+    auto bad = [&](const std::string& why) { throw Error(path + ": corrupt OpenEXR header: " + why); };
+    if (n < 8 || le32(buf.data()) != 20000630) throw Error(path + ": not an OpenEXR file");
+    const uint32_t version = static_cast<uint32_t>(le32(buf.data() + 4));
+    const bool multipart = version & 0x1000u, single_tiled = version & 0x200u;
+    size_t pos = 8;
+    auto read_str = [&](std::string* out) {
+        size_t end = pos;
+        while (end < n && buf[end] != 0 && end - pos < 256) ++end;
+        if (end >= n || buf[end] != 0) bad("unterminated name");
+        out->assign(reinterpret_cast<const char*>(buf.data() + pos), end - pos);
+        pos = end + 1;
+    };
+    for (int part = 0;; ++part) {
+        if (part > 0 && !multipart) break;
+        if (pos >= n) bad("truncated");
+        if (multipart && part > 0 && buf[pos] == 0) break;  // the empty header ends the list
+        bool have_dw = false, tiled = single_tiled;
+        int32_t dw[4] = {0, 0, -1, -1};
+        uint32_t tx = 0, ty = 0;
+        int compression = 0;
+        for (;;) {
+            std::string name, type;
+            read_str(&name);
+            if (name.empty()) break;
+            read_str(&type);
+            if (pos + 4 > n) bad("truncated");
+            const int32_t size = le32(buf.data() + pos);
+            pos += 4;
+            if (size < 0 || static_cast<size_t>(size) > n - pos) bad("attribute '" + name + "' is larger than the file");
+            const unsigned char* v = buf.data() + pos;
+            if (name == "dataWindow" && type == "box2i" && size == 16) {
+                for (int i = 0; i < 4; ++i) dw[i] = le32(v + 4 * i);
+                have_dw = true;
+            } else if (name == "tiles" && type == "tiledesc" && size == 9) {
+                tx = static_cast<uint32_t>(le32(v));
+                ty = static_cast<uint32_t>(le32(v + 4));
+                tiled = true;
+            } else if (name == "compression" && size == 1) {
+                compression = v[0];
+            } else if (name == "type" && type == "string") {
+                std::string t(reinterpret_cast<const char*>(v), static_cast<size_t>(size));
+                if (t == "tiledimage") tiled = true;
+            }
+            pos += static_cast<size_t>(size);
+        }
+        if (!have_dw) bad("no dataWindow");
+        const int64_t w = static_cast<int64_t>(dw[2]) - dw[0] + 1, h = static_cast<int64_t>(dw[3]) - dw[1] + 1;
+        if (w <= 0 || h <= 0) bad("empty or inverted dataWindow");
+        if (static_cast<uint64_t>(w) * static_cast<uint64_t>(h) > kMaxPixels)
+            throw Error(path + ": OpenEXR header claims " + std::to_string(w) + "x" + std::to_string(h) +
+                        " pixels; refusing more than 2^31");
+        uint64_t chunks;
+        if (tiled) {
+            if (tx == 0 || ty == 0) bad("tiled without a tile size");
+            chunks = ((static_cast<uint64_t>(w) + tx - 1) / tx) * ((static_cast<uint64_t>(h) + ty - 1) / ty);
+            chunks = chunks * 4 / 3 + 64;  // MIP levels add at most a third (RIP maps are not capped here)
+        } else {
+            static const int lines[] = {1, 1, 1, 16, 32, 16, 32, 32, 32, 256};
+            chunks = static_cast<uint64_t>(h) / static_cast<uint64_t>(compression >= 0 && compression < 10 ? lines[compression] : 1) + 1;
+        }
+        if (chunks > kMaxChunks)
+            throw Error(path + ": OpenEXR header describes " + std::to_string(chunks) +
+                        " chunks; refusing more than 2^24");
+    }
+}
+
+}  // namespace spectex
