@@ -10,6 +10,7 @@
 
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
+#include "pipeline/batch.h"
 #include "io/data_dir.h"
 #include "pipeline/verify.h"
 #include "spectral/error.h"
@@ -36,27 +37,7 @@ std::string percent(uint64_t count, uint64_t total) {
     return num(p, "%.6g") + "%";
 }
 
-std::string json_string(const std::string& s) {
-    std::string o = "\"";
-    for (unsigned char c : s) {
-        switch (c) {
-            case '"': o += "\\\""; break;
-            case '\\': o += "\\\\"; break;
-            case '\n': o += "\\n"; break;
-            case '\r': o += "\\r"; break;
-            case '\t': o += "\\t"; break;
-            default:
-                if (c < 0x20) {
-                    char buf[8];
-                    std::snprintf(buf, sizeof buf, "\\u%04x", c);
-                    o += buf;
-                } else {
-                    o += static_cast<char>(c);
-                }
-        }
-    }
-    return o + "\"";
-}
+std::string json_string(const std::string& s) { return "\"" + json_escape(s) + "\""; }
 
 // JSON has no Inf/NaN: those are written as null.
 std::string json_number(double v) { return std::isfinite(v) ? num(v, "%.9g") : std::string("null"); }
