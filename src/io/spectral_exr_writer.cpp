@@ -12,9 +12,11 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
 
 #include "io/atomic_file.h"
+#include "io/exr_core_writer.h"
 #include "spectral/error.h"
 #include "spectral/half.h"
 #include "spectral/wavelength_grid.h"
@@ -117,6 +119,7 @@ struct SpectralExrWriter::Impl {
     std::unique_ptr<FdOStream> stream;
     std::unique_ptr<Imf::OutputFile> file;
     std::unique_ptr<Imf::TiledOutputFile> tiled;
+    std::unique_ptr<ExrCoreWriter> core;
     std::vector<std::string> names;
     std::vector<uint16_t> half_scratch[4];  // A, R, G, B converted for half channels
     int next_row = 0;
@@ -126,6 +129,40 @@ SpectralExrWriter::SpectralExrWriter(AtomicFile& out, const SpectralExrLayout& l
     : impl_(std::make_unique<Impl>()) {
     impl_->layout = layout;
     const auto& L = layout;
+    std::string kind = L.writer;
+    if (kind == "auto") {
+        const char* e = std::getenv("SPECTEX_EXR_WRITER");
+        kind = e && *e ? e : "core";
+    }
+    if (kind != "core" && kind != "imf") throw Error("unknown EXR writer '" + kind + "' (known: core, imf)");
+    if (kind == "core" && L.tile_width <= 0 && ExrCoreWriter::supports(L.compression.name)) {
+        CoreWriterSpec spec;
+        spec.x = L.x;
+        spec.y = L.y;
+        spec.width = L.width;
+        spec.height = L.height;
+        spec.full_x = L.full_x;
+        spec.full_y = L.full_y;
+        spec.full_width = L.full_width;
+        spec.full_height = L.full_height;
+        spec.compression = L.compression.name;
+        spec.zip_level = L.zip_level;
+        spec.threads = std::max(1, L.threads);
+        const bool half = L.type == SampleType::Half;
+        for (size_t k = 0; k < L.lambda.size(); ++k)
+            spec.channels.push_back({reflective_channel_name(L.lambda[k]), half, CoreChannel::Spectral,
+                                     static_cast<int>(k), !half});
+        if (L.alpha) spec.channels.push_back({"A", L.alpha_type == SampleType::Half, CoreChannel::Alpha, 0, true});
+        if (L.preview) {
+            spec.channels.push_back({"R", half, CoreChannel::PreviewR, 0, true});
+            spec.channels.push_back({"G", half, CoreChannel::PreviewG, 0, true});
+            spec.channels.push_back({"B", half, CoreChannel::PreviewB, 0, true});
+            spec.chromaticities = true;
+        }
+        spec.string_attributes = L.attributes;
+        impl_->core = std::make_unique<ExrCoreWriter>(out.fd(), out.final_path(), spec);
+        return;
+    }
     Imath::Box2i data(Imath::V2i(L.x, L.y), Imath::V2i(L.x + L.width - 1, L.y + L.height - 1));
     Imath::Box2i display(Imath::V2i(L.full_x, L.full_y),
                          Imath::V2i(L.full_x + L.full_width - 1, L.full_y + L.full_height - 1));
@@ -142,6 +179,7 @@ SpectralExrWriter::SpectralExrWriter(AtomicFile& out, const SpectralExrLayout& l
         Imf::addChromaticities(header, Imf::Chromaticities());
     }
     header.insert("spectralLayoutVersion", Imf::StringAttribute("1.0"));
+    header.zipCompressionLevel() = L.zip_level;
     for (const auto& [k, v] : L.attributes) header.insert(k, Imf::StringAttribute(v));
     impl_->stream = std::make_unique<FdOStream>(out.fd(), out.final_path());
     if (L.tile_width > 0) {
@@ -169,7 +207,10 @@ SpectralExrWriter::~SpectralExrWriter() = default;
 
 void SpectralExrWriter::write_rows(int rows, const void* spectral, size_t plane_stride, const float* alpha,
                                    const float* pr, const float* pg, const float* pb) {
-    write_level_rows(0, impl_->next_row, rows, spectral, plane_stride, alpha, pr, pg, pb);
+    if (impl_->core)
+        impl_->core->write_rows(rows, spectral, plane_stride, alpha, pr, pg, pb);
+    else
+        write_level_rows(0, impl_->next_row, rows, spectral, plane_stride, alpha, pr, pg, pb);
     impl_->next_row += rows;
 }
 
@@ -219,9 +260,27 @@ void SpectralExrWriter::write_level_rows(int level, int row0, int rows, const vo
 }
 
 void SpectralExrWriter::finish() {
+    if (impl_->core) {
+        impl_->core->finish();
+        return;
+    }
     impl_->file.reset();  // writes the line offset table (its destructor swallows errors)
     impl_->tiled.reset();
     impl_->stream->check();
+}
+
+const char* SpectralExrWriter::writer_name() const { return impl_->core ? "core" : "imf"; }
+
+SpectralExrWriter::Timing SpectralExrWriter::timing() const {
+    Timing t;
+    if (!impl_->core) return t;
+    const auto s = impl_->core->stats();
+    t.pack_seconds = s.pack_seconds;
+    t.wait_seconds = s.wait_seconds;
+    t.compress_seconds = s.compress_seconds;
+    t.chunk_bytes = s.peak_chunk_bytes;
+    t.buffers = s.buffers;
+    return t;
 }
 
 }  // namespace spectex

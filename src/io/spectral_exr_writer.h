@@ -34,6 +34,10 @@ struct SpectralExrLayout {
     // Tiled output (tile_width > 0), optionally MIP-mapped (levels rounded down, as maketx does).
     int tile_width = 0, tile_height = 0;
     bool mipmap = false;
+    // Scanline NONE/ZIPS/ZIP files go through the core-API writer (bounded memory, libdeflate)
+    // unless writer is "imf"; "auto" also reads $SPECTEX_EXR_WRITER (core or imf).
+    std::string writer = "auto";
+    int zip_level = 4;  // libdeflate level for the core writer (Imf's zlib uses OpenEXR's default)
 };
 
 class SpectralExrWriter {
@@ -56,6 +60,16 @@ public:
     int level_height(int level) const;
     // Completes the file (offset table) and flushes it to the AtomicFile.
     void finish();
+    // Which writer: "core" (openexr_core + libdeflate) or "imf" (OpenEXR's C++ library).
+    const char* writer_name() const;
+    // Core writer only (zeros otherwise), valid after finish(): seconds the caller spent packing
+    // rows and waiting for a chunk buffer, and compression seconds summed over workers.
+    struct Timing {
+        double pack_seconds = 0, wait_seconds = 0, compress_seconds = 0;
+        size_t chunk_bytes = 0;
+        int buffers = 0;
+    };
+    Timing timing() const;
 
 private:
     struct Impl;

@@ -1,14 +1,14 @@
 // The floor: what writing a spectral scanline OpenEXR costs with nothing else to do. A W×H, N-bin
 // file in the Fichet layout (channels T.<λ>nm, spectralLayoutVersion) is written with
-// Imf::OutputFile from pixels expanded once, before the clock starts: a smooth synthetic pattern
-// is expanded into one strip buffer, which is handed to OpenEXR for every strip.
+// spectex's own writer (spectex::SpectralExrWriter on an AtomicFile: temporary file, fsync,
+// rename) from pixels expanded once, before the clock starts: a smooth synthetic pattern is
+// expanded into one strip buffer, which is handed to the writer for every strip.
 //
-// The writer is configured as spectex's (src/io/spectral_exr_writer.cpp, src/pipeline/bake.cpp):
-// the same header (INCREASING_Y, the compression's default level unless --zip-level), the same
-// compression table (lines per chunk from spectex::ExrCompression), the same strip size (32 MB of
-// samples rounded down to whole compression chunks), Imf::setGlobalThreadCount(T) and
-// OutputFile numThreads = T, a 4 MB buffered pwrite stream on an AtomicFile (temporary file,
-// fsync, rename), as spectex bake does.
+// Configured as spectex bake configures it (src/pipeline/bake.cpp): the same writer choice
+// (--writer auto: the core-API writer with libdeflate for scanline none/zips/zip, OpenEXR's C++
+// writer otherwise; --writer imf forces the C++ one), the same ZIP level unless --zip-level, the
+// same strip size (32 MB of samples rounded down to whole compression chunks), T compression
+// threads (Imf::setGlobalThreadCount(T) for the C++ writer).
 //
 // --source IMAGE replaces the synthetic pattern by the first strip of that image (read and
 // linearised as spectex does, clamped to [0, 1]), so that the encoder sees the same kind of content
@@ -19,12 +19,6 @@
 // (from opening the file to the rename), output bytes, peak RSS.
 //
 //   bench_exr_floor --width 4096 --height 4096 --bins 81 --type half --compression zip --threads 2 --out /tmp/floor.exr
-#include <ImfChannelList.h>
-#include <ImfFrameBuffer.h>
-#include <ImfHeader.h>
-#include <ImfIO.h>
-#include <ImfOutputFile.h>
-#include <ImfStringAttribute.h>
 #include <ImfThreading.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
@@ -58,44 +52,6 @@ namespace {
 
 constexpr size_t kStripBudget = 32u << 20;  // as src/pipeline/bake.cpp
 
-// Buffered pwrite stream, as spectex's FdOStream (4 MB buffer, pwrite so the offset table's
-// seek back works).
-class FdOStream : public Imf::OStream {
-public:
-    FdOStream(int fd, const std::string& name) : Imf::OStream(name.c_str()), fd_(fd) { buf_.reserve(kBuf); }
-    void write(const char c[], int n) override {
-        if (pos_ != start_ + buf_.size()) {
-            flush();
-            start_ = pos_;
-        }
-        buf_.insert(buf_.end(), c, c + n);
-        pos_ += static_cast<uint64_t>(n);
-        if (buf_.size() >= kBuf) flush();
-    }
-    uint64_t tellp() override { return pos_; }
-    void seekp(uint64_t pos) override {
-        flush();
-        pos_ = start_ = pos;
-    }
-    void flush() {
-        size_t done = 0;
-        while (done < buf_.size()) {
-            ssize_t n = ::pwrite(fd_, buf_.data() + done, buf_.size() - done, static_cast<off_t>(start_ + done));
-            if (n < 0 && errno == EINTR) continue;
-            if (n <= 0) throw std::runtime_error(std::string("write failed: ") + std::strerror(errno));
-            done += static_cast<size_t>(n);
-        }
-        start_ += buf_.size();
-        buf_.clear();
-    }
-
-private:
-    static constexpr size_t kBuf = 4u << 20;
-    int fd_;
-    uint64_t pos_ = 0, start_ = 0;
-    std::vector<char> buf_;
-};
-
 double cpu_seconds() {
     rusage ru{};
     getrusage(RUSAGE_SELF, &ru);
@@ -106,7 +62,8 @@ double cpu_seconds() {
     std::fprintf(stderr,
                  "%s\nusage: bench_exr_floor [--width W] [--height H] [--bins N | --wavelengths S:E:STEP]\n"
                  "                       [--type half|float] [--compression NAME] [--threads T]\n"
-                 "                       [--zip-level L] [--source IMAGE] [--out FILE.exr] [--keep]\n"
+                 "                       [--zip-level L] [--writer auto|core|imf] [--source IMAGE] [--whole]\n"
+                 "                       [--out FILE.exr] [--keep]\n"
                  "defaults: 4096 x 4096, 81 bins (380:780:5), half, zip, T = cores, /tmp/bench_exr_floor.exr\n",
                  msg);
     std::exit(2);
@@ -118,6 +75,7 @@ int main(int argc, char** argv) {
     int width = 0, height = 0, bins = 81, threads = static_cast<int>(std::thread::hardware_concurrency());
     int zip_level = -1;
     std::string type = "half", compression = "zip", out = "/tmp/bench_exr_floor.exr", wavelengths, source;
+    std::string writer = "auto";  // as spectex bake: core for scanline none/zips/zip, else imf
     // --whole (with --source): expand the whole image before the clock starts, so the writer
     // compresses exactly the pixels spectex writes (ZIP's time depends on content).
     bool whole = false;
@@ -136,6 +94,7 @@ int main(int argc, char** argv) {
         else if (a == "--compression") compression = val();
         else if (a == "--threads") threads = std::stoi(val());
         else if (a == "--zip-level") zip_level = std::stoi(val());
+        else if (a == "--writer") writer = val();
         else if (a == "--out") out = val();
         else if (a == "--keep") keep = true;
         else if (a == "--source") source = val();
@@ -260,37 +219,28 @@ int main(int argc, char** argv) {
         const double c0 = cpu_seconds();
         const auto t0 = std::chrono::steady_clock::now();
         uint64_t bytes = 0;
-        int level = -1;
+        std::string used;
         {
             AtomicFile file(out);
-            Imath::Box2i win(Imath::V2i(0, 0), Imath::V2i(width - 1, height - 1));
-            Imf::Header header(win, win, 1.0f, Imath::V2f(0, 0), 1.0f, Imf::INCREASING_Y,
-                               static_cast<Imf::Compression>(comp.id));
-            if (zip_level >= 0) header.zipCompressionLevel() = zip_level;
-            level = header.zipCompressionLevel();
-            const Imf::PixelType pt = half ? Imf::HALF : Imf::FLOAT;
-            for (const auto& nm : names) header.channels().insert(nm, Imf::Channel(pt));
-            header.insert("spectralLayoutVersion", Imf::StringAttribute("1.0"));
-            FdOStream stream(file.fd(), out);
-            {
-                Imf::OutputFile exr(stream, header, threads);
-                for (int y0 = 0; y0 < height; y0 += strip) {
-                    const int rows = std::min(strip, height - y0);
-                    const ptrdiff_t origin = static_cast<ptrdiff_t>(y0) * static_cast<ptrdiff_t>(w);
-                    const bool ws = !whole_strips.empty();
-                    const char* sp = ws ? whole_strips[static_cast<size_t>(y0 / strip)].data() : planes;
-                    const size_t pn = ws ? w * static_cast<size_t>(rows) : n;
-                    Imf::FrameBuffer fb;
-                    for (size_t k = 0; k < names.size(); ++k) {
-                        const char* base = sp + k * pn * es;
-                        fb.insert(names[k], Imf::Slice(pt, const_cast<char*>(base - origin * static_cast<ptrdiff_t>(es)),
-                                                       es, es * w));
-                    }
-                    exr.setFrameBuffer(fb);
-                    exr.writePixels(rows);
-                }
-            }  // the destructor writes the line offset table
-            stream.flush();
+            SpectralExrLayout layout;
+            layout.width = layout.full_width = width;
+            layout.height = layout.full_height = height;
+            layout.lambda = grid.lambda;
+            layout.type = half ? SampleType::Half : SampleType::Float;
+            layout.compression = comp;
+            layout.threads = threads;
+            layout.writer = writer;
+            if (zip_level >= 0) layout.zip_level = zip_level;
+            SpectralExrWriter exr(file, layout);
+            used = exr.writer_name();
+            for (int y0 = 0; y0 < height; y0 += strip) {
+                const int rows = std::min(strip, height - y0);
+                const bool ws = !whole_strips.empty();
+                const char* sp = ws ? whole_strips[static_cast<size_t>(y0 / strip)].data() : planes;
+                const size_t pn = ws ? w * static_cast<size_t>(rows) : n;
+                exr.write_rows(rows, sp, pn, nullptr, nullptr, nullptr, nullptr);
+            }
+            exr.finish();
             struct stat st;
             if (::fstat(file.fd(), &st) == 0) bytes = static_cast<uint64_t>(st.st_size);
             file.commit();
@@ -302,9 +252,9 @@ int main(int argc, char** argv) {
         getrusage(RUSAGE_SELF, &ru);
         std::printf(
             "{\"width\": %d, \"height\": %d, \"bins\": %d, \"type\": \"%s\", \"compression\": \"%s\", "
-            "\"zip_level\": %d, \"threads\": %d, \"strip_rows\": %d, \"lines_per_chunk\": %d, "
+            "\"writer\": \"%s\", \"zip_level\": %d, \"threads\": %d, \"strip_rows\": %d, \"lines_per_chunk\": %d, "
             "\"pattern\": \"%s\", \"wall_s\": %.4f, \"cpu_s\": %.4f, \"bytes\": %llu, \"megapixels_per_s\": %.3f, \"peak_rss_mb\": %.1f}\n",
-            width, height, bins, type.c_str(), comp.name.c_str(), level, threads, strip, chunk,
+            width, height, bins, type.c_str(), comp.name.c_str(), used.c_str(), zip_level >= 0 ? zip_level : SpectralExrLayout().zip_level, threads, strip, chunk,
             whole_strips.size() ? "source, whole image" : src ? "source first strip" : "synthetic smooth", wall, cpu,
             static_cast<unsigned long long>(bytes), static_cast<double>(width) * height / 1e6 / wall,
             ru.ru_maxrss / 1024.0);

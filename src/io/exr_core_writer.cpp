@@ -1,0 +1,400 @@
+#include "io/exr_core_writer.h"
+
+#include <libdeflate.h>
+#include <openexr.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <condition_variable>
+#include <cstring>
+#include <deque>
+#include <exception>
+#include <map>
+#include <mutex>
+#include <thread>
+
+#include "spectral/error.h"
+#include "spectral/expand.h"
+
+namespace spectex {
+
+#if !defined(__BYTE_ORDER__) || __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
+#error "EXR chunks are little-endian; packing copies native samples and needs a little-endian host"
+#endif
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+// EXR's ZIP pre-pass (ImfZip.cpp, internal_zip.c): even bytes of the block, then odd bytes, then
+// each byte replaced by its difference from the previous one, plus 128.
+void zip_prepare(const uint8_t* in, size_t n, uint8_t* out) {
+    uint8_t* t1 = out;
+    uint8_t* t2 = out + (n + 1) / 2;
+    size_t i = 0;
+    for (; i + 1 < n; i += 2) {
+        *t1++ = in[i];
+        *t2++ = in[i + 1];
+    }
+    if (i < n) *t1++ = in[i];
+    int p = n ? out[0] : 0;
+    for (size_t j = 1; j < n; ++j) {
+        const int v = out[j];
+        out[j] = static_cast<uint8_t>(v - p + (128 + 256));
+        p = v;
+    }
+}
+// The inverse, for a block that deflate cannot shrink and that is therefore stored raw.
+void zip_restore(uint8_t* prepared, size_t n, uint8_t* out) {
+    for (size_t j = 1; j < n; ++j) prepared[j] = static_cast<uint8_t>(prepared[j - 1] + prepared[j] - 128);
+    const uint8_t* t1 = prepared;
+    const uint8_t* t2 = prepared + (n + 1) / 2;
+    for (size_t i = 0; i < n; ++i) out[i] = (i % 2 == 0) ? *t1++ : *t2++;
+}
+
+}  // namespace
+
+bool ExrCoreWriter::supports(const std::string& c) { return c == "none" || c == "zips" || c == "zip"; }
+
+struct ExrCoreWriter::Impl {
+    struct Chunk {
+        std::vector<uint8_t> data;  // packed rows; after compression, the bytes to write
+        size_t raw_bytes = 0, bytes = 0;
+        int index = 0, rows = 0, filled = 0;
+    };
+
+    CoreWriterSpec spec;
+    std::string name;
+    int fd = -1;
+    exr_context_t ctxt = nullptr;
+    std::vector<CoreChannel> channels;  // file order
+    std::vector<size_t> channel_offset; // byte offset of each channel within one packed row
+    size_t row_bytes = 0;
+    int lines_per_chunk = 1, chunk_count = 0;
+    bool compress = false;
+
+    // Chunk buffers: `free` ones wait to be filled; `queue` waits for a worker; `done` holds
+    // compressed chunks until every earlier chunk is written (the file's line order is increasing).
+    std::vector<std::unique_ptr<Chunk>> all;
+    std::vector<Chunk*> free;
+    std::deque<Chunk*> queue;
+    std::map<int, Chunk*> done;
+    int max_buffers = 2;
+    Chunk* current = nullptr;
+    int next_chunk = 0;     // index of the next chunk to start filling
+    int next_write = 0;     // index of the next chunk to write
+    std::mutex mu;          // guards everything above and the error
+    std::condition_variable cv;
+    std::mutex write_mu;    // serialises writes to the file
+    std::vector<std::thread> workers;
+    bool stopping = false;
+    std::exception_ptr error;
+    std::string io_error;   // the first write() failure, with errno's text
+    std::string core_error; // the last message from OpenEXR's core
+    Stats stats;
+    std::mutex stats_mu;
+
+    static int64_t write_fn(exr_const_context_t, void* user, const void* buffer, uint64_t sz, uint64_t offset,
+                            exr_stream_error_func_ptr_t) {
+        auto* self = static_cast<Impl*>(user);
+        const char* p = static_cast<const char*>(buffer);
+        uint64_t done = 0;
+        while (done < sz) {
+            ssize_t n = ::pwrite(self->fd, p + done, static_cast<size_t>(sz - done), static_cast<off_t>(offset + done));
+            if (n < 0 && errno == EINTR) continue;
+            if (n <= 0) {
+                const int e = n < 0 ? errno : EIO;
+                std::lock_guard<std::mutex> lock(self->mu);
+                if (self->io_error.empty()) self->io_error = self->name + ": write failed: " + std::strerror(e);
+                return -1;
+            }
+            done += static_cast<uint64_t>(n);
+        }
+        return static_cast<int64_t>(sz);
+    }
+    static void error_fn(exr_const_context_t ctxt, exr_result_t code, const char* msg) {
+        void* user = nullptr;
+        if (exr_get_user_data(ctxt, &user) == EXR_ERR_SUCCESS && user) {
+            auto* self = static_cast<Impl*>(user);
+            std::lock_guard<std::mutex> lock(self->mu);
+            self->core_error = std::string(exr_get_error_code_as_string(code)) + (msg ? std::string(": ") + msg : "");
+        }
+    }
+
+    // Throws the error that explains a failure best: the system's, then OpenEXR's.
+    [[noreturn]] void fail(const std::string& what, exr_result_t rv) {
+        std::lock_guard<std::mutex> lock(mu);
+        if (!io_error.empty()) throw Error(io_error);
+        std::string why = core_error.empty() ? exr_get_default_error_message(rv) : core_error;
+        throw Error(name + ": " + what + ": " + why);
+    }
+    void check(exr_result_t rv, const char* what) {
+        if (rv != EXR_ERR_SUCCESS) fail(what, rv);
+    }
+
+    void rethrow_locked() {
+        if (error) std::rethrow_exception(error);
+    }
+
+    // Writes every compressed chunk that is next in line. Any thread may call it.
+    void write_ready() {
+        std::lock_guard<std::mutex> wl(write_mu);
+        for (;;) {
+            Chunk* c = nullptr;
+            {
+                std::lock_guard<std::mutex> lock(mu);
+                auto it = done.find(next_write);
+                if (it == done.end() || error) return;
+                c = it->second;
+                done.erase(it);
+            }
+            const int y = spec.y + c->index * lines_per_chunk;
+            const exr_result_t rv = exr_write_scanline_chunk(ctxt, 0, y, c->data.data(), c->bytes);
+            std::exception_ptr e;
+            if (rv != EXR_ERR_SUCCESS) {
+                try {
+                    fail("writing chunk " + std::to_string(c->index), rv);
+                } catch (...) {
+                    e = std::current_exception();
+                }
+            }
+            std::lock_guard<std::mutex> lock(mu);
+            if (e && !error) error = e;
+            ++next_write;
+            free.push_back(c);
+            cv.notify_all();
+            if (error) return;
+        }
+    }
+
+    void compress_chunk(Chunk& c, libdeflate_compressor* z, std::vector<uint8_t>& scratch) {
+        const size_t n = c.raw_bytes;
+        if (scratch.size() < n) scratch.resize(n);
+        zip_prepare(c.data.data(), n, scratch.data());
+        // A block is stored compressed only if that makes it smaller (the reader tells the two
+        // apart by size), so the output may use at most n - 1 bytes.
+        size_t out = n > 1 ? libdeflate_zlib_compress(z, scratch.data(), n, c.data.data(), n - 1) : 0;
+        if (out == 0) {
+            zip_restore(scratch.data(), n, c.data.data());
+            out = n;
+        }
+        c.bytes = out;
+    }
+
+    void worker() {
+        libdeflate_compressor* z = libdeflate_alloc_compressor(spec.zip_level);
+        std::vector<uint8_t> scratch;
+        for (;;) {
+            Chunk* c = nullptr;
+            {
+                std::unique_lock<std::mutex> lock(mu);
+                cv.wait(lock, [&] { return stopping || !queue.empty(); });
+                if (queue.empty()) break;
+                c = queue.front();
+                queue.pop_front();
+            }
+            auto t0 = Clock::now();
+            try {
+                if (!z) throw Error(name + ": cannot allocate a deflate compressor");
+                compress_chunk(*c, z, scratch);
+            } catch (...) {
+                std::lock_guard<std::mutex> lock(mu);
+                if (!error) error = std::current_exception();
+                cv.notify_all();
+                continue;
+            }
+            {
+                std::lock_guard<std::mutex> lock(stats_mu);
+                stats.compress_seconds += since(t0);
+            }
+            {
+                std::lock_guard<std::mutex> lock(mu);
+                done[c->index] = c;
+            }
+            write_ready();
+        }
+        if (z) libdeflate_free_compressor(z);
+    }
+
+    Chunk* acquire() {
+        auto t0 = Clock::now();
+        std::unique_lock<std::mutex> lock(mu);
+        cv.wait(lock, [&] { return error || !free.empty() || static_cast<int>(all.size()) < max_buffers; });
+        rethrow_locked();
+        Chunk* c;
+        if (!free.empty()) {
+            c = free.back();
+            free.pop_back();
+        } else {
+            all.push_back(std::make_unique<Chunk>());
+            c = all.back().get();
+            ++stats.buffers;
+        }
+        lock.unlock();
+        c->index = next_chunk++;
+        c->rows = std::min(lines_per_chunk, spec.height - c->index * lines_per_chunk);
+        c->filled = 0;
+        c->raw_bytes = row_bytes * static_cast<size_t>(c->rows);
+        if (c->data.size() < c->raw_bytes) c->data.resize(c->raw_bytes);
+        stats.wait_seconds += since(t0);
+        stats.peak_chunk_bytes = std::max(stats.peak_chunk_bytes, c->raw_bytes);
+        return c;
+    }
+
+    void submit(Chunk* c) {
+        std::unique_lock<std::mutex> lock(mu);
+        if (compress) {
+            queue.push_back(c);
+            cv.notify_all();
+            return;
+        }
+        c->bytes = c->raw_bytes;
+        done[c->index] = c;
+        lock.unlock();
+        write_ready();
+    }
+
+    void stop_workers() {
+        {
+            std::lock_guard<std::mutex> lock(mu);
+            stopping = true;
+        }
+        cv.notify_all();
+        for (auto& t : workers) t.join();
+        workers.clear();
+    }
+};
+
+ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const CoreWriterSpec& spec)
+    : impl_(std::make_unique<Impl>()) {
+    Impl& I = *impl_;
+    I.spec = spec;
+    I.name = name;
+    I.fd = fd;
+    if (!supports(spec.compression)) throw Error("internal: the core writer does not write " + spec.compression);
+    exr_compression_t comp = spec.compression == "zip"    ? EXR_COMPRESSION_ZIP
+                             : spec.compression == "zips" ? EXR_COMPRESSION_ZIPS
+                                                          : EXR_COMPRESSION_NONE;
+    I.lines_per_chunk = comp == EXR_COMPRESSION_ZIP ? 16 : 1;
+    I.compress = comp != EXR_COMPRESSION_NONE;
+    I.chunk_count = (spec.height + I.lines_per_chunk - 1) / I.lines_per_chunk;
+
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.user_data = &I;
+    init.write_fn = &Impl::write_fn;
+    init.error_handler_fn = &Impl::error_fn;
+    init.zip_level = spec.zip_level;
+    I.check(exr_start_write(&I.ctxt, name.c_str(), EXR_WRITE_FILE_DIRECTLY, &init), "cannot start the file");
+    int part = 0;
+    I.check(exr_add_part(I.ctxt, nullptr, EXR_STORAGE_SCANLINE, &part), "cannot add the image part");
+    exr_attr_box2i_t data{{spec.x, spec.y}, {spec.x + spec.width - 1, spec.y + spec.height - 1}};
+    exr_attr_box2i_t display{{spec.full_x, spec.full_y},
+                             {spec.full_x + spec.full_width - 1, spec.full_y + spec.full_height - 1}};
+    exr_attr_v2f_t center{0.0f, 0.0f};
+    I.check(exr_initialize_required_attr(I.ctxt, part, &display, &data, 1.0f, &center, 1.0f,
+                                         EXR_LINEORDER_INCREASING_Y, comp),
+            "cannot set the header");
+    I.channels = spec.channels;
+    std::sort(I.channels.begin(), I.channels.end(),
+              [](const CoreChannel& a, const CoreChannel& b) { return std::strcmp(a.name.c_str(), b.name.c_str()) < 0; });
+    for (const auto& c : I.channels) {
+        // Linear = 0 is what Imf::Channel writes by default (pLinear false).
+        if (exr_add_channel(I.ctxt, part, c.name.c_str(), c.half ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT,
+                            EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1) != EXR_ERR_SUCCESS)
+            I.fail("cannot add channel " + c.name, EXR_ERR_INVALID_ARGUMENT);
+        I.channel_offset.push_back(I.row_bytes);
+        I.row_bytes += static_cast<size_t>(spec.width) * (c.half ? 2 : 4);
+    }
+    const exr_attr_chlist_t* list = nullptr;
+    I.check(exr_get_channels(I.ctxt, part, &list), "cannot read back the channel list");
+    for (int i = 0; i < list->num_channels; ++i)
+        if (I.channels[static_cast<size_t>(i)].name != list->entries[i].name.str)
+            throw Error(name + ": internal: channel order differs from OpenEXR's");
+    // Attributes in name order, as OpenEXR's C++ writer stores them (the core keeps insertion order).
+    auto attributes = spec.string_attributes;
+    attributes.emplace_back("spectralLayoutVersion", "1.0");
+    std::sort(attributes.begin(), attributes.end());
+    for (const auto& [k, v] : attributes)
+        I.check(exr_attr_set_string(I.ctxt, part, k.c_str(), v.c_str()), ("cannot set attribute " + k).c_str());
+    if (spec.chromaticities) {
+        exr_attr_chromaticities_t c{0.64f, 0.33f, 0.30f, 0.60f, 0.15f, 0.06f, 0.3127f, 0.3290f};
+        I.check(exr_attr_set_chromaticities(I.ctxt, part, "chromaticities", &c), "cannot set chromaticities");
+    }
+    I.check(exr_write_header(I.ctxt), "cannot write the header");
+
+    // Memory: one chunk being filled and one per worker being compressed; each worker also has
+    // a scratch block. Never more, whatever the bin count.
+    const int workers = I.compress ? std::max(1, spec.threads) : 0;
+    I.max_buffers = workers + 1;
+    for (int i = 0; i < workers; ++i) I.workers.emplace_back([&I] { I.worker(); });
+}
+
+ExrCoreWriter::~ExrCoreWriter() {
+    impl_->stop_workers();
+    if (impl_->ctxt) exr_finish(&impl_->ctxt);  // frees the context; the AtomicFile discards the data
+}
+
+void ExrCoreWriter::write_rows(int rows, const void* spectral, size_t plane_stride, const float* alpha,
+                               const float* pr, const float* pg, const float* pb) {
+    Impl& I = *impl_;
+    const size_t w = static_cast<size_t>(I.spec.width);
+    for (int r = 0; r < rows; ++r) {
+        if (!I.current) I.current = I.acquire();
+        auto t0 = Clock::now();
+        Impl::Chunk& c = *I.current;
+        uint8_t* row = c.data.data() + static_cast<size_t>(c.filled) * I.row_bytes;
+        const size_t src_off = static_cast<size_t>(r) * w;
+        for (size_t ch = 0; ch < I.channels.size(); ++ch) {
+            const CoreChannel& C = I.channels[ch];
+            uint8_t* dst = row + I.channel_offset[ch];
+            if (C.source == CoreChannel::Spectral) {
+                const size_t es = C.half ? 2 : 4;
+                std::memcpy(dst, static_cast<const uint8_t*>(spectral) + (C.bin * plane_stride + src_off) * es, w * es);
+                continue;
+            }
+            const float* src = C.source == CoreChannel::Alpha      ? alpha
+                               : C.source == CoreChannel::PreviewR ? pr
+                               : C.source == CoreChannel::PreviewG ? pg
+                                                                   : pb;
+            if (C.half)
+                floats_to_half(src + src_off, reinterpret_cast<uint16_t*>(dst), w);
+            else
+                std::memcpy(dst, src + src_off, w * sizeof(float));
+        }
+        I.stats.pack_seconds += since(t0);
+        if (++c.filled == c.rows) {
+            I.current = nullptr;
+            I.submit(&c);
+        }
+    }
+    std::lock_guard<std::mutex> lock(I.mu);
+    I.rethrow_locked();
+}
+
+void ExrCoreWriter::finish() {
+    Impl& I = *impl_;
+    {
+        std::unique_lock<std::mutex> lock(I.mu);
+        if (I.current || I.next_chunk != I.chunk_count)
+            throw Error(I.name + ": internal: " + std::to_string(I.next_chunk) + " of " +
+                        std::to_string(I.chunk_count) + " chunks were given rows");
+        I.cv.wait(lock, [&] { return I.error || I.next_write == I.chunk_count; });
+        I.rethrow_locked();
+    }
+    I.stop_workers();
+    exr_result_t rv = exr_finish(&I.ctxt);  // writes the offset table
+    I.ctxt = nullptr;
+    if (rv != EXR_ERR_SUCCESS) I.fail("cannot finish the file", rv);
+    std::lock_guard<std::mutex> lock(I.mu);
+    if (!I.io_error.empty()) throw Error(I.io_error);
+}
+
+ExrCoreWriter::Stats ExrCoreWriter::stats() const {
+    std::lock_guard<std::mutex> lock(impl_->stats_mu);
+    return impl_->stats;
+}
+
+}  // namespace spectex

@@ -1,0 +1,64 @@
+#pragma once
+// A scanline OpenEXR writer on OpenEXR's C core API (openexr_core) for NONE, ZIPS and ZIP files.
+//
+// Why not Imf::OutputFile: OpenEXR 3.1's C++ writer keeps 2×threads line buffers, each with its
+// own compression buffers, whatever the chunk size (about 630 MB at 4K and 401 bins), and
+// compresses with zlib. Here the chunks in flight are capped (threads + 1 packed chunks plus one
+// scratch buffer per worker), and ZIP blocks are deflated with libdeflate: the same standard
+// zlib stream of the same predicted, byte-interleaved block that OpenEXR ≥ 3.2 writes with
+// libdeflate itself, so every reader reads it.
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace spectex {
+
+struct CoreChannel {
+    std::string name;
+    bool half = true;      // sample type in the file
+    enum Source { Spectral, Alpha, PreviewR, PreviewG, PreviewB } source = Spectral;
+    int bin = 0;            // for Spectral: plane index
+    bool source_float = false;  // the caller's data is float (alpha and preview always are)
+};
+
+struct CoreWriterSpec {
+    int x = 0, y = 0, width = 0, height = 0;
+    int full_x = 0, full_y = 0, full_width = 0, full_height = 0;
+    std::string compression;  // none, zips or zip
+    int zip_level = 4;        // libdeflate level (1..12)
+    int threads = 1;          // compression workers
+    std::vector<CoreChannel> channels;  // any order: written sorted by name, as EXR requires
+    std::vector<std::pair<std::string, std::string>> string_attributes;
+    bool chromaticities = false;  // Rec.709 primaries, D65 white (for preview R, G, B)
+};
+
+class ExrCoreWriter {
+public:
+    static bool supports(const std::string& compression);
+    // fd: an open, empty, writable file (the AtomicFile's); name: for messages.
+    ExrCoreWriter(int fd, const std::string& name, const CoreWriterSpec& spec);
+    ~ExrCoreWriter();  // joins the workers; an unfinished file is left to the AtomicFile to discard
+
+    // The next `rows` rows. spectral: sample of bin k, pixel i at spectral[k*plane_stride + i]
+    // (half bits or float, as the channels say); alpha and preview planes are float. The data
+    // may be reused as soon as the call returns.
+    void write_rows(int rows, const void* spectral, size_t plane_stride, const float* alpha,
+                    const float* preview_r, const float* preview_g, const float* preview_b);
+    // Waits for the last chunks, writes the offset table; throws the first error (naming the file).
+    void finish();
+
+    struct Stats {
+        double pack_seconds = 0;      // caller thread: copying rows into chunks
+        double wait_seconds = 0;      // caller thread: waiting for a free chunk buffer
+        double compress_seconds = 0;  // summed over the workers
+        size_t peak_chunk_bytes = 0;  // packed bytes of one chunk
+        int buffers = 0;              // chunk buffers allocated
+    };
+    Stats stats() const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace spectex
