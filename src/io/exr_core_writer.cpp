@@ -180,6 +180,8 @@ struct ExrCoreWriter::Impl {
         if (out == 0) {
             zip_restore(scratch.data(), n, c.data.data());
             out = n;
+            std::lock_guard<std::mutex> lock(stats_mu);
+            ++stats.raw_chunks;
         }
         c.bytes = out;
     }

@@ -53,6 +53,7 @@ public:
         double compress_seconds = 0;  // summed over the workers
         size_t peak_chunk_bytes = 0;  // packed bytes of one chunk
         int buffers = 0;              // chunk buffers allocated
+        int raw_chunks = 0;           // compressed files: chunks stored raw (deflate did not shrink them)
     };
     Stats stats() const;
 

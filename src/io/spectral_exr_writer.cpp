@@ -179,7 +179,7 @@ SpectralExrWriter::SpectralExrWriter(AtomicFile& out, const SpectralExrLayout& l
         Imf::addChromaticities(header, Imf::Chromaticities());
     }
     header.insert("spectralLayoutVersion", Imf::StringAttribute("1.0"));
-    header.zipCompressionLevel() = L.zip_level;
+    header.zipCompressionLevel() = std::min(L.zip_level, 9);  // zlib stops at 9; libdeflate at 12
     for (const auto& [k, v] : L.attributes) header.insert(k, Imf::StringAttribute(v));
     impl_->stream = std::make_unique<FdOStream>(out.fd(), out.final_path());
     if (L.tile_width > 0) {
@@ -280,6 +280,7 @@ SpectralExrWriter::Timing SpectralExrWriter::timing() const {
     t.compress_seconds = s.compress_seconds;
     t.chunk_bytes = s.peak_chunk_bytes;
     t.buffers = s.buffers;
+    t.raw_chunks = s.raw_chunks;
     return t;
 }
 

@@ -68,6 +68,7 @@ public:
         double pack_seconds = 0, wait_seconds = 0, compress_seconds = 0;
         size_t chunk_bytes = 0;
         int buffers = 0;
+        int raw_chunks = 0;
     };
     Timing timing() const;
 
