@@ -6,6 +6,7 @@
 
 #include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 
 #include <algorithm>
@@ -69,6 +70,16 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
     p.option("--compression", "NAME",
              "none, rle, zips, zip, piz, pxr24, b44, b44a, dwaa or dwab (default zip).",
              [&](const std::string& v) { c.compression = v; });
+    p.option("--zip-level", "L",
+             "Deflate level of zip and zips, 1 (fastest) to 12 (smallest); default 4. Level 1 took 0.6x the "
+             "CPU time of 4 for files about 5 % larger; 6 took 1.7x for 0.5 % smaller (see README).",
+             [&](const std::string& v) {
+                 char* end = nullptr;
+                 long l = std::strtol(v.c_str(), &end, 10);
+                 if (v.empty() || *end || l < 1 || l > 12)
+                     throw UsageError("--zip-level: '" + v + "' is not a level from 1 to 12");
+                 c.settings.zip_level = static_cast<int>(l);
+             });
     p.flag("--preview", "Also write R, G, B channels (linear Rec.709) for image viewers.",
            [&] { c.settings.preview = true; });
     p.option("--tile", "W[xH]", "Write a tiled file with W x H tiles (maketx's default is 64x64).",

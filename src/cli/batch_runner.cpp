@@ -74,6 +74,17 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
                       << r.result.bins << " bins, colour space '" << r.result.colorspace << "' ("
                       << r.result.colorspace_how << "), " << r.result.bytes << " bytes, "
                       << seconds_text(r.result.seconds) << "\n";
+        if (plan.verbose && r.status == "ok") {
+            const auto& st = r.result.stages;
+            char buf[400];
+            std::snprintf(buf, sizeof buf,
+                          "spectex: %s: stages: read %.2f s, colour %.2f s, expand %.2f s (producer thread); "
+                          "pack %.2f s, waiting for the encoder %.2f s, for the producer %.2f s, finish %.2f s "
+                          "(writer thread); compress %.2f CPU-s (%s writer)\n",
+                          r.input.c_str(), st.read, st.colour, st.expand, st.pack, st.encoder_wait, st.producer_wait,
+                          st.finish, st.compress_cpu, st.writer.c_str());
+            std::cerr << buf;
+        }
         if (plan.verbose && r.status == "skipped") std::cerr << "spectex: " << r.output << ": up to date\n";
         if (json) {
             *json << json_record(r) << "\n";

@@ -24,6 +24,9 @@ namespace spectex {
 
 namespace {
 
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
 // Bytes of expanded spectral samples held per strip: bounds memory whatever the bin count.
 constexpr size_t kStripBudget = 32u << 20;
 
@@ -131,6 +134,7 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
                             : SampleType::Float;
     layout.preview = s.preview;
     layout.compression = s.compression;
+    layout.zip_level = s.zip_level;
     layout.attributes = {
         {"spectex:version", SPECTEX_VERSION},
         {"spectex:commandLine", s.command_line},
@@ -146,6 +150,7 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
         {"spectex:alpha", has_alpha ? (s.alpha == AlphaMode::Associated ? "associated" : "unassociated") : "none"},
         {"spectex:outOfRange", to_string(s.range)},
         {"spectex:nan", to_string(s.nan)},
+        {"spectex:zipLevel", std::to_string(s.zip_level)},
         {"spectex:halfRounding", s.type == SampleType::Half ? (s.colour_rounding ? "colour" : "nearest") : "n/a"},
         {"spectex:settingsHash", s.settings_hash},
     };
@@ -184,7 +189,10 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     auto process_rows = [&](int y0, int y1, float* r, float* g, float* b, float* a) {
         const size_t n = w * static_cast<size_t>(y1 - y0);
         rgba.resize(n * 4);
+        auto t_read = Clock::now();
         src->read_rgba(y0, y1, rgba.data());
+        res.stages.read += since(t_read);
+        auto t_colour = Clock::now();
         if (straighten) {
             for (size_t i = 0; i < n; ++i) {
                 float al = rgba[4 * i + 3];
@@ -226,6 +234,7 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
             b[i] = p[2] * k;
             if (has_alpha) a[i] = al;
         }
+        res.stages.colour += since(t_colour);
     };
 
     std::vector<uint16_t> half_planes;
@@ -269,6 +278,7 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
             st.b.resize(n);
             st.a.resize(has_alpha ? n : 0);
             process_rows(st.y0, st.y1, st.r.data(), st.g.data(), st.b.data(), st.a.data());
+            auto t_expand = Clock::now();
             if (s.type == SampleType::Half) {
                 st.half.resize(n * static_cast<size_t>(m.bins));
                 expand_to_half(m, st.r.data(), st.g.data(), st.b.data(), n, st.half.data(), n);
@@ -276,6 +286,7 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
                 st.flt.resize(n * static_cast<size_t>(m.bins));
                 expand_to_float(m, st.r.data(), st.g.data(), st.b.data(), n, st.flt.data(), n);
             }
+            res.stages.expand += since(t_expand);
         };
         auto consume = [&](const Strip& st) {
             const size_t n = w * static_cast<size_t>(st.y1 - st.y0);
@@ -300,7 +311,9 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
                 throw;
             }
             if (!next.valid()) break;
+            auto t_wait = Clock::now();
             next.get();  // rethrows the producer's error
+            res.stages.producer_wait += since(t_wait);
         }
     } else {
         // MIP-mapped: the expansion is linear, so every level is filtered on the linear (and
@@ -333,7 +346,14 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
             }
         }
     }
+    auto t_finish = Clock::now();
     writer.finish();
+    res.stages.finish = since(t_finish);
+    const auto wt = writer.timing();
+    res.stages.pack = wt.pack_seconds;
+    res.stages.encoder_wait = wt.wait_seconds;
+    res.stages.compress_cpu = wt.compress_seconds;
+    res.stages.writer = writer.writer_name();
     struct stat st;
     if (::fstat(out.fd(), &st) == 0) res.bytes = static_cast<uint64_t>(st.st_size);
     out.commit();

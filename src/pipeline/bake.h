@@ -26,6 +26,7 @@ struct BakeSettings {
     WavelengthGrid grid;
     SampleType type = SampleType::Half;
     ExrCompression compression = ExrCompression::parse("zip");
+    int zip_level = 4;               // deflate level of zip/zips (1 fastest .. 12 smallest)
     bool preview = false;
     AlphaMode alpha = AlphaMode::Associated;
     RangePolicy range = RangePolicy::Clamp;
@@ -48,6 +49,15 @@ struct BakeResult {
     uint64_t clamped_pixels = 0;     // pixels with a linear component moved into [0, 1]
     uint64_t replaced_pixels = 0;    // pixels with a NaN/Inf component replaced
     double seconds = 0;
+    // Where the time went (seconds). The producer thread reads (decode), colours (linearise, NaN
+    // and range policies, premultiply) and expands; the writer thread packs rows into chunks and
+    // waits — for a free chunk buffer (the encoder is the bottleneck: good) or for the producer
+    // (the producer is: `producer_wait`); the workers compress (CPU seconds summed).
+    struct Stages {
+        double read = 0, colour = 0, expand = 0;
+        double pack = 0, encoder_wait = 0, producer_wait = 0, compress_cpu = 0, finish = 0;
+        std::string writer;  // "core" or "imf"
+    } stages;
     std::vector<std::string> notes;  // e.g. "input has 3 MIP levels: the first was used"
 };
 

@@ -151,6 +151,7 @@ std::string settings_hash(const BakeSettings& s) {
     for (double l : s.grid.lambda) fnv(h, format_wavelength(l));
     fnv(h, s.type == SampleType::Half ? "half" : "float");
     fnv(h, s.compression.name);
+    if (s.zip_level != 4) fnv(h, "zip-level " + std::to_string(s.zip_level));  // 4: hashes as before
     fnv(h, s.preview ? "preview" : "");
     fnv(h, s.alpha == AlphaMode::Associated ? "associated" : "unassociated");
     fnv(h, to_string(s.range));
@@ -220,7 +221,19 @@ std::string json_record(const FileRecord& r) {
       << ",\"pixels\":" << r.result.pixels << ",\"bins\":" << r.result.bins << ",\"bytes\":" << r.result.bytes
       << ",\"clamped_pixels\":" << r.result.clamped_pixels << ",\"replaced_pixels\":" << r.result.replaced_pixels
       << ",\"colorspace\":\"" << json_escape(r.result.colorspace) << "\",\"settings_hash\":\""
-      << json_escape(r.settings_hash) << "\"}";
+      << json_escape(r.settings_hash) << "\"";
+    if (r.status == "ok") {
+        const auto& st = r.result.stages;
+        char buf[512];
+        std::snprintf(buf, sizeof buf,
+                      ",\"stages\":{\"writer\":\"%s\",\"read_s\":%.4f,\"colour_s\":%.4f,\"expand_s\":%.4f,"
+                      "\"pack_s\":%.4f,\"encoder_wait_s\":%.4f,\"producer_wait_s\":%.4f,\"compress_cpu_s\":%.4f,"
+                      "\"finish_s\":%.4f}",
+                      st.writer.c_str(), st.read, st.colour, st.expand, st.pack, st.encoder_wait, st.producer_wait,
+                      st.compress_cpu, st.finish);
+        o << buf;
+    }
+    o << "}";
     return o.str();
 }
 
