@@ -1,8 +1,11 @@
 #include "io/linearizer.h"
 
 #include <OpenColorIO/OpenColorIO.h>
+#include <OpenImageIO/imageio.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdint>
 #include <cstdlib>
 
 #include "spectral/error.h"
@@ -79,6 +82,11 @@ std::vector<std::string> names_for_hint(const std::string& hint) {
 
 struct Linearizer::Impl {
     OCIO::ConstCPUProcessorRcPtr cpu;
+    bool crosstalk = true;
+    // Code table: key[i] is the float OpenImageIO gives for code i, out[c][i] OCIO's result.
+    float scale = 0;
+    std::vector<float> key;
+    std::vector<float> out[3];
 };
 
 Linearizer::Linearizer() = default;
@@ -162,6 +170,7 @@ Linearizer Linearizer::make(const ColourRequest& req) {
             proc = OCIO::Config::GetProcessorFromConfigs(cfg, src.c_str(), ours, "lin_srgb");
         }
         lin.identity_ = proc->isNoOp();
+        lin.impl_->crosstalk = proc->hasChannelCrosstalk();
         // Full-precision ops only: no LUT approximations of the transfer curves.
         lin.impl_->cpu = proc->getOptimizedCPUProcessor(OCIO::BIT_DEPTH_F32, OCIO::BIT_DEPTH_F32,
                                                         OCIO::OPTIMIZATION_LOSSLESS);
@@ -171,10 +180,62 @@ Linearizer Linearizer::make(const ColourRequest& req) {
     return lin;
 }
 
+bool Linearizer::use_code_table(int bits) {
+    Impl& I = *impl_;
+    if (identity_ || I.crosstalk || bits < 1 || bits > 16) return false;
+    const size_t n = size_t{1} << bits;
+    std::vector<uint16_t> codes(n);
+    for (size_t i = 0; i < n; ++i) codes[i] = static_cast<uint16_t>(i);
+    I.key.resize(n);
+    // Exactly the floats OpenImageIO hands us for these codes (its conversion, not ours).
+    if (bits <= 8) {
+        std::vector<uint8_t> c8(codes.begin(), codes.end());
+        OIIO::convert_pixel_values(OIIO::TypeDesc::UINT8, c8.data(), OIIO::TypeDesc::FLOAT, I.key.data(), static_cast<int>(n));
+    } else {
+        OIIO::convert_pixel_values(OIIO::TypeDesc::UINT16, codes.data(), OIIO::TypeDesc::FLOAT, I.key.data(), static_cast<int>(n));
+    }
+    std::vector<float> ramp(4 * n);
+    for (size_t i = 0; i < n; ++i) ramp[4 * i] = ramp[4 * i + 1] = ramp[4 * i + 2] = I.key[i], ramp[4 * i + 3] = 1.0f;
+    OCIO::PackedImageDesc desc(ramp.data(), static_cast<long>(n), 1, 4);
+    I.cpu->apply(desc);
+    for (int c = 0; c < 3; ++c) {
+        I.out[c].resize(n);
+        for (size_t i = 0; i < n; ++i) I.out[c][i] = ramp[4 * i + static_cast<size_t>(c)];
+    }
+    I.scale = static_cast<float>(n - 1);
+    return true;
+}
+
 void Linearizer::apply_rgba(float* rgba, long pixels) const {
     if (identity_ || pixels <= 0) return;
-    OCIO::PackedImageDesc desc(rgba, pixels, 1, 4);
-    impl_->cpu->apply(desc);
+    const Impl& I = *impl_;
+    if (I.key.empty()) {
+        OCIO::PackedImageDesc desc(rgba, pixels, 1, 4);
+        I.cpu->apply(desc);
+        return;
+    }
+    const long last = static_cast<long>(I.key.size()) - 1;
+    for (long p = 0; p < pixels; ++p) {
+        float* px = rgba + 4 * p;
+        bool miss = false;
+        float v[3];
+        for (int c = 0; c < 3; ++c) {
+            const float x = px[c];
+            const long i = std::lrint(x * I.scale);
+            if (i >= 0 && i <= last && I.key[static_cast<size_t>(i)] == x)
+                v[c] = I.out[c][static_cast<size_t>(i)];
+            else
+                miss = true;
+        }
+        if (miss) {
+            OCIO::PackedImageDesc one(px, 1, 1, 4);
+            I.cpu->apply(one);
+        } else {
+            px[0] = v[0];
+            px[1] = v[1];
+            px[2] = v[2];
+        }
+    }
 }
 
 }  // namespace spectex

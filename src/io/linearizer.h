@@ -27,6 +27,13 @@ public:
     // In place on `pixels` packed RGBA float pixels (alpha passes through).
     void apply_rgba(float* rgba, long pixels) const;
 
+    // For integer sources of at most 16 bits, read as float by OpenImageIO: each channel then
+    // takes at most 2^bits values, and when the transform has no channel crosstalk (a curve per
+    // channel, as sRGB's) apply_rgba looks them up in a table made by OCIO itself on those exact
+    // values. A value not in the table still goes through OCIO: the result is the same bits.
+    // Returns whether the table is used.
+    bool use_code_table(int bits);
+
     Linearizer();
     ~Linearizer();
     Linearizer(Linearizer&&) noexcept;

@@ -112,6 +112,7 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
 
     ColourRequest req{s.data_dir, s.config, s.colorspace, input, info.colorspace_hint};
     Linearizer lin = Linearizer::make(req);
+    if (!info.is_float) lin.use_code_table(info.bits);
     res.colorspace = lin.input_space();
     res.colorspace_how = lin.how_chosen();
 

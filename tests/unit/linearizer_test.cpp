@@ -4,7 +4,10 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
+#include <random>
+#include <vector>
 #include <unistd.h>
 
 #include "spectral/error.h"
@@ -133,4 +136,36 @@ TEST(Linearizer, BrokenConfigIsAClearError) {
     } catch (const Error& e) {
         EXPECT_NE(std::string(e.what()).find("/nonexistent/config.ocio"), std::string::npos);
     }
+}
+
+TEST(Linearizer, CodeTableGivesOcioBitsForEveryCodeAndAnyOtherValue) {
+    // 8-bit and 16-bit tables against OCIO itself: all codes as OpenImageIO converts them
+    // (c / 255 and c / 65535 in float, plus the float one ulp either side, which must miss the
+    // table and still be exact), random floats, negatives, > 1, NaN; RGB differing per pixel.
+    for (int bits : {8, 16}) {
+        SCOPED_TRACE(bits);
+        Linearizer plain = make("srgb_tx");
+        Linearizer table = make("srgb_tx");
+        ASSERT_TRUE(table.use_code_table(bits));
+        const int top = (1 << bits) - 1;
+        std::vector<float> rgba;
+        std::mt19937 rng(bits);
+        std::uniform_real_distribution<float> u(-0.5f, 1.5f);
+        for (int c = 0; c <= top; ++c) {
+            const float v = static_cast<float>(c) / static_cast<float>(top);
+            const float w = static_cast<float>(top - c) / static_cast<float>(top);
+            rgba.insert(rgba.end(), {v, w, std::nextafter(v, 2.0f), 0.25f});
+            rgba.insert(rgba.end(), {std::nextafter(v, -1.0f), v, u(rng), 0.5f});
+        }
+        rgba.insert(rgba.end(), {std::nanf(""), 0.5f, -0.0f, 1.0f});
+        std::vector<float> a = rgba, b = rgba;
+        plain.apply_rgba(a.data(), static_cast<long>(a.size() / 4));
+        table.apply_rgba(b.data(), static_cast<long>(b.size() / 4));
+        size_t differ = 0;
+        for (size_t i = 0; i < a.size(); ++i) differ += std::memcmp(&a[i], &b[i], sizeof(float)) != 0;
+        EXPECT_EQ(differ, 0u);
+    }
+    // A transform with crosstalk (P3 primaries -> Rec.709) cannot use a per-channel table.
+    Linearizer p3 = make("sRGB Encoded P3-D65 - Texture");
+    EXPECT_FALSE(p3.use_code_table(8));
 }
