@@ -317,6 +317,8 @@ def run(a, out, work):
         wall, mb, rec = best
         r.update(wall_s=wall, peak_mb=mb, bytes=rec["bytes"], bins=rec["bins"], bake_internal_s=rec["seconds"],
                  mp_s=a.size * a.size / 1e6 / wall)
+        for k, v in rec.get("stages", {}).items():
+            r["stage_" + k] = v
         exr.unlink(missing_ok=True)
         fl = min((floor(a, cfg, a.size, work / "floor.exr", speed_png) for _ in range(a.repeat)), key=lambda f: f["wall_s"])
         r.update(floor_s=fl["wall_s"], floor_cpu_s=fl["cpu_s"], floor_bytes=fl["bytes"],
@@ -396,7 +398,9 @@ def write_report(a, out, rows, peers, kernel):
     with open(out / "report.csv", "w", newline="") as f:
         keys = [k for k, _ in COLUMNS] + ["bake_internal_s", "floor_cpu_s", "floor_bytes", "ratio_floor_internal",
                                           "cube", "full_d65_max", "full_d65_mean", "full_code_match",
-                                          "full_code_matched", "size", "threads"]
+                                          "full_code_matched", "size", "threads", "stage_writer", "stage_read_s",
+                                          "stage_colour_s", "stage_expand_s", "stage_pack_s", "stage_encoder_wait_s",
+                                          "stage_producer_wait_s", "stage_compress_cpu_s"]
         w = csv.DictWriter(f, fieldnames=keys, extrasaction="ignore")
         w.writeheader()
         for r in rows:
@@ -427,17 +431,21 @@ def write_report(a, out, rows, peers, kernel):
                  f"mean {d['full_d65_mean']:.3g}, {d['full_code_matched']:,} colours re-encode to their codes "
                  f"({d['full_code_match']:.5f} %).")
     L.append("\n## Stages\n")
-    L.append("`spectex bake` reports its total time only. The floor (`bench_exr_floor`: the same OpenEXR writer, "
-             "compression, strip size and threads, fed pre-expanded pixels: the first strip of the same input "
-             "PNG, expanded once and handed to OpenEXR for every strip) is the write stage alone; "
-             "`floor share` = floor / bake (internal time, without process start-up), the rest is reading, "
-             "linearising, expanding and whatever of them is not hidden under the encoder.\n")
-    L.append("| configuration | bake s (process) | bake s (internal) | floor s | floor CPU s | floor share | other s |")
-    L.append("|---|---|---|---|---|---|---|")
+    L.append("The floor (`bench_exr_floor --whole`: spectex's own writer, same compression, ZIP level, strip size "
+             "and threads, fed the same input expanded before the clock starts) is the write stage alone; "
+             "`floor share` = floor / bake (internal time, without process start-up). The other columns are the "
+             "bake's own stages (`--json`): read, colour and expand run on the producer thread while the encoder "
+             "runs; `wait enc` is the writer thread waiting for a free chunk (the encoder is the bottleneck), "
+             "`wait prod` waiting for the producer (it is); `compress` is CPU seconds over the workers.\n")
+    L.append("| configuration | writer | bake s (internal) | floor s | floor share | read | colour | expand | pack | "
+             "wait enc | wait prod | compress CPU s |")
+    L.append("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
-        L.append(f"| {r['name']} | {r['wall_s']:.3f} | {r['bake_internal_s']:.3f} | {r['floor_s']:.3f} | "
-                 f"{r['floor_cpu_s']:.3f} | {100 * r['floor_s'] / max(r['bake_internal_s'], 1e-9):.0f} % | "
-                 f"{max(0.0, r['bake_internal_s'] - r['floor_s']):.3f} |")
+        st = lambda k: f"{r.get('stage_' + k, float('nan')):.2f}"
+        L.append(f"| {r['name']} | {r.get('stage_writer', '?')} | {r['bake_internal_s']:.3f} | {r['floor_s']:.3f} | "
+                 f"{100 * r['floor_s'] / max(r['bake_internal_s'], 1e-9):.0f} % | {st('read_s')} | {st('colour_s')} | "
+                 f"{st('expand_s')} | {st('pack_s')} | {st('encoder_wait_s')} | {st('producer_wait_s')} | "
+                 f"{st('compress_cpu_s')} |")
     if kernel:
         L.append("")
         for lab, b in kernel.items():
