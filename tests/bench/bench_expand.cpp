@@ -7,6 +7,11 @@
 // `speedup_vs_naive` (naive time / kernel time) is measured interleaved in the same run and is
 // not skewed by other load on a shared machine. The reported time is the kernel's alone.
 //
+// BM_ExpandColour times the colour-aware rounding (ExpansionMatrix::rgb_weight set, as every
+// default bake) on random 8-bit sRGB codes decoded to linear, so that its fix-up runs as often as
+// on real images; plain rounding of the same pixels with the same basis is timed in every
+// iteration too, and `colour_cost_vs_plain` is the ratio of the two times.
+//
 //   ninja -C build bench_expand && build/tests/bench/bench_expand
 #include <benchmark/benchmark.h>
 
@@ -14,10 +19,12 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "spectral/basis.h"
 #include "spectral/basis_fit.h"
+#include "spectral/colorimetry.h"
 #include "spectral/expand.h"
 #include "spectral/half.h"
 
@@ -115,9 +122,85 @@ void BM_Expand(benchmark::State& state) {
     state.SetLabel(sizeof(T) == 2 ? "half" : "float");
 }
 
+// The basis and colorimetry of a default bake: the shipped smooth fit on 380:780:5, or the fit on
+// 380:780:1; rgb_weight as src/pipeline/bake.cpp fills it (cie1931-2, D65, sRGB).
+ExpansionMatrix colour_matrix(int bins) {
+    const double step = bins == 401 ? 1 : 5;
+    const Basis B = bins == 401 ? basis_for(401)
+                                : load_basis(SPECTEX_TEST_DATA_DIR, std::string(SPECTEX_TEST_DATA_DIR) +
+                                                                        "/spectral/basis_fit_smooth_380-780-5.csv");
+    ExpansionMatrix m = ExpansionMatrix::from_basis(B);
+    const Colorimetry c = Colorimetry::make(load_observer(SPECTEX_TEST_DATA_DIR, "cie1931-2"),
+                                            load_illuminant(SPECTEX_TEST_DATA_DIR, "D65"),
+                                            WavelengthGrid::uniform_grid(380, 780, step), primaries_by_name("srgb"));
+    const Eigen::Matrix3Xd R = c.rgb_weights();
+    m.rgb_weight.resize(3 * static_cast<size_t>(m.bins));
+    for (int k = 0; k < m.bins; ++k)
+        for (int ch = 0; ch < 3; ++ch) m.rgb_weight[3 * static_cast<size_t>(k) + ch] = static_cast<float>(R(ch, k));
+    return m;
+}
+
+// Random 8-bit sRGB codes, decoded to linear: what a bake of an 8-bit texture expands.
+struct SrgbPlanes {
+    std::vector<float> r, g, b;
+    SrgbPlanes() : r(kPixels), g(kPixels), b(kPixels) {
+        float lut[256];
+        for (int c = 0; c < 256; ++c) {
+            const double v = c / 255.0;
+            lut[c] = static_cast<float>(v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4));
+        }
+        uint32_t s = 2024;
+        for (size_t i = 0; i < kPixels; ++i) {
+            s = s * 1664525u + 1013904223u;
+            r[i] = lut[(s >> 24) & 0xff];
+            g[i] = lut[(s >> 16) & 0xff];
+            b[i] = lut[(s >> 8) & 0xff];
+        }
+    }
+};
+
+void BM_ExpandColour(benchmark::State& state) {
+    const int bins = static_cast<int>(state.range(0));
+    const ExpansionMatrix m = colour_matrix(bins);
+    ExpansionMatrix plain = m;
+    plain.rgb_weight.clear();
+    static const SrgbPlanes p;
+    std::vector<uint16_t> out(kPixels * static_cast<size_t>(bins)), ref(out.size());
+    using clock = std::chrono::steady_clock;
+    double colour_s = 0, plain_s = 0;
+    for (auto _ : state) {
+        auto t0 = clock::now();
+        expand_to_half(m, p.r.data(), p.g.data(), p.b.data(), kPixels, out.data(), kPixels);
+        benchmark::ClobberMemory();
+        auto t1 = clock::now();
+        expand_to_half(plain, p.r.data(), p.g.data(), p.b.data(), kPixels, ref.data(), kPixels);
+        benchmark::ClobberMemory();
+        auto t2 = clock::now();
+        const double c = std::chrono::duration<double>(t1 - t0).count();
+        colour_s += c;
+        plain_s += std::chrono::duration<double>(t2 - t1).count();
+        state.SetIterationTime(c);
+    }
+    // How much work the fix-up had: pixels and samples that differ from plain rounding.
+    std::vector<bool> pixel_changed(kPixels);
+    size_t samples_changed = 0;
+    for (size_t i = 0; i < out.size(); ++i)
+        if (out[i] != ref[i]) ++samples_changed, pixel_changed[i % kPixels] = true;
+    state.SetItemsProcessed(static_cast<int64_t>(state.iterations()) * static_cast<int64_t>(kPixels));
+    state.counters["bins"] = bins;
+    state.counters["plain_pixels_per_second"] =
+        plain_s > 0 ? static_cast<double>(state.iterations()) * kPixels / plain_s : 0;
+    state.counters["colour_cost_vs_plain"] = plain_s > 0 ? colour_s / plain_s : 0;
+    state.counters["pixels_changed"] =
+        static_cast<double>(std::count(pixel_changed.begin(), pixel_changed.end(), true)) / kPixels;
+    state.counters["samples_changed"] = static_cast<double>(samples_changed) / static_cast<double>(out.size());
+    state.SetLabel("half, colour rounding");
+}
+
 }  // namespace
 
 BENCHMARK_TEMPLATE(BM_Expand, uint16_t)->Arg(81)->Arg(401)->UseManualTime()->Unit(benchmark::kMicrosecond);
 BENCHMARK_TEMPLATE(BM_Expand, float)->Arg(81)->Arg(401)->UseManualTime()->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_ExpandColour)->Arg(81)->Arg(401)->UseManualTime()->Unit(benchmark::kMicrosecond);
 
 BENCHMARK_MAIN();
