@@ -129,13 +129,7 @@ SpectralExrWriter::SpectralExrWriter(AtomicFile& out, const SpectralExrLayout& l
     : impl_(std::make_unique<Impl>()) {
     impl_->layout = layout;
     const auto& L = layout;
-    std::string kind = L.writer;
-    if (kind == "auto") {
-        const char* e = std::getenv("SPECTEX_EXR_WRITER");
-        kind = e && *e ? e : "core";
-    }
-    if (kind != "core" && kind != "imf") throw Error("unknown EXR writer '" + kind + "' (known: core, imf)");
-    if (kind == "core" && L.tile_width <= 0 && ExrCoreWriter::supports(L.compression.name)) {
+    if (uses_core(L)) {
         CoreWriterSpec spec;
         spec.x = L.x;
         spec.y = L.y;
@@ -193,6 +187,16 @@ SpectralExrWriter::SpectralExrWriter(AtomicFile& out, const SpectralExrLayout& l
     } else {
         impl_->file = std::make_unique<Imf::OutputFile>(*impl_->stream, header, std::max(1, L.threads));
     }
+}
+
+bool SpectralExrWriter::uses_core(const SpectralExrLayout& L) {
+    std::string kind = L.writer;
+    if (kind == "auto") {
+        const char* e = std::getenv("SPECTEX_EXR_WRITER");
+        kind = e && *e ? e : "core";
+    }
+    if (kind != "core" && kind != "imf") throw Error("unknown EXR writer '" + kind + "' (known: core, imf)");
+    return kind == "core" && L.tile_width <= 0 && ExrCoreWriter::supports(L.compression.name);
 }
 
 int SpectralExrWriter::levels() const { return impl_->tiled ? impl_->tiled->numLevels() : 1; }

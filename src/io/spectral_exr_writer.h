@@ -43,6 +43,8 @@ struct SpectralExrLayout {
 class SpectralExrWriter {
 public:
     SpectralExrWriter(AtomicFile& file, const SpectralExrLayout& layout);
+    // Whether a writer for this layout uses the core-API writer (throws on an unknown writer name).
+    static bool uses_core(const SpectralExrLayout& layout);
     ~SpectralExrWriter();
 
     // Writes the next `rows` rows. spectral: bin k of pixel i at spectral[k*plane_stride + i]

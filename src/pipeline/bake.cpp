@@ -87,6 +87,12 @@ std::string join_lambda(const std::vector<double>& l) {
 
 }  // namespace
 
+int strip_rows(size_t row_bytes, int lines_per_chunk, bool whole_chunks, int height) {
+    int rows = std::max(1, static_cast<int>(kStripBudget / std::max<size_t>(row_bytes, 1)));
+    if (whole_chunks) rows = std::max(1, rows / lines_per_chunk) * lines_per_chunk;
+    return std::min(rows, height);
+}
+
 std::string to_string(RangePolicy p) {
     return p == RangePolicy::Clamp ? "clamp" : p == RangePolicy::Keep ? "keep" : "error";
 }
@@ -180,8 +186,7 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     const bool tiled = layout.tile_width > 0;
     const int chunk = tiled ? layout.tile_height : s.compression.lines_per_chunk;
     size_t row_bytes = w * static_cast<size_t>(m.bins) * es;
-    int strip = std::max(1, static_cast<int>(kStripBudget / std::max<size_t>(row_bytes, 1)) / chunk) * chunk;
-    strip = std::min(strip, info.height);
+    const int strip = strip_rows(row_bytes, chunk, tiled || std::string(writer.writer_name()) != "core", info.height);
 
     const bool straighten = info.alpha == AlphaKind::Associated;
     const bool premultiply = has_alpha && s.alpha == AlphaMode::Associated;

@@ -64,6 +64,11 @@ struct BakeResult {
 // Throws Error ("<file>: <cause>") on failure; the output then does not exist under its name.
 BakeResult bake_file(const std::string& input, const std::string& output, const BakeSettings& s);
 
+// Rows per strip: about 32 MB of spectral samples (row_bytes each). The C++ writer and tiled files
+// take whole chunks (lines_per_chunk rows, rounded up to one); the core writer takes any rows, so
+// at high bin counts a strip may be less than a chunk. At most `height`.
+int strip_rows(size_t row_bytes, int lines_per_chunk, bool whole_chunks, int height);
+
 std::string to_string(RangePolicy p);
 std::string to_string(NanPolicy p);
 

@@ -7,7 +7,7 @@
 // Configured as spectex bake configures it (src/pipeline/bake.cpp): the same writer choice
 // (--writer auto: the core-API writer with libdeflate for scanline none/zips/zip, OpenEXR's C++
 // writer otherwise; --writer imf forces the C++ one), the same ZIP level unless --zip-level, the
-// same strip size (32 MB of samples rounded down to whole compression chunks), T compression
+// same strip size (spectex::strip_rows: about 32 MB of samples, whole chunks for the C++ writer), T compression
 // threads (Imf::setGlobalThreadCount(T) for the C++ writer).
 //
 // --source IMAGE replaces the synthetic pattern by the first strip of that image (read and
@@ -41,6 +41,7 @@
 #include "io/image_source.h"
 #include "io/linearizer.h"
 #include "io/spectral_exr_writer.h"
+#include "pipeline/bake.h"
 #include "spectral/basis.h"
 #include "spectral/basis_fit.h"
 #include "spectral/expand.h"
@@ -50,7 +51,6 @@ using namespace spectex;
 
 namespace {
 
-constexpr size_t kStripBudget = 32u << 20;  // as src/pipeline/bake.cpp
 
 double cpu_seconds() {
     rusage ru{};
@@ -131,8 +131,10 @@ int main(int argc, char** argv) {
         const size_t w = static_cast<size_t>(width);
         const size_t row_bytes = w * static_cast<size_t>(bins) * es;
         const int chunk = comp.lines_per_chunk;
-        int strip = std::max(1, static_cast<int>(kStripBudget / std::max<size_t>(row_bytes, 1)) / chunk) * chunk;
-        strip = std::min(strip, height);
+        SpectralExrLayout probe;
+        probe.compression = comp;
+        probe.writer = writer;
+        const int strip = strip_rows(row_bytes, chunk, !SpectralExrWriter::uses_core(probe), height);
 
         // A smooth synthetic pattern, expanded once with a basis fitted on the grid (realistic
         // spectra, so that compression sees realistic data).
