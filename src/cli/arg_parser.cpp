@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <iostream>
 #include <sstream>
 
 namespace spectex {
@@ -57,6 +58,12 @@ const ArgParser::Entry* ArgParser::find(const std::string& name) const {
         for (const auto& n : e.names)
             if (n == name) return &e;
     return nullptr;
+}
+
+bool ArgParser::parse_or_help(const std::vector<std::string>& args, std::vector<std::string>& positional) {
+    positional = parse(args);
+    if (help_) std::cout << help();
+    return help_;
 }
 
 std::vector<std::string> ArgParser::parse(const std::vector<std::string>& args) {

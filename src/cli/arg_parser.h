@@ -25,6 +25,8 @@ public:
     // Returns the positional arguments. Throws UsageError. Sets help_requested() on -h/--help.
     std::vector<std::string> parse(const std::vector<std::string>& args);
     bool help_requested() const { return help_; }
+    // parse(), and on -h/--help prints help() to stdout and returns true: the command then exits 0.
+    bool parse_or_help(const std::vector<std::string>& args, std::vector<std::string>& positional);
     std::string help() const;
     const std::string& command() const { return command_; }
 

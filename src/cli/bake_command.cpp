@@ -159,11 +159,7 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
 
     std::vector<std::string> inputs;
     try {
-        inputs = p.parse(args);
-        if (p.help_requested()) {
-            std::cout << p.help();
-            return 0;
-        }
+        if (p.parse_or_help(args, inputs)) return 0;
         if (inputs.empty() && c.from_list.empty()) throw UsageError("no input file");
         if (c.output.empty() && c.output_dir.empty()) throw UsageError("no output (-o OUTPUT.exr, -o TEMPLATE or --output-dir DIR)");
         if (!c.shard.empty()) {

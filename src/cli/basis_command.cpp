@@ -72,11 +72,8 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
            [&] { spec.allow_infeasible = true; });
     p.flag("-q, --quiet", "Do not print the certificate.", [&] { quiet = true; });
     try {
-        auto pos = p.parse(args);
-        if (p.help_requested()) {
-            std::cout << p.help();
-            return 0;
-        }
+        std::vector<std::string> pos;
+        if (p.parse_or_help(args, pos)) return 0;
         if (!pos.empty()) throw UsageError("unexpected argument '" + pos[0] + "'");
         if (output.empty()) throw UsageError("no output file (-o BASIS.csv, or -o - for stdout)");
         if (spec.objective != "norm" && spec.objective != "smooth")

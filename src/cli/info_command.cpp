@@ -15,11 +15,7 @@ int run_info(const std::vector<std::string>& args) {
                 "Exits 1 when a file is not a spectral reflectance image.");
     std::vector<std::string> files;
     try {
-        files = p.parse(args);
-        if (p.help_requested()) {
-            std::cout << p.help();
-            return 0;
-        }
+        if (p.parse_or_help(args, files)) return 0;
         if (files.empty()) throw UsageError("no input file");
     } catch (const UsageError& e) {
         return usage_error("info", e.what());

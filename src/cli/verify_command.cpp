@@ -219,11 +219,7 @@ int run_verify(const std::vector<std::string>& args) {
 
     std::vector<std::string> files;
     try {
-        files = p.parse(args);
-        if (p.help_requested()) {
-            std::cout << p.help();
-            return 0;
-        }
+        if (p.parse_or_help(args, files)) return 0;
         if (files.empty()) throw UsageError("no input file");
         if (files.size() > 1) throw UsageError("one file at a time (got " + std::to_string(files.size()) + ")");
         if (s.source.empty()) {
