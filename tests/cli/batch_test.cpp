@@ -3,10 +3,12 @@
 #include <sys/stat.h>
 #include <utime.h>
 
+#include <cstring>
 #include <map>
 #include <set>
 
 #include "cli/cli_util.h"
+#include "cli/exr_read.h"
 
 using namespace spectex_test;
 
@@ -197,4 +199,51 @@ TEST(Batch, TwoTasksWritingOneOutputLeaveAValidFile) {
     EXPECT_EQ(info.status, 0) << info.err;
     auto v = run_spectex({"verify", d / "out.exr", "--source", d / "in.png", "--min-code-match", "100"});
     EXPECT_EQ(v.status, 0) << v.out << v.err;
+}
+
+TEST(Batch, JsonReportsStagesAndTheWriter) {
+    // The stages of --json: every one present and not negative, the writer named (core for
+    // scanline zip, imf for piz and for tiles), and a failed file has no stages.
+    ScratchDir d;
+    write_small_png(d / "a.png", 1);
+    auto stages_of = [&](const std::vector<std::string>& extra) {
+        std::vector<std::string> args{"bake", d / "a.png", "-o", d / "a.exr", "--force", "--json", "-"};
+        args.insert(args.end(), extra.begin(), extra.end());
+        auto r = run_spectex(args);
+        EXPECT_EQ(r.status, 0) << r.err;
+        return r.out;
+    };
+    const std::string zip = stages_of({});
+    EXPECT_TRUE(contains(zip, "\"stages\":{\"writer\":\"core\"")) << zip;
+    for (const char* k : {"read_s", "colour_s", "expand_s", "pack_s", "encoder_wait_s", "producer_wait_s",
+                          "compress_cpu_s", "finish_s"}) {
+        const size_t at = zip.find(std::string("\"") + k + "\":");
+        ASSERT_NE(at, std::string::npos) << k;
+        EXPECT_GE(std::stod(zip.substr(at + std::strlen(k) + 3)), 0.0) << k;
+    }
+    EXPECT_TRUE(contains(stages_of({"--compression", "piz"}), "\"writer\":\"imf\""));
+    EXPECT_TRUE(contains(stages_of({"--tile", "4"}), "\"writer\":\"imf\""));
+    auto bad = run_spectex({"bake", d / "missing.png", "-o", d / "m.exr", "--json", "-"});
+    EXPECT_EQ(bad.status, 1);
+    EXPECT_FALSE(contains(bad.out, "\"stages\"")) << bad.out;
+}
+
+TEST(Batch, ZipLevelChangesTheStreamNotThePixels) {
+    // --zip-level is recorded, changes the bytes (level 1 deflates less) and the settings hash,
+    // and never the pixels; out-of-range levels are usage errors (exit 2).
+    ScratchDir d;
+    std::vector<uint8_t> px(64 * 64 * 3);
+    for (size_t i = 0; i < px.size(); ++i) px[i] = static_cast<uint8_t>((i * i / 7 + i / 64) & 255);
+    write_image(d / "a.png", 64, 64, 3, OIIO::TypeDesc::UINT8, px.data());
+    ASSERT_EQ(run_spectex({"bake", d / "a.png", "-o", d / "l4.exr", "-q"}).status, 0);
+    ASSERT_EQ(run_spectex({"bake", d / "a.png", "-o", d / "l1.exr", "-q", "--zip-level", "1"}).status, 0);
+    ExrImage a = read_exr(d / "l4.exr"), b = read_exr(d / "l1.exr");
+    EXPECT_EQ(a.attr("spectex:zipLevel"), "4");
+    EXPECT_EQ(b.attr("spectex:zipLevel"), "1");
+    EXPECT_NE(a.attr("spectex:settingsHash"), b.attr("spectex:settingsHash"));
+    EXPECT_NE(read_file(d / "l4.exr").size(), read_file(d / "l1.exr").size());
+    ASSERT_EQ(a.pixels.size(), b.pixels.size());
+    for (const auto& [name, v] : a.pixels) EXPECT_EQ(v, b.pixels.at(name)) << name;
+    for (const char* bad : {"0", "13", "x", ""})
+        EXPECT_EQ(run_spectex({"bake", d / "a.png", "-o", d / "x.exr", "--zip-level", bad}).status, 2) << bad;
 }
