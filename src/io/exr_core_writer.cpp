@@ -64,6 +64,7 @@ struct ExrCoreWriter::Impl {
         std::vector<uint8_t> data;  // packed rows; after compression, the bytes to write
         size_t raw_bytes = 0, bytes = 0;
         int index = 0, rows = 0, filled = 0;
+        int tx = 0, ty = 0, level = 0;  // tiled files
     };
 
     CoreWriterSpec spec;
@@ -72,9 +73,13 @@ struct ExrCoreWriter::Impl {
     exr_context_t ctxt = nullptr;
     std::vector<CoreChannel> channels;  // file order
     std::vector<size_t> channel_offset; // byte offset of each channel within one packed row
-    size_t row_bytes = 0;
+    size_t row_bytes = 0;      // scanline files: bytes of one packed row
+    size_t pixel_bytes = 0;    // bytes of one pixel over all channels
     int lines_per_chunk = 1, chunk_count = 0;
     bool compress = false;
+    bool tiled = false;
+    std::vector<std::pair<int, int>> level_size;  // tiled: width, height of each level
+    int next_level = 0, next_row = 0;             // tiled: where the caller must continue
 
     // Chunk buffers: `free` ones wait to be filled; `queue` waits for a worker; `done` holds
     // compressed chunks until every earlier chunk is written (the file's line order is increasing).
@@ -83,6 +88,7 @@ struct ExrCoreWriter::Impl {
     std::deque<Chunk*> queue;
     std::map<int, Chunk*> done;
     int max_buffers = 2;
+    size_t max_chunk_bytes = 0;
     Chunk* current = nullptr;
     int next_chunk = 0;     // index of the next chunk to start filling
     int next_write = 0;     // index of the next chunk to write
@@ -151,8 +157,9 @@ struct ExrCoreWriter::Impl {
                 c = it->second;
                 done.erase(it);
             }
-            const int y = spec.y + c->index * lines_per_chunk;
-            const exr_result_t rv = exr_write_scanline_chunk(ctxt, 0, y, c->data.data(), c->bytes);
+            const exr_result_t rv =
+                tiled ? exr_write_tile_chunk(ctxt, 0, c->tx, c->ty, c->level, c->level, c->data.data(), c->bytes)
+                      : exr_write_scanline_chunk(ctxt, 0, spec.y + c->index * lines_per_chunk, c->data.data(), c->bytes);
             std::exception_ptr e;
             if (rv != EXR_ERR_SUCCESS) {
                 try {
@@ -237,16 +244,18 @@ struct ExrCoreWriter::Impl {
         }
         lock.unlock();
         c->index = next_chunk++;
-        c->rows = std::min(lines_per_chunk, spec.height - c->index * lines_per_chunk);
         c->filled = 0;
-        c->raw_bytes = row_bytes * static_cast<size_t>(c->rows);
-        if (c->data.size() < c->raw_bytes) c->data.resize(c->raw_bytes);
+        if (!tiled) {
+            c->rows = std::min(lines_per_chunk, spec.height - c->index * lines_per_chunk);
+            c->raw_bytes = row_bytes * static_cast<size_t>(c->rows);
+        }
+        if (c->data.size() < max_chunk_bytes) c->data.resize(max_chunk_bytes);
         stats.wait_seconds += since(t0);
-        stats.peak_chunk_bytes = std::max(stats.peak_chunk_bytes, c->raw_bytes);
         return c;
     }
 
     void submit(Chunk* c) {
+        stats.peak_chunk_bytes = std::max(stats.peak_chunk_bytes, c->raw_bytes);
         std::unique_lock<std::mutex> lock(mu);
         if (compress) {
             queue.push_back(c);
@@ -280,9 +289,10 @@ ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const CoreWriterSp
     exr_compression_t comp = spec.compression == "zip"    ? EXR_COMPRESSION_ZIP
                              : spec.compression == "zips" ? EXR_COMPRESSION_ZIPS
                                                           : EXR_COMPRESSION_NONE;
-    I.lines_per_chunk = comp == EXR_COMPRESSION_ZIP ? 16 : 1;
+    I.tiled = spec.tile_width > 0;
+    I.lines_per_chunk = I.tiled ? spec.tile_height : comp == EXR_COMPRESSION_ZIP ? 16 : 1;
     I.compress = comp != EXR_COMPRESSION_NONE;
-    I.chunk_count = (spec.height + I.lines_per_chunk - 1) / I.lines_per_chunk;
+    I.chunk_count = (spec.height + I.lines_per_chunk - 1) / I.lines_per_chunk;  // tiled: set below
 
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.user_data = &I;
@@ -291,7 +301,8 @@ ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const CoreWriterSp
     init.zip_level = spec.zip_level;
     I.check(exr_start_write(&I.ctxt, name.c_str(), EXR_WRITE_FILE_DIRECTLY, &init), "cannot start the file");
     int part = 0;
-    I.check(exr_add_part(I.ctxt, nullptr, EXR_STORAGE_SCANLINE, &part), "cannot add the image part");
+    I.check(exr_add_part(I.ctxt, nullptr, I.tiled ? EXR_STORAGE_TILED : EXR_STORAGE_SCANLINE, &part),
+            "cannot add the image part");
     exr_attr_box2i_t data{{spec.x, spec.y}, {spec.x + spec.width - 1, spec.y + spec.height - 1}};
     exr_attr_box2i_t display{{spec.full_x, spec.full_y},
                              {spec.full_x + spec.full_width - 1, spec.full_y + spec.full_height - 1}};
@@ -309,6 +320,13 @@ ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const CoreWriterSp
             I.fail("cannot add channel " + c.name, EXR_ERR_INVALID_ARGUMENT);
         I.channel_offset.push_back(I.row_bytes);
         I.row_bytes += static_cast<size_t>(spec.width) * (c.half ? 2 : 4);
+        I.pixel_bytes += c.half ? 2 : 4;
+    }
+    if (I.tiled) {
+        I.check(exr_set_tile_descriptor(I.ctxt, part, static_cast<uint32_t>(spec.tile_width),
+                                        static_cast<uint32_t>(spec.tile_height),
+                                        spec.mipmap ? EXR_TILE_MIPMAP_LEVELS : EXR_TILE_ONE_LEVEL, EXR_TILE_ROUND_DOWN),
+                "cannot set the tile description");
     }
     const exr_attr_chlist_t* list = nullptr;
     I.check(exr_get_channels(I.ctxt, part, &list), "cannot read back the channel list");
@@ -318,6 +336,7 @@ ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const CoreWriterSp
     // Attributes in name order, as OpenEXR's C++ writer stores them (the core keeps insertion order).
     auto attributes = spec.string_attributes;
     attributes.emplace_back("spectralLayoutVersion", "1.0");
+    if (I.tiled) attributes.insert(attributes.end(), spec.tiled_attributes.begin(), spec.tiled_attributes.end());
     std::sort(attributes.begin(), attributes.end());
     for (const auto& [k, v] : attributes)
         I.check(exr_attr_set_string(I.ctxt, part, k.c_str(), v.c_str()), ("cannot set attribute " + k).c_str());
@@ -326,6 +345,20 @@ ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const CoreWriterSp
         I.check(exr_attr_set_chromaticities(I.ctxt, part, "chromaticities", &c), "cannot set chromaticities");
     }
     I.check(exr_write_header(I.ctxt), "cannot write the header");
+    if (I.tiled) {
+        int32_t lx = 0, ly = 0;
+        I.check(exr_get_tile_levels(I.ctxt, part, &lx, &ly), "cannot count the levels");
+        I.chunk_count = 0;
+        for (int l = 0; l < lx; ++l) {
+            int32_t w = 0, h = 0;
+            I.check(exr_get_level_sizes(I.ctxt, part, l, l, &w, &h), "cannot size a level");
+            I.level_size.emplace_back(w, h);
+            I.chunk_count += ((w + spec.tile_width - 1) / spec.tile_width) * ((h + spec.tile_height - 1) / spec.tile_height);
+        }
+        I.max_chunk_bytes = I.pixel_bytes * static_cast<size_t>(spec.tile_width) * static_cast<size_t>(spec.tile_height);
+    } else {
+        I.max_chunk_bytes = I.row_bytes * static_cast<size_t>(I.lines_per_chunk);
+    }
 
     // Memory: one chunk being filled and one per worker being compressed; each worker also has
     // a scratch block. Never more, whatever the bin count.
@@ -342,6 +375,7 @@ ExrCoreWriter::~ExrCoreWriter() {
 void ExrCoreWriter::write_rows(int rows, const void* spectral, size_t plane_stride, const float* alpha,
                                const float* pr, const float* pg, const float* pb) {
     Impl& I = *impl_;
+    if (I.tiled) throw Error(I.name + ": internal: write_rows on a tiled file");
     const size_t w = static_cast<size_t>(I.spec.width);
     for (int r = 0; r < rows; ++r) {
         if (!I.current) I.current = I.acquire();
@@ -374,6 +408,74 @@ void ExrCoreWriter::write_rows(int rows, const void* spectral, size_t plane_stri
     }
     std::lock_guard<std::mutex> lock(I.mu);
     I.rethrow_locked();
+}
+
+void ExrCoreWriter::write_level_rows(int level, int row0, int rows, const void* spectral, size_t plane_stride,
+                                     const float* alpha, const float* pr, const float* pg, const float* pb) {
+    Impl& I = *impl_;
+    if (!I.tiled) throw Error(I.name + ": internal: write_level_rows on a scanline file");
+    if (level >= static_cast<int>(I.level_size.size())) throw Error(I.name + ": internal: no level " + std::to_string(level));
+    if (level != I.next_level || row0 != I.next_row)
+        throw Error(I.name + ": internal: tiles must come in file order (level " + std::to_string(I.next_level) +
+                    ", row " + std::to_string(I.next_row) + " next)");
+    const int lw = I.level_size[static_cast<size_t>(level)].first, lh = I.level_size[static_cast<size_t>(level)].second;
+    const int tw = I.spec.tile_width, th = I.spec.tile_height;
+    if (row0 % th != 0 || (rows % th != 0 && row0 + rows != lh))
+        throw Error(I.name + ": internal: rows must be whole tile rows");
+    const size_t w = static_cast<size_t>(lw);
+    for (int y0 = row0; y0 < row0 + rows; y0 += th) {
+        const int tile_rows = std::min(th, lh - y0);
+        for (int x0 = 0; x0 < lw; x0 += tw) {
+            const size_t cw = static_cast<size_t>(std::min(tw, lw - x0));
+            Impl::Chunk& c = *I.acquire();
+            auto t0 = Clock::now();
+            c.level = level;
+            c.tx = x0 / tw;
+            c.ty = y0 / th;
+            c.rows = tile_rows;
+            c.raw_bytes = I.pixel_bytes * cw * static_cast<size_t>(tile_rows);
+            uint8_t* dst = c.data.data();
+            for (int y = 0; y < tile_rows; ++y) {
+                const size_t src_off = static_cast<size_t>(y0 - row0 + y) * w + static_cast<size_t>(x0);
+                for (const CoreChannel& C : I.channels) {
+                    const size_t es = C.half ? 2 : 4;
+                    if (C.source == CoreChannel::Spectral) {
+                        std::memcpy(dst, static_cast<const uint8_t*>(spectral) + (C.bin * plane_stride + src_off) * es,
+                                    cw * es);
+                    } else {
+                        const float* src = C.source == CoreChannel::Alpha      ? alpha
+                                           : C.source == CoreChannel::PreviewR ? pr
+                                           : C.source == CoreChannel::PreviewG ? pg
+                                                                               : pb;
+                        if (C.half)
+                            floats_to_half(src + src_off, reinterpret_cast<uint16_t*>(dst), cw);
+                        else
+                            std::memcpy(dst, src + src_off, cw * sizeof(float));
+                    }
+                    dst += cw * es;
+                }
+            }
+            I.stats.pack_seconds += since(t0);
+            I.submit(&c);
+        }
+    }
+    I.next_row = row0 + rows;
+    if (I.next_row >= lh) {
+        ++I.next_level;
+        I.next_row = 0;
+    }
+    std::lock_guard<std::mutex> lock(I.mu);
+    I.rethrow_locked();
+}
+
+int ExrCoreWriter::levels() const {
+    return impl_->tiled ? static_cast<int>(impl_->level_size.size()) : 1;
+}
+int ExrCoreWriter::level_width(int level) const {
+    return impl_->tiled ? impl_->level_size.at(static_cast<size_t>(level)).first : impl_->spec.width;
+}
+int ExrCoreWriter::level_height(int level) const {
+    return impl_->tiled ? impl_->level_size.at(static_cast<size_t>(level)).second : impl_->spec.height;
 }
 
 void ExrCoreWriter::finish() {

@@ -1,5 +1,6 @@
 #pragma once
-// A scanline OpenEXR writer on OpenEXR's C core API (openexr_core) for NONE, ZIPS and ZIP files.
+// An OpenEXR writer on OpenEXR's C core API (openexr_core) for NONE, ZIPS and ZIP files, scanline
+// or tiled (one level or MIP-mapped, levels rounded down).
 //
 // Why not Imf::OutputFile: OpenEXR 3.1's C++ writer keeps 2×threads line buffers, each with its
 // own compression buffers, whatever the chunk size (about 630 MB at 4K and 401 bins), and
@@ -30,6 +31,9 @@ struct CoreWriterSpec {
     std::vector<CoreChannel> channels;  // any order: written sorted by name, as EXR requires
     std::vector<std::pair<std::string, std::string>> string_attributes;
     bool chromaticities = false;  // Rec.709 primaries, D65 white (for preview R, G, B)
+    int tile_width = 0, tile_height = 0;  // > 0: tiled
+    bool mipmap = false;
+    std::vector<std::pair<std::string, std::string>> tiled_attributes;  // only for tiled files
 };
 
 class ExrCoreWriter {
@@ -44,6 +48,14 @@ public:
     // may be reused as soon as the call returns.
     void write_rows(int rows, const void* spectral, size_t plane_stride, const float* alpha,
                     const float* preview_r, const float* preview_g, const float* preview_b);
+    // Tiled files: rows [row0, row0 + rows) of MIP level `level` (planes level_width wide), whole
+    // tile rows, levels and rows in increasing order (the file's chunk order).
+    void write_level_rows(int level, int row0, int rows, const void* spectral, size_t plane_stride,
+                          const float* alpha, const float* preview_r, const float* preview_g,
+                          const float* preview_b);
+    int levels() const;
+    int level_width(int level) const;
+    int level_height(int level) const;
     // Waits for the last chunks, writes the offset table; throws the first error (naming the file).
     void finish();
 

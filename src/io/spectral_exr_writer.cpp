@@ -96,6 +96,10 @@ private:
     std::vector<char> buf_;
 };
 
+// What OpenImageIO's texture system looks for in a tiled file (maketx writes the same).
+const std::vector<std::pair<std::string, std::string>> kTextureAttributes = {{"textureformat", "Plain Texture"},
+                                                                             {"wrapmodes", "black,black"}};
+
 Imf::PixelType pixel_type(SampleType t) { return t == SampleType::Half ? Imf::HALF : Imf::FLOAT; }
 
 }  // namespace
@@ -154,6 +158,10 @@ SpectralExrWriter::SpectralExrWriter(AtomicFile& out, const SpectralExrLayout& l
             spec.chromaticities = true;
         }
         spec.string_attributes = L.attributes;
+        spec.tile_width = L.tile_width;
+        spec.tile_height = L.tile_height;
+        spec.mipmap = L.mipmap;
+        spec.tiled_attributes = kTextureAttributes;
         impl_->core = std::make_unique<ExrCoreWriter>(out.fd(), out.final_path(), spec);
         return;
     }
@@ -180,9 +188,7 @@ SpectralExrWriter::SpectralExrWriter(AtomicFile& out, const SpectralExrLayout& l
         header.setTileDescription(Imf::TileDescription(
             static_cast<unsigned>(L.tile_width), static_cast<unsigned>(L.tile_height),
             L.mipmap ? Imf::MIPMAP_LEVELS : Imf::ONE_LEVEL, Imf::ROUND_DOWN));
-        // What OpenImageIO's texture system looks for (maketx writes the same).
-        header.insert("textureformat", Imf::StringAttribute("Plain Texture"));
-        header.insert("wrapmodes", Imf::StringAttribute("black,black"));
+        for (const auto& [k, v] : kTextureAttributes) header.insert(k, Imf::StringAttribute(v));
         impl_->tiled = std::make_unique<Imf::TiledOutputFile>(*impl_->stream, header, std::max(1, L.threads));
     } else {
         impl_->file = std::make_unique<Imf::OutputFile>(*impl_->stream, header, std::max(1, L.threads));
@@ -196,14 +202,19 @@ bool SpectralExrWriter::uses_core(const SpectralExrLayout& L) {
         kind = e && *e ? e : "core";
     }
     if (kind != "core" && kind != "imf") throw Error("unknown EXR writer '" + kind + "' (known: core, imf)");
-    return kind == "core" && L.tile_width <= 0 && ExrCoreWriter::supports(L.compression.name);
+    return kind == "core" && ExrCoreWriter::supports(L.compression.name);
 }
 
-int SpectralExrWriter::levels() const { return impl_->tiled ? impl_->tiled->numLevels() : 1; }
+int SpectralExrWriter::levels() const {
+    if (impl_->core) return impl_->core->levels();
+    return impl_->tiled ? impl_->tiled->numLevels() : 1;
+}
 int SpectralExrWriter::level_width(int level) const {
+    if (impl_->core) return impl_->core->level_width(level);
     return impl_->tiled ? impl_->tiled->levelWidth(level) : impl_->layout.width;
 }
 int SpectralExrWriter::level_height(int level) const {
+    if (impl_->core) return impl_->core->level_height(level);
     return impl_->tiled ? impl_->tiled->levelHeight(level) : impl_->layout.height;
 }
 
@@ -220,6 +231,10 @@ void SpectralExrWriter::write_rows(int rows, const void* spectral, size_t plane_
 
 void SpectralExrWriter::write_level_rows(int level, int row0, int rows, const void* spectral, size_t plane_stride,
                                          const float* alpha, const float* pr, const float* pg, const float* pb) {
+    if (impl_->core) {
+        impl_->core->write_level_rows(level, row0, rows, spectral, plane_stride, alpha, pr, pg, pb);
+        return;
+    }
     const auto& L = impl_->layout;
     const size_t w = static_cast<size_t>(level_width(level));
     const int y0 = L.y + row0;

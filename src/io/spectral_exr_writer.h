@@ -34,8 +34,8 @@ struct SpectralExrLayout {
     // Tiled output (tile_width > 0), optionally MIP-mapped (levels rounded down, as maketx does).
     int tile_width = 0, tile_height = 0;
     bool mipmap = false;
-    // Scanline NONE/ZIPS/ZIP files go through the core-API writer (bounded memory, libdeflate)
-    // unless writer is "imf"; "auto" also reads $SPECTEX_EXR_WRITER (core or imf).
+    // NONE/ZIPS/ZIP files, scanline or tiled, go through the core-API writer (bounded memory,
+    // libdeflate) unless writer is "imf"; "auto" also reads $SPECTEX_EXR_WRITER (core or imf).
     std::string writer = "auto";
     int zip_level = 4;  // libdeflate level for the core writer (Imf's zlib uses OpenEXR's default)
 };

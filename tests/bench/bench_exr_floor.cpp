@@ -5,7 +5,7 @@
 // expanded into one strip buffer, which is handed to the writer for every strip.
 //
 // Configured as spectex bake configures it (src/pipeline/bake.cpp): the same writer choice
-// (--writer auto: the core-API writer with libdeflate for scanline none/zips/zip, OpenEXR's C++
+// (--writer auto: the core-API writer with libdeflate for none/zips/zip, OpenEXR's C++
 // writer otherwise; --writer imf forces the C++ one), the same ZIP level unless --zip-level, the
 // same strip size (spectex::strip_rows: about 32 MB of samples, whole chunks for the C++ writer), T compression
 // threads (Imf::setGlobalThreadCount(T) for the C++ writer).

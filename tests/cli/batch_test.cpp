@@ -202,8 +202,8 @@ TEST(Batch, TwoTasksWritingOneOutputLeaveAValidFile) {
 }
 
 TEST(Batch, JsonReportsStagesAndTheWriter) {
-    // The stages of --json: every one present and not negative, the writer named (core for
-    // scanline zip, imf for piz and for tiles), and a failed file has no stages.
+    // The stages of --json: every one present and not negative, the writer named (core for zip,
+    // scanline or tiled; imf for piz), and a failed file has no stages.
     ScratchDir d;
     write_small_png(d / "a.png", 1);
     auto stages_of = [&](const std::vector<std::string>& extra) {
@@ -222,7 +222,7 @@ TEST(Batch, JsonReportsStagesAndTheWriter) {
         EXPECT_GE(std::stod(zip.substr(at + std::strlen(k) + 3)), 0.0) << k;
     }
     EXPECT_TRUE(contains(stages_of({"--compression", "piz"}), "\"writer\":\"imf\""));
-    EXPECT_TRUE(contains(stages_of({"--tile", "4"}), "\"writer\":\"imf\""));
+    EXPECT_TRUE(contains(stages_of({"--tile", "4", "--mipmap"}), "\"writer\":\"core\""));
     auto bad = run_spectex({"bake", d / "missing.png", "-o", d / "m.exr", "--json", "-"});
     EXPECT_EQ(bad.status, 1);
     EXPECT_FALSE(contains(bad.out, "\"stages\"")) << bad.out;
