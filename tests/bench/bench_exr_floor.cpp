@@ -75,7 +75,7 @@ int main(int argc, char** argv) {
     int width = 0, height = 0, bins = 81, threads = static_cast<int>(std::thread::hardware_concurrency());
     int zip_level = -1;
     std::string type = "half", compression = "zip", out = "/tmp/bench_exr_floor.exr", wavelengths, source;
-    std::string writer = "auto";  // as spectex bake: core for scanline none/zips/zip, else imf
+    std::string writer = "auto";  // as spectex bake: core for none/zips/zip, else imf
     // --whole (with --source): expand the whole image before the clock starts, so the writer
     // compresses exactly the pixels spectex writes (ZIP's time depends on content).
     bool whole = false;
