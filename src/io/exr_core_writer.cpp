@@ -17,6 +17,7 @@
 
 #include "spectral/error.h"
 #include "spectral/expand.h"
+#include "spectral/wavelength_grid.h"
 
 namespace spectex {
 
@@ -55,6 +56,14 @@ void zip_restore(uint8_t* prepared, size_t n, uint8_t* out) {
     for (size_t i = 0; i < n; ++i) out[i] = (i % 2 == 0) ? *t1++ : *t2++;
 }
 
+// A channel of the file and where its samples come from.
+struct CoreChannel {
+    std::string name;
+    bool half = true;  // sample type in the file
+    enum Source { Spectral, Alpha, PreviewR, PreviewG, PreviewB } source = Spectral;
+    int bin = 0;  // for Spectral: plane index
+};
+
 }  // namespace
 
 bool ExrCoreWriter::supports(const std::string& c) { return c == "none" || c == "zips" || c == "zip"; }
@@ -67,12 +76,11 @@ struct ExrCoreWriter::Impl {
         int tx = 0, ty = 0, level = 0;  // tiled files
     };
 
-    CoreWriterSpec spec;
+    SpectralExrLayout L;
     std::string name;
     int fd = -1;
     exr_context_t ctxt = nullptr;
     std::vector<CoreChannel> channels;  // file order
-    std::vector<size_t> channel_offset; // byte offset of each channel within one packed row
     size_t row_bytes = 0;      // scanline files: bytes of one packed row
     size_t pixel_bytes = 0;    // bytes of one pixel over all channels
     int lines_per_chunk = 1, chunk_count = 0;
@@ -159,7 +167,7 @@ struct ExrCoreWriter::Impl {
             }
             const exr_result_t rv =
                 tiled ? exr_write_tile_chunk(ctxt, 0, c->tx, c->ty, c->level, c->level, c->data.data(), c->bytes)
-                      : exr_write_scanline_chunk(ctxt, 0, spec.y + c->index * lines_per_chunk, c->data.data(), c->bytes);
+                      : exr_write_scanline_chunk(ctxt, 0, L.y + c->index * lines_per_chunk, c->data.data(), c->bytes);
             std::exception_ptr e;
             if (rv != EXR_ERR_SUCCESS) {
                 try {
@@ -194,7 +202,7 @@ struct ExrCoreWriter::Impl {
     }
 
     void worker() {
-        libdeflate_compressor* z = libdeflate_alloc_compressor(spec.zip_level);
+        libdeflate_compressor* z = libdeflate_alloc_compressor(L.zip_level);
         std::vector<uint8_t> scratch;
         for (;;) {
             Chunk* c = nullptr;
@@ -246,7 +254,7 @@ struct ExrCoreWriter::Impl {
         c->index = next_chunk++;
         c->filled = 0;
         if (!tiled) {
-            c->rows = std::min(lines_per_chunk, spec.height - c->index * lines_per_chunk);
+            c->rows = std::min(lines_per_chunk, L.height - c->index * lines_per_chunk);
             c->raw_bytes = row_bytes * static_cast<size_t>(c->rows);
         }
         if (c->data.size() < max_chunk_bytes) c->data.resize(max_chunk_bytes);
@@ -268,6 +276,30 @@ struct ExrCoreWriter::Impl {
         write_ready();
     }
 
+    // Packs one line of cw pixels of every channel, in file order, at dst (EXR's layout within a
+    // chunk: a line holds each channel's samples in turn); src_off indexes the caller's planes.
+    // Returns the end of the line.
+    uint8_t* pack_line(uint8_t* dst, size_t cw, size_t src_off, const void* spectral, size_t plane_stride,
+                       const float* alpha, const float* pr, const float* pg, const float* pb) const {
+        for (const CoreChannel& C : channels) {
+            const size_t es = C.half ? 2 : 4;
+            if (C.source == CoreChannel::Spectral) {
+                std::memcpy(dst, static_cast<const uint8_t*>(spectral) + (C.bin * plane_stride + src_off) * es, cw * es);
+            } else {
+                const float* src = C.source == CoreChannel::Alpha      ? alpha
+                                   : C.source == CoreChannel::PreviewR ? pr
+                                   : C.source == CoreChannel::PreviewG ? pg
+                                                                       : pb;
+                if (C.half)
+                    floats_to_half(src + src_off, reinterpret_cast<uint16_t*>(dst), cw);
+                else
+                    std::memcpy(dst, src + src_off, cw * sizeof(float));
+            }
+            dst += cw * es;
+        }
+        return dst;
+    }
+
     void stop_workers() {
         {
             std::lock_guard<std::mutex> lock(mu);
@@ -279,38 +311,47 @@ struct ExrCoreWriter::Impl {
     }
 };
 
-ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const CoreWriterSpec& spec)
+ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const SpectralExrLayout& layout)
     : impl_(std::make_unique<Impl>()) {
     Impl& I = *impl_;
-    I.spec = spec;
+    I.L = layout;
+    const SpectralExrLayout& L = I.L;
     I.name = name;
     I.fd = fd;
-    if (!supports(spec.compression)) throw Error("internal: the core writer does not write " + spec.compression);
-    exr_compression_t comp = spec.compression == "zip"    ? EXR_COMPRESSION_ZIP
-                             : spec.compression == "zips" ? EXR_COMPRESSION_ZIPS
-                                                          : EXR_COMPRESSION_NONE;
-    I.tiled = spec.tile_width > 0;
-    I.lines_per_chunk = I.tiled ? spec.tile_height : comp == EXR_COMPRESSION_ZIP ? 16 : 1;
+    const std::string& cname = L.compression.name;
+    if (!supports(cname)) throw Error("internal: the core writer does not write " + cname);
+    exr_compression_t comp = cname == "zip"    ? EXR_COMPRESSION_ZIP
+                             : cname == "zips" ? EXR_COMPRESSION_ZIPS
+                                               : EXR_COMPRESSION_NONE;
+    I.tiled = L.tile_width > 0;
+    I.lines_per_chunk = I.tiled ? L.tile_height : comp == EXR_COMPRESSION_ZIP ? 16 : 1;
     I.compress = comp != EXR_COMPRESSION_NONE;
-    I.chunk_count = (spec.height + I.lines_per_chunk - 1) / I.lines_per_chunk;  // tiled: set below
+    I.chunk_count = (L.height + I.lines_per_chunk - 1) / I.lines_per_chunk;  // tiled: set below
 
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.user_data = &I;
     init.write_fn = &Impl::write_fn;
     init.error_handler_fn = &Impl::error_fn;
-    init.zip_level = spec.zip_level;
+    init.zip_level = L.zip_level;
     I.check(exr_start_write(&I.ctxt, name.c_str(), EXR_WRITE_FILE_DIRECTLY, &init), "cannot start the file");
     int part = 0;
     I.check(exr_add_part(I.ctxt, nullptr, I.tiled ? EXR_STORAGE_TILED : EXR_STORAGE_SCANLINE, &part),
             "cannot add the image part");
-    exr_attr_box2i_t data{{spec.x, spec.y}, {spec.x + spec.width - 1, spec.y + spec.height - 1}};
-    exr_attr_box2i_t display{{spec.full_x, spec.full_y},
-                             {spec.full_x + spec.full_width - 1, spec.full_y + spec.full_height - 1}};
+    exr_attr_box2i_t data{{L.x, L.y}, {L.x + L.width - 1, L.y + L.height - 1}};
+    exr_attr_box2i_t display{{L.full_x, L.full_y}, {L.full_x + L.full_width - 1, L.full_y + L.full_height - 1}};
     exr_attr_v2f_t center{0.0f, 0.0f};
     I.check(exr_initialize_required_attr(I.ctxt, part, &display, &data, 1.0f, &center, 1.0f,
                                          EXR_LINEORDER_INCREASING_Y, comp),
             "cannot set the header");
-    I.channels = spec.channels;
+    const bool half = L.type == SampleType::Half;
+    for (size_t k = 0; k < L.lambda.size(); ++k)
+        I.channels.push_back({reflective_channel_name(L.lambda[k]), half, CoreChannel::Spectral, static_cast<int>(k)});
+    if (L.alpha) I.channels.push_back({"A", L.alpha_type == SampleType::Half, CoreChannel::Alpha, 0});
+    if (L.preview) {
+        I.channels.push_back({"R", half, CoreChannel::PreviewR, 0});
+        I.channels.push_back({"G", half, CoreChannel::PreviewG, 0});
+        I.channels.push_back({"B", half, CoreChannel::PreviewB, 0});
+    }
     std::sort(I.channels.begin(), I.channels.end(),
               [](const CoreChannel& a, const CoreChannel& b) { return std::strcmp(a.name.c_str(), b.name.c_str()) < 0; });
     for (const auto& c : I.channels) {
@@ -318,14 +359,13 @@ ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const CoreWriterSp
         if (exr_add_channel(I.ctxt, part, c.name.c_str(), c.half ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT,
                             EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1) != EXR_ERR_SUCCESS)
             I.fail("cannot add channel " + c.name, EXR_ERR_INVALID_ARGUMENT);
-        I.channel_offset.push_back(I.row_bytes);
-        I.row_bytes += static_cast<size_t>(spec.width) * (c.half ? 2 : 4);
         I.pixel_bytes += c.half ? 2 : 4;
     }
+    I.row_bytes = I.pixel_bytes * static_cast<size_t>(L.width);
     if (I.tiled) {
-        I.check(exr_set_tile_descriptor(I.ctxt, part, static_cast<uint32_t>(spec.tile_width),
-                                        static_cast<uint32_t>(spec.tile_height),
-                                        spec.mipmap ? EXR_TILE_MIPMAP_LEVELS : EXR_TILE_ONE_LEVEL, EXR_TILE_ROUND_DOWN),
+        I.check(exr_set_tile_descriptor(I.ctxt, part, static_cast<uint32_t>(L.tile_width),
+                                        static_cast<uint32_t>(L.tile_height),
+                                        L.mipmap ? EXR_TILE_MIPMAP_LEVELS : EXR_TILE_ONE_LEVEL, EXR_TILE_ROUND_DOWN),
                 "cannot set the tile description");
     }
     const exr_attr_chlist_t* list = nullptr;
@@ -334,13 +374,13 @@ ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const CoreWriterSp
         if (I.channels[static_cast<size_t>(i)].name != list->entries[i].name.str)
             throw Error(name + ": internal: channel order differs from OpenEXR's");
     // Attributes in name order, as OpenEXR's C++ writer stores them (the core keeps insertion order).
-    auto attributes = spec.string_attributes;
+    auto attributes = L.attributes;
     attributes.emplace_back("spectralLayoutVersion", "1.0");
-    if (I.tiled) attributes.insert(attributes.end(), spec.tiled_attributes.begin(), spec.tiled_attributes.end());
+    if (I.tiled) attributes.insert(attributes.end(), texture_attributes().begin(), texture_attributes().end());
     std::sort(attributes.begin(), attributes.end());
     for (const auto& [k, v] : attributes)
         I.check(exr_attr_set_string(I.ctxt, part, k.c_str(), v.c_str()), ("cannot set attribute " + k).c_str());
-    if (spec.chromaticities) {
+    if (L.preview) {  // the preview channels are linear Rec.709 / sRGB primaries, D65 white
         exr_attr_chromaticities_t c{0.64f, 0.33f, 0.30f, 0.60f, 0.15f, 0.06f, 0.3127f, 0.3290f};
         I.check(exr_attr_set_chromaticities(I.ctxt, part, "chromaticities", &c), "cannot set chromaticities");
     }
@@ -353,16 +393,16 @@ ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const CoreWriterSp
             int32_t w = 0, h = 0;
             I.check(exr_get_level_sizes(I.ctxt, part, l, l, &w, &h), "cannot size a level");
             I.level_size.emplace_back(w, h);
-            I.chunk_count += ((w + spec.tile_width - 1) / spec.tile_width) * ((h + spec.tile_height - 1) / spec.tile_height);
+            I.chunk_count += ((w + L.tile_width - 1) / L.tile_width) * ((h + L.tile_height - 1) / L.tile_height);
         }
-        I.max_chunk_bytes = I.pixel_bytes * static_cast<size_t>(spec.tile_width) * static_cast<size_t>(spec.tile_height);
+        I.max_chunk_bytes = I.pixel_bytes * static_cast<size_t>(L.tile_width) * static_cast<size_t>(L.tile_height);
     } else {
         I.max_chunk_bytes = I.row_bytes * static_cast<size_t>(I.lines_per_chunk);
     }
 
     // Memory: one chunk being filled and one per worker being compressed; each worker also has
     // a scratch block. Never more, whatever the bin count.
-    const int workers = I.compress ? std::max(1, spec.threads) : 0;
+    const int workers = I.compress ? std::max(1, L.threads) : 0;
     I.max_buffers = workers + 1;
     for (int i = 0; i < workers; ++i) I.workers.emplace_back([&I] { I.worker(); });
 }
@@ -376,30 +416,13 @@ void ExrCoreWriter::write_rows(int rows, const void* spectral, size_t plane_stri
                                const float* pr, const float* pg, const float* pb) {
     Impl& I = *impl_;
     if (I.tiled) throw Error(I.name + ": internal: write_rows on a tiled file");
-    const size_t w = static_cast<size_t>(I.spec.width);
+    const size_t w = static_cast<size_t>(I.L.width);
     for (int r = 0; r < rows; ++r) {
         if (!I.current) I.current = I.acquire();
         auto t0 = Clock::now();
         Impl::Chunk& c = *I.current;
-        uint8_t* row = c.data.data() + static_cast<size_t>(c.filled) * I.row_bytes;
-        const size_t src_off = static_cast<size_t>(r) * w;
-        for (size_t ch = 0; ch < I.channels.size(); ++ch) {
-            const CoreChannel& C = I.channels[ch];
-            uint8_t* dst = row + I.channel_offset[ch];
-            if (C.source == CoreChannel::Spectral) {
-                const size_t es = C.half ? 2 : 4;
-                std::memcpy(dst, static_cast<const uint8_t*>(spectral) + (C.bin * plane_stride + src_off) * es, w * es);
-                continue;
-            }
-            const float* src = C.source == CoreChannel::Alpha      ? alpha
-                               : C.source == CoreChannel::PreviewR ? pr
-                               : C.source == CoreChannel::PreviewG ? pg
-                                                                   : pb;
-            if (C.half)
-                floats_to_half(src + src_off, reinterpret_cast<uint16_t*>(dst), w);
-            else
-                std::memcpy(dst, src + src_off, w * sizeof(float));
-        }
+        I.pack_line(c.data.data() + static_cast<size_t>(c.filled) * I.row_bytes, w, static_cast<size_t>(r) * w,
+                    spectral, plane_stride, alpha, pr, pg, pb);
         I.stats.pack_seconds += since(t0);
         if (++c.filled == c.rows) {
             I.current = nullptr;
@@ -419,7 +442,7 @@ void ExrCoreWriter::write_level_rows(int level, int row0, int rows, const void* 
         throw Error(I.name + ": internal: tiles must come in file order (level " + std::to_string(I.next_level) +
                     ", row " + std::to_string(I.next_row) + " next)");
     const int lw = I.level_size[static_cast<size_t>(level)].first, lh = I.level_size[static_cast<size_t>(level)].second;
-    const int tw = I.spec.tile_width, th = I.spec.tile_height;
+    const int tw = I.L.tile_width, th = I.L.tile_height;
     if (row0 % th != 0 || (rows % th != 0 && row0 + rows != lh))
         throw Error(I.name + ": internal: rows must be whole tile rows");
     const size_t w = static_cast<size_t>(lw);
@@ -435,26 +458,9 @@ void ExrCoreWriter::write_level_rows(int level, int row0, int rows, const void* 
             c.rows = tile_rows;
             c.raw_bytes = I.pixel_bytes * cw * static_cast<size_t>(tile_rows);
             uint8_t* dst = c.data.data();
-            for (int y = 0; y < tile_rows; ++y) {
-                const size_t src_off = static_cast<size_t>(y0 - row0 + y) * w + static_cast<size_t>(x0);
-                for (const CoreChannel& C : I.channels) {
-                    const size_t es = C.half ? 2 : 4;
-                    if (C.source == CoreChannel::Spectral) {
-                        std::memcpy(dst, static_cast<const uint8_t*>(spectral) + (C.bin * plane_stride + src_off) * es,
-                                    cw * es);
-                    } else {
-                        const float* src = C.source == CoreChannel::Alpha      ? alpha
-                                           : C.source == CoreChannel::PreviewR ? pr
-                                           : C.source == CoreChannel::PreviewG ? pg
-                                                                               : pb;
-                        if (C.half)
-                            floats_to_half(src + src_off, reinterpret_cast<uint16_t*>(dst), cw);
-                        else
-                            std::memcpy(dst, src + src_off, cw * sizeof(float));
-                    }
-                    dst += cw * es;
-                }
-            }
+            for (int y = 0; y < tile_rows; ++y)
+                dst = I.pack_line(dst, cw, static_cast<size_t>(y0 - row0 + y) * w + static_cast<size_t>(x0), spectral,
+                                  plane_stride, alpha, pr, pg, pb);
             I.stats.pack_seconds += since(t0);
             I.submit(&c);
         }
@@ -472,10 +478,10 @@ int ExrCoreWriter::levels() const {
     return impl_->tiled ? static_cast<int>(impl_->level_size.size()) : 1;
 }
 int ExrCoreWriter::level_width(int level) const {
-    return impl_->tiled ? impl_->level_size.at(static_cast<size_t>(level)).first : impl_->spec.width;
+    return impl_->tiled ? impl_->level_size.at(static_cast<size_t>(level)).first : impl_->L.width;
 }
 int ExrCoreWriter::level_height(int level) const {
-    return impl_->tiled ? impl_->level_size.at(static_cast<size_t>(level)).second : impl_->spec.height;
+    return impl_->tiled ? impl_->level_size.at(static_cast<size_t>(level)).second : impl_->L.height;
 }
 
 void ExrCoreWriter::finish() {

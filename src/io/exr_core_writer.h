@@ -12,35 +12,16 @@
 #include <string>
 #include <vector>
 
+#include "io/spectral_exr_writer.h"
+
 namespace spectex {
-
-struct CoreChannel {
-    std::string name;
-    bool half = true;      // sample type in the file
-    enum Source { Spectral, Alpha, PreviewR, PreviewG, PreviewB } source = Spectral;
-    int bin = 0;            // for Spectral: plane index
-    bool source_float = false;  // the caller's data is float (alpha and preview always are)
-};
-
-struct CoreWriterSpec {
-    int x = 0, y = 0, width = 0, height = 0;
-    int full_x = 0, full_y = 0, full_width = 0, full_height = 0;
-    std::string compression;  // none, zips or zip
-    int zip_level = 4;        // libdeflate level (1..12)
-    int threads = 1;          // compression workers
-    std::vector<CoreChannel> channels;  // any order: written sorted by name, as EXR requires
-    std::vector<std::pair<std::string, std::string>> string_attributes;
-    bool chromaticities = false;  // Rec.709 primaries, D65 white (for preview R, G, B)
-    int tile_width = 0, tile_height = 0;  // > 0: tiled
-    bool mipmap = false;
-    std::vector<std::pair<std::string, std::string>> tiled_attributes;  // only for tiled files
-};
 
 class ExrCoreWriter {
 public:
     static bool supports(const std::string& compression);
-    // fd: an open, empty, writable file (the AtomicFile's); name: for messages.
-    ExrCoreWriter(int fd, const std::string& name, const CoreWriterSpec& spec);
+    // fd: an open, empty, writable file (the AtomicFile's); name: for messages. The layout's
+    // compression must be one that supports() takes; its writer field is not looked at.
+    ExrCoreWriter(int fd, const std::string& name, const SpectralExrLayout& layout);
     ~ExrCoreWriter();  // joins the workers; an unfinished file is left to the AtomicFile to discard
 
     // The next `rows` rows. spectral: sample of bin k, pixel i at spectral[k*plane_stride + i]

@@ -96,13 +96,15 @@ private:
     std::vector<char> buf_;
 };
 
-// What OpenImageIO's texture system looks for in a tiled file (maketx writes the same).
-const std::vector<std::pair<std::string, std::string>> kTextureAttributes = {{"textureformat", "Plain Texture"},
-                                                                             {"wrapmodes", "black,black"}};
-
 Imf::PixelType pixel_type(SampleType t) { return t == SampleType::Half ? Imf::HALF : Imf::FLOAT; }
 
 }  // namespace
+
+const std::vector<std::pair<std::string, std::string>>& texture_attributes() {
+    static const std::vector<std::pair<std::string, std::string>> a = {{"textureformat", "Plain Texture"},
+                                                                       {"wrapmodes", "black,black"}};
+    return a;
+}
 
 ExrCompression ExrCompression::parse(const std::string& name) {
     for (const auto& c : kCompressions)
@@ -134,35 +136,7 @@ SpectralExrWriter::SpectralExrWriter(AtomicFile& out, const SpectralExrLayout& l
     impl_->layout = layout;
     const auto& L = layout;
     if (uses_core(L)) {
-        CoreWriterSpec spec;
-        spec.x = L.x;
-        spec.y = L.y;
-        spec.width = L.width;
-        spec.height = L.height;
-        spec.full_x = L.full_x;
-        spec.full_y = L.full_y;
-        spec.full_width = L.full_width;
-        spec.full_height = L.full_height;
-        spec.compression = L.compression.name;
-        spec.zip_level = L.zip_level;
-        spec.threads = std::max(1, L.threads);
-        const bool half = L.type == SampleType::Half;
-        for (size_t k = 0; k < L.lambda.size(); ++k)
-            spec.channels.push_back({reflective_channel_name(L.lambda[k]), half, CoreChannel::Spectral,
-                                     static_cast<int>(k), !half});
-        if (L.alpha) spec.channels.push_back({"A", L.alpha_type == SampleType::Half, CoreChannel::Alpha, 0, true});
-        if (L.preview) {
-            spec.channels.push_back({"R", half, CoreChannel::PreviewR, 0, true});
-            spec.channels.push_back({"G", half, CoreChannel::PreviewG, 0, true});
-            spec.channels.push_back({"B", half, CoreChannel::PreviewB, 0, true});
-            spec.chromaticities = true;
-        }
-        spec.string_attributes = L.attributes;
-        spec.tile_width = L.tile_width;
-        spec.tile_height = L.tile_height;
-        spec.mipmap = L.mipmap;
-        spec.tiled_attributes = kTextureAttributes;
-        impl_->core = std::make_unique<ExrCoreWriter>(out.fd(), out.final_path(), spec);
+        impl_->core = std::make_unique<ExrCoreWriter>(out.fd(), out.final_path(), L);
         return;
     }
     Imath::Box2i data(Imath::V2i(L.x, L.y), Imath::V2i(L.x + L.width - 1, L.y + L.height - 1));
@@ -188,7 +162,7 @@ SpectralExrWriter::SpectralExrWriter(AtomicFile& out, const SpectralExrLayout& l
         header.setTileDescription(Imf::TileDescription(
             static_cast<unsigned>(L.tile_width), static_cast<unsigned>(L.tile_height),
             L.mipmap ? Imf::MIPMAP_LEVELS : Imf::ONE_LEVEL, Imf::ROUND_DOWN));
-        for (const auto& [k, v] : kTextureAttributes) header.insert(k, Imf::StringAttribute(v));
+        for (const auto& [k, v] : texture_attributes()) header.insert(k, Imf::StringAttribute(v));
         impl_->tiled = std::make_unique<Imf::TiledOutputFile>(*impl_->stream, header, std::max(1, L.threads));
     } else {
         impl_->file = std::make_unique<Imf::OutputFile>(*impl_->stream, header, std::max(1, L.threads));

@@ -40,6 +40,10 @@ struct SpectralExrLayout {
     int zip_level = 4;  // libdeflate level for the core writer (Imf's zlib uses OpenEXR's default)
 };
 
+// The string attributes of a tiled file that OpenImageIO's texture system looks for (maketx writes
+// the same), written by both back ends.
+const std::vector<std::pair<std::string, std::string>>& texture_attributes();
+
 class SpectralExrWriter {
 public:
     SpectralExrWriter(AtomicFile& file, const SpectralExrLayout& layout);
