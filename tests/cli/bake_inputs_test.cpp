@@ -341,15 +341,6 @@ TEST(BakeInputs, FloatRgbExrIsLinear) {
 
 namespace {
 
-// Spectex's temporary files (<output>.spectex-XXXXXX.tmp) in a folder.
-std::vector<std::string> temp_files_in(const std::string& dir) {
-    std::vector<std::string> v;
-    for (const auto& n : list_dir(dir))
-        if (n.find(".spectex-") != std::string::npos && n.size() > 4 && n.compare(n.size() - 4, 4, ".tmp") == 0)
-            v.push_back(n);
-    return v;
-}
-
 // Bakes a tiled input (tiles of 16, a size that is not a multiple of it) and checks the result.
 void check_tiled_input(const std::string& ext, OIIO::TypeDesc format, bool srgb) {
     ScratchDir d;

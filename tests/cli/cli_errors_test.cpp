@@ -15,24 +15,9 @@ using namespace spectex_test;
 
 namespace {
 
-std::string dir_of(const std::string& p) {
-    size_t s = p.find_last_of('/');
-    return s == std::string::npos ? "." : (s == 0 ? "/" : p.substr(0, s));
-}
-
 bool is_dir(const std::string& p) {
     struct stat st;
     return ::stat(p.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
-}
-
-// Names in `dir` that look like spectex's temporary files.
-std::vector<std::string> temp_files_in(const std::string& dir) {
-    std::vector<std::string> v;
-    if (!is_dir(dir)) return v;
-    for (const auto& n : list_dir(dir))
-        if (n.find(".spectex-") != std::string::npos && n.size() >= 4 && n.compare(n.size() - 4, 4, ".tmp") == 0)
-            v.push_back(n);
-    return v;
 }
 
 // The checks made after every failing bake.

@@ -29,6 +29,29 @@ inline std::string read_file(const std::string& path) {
     return ss.str();
 }
 
+// A null-terminated argv/envp array pointing into `strings` (which must outlive it).
+inline std::vector<char*> c_array(std::vector<std::string>& strings) {
+    std::vector<char*> v;
+    for (auto& s : strings) v.push_back(s.data());
+    v.push_back(nullptr);
+    return v;
+}
+
+// {SPECTEX_BINARY, args...}.
+inline std::vector<std::string> spectex_argv(const std::vector<std::string>& args) {
+    std::vector<std::string> v{SPECTEX_BINARY};
+    v.insert(v.end(), args.begin(), args.end());
+    return v;
+}
+
+// This process's environment plus extra "NAME=value" entries.
+inline std::vector<std::string> environment_with(const std::vector<std::string>& extra) {
+    std::vector<std::string> v;
+    for (char** e = environ; *e; ++e) v.emplace_back(*e);
+    v.insert(v.end(), extra.begin(), extra.end());
+    return v;
+}
+
 // Runs SPECTEX_BINARY with args; extra_env entries "NAME=value" are added to the environment.
 inline RunResult run_spectex(const std::vector<std::string>& args, const std::vector<std::string>& extra_env = {}) {
     char tmpl[] = "/tmp/spectex-run-XXXXXX";
@@ -38,17 +61,8 @@ inline RunResult run_spectex(const std::vector<std::string>& args, const std::ve
     posix_spawn_file_actions_init(&fa);
     posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     posix_spawn_file_actions_addopen(&fa, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    std::vector<std::string> argv_s{SPECTEX_BINARY};
-    argv_s.insert(argv_s.end(), args.begin(), args.end());
-    std::vector<char*> argv;
-    for (auto& a : argv_s) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    std::vector<std::string> env_s;
-    for (char** e = environ; *e; ++e) env_s.emplace_back(*e);
-    env_s.insert(env_s.end(), extra_env.begin(), extra_env.end());
-    std::vector<char*> envp;
-    for (auto& e : env_s) envp.push_back(e.data());
-    envp.push_back(nullptr);
+    std::vector<std::string> argv_s = spectex_argv(args), env_s = environment_with(extra_env);
+    std::vector<char*> argv = c_array(argv_s), envp = c_array(env_s);
     pid_t pid;
     RunResult r;
     if (posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), envp.data()) == 0) {
@@ -111,6 +125,23 @@ inline std::vector<std::string> list_dir(const std::string& dir) {
         v.push_back(s);
     }
     if (p) pclose(p);
+    return v;
+}
+
+// The folder part of a path ("." when there is none).
+inline std::string dir_of(const std::string& p) {
+    size_t s = p.find_last_of('/');
+    return s == std::string::npos ? "." : (s == 0 ? "/" : p.substr(0, s));
+}
+
+// spectex's temporary files (<name>.spectex-XXXXXX.tmp) in a folder (none if it is not one).
+inline std::vector<std::string> temp_files_in(const std::string& dir) {
+    std::vector<std::string> v;
+    struct stat st;
+    if (::stat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode)) return v;
+    for (const auto& n : list_dir(dir))
+        if (n.find(".spectex-") != std::string::npos && n.size() >= 4 && n.compare(n.size() - 4, 4, ".tmp") == 0)
+            v.push_back(n);
     return v;
 }
 

@@ -31,14 +31,6 @@ namespace {
 
 bool contains(const std::string& h, const std::string& n) { return h.find(n) != std::string::npos; }
 
-std::vector<std::string> temp_files_in(const std::string& dir) {
-    std::vector<std::string> v;
-    for (const auto& n : list_dir(dir))
-        if (n.find(".spectex-") != std::string::npos && n.size() >= 4 && n.compare(n.size() - 4, 4, ".tmp") == 0)
-            v.push_back(n);
-    return v;
-}
-
 // A spectex child with optional working folder, umask and file-size limit; stdout and stderr go to
 // files. Only async-signal-safe calls run between fork and exec (the test process has threads).
 struct Child {
@@ -58,11 +50,8 @@ Child start_spectex(const ScratchDir& io, const std::vector<std::string>& args, 
     Child c;
     c.out_path = io / "child.out";
     c.err_path = io / "child.err";
-    std::vector<std::string> argv_s{SPECTEX_BINARY};
-    argv_s.insert(argv_s.end(), args.begin(), args.end());
-    std::vector<char*> argv;
-    for (auto& a : argv_s) argv.push_back(a.data());
-    argv.push_back(nullptr);
+    std::vector<std::string> argv_s = spectex_argv(args);
+    std::vector<char*> argv = c_array(argv_s);
     struct rlimit lim {opt.fsize_limit, opt.fsize_limit};
     c.pid = fork();
     if (c.pid == 0) {

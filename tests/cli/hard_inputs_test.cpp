@@ -37,19 +37,6 @@ namespace {
 
 bool contains(const std::string& h, const std::string& n) { return h.find(n) != std::string::npos; }
 
-std::string dir_of(const std::string& p) {
-    size_t s = p.find_last_of('/');
-    return s == std::string::npos ? "." : (s == 0 ? "/" : p.substr(0, s));
-}
-
-std::vector<std::string> temp_files_in(const std::string& dir) {
-    std::vector<std::string> v;
-    for (const auto& n : list_dir(dir))
-        if (n.find(".spectex-") != std::string::npos && n.size() >= 4 && n.compare(n.size() - 4, 4, ".tmp") == 0)
-            v.push_back(n);
-    return v;
-}
-
 void write_bytes(const std::string& path, const std::string& bytes) {
     std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
 }
@@ -111,15 +98,11 @@ ChildResult run_child(const std::vector<std::string>& args, int as_uid = -1) {
     if (as_uid < 0) argv_s = {"/proc/self/exe"};
     argv_s.push_back(SPECTEX_BINARY);
     argv_s.insert(argv_s.end(), args.begin(), args.end());
-    std::vector<char*> argv;
-    for (auto& a : argv_s) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    std::vector<std::string> env_s;
-    for (char** e = environ; *e; ++e) env_s.emplace_back(*e);
-    if (as_uid < 0) env_s.push_back("SPECTEX_TEST_MAXRSS_OUT=" + rss_file);
-    std::vector<char*> envp;
-    for (auto& e : env_s) envp.push_back(e.data());
-    envp.push_back(nullptr);
+    std::vector<char*> argv = c_array(argv_s);
+    std::vector<std::string> env_s =
+        environment_with(as_uid < 0 ? std::vector<std::string>{"SPECTEX_TEST_MAXRSS_OUT=" + rss_file}
+                                    : std::vector<std::string>{});
+    std::vector<char*> envp = c_array(env_s);
     const auto t0 = std::chrono::steady_clock::now();
     pid_t pid = fork();
     if (pid == 0) {

@@ -89,11 +89,8 @@ struct Measured {
     double seconds = 0;
 };
 Measured run_measured(const std::vector<std::string>& args) {
-    std::vector<std::string> argv_s{SPECTEX_BINARY};
-    argv_s.insert(argv_s.end(), args.begin(), args.end());
-    std::vector<char*> argv;
-    for (auto& a : argv_s) argv.push_back(a.data());
-    argv.push_back(nullptr);
+    std::vector<std::string> argv_s = spectex_argv(args);
+    std::vector<char*> argv = c_array(argv_s);
     posix_spawn_file_actions_t fa;
     posix_spawn_file_actions_init(&fa);
     posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
