@@ -108,7 +108,7 @@ struct ExrCoreWriter::Impl {
     std::exception_ptr error;
     std::string io_error;   // the first write() failure, with errno's text
     std::string core_error; // the last message from OpenEXR's core
-    Stats stats;
+    SpectralExrWriter::Timing stats;
     std::mutex stats_mu;
 
     static int64_t write_fn(exr_const_context_t, void* user, const void* buffer, uint64_t sz, uint64_t offset,
@@ -263,7 +263,7 @@ struct ExrCoreWriter::Impl {
     }
 
     void submit(Chunk* c) {
-        stats.peak_chunk_bytes = std::max(stats.peak_chunk_bytes, c->raw_bytes);
+        stats.chunk_bytes = std::max(stats.chunk_bytes, c->raw_bytes);
         std::unique_lock<std::mutex> lock(mu);
         if (compress) {
             queue.push_back(c);
@@ -502,7 +502,7 @@ void ExrCoreWriter::finish() {
     if (!I.io_error.empty()) throw Error(I.io_error);
 }
 
-ExrCoreWriter::Stats ExrCoreWriter::stats() const {
+SpectralExrWriter::Timing ExrCoreWriter::stats() const {
     std::lock_guard<std::mutex> lock(impl_->stats_mu);
     return impl_->stats;
 }

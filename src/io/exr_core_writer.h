@@ -40,15 +40,7 @@ public:
     // Waits for the last chunks, writes the offset table; throws the first error (naming the file).
     void finish();
 
-    struct Stats {
-        double pack_seconds = 0;      // caller thread: copying rows into chunks
-        double wait_seconds = 0;      // caller thread: waiting for a free chunk buffer
-        double compress_seconds = 0;  // summed over the workers
-        size_t peak_chunk_bytes = 0;  // packed bytes of one chunk
-        int buffers = 0;              // chunk buffers allocated
-        int raw_chunks = 0;           // compressed files: chunks stored raw (deflate did not shrink them)
-    };
-    Stats stats() const;
+    SpectralExrWriter::Timing stats() const;  // valid after finish()
 
 private:
     struct Impl;

@@ -265,16 +265,7 @@ void SpectralExrWriter::finish() {
 const char* SpectralExrWriter::writer_name() const { return impl_->core ? "core" : "imf"; }
 
 SpectralExrWriter::Timing SpectralExrWriter::timing() const {
-    Timing t;
-    if (!impl_->core) return t;
-    const auto s = impl_->core->stats();
-    t.pack_seconds = s.pack_seconds;
-    t.wait_seconds = s.wait_seconds;
-    t.compress_seconds = s.compress_seconds;
-    t.chunk_bytes = s.peak_chunk_bytes;
-    t.buffers = s.buffers;
-    t.raw_chunks = s.raw_chunks;
-    return t;
+    return impl_->core ? impl_->core->stats() : Timing{};
 }
 
 }  // namespace spectex

@@ -68,13 +68,14 @@ public:
     void finish();
     // Which writer: "core" (openexr_core + libdeflate) or "imf" (OpenEXR's C++ library).
     const char* writer_name() const;
-    // Core writer only (zeros otherwise), valid after finish(): seconds the caller spent packing
-    // rows and waiting for a chunk buffer, and compression seconds summed over workers.
+    // Core writer only (zeros otherwise), valid after finish().
     struct Timing {
-        double pack_seconds = 0, wait_seconds = 0, compress_seconds = 0;
-        size_t chunk_bytes = 0;
-        int buffers = 0;
-        int raw_chunks = 0;
+        double pack_seconds = 0;      // caller thread: copying rows into chunks
+        double wait_seconds = 0;      // caller thread: waiting for a free chunk buffer
+        double compress_seconds = 0;  // summed over the compression workers
+        size_t chunk_bytes = 0;       // packed bytes of the largest chunk
+        int buffers = 0;              // chunk buffers allocated
+        int raw_chunks = 0;           // compressed files: chunks stored raw (deflate did not shrink them)
     };
     Timing timing() const;
 
