@@ -1,5 +1,6 @@
 // spectex: sRGB textures to spectral reflectance OpenEXR. Subcommand dispatch only.
 #include <clocale>
+#include <cstdio>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -11,10 +12,51 @@
 
 namespace spectex {
 
-void print_error(const std::string& message) { std::cerr << "spectex: " << message << std::endl; }
+std::string one_line(const std::string& text) {
+    std::string out;
+    bool pending_break = false;
+    for (size_t i = 0; i < text.size();) {
+        const unsigned char c = static_cast<unsigned char>(text[i]);
+        if (c == '\n' || c == '\r') {
+            pending_break = !out.empty();
+            ++i;
+            continue;
+        }
+        if (pending_break) {
+            while (!out.empty() && out.back() == ' ') out.pop_back();
+            out += "; ";
+            pending_break = false;
+            while (i < text.size() && (text[i] == ' ' || text[i] == '\t')) ++i;
+            continue;
+        }
+        // A whole, valid UTF-8 sequence passes (file names in other scripts stay readable).
+        size_t len = c < 0x80 ? 1 : (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xe ? 3 : (c >> 3) == 0x1e ? 4 : 0;
+        bool valid = len > 0 && i + len <= text.size();
+        for (size_t k = 1; valid && k < len; ++k) valid = (static_cast<unsigned char>(text[i + k]) >> 6) == 0x2;
+        if (len == 2 && valid) valid = c >= 0xc2;
+        if (c == '\t') {
+            out += ' ';
+            ++i;
+        } else if (len == 1 && c >= 0x20 && c != 0x7f) {
+            out += static_cast<char>(c);
+            ++i;
+        } else if (len > 1 && valid) {
+            out.append(text, i, len);
+            i += len;
+        } else {
+            char buf[8];
+            std::snprintf(buf, sizeof buf, "\\x%02x", c);
+            out += buf;
+            ++i;
+        }
+    }
+    return out;
+}
+
+void print_error(const std::string& message) { std::cerr << "spectex: " << one_line(message) << std::endl; }
 
 int usage_error(const std::string& command, const std::string& message) {
-    std::cerr << "spectex " << command << ": " << message << "\n"
+    std::cerr << "spectex " << command << ": " << one_line(message) << "\n"
               << "Try 'spectex " << command << " --help'." << std::endl;
     return 2;
 }
@@ -78,6 +120,6 @@ int main(int argc, char** argv) {
     if (cmd == "info") return spectex::run_info(rest);
     if (cmd == "basis") return spectex::run_basis(rest, command_line);
     if (cmd == "verify") return spectex::run_verify(rest);
-    std::cerr << "spectex: unknown command '" << cmd << "'\n" << kUsage;
+    std::cerr << "spectex: unknown command '" << spectex::one_line(cmd) << "'\n" << kUsage;
     return 2;
 }

@@ -100,6 +100,9 @@ std::vector<std::string> ArgParser::parse(const std::vector<std::string>& args) 
             if (i + 1 >= args.size()) throw UsageError("option '" + name + "' needs a value (" + e->metavar + ")");
             value = args[++i];
         }
+        // No option of spectex takes an empty value: "" is a mistake (an unset shell variable),
+        // never "use the default".
+        if (value.empty()) throw UsageError("option '" + name + "' needs a value (" + e->metavar + "), not ''");
         e->on_value(value);
     }
     return pos;

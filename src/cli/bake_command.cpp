@@ -4,6 +4,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <cerrno>
 #include <cstdio>
 #include <cstdlib>
@@ -18,15 +19,23 @@
 #include "io/data_dir.h"
 #include "io/library_stderr.h"
 #include "io/atomic_file.h"
+#include "io/file_identity.h"
+#include "io/linearizer.h"
 #include "pipeline/bake.h"
 #include "pipeline/basis_cache.h"
 #include "pipeline/batch.h"
 #include "cli/batch_runner.h"
+#include "spectral/basis_fit.h"
+#include "spectral/colorimetry.h"
 #include "spectral/error.h"
 
 namespace spectex {
 
 namespace {
+
+// A user basis must reproduce the primaries to a third of the darkest 8-bit sRGB step in linear
+// (1/255/12.92 = 3.0e-4); the shipped tables do to 4e-8.
+constexpr double kBasisPrimaryTolerance = 1e-4;
 
 struct BakeCli {
     std::string output, basis = "fit", wavelengths = "380:780:5", type = "half", compression = "zip";
@@ -47,6 +56,41 @@ T pick(const std::string& option, const std::string& value, std::initializer_lis
         list += (list.empty() ? "" : ", ") + std::string(name);
     }
     throw UsageError(option + ": '" + value + "' is not one of " + list);
+}
+
+bool ends_with_exr(const std::string& s) {
+    if (s.size() < 4) return false;
+    std::string e = s.substr(s.size() - 4);
+    for (char& ch : e) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+    return e == ".exr";
+}
+
+bool is_directory(const std::string& p) {
+    struct stat st;
+    return ::stat(p.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
+}
+
+// What -o and --output-dir name, checked before any work (exit 2): a folder, a name without .exr
+// (the file is an OpenEXR whatever it is called) and unknown template tokens are mistakes.
+void check_output_option(const std::string& output, const std::string& output_dir) {
+    std::string tokens;
+    for (const auto& t : template_tokens()) tokens += (tokens.empty() ? "" : ", ") + t;
+    if (!output.empty()) {
+        if (std::string bad = unknown_template_token(output); !bad.empty())
+            throw UsageError("-o: unknown template token '" + bad + "' in '" + output + "' (tokens: " + tokens + ")");
+        if (output.back() == '/' || is_directory(output))
+            throw UsageError("-o: '" + output + "' is a folder; give a file name, or use --output-dir DIR");
+        const bool templ = has_template_tokens(output);
+        if (!ends_with_exr(output) && (templ || output_dir.empty()))
+            throw UsageError("-o: '" + output + "' does not end in .exr; spectex writes OpenEXR files");
+    }
+    if (!output_dir.empty()) {
+        if (std::string bad = unknown_template_token(output_dir); !bad.empty() || has_template_tokens(output_dir))
+            throw UsageError("--output-dir: '" + output_dir + "' is a folder, not a template (tokens go in -o)");
+        struct stat st;
+        if (::stat(output_dir.c_str(), &st) == 0 && !S_ISDIR(st.st_mode))
+            throw UsageError("--output-dir: '" + output_dir + "' exists and is not a folder");
+    }
 }
 
 }  // namespace
@@ -127,6 +171,10 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
              "fit (default): a basis fitted on the output grid by 'spectex basis' rules, exact on any grid; "
              "mallett2019: the published table (380:780:5 only); or a CSV wavelength,r,g,b on the output grid.",
              [&](const std::string& v) { c.basis = v; });
+    p.flag("--allow-infeasible",
+           "When no exact basis exists on the grid, bake with the least-squares closest one (colours are then "
+           "not exact; a warning gives the miss and the header records it).",
+           [&] { c.fit.allow_infeasible = true; });
     p.option("--objective", "smooth|norm", "Objective of the fitted basis (default smooth; see spectex basis).",
              [&](const std::string& v) { c.fit.objective = v; });
     p.option("--observer", "NAME|FILE", "Observer of the fitted basis: cie1931-2 (default), cie1964-10, or a CSV.",
@@ -162,6 +210,7 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         if (p.parse_or_help(args, inputs)) return 0;
         if (inputs.empty() && c.from_list.empty()) throw UsageError("no input file");
         if (c.output.empty() && c.output_dir.empty()) throw UsageError("no output (-o OUTPUT.exr, -o TEMPLATE or --output-dir DIR)");
+        check_output_option(c.output, c.output_dir);
         if (!c.shard.empty()) {
             try {
                 Shard::parse(c.shard);
@@ -184,7 +233,7 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
             throw UsageError("--objective: '" + c.fit.objective + "' is not one of smooth, norm");
         if (c.wavelengths_file.empty()) {
             try {
-                c.settings.grid = WavelengthGrid::parse(c.wavelengths);
+                c.settings.grid = WavelengthGrid::parse_exact(c.wavelengths);
             } catch (const Error& e) {
                 throw UsageError(std::string("--wavelengths: ") + e.what());
             }
@@ -193,36 +242,10 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         return usage_error("bake", e.what());
     }
 
-    try {
-        c.settings.data_dir = find_data_dir();
-        if (!c.wavelengths_file.empty()) c.settings.grid = WavelengthGrid::from_file(c.wavelengths_file);
-        c.settings.observer = c.fit.observer;
-        c.settings.illuminant = c.fit.illuminant;
-        if (c.basis == "fit") {
-            c.fit.data_dir = c.settings.data_dir;
-            c.fit.grid = c.settings.grid;
-            FitResult fit = fit_basis_for(c.fit);
-            c.settings.basis = fit.basis;
-            c.settings.basis_source = "fitted by spectex: " + c.fit.describe();
-        } else {
-            c.settings.basis = load_basis(c.settings.data_dir, c.basis);
-            c.settings.basis_source = c.basis == "mallett2019" ? "published table (Mallett & Yuksel 2019)" : "file";
-            // A given basis is exact for the conditions it was made for; the default ones are recorded.
-            if (c.basis == "mallett2019") c.settings.observer = "cie1931-2", c.settings.illuminant = "D65";
-            WavelengthGrid basis_grid = WavelengthGrid::from_list(c.settings.basis.lambda);
-            if (!same_wavelengths(c.settings.grid.lambda, basis_grid.lambda))
-                throw Error("basis " + c.basis + " is on " + basis_grid.describe() + ", not on the output grid " +
-                            c.settings.grid.describe() + " (the default --basis fit works on any grid)");
-        }
-    } catch (const Error& e) {
-        print_error(e.what());
-        return 1;
-    }
-    c.settings.command_line = command_line;
-    c.settings.settings_hash = settings_hash(c.settings);
-
+    // Inputs and outputs first: every mistake in them is reported before any work (a basis fit).
     BatchPlan plan;
     try {
+        c.settings.data_dir = find_data_dir();
         // --output-dir is created (with its parents) when missing, like mkdir -p.
         if (!c.output_dir.empty()) {
             std::string partial;
@@ -248,16 +271,92 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         if (expanded.size() > 1 && c.output_dir.empty() && !has_template_tokens(c.output))
             throw UsageError("several inputs need --output-dir DIR or an -o template with {stem}");
         if (!c.shard.empty()) expanded = select_shard(expanded, Shard::parse(c.shard));
-        for (const auto& in : expanded)
-            plan.files.push_back({in, c.output_dir.empty() && !has_template_tokens(c.output)
-                                          ? c.output
-                                          : output_for(in, c.output, c.output_dir)});
+        for (const auto& in : expanded) {
+            std::string out;
+            try {
+                out = c.output_dir.empty() && !has_template_tokens(c.output) ? c.output
+                                                                             : output_for(in, c.output, c.output_dir);
+            } catch (const Error& e) {
+                throw UsageError(e.what());
+            }
+            plan.files.push_back({in, out});
+        }
+        // No output may be a file this command reads, whatever its spelling or links.
+        ReadFiles reads;
+        for (const auto& in : expanded) reads.add(in, "an input");
+        reads.add(c.from_list, "--from-list");
+        reads.add(ocio_config_path(c.settings.data_dir, c.settings.config), "the OCIO config");
+        if (c.basis != "fit" && c.basis != "mallett2019") reads.add(c.basis, "--basis");
+        reads.add(c.fit.observer, "--observer");
+        reads.add(c.fit.illuminant, "--illuminant");
+        reads.add(c.wavelengths_file, "--wavelengths-file");
+        std::vector<OutputTarget> targets;
+        for (const auto& [in, out] : plan.files) {
+            if (std::string clash = reads.clash(out, "the output of " + in); !clash.empty()) throw UsageError(clash);
+            targets.push_back(output_target(out));
+        }
+        if (!c.json.empty() && c.json != "-") {
+            if (std::string clash = reads.clash(c.json, "--json"); !clash.empty()) throw UsageError(clash);
+            if (c.json.back() == '/' || is_directory(c.json))
+                throw UsageError("--json: '" + c.json + "' is a folder; give a file name");
+            const OutputTarget report = output_target(c.json);
+            for (size_t i = 0; i < targets.size(); ++i)
+                if (report.same_as(targets[i]))
+                    throw UsageError("--json: " + c.json + " is also the output of " + plan.files[i].first);
+        }
     } catch (const UsageError& e) {
         return usage_error("bake", e.what());
     } catch (const Error& e) {
         print_error(e.what());
         return 1;
     }
+
+    try {
+        if (!c.wavelengths_file.empty()) c.settings.grid = WavelengthGrid::from_file(c.wavelengths_file);
+        c.settings.observer = c.fit.observer;
+        c.settings.illuminant = c.fit.illuminant;
+        if (c.basis == "fit") {
+            c.fit.data_dir = c.settings.data_dir;
+            c.fit.grid = c.settings.grid;
+            FitResult fit = fit_basis_for(c.fit);
+            if (!fit.certificate.feasible && !c.quiet) {
+                const auto& r = fit.certificate.colour_residual;
+                std::cerr << "spectex: warning: no exact basis exists for " << c.fit.describe()
+                          << "; baking with the closest one, which misses the primaries by "
+                          << std::max({r[0], r[1], r[2]}) << " in linear RGB (--allow-infeasible)\n";
+            }
+            c.settings.basis = fit.basis;
+            c.settings.basis_source = "fitted by spectex: " + c.fit.describe();
+        } else {
+            c.settings.basis = load_basis(c.settings.data_dir, c.basis);
+            c.settings.basis_source = c.basis == "mallett2019" ? "published table (Mallett & Yuksel 2019)" : "file";
+            const Basis& basis = c.settings.basis;
+            // A given basis is exact for the conditions it was made for; the default ones are recorded.
+            if (c.basis == "mallett2019") c.settings.observer = "cie1931-2", c.settings.illuminant = "D65";
+            WavelengthGrid basis_grid = WavelengthGrid::from_list(basis.lambda);
+            if (!same_wavelengths(c.settings.grid.lambda, basis_grid.lambda))
+                throw Error("basis " + c.basis + " is on " + basis_grid.describe() + ", not on the output grid " +
+                            c.settings.grid.describe() + " (the default --basis fit works on any grid)");
+            check_basis_values(basis);
+            // How far the basis is from reproducing the primaries under the colorimetry it is used
+            // with: a wrong table (another observer, a flat one) bakes wrong colours without a word.
+            Colorimetry cm = Colorimetry::make(load_observer(c.settings.data_dir, c.settings.observer),
+                                               load_illuminant(c.settings.data_dir, c.settings.illuminant),
+                                               c.settings.grid, primaries_by_name("srgb"));
+            const FitCertificate cert = certify_basis(basis, cm);
+            const double miss = std::max({cert.colour_residual[0], cert.colour_residual[1], cert.colour_residual[2]});
+            if (miss > kBasisPrimaryTolerance && !c.quiet)
+                std::cerr << "spectex: warning: basis " << c.basis << " misses the sRGB primaries by " << miss
+                          << " in linear RGB under " << c.settings.observer << " and " << c.settings.illuminant
+                          << " (tolerance " << kBasisPrimaryTolerance << "): baked colours will be off by up to that\n";
+        }
+    } catch (const Error& e) {
+        print_error(e.what());
+        return 1;
+    }
+    c.settings.command_line = command_line;
+    c.settings.settings_hash = settings_hash(c.settings);
+
 
     unsigned hw = std::max(1u, std::thread::hardware_concurrency());
     plan.jobs = c.jobs;

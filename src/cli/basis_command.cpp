@@ -1,3 +1,5 @@
+#include <sys/stat.h>
+
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -7,6 +9,7 @@
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
 #include "io/atomic_file.h"
+#include "io/file_identity.h"
 #include "io/data_dir.h"
 #include "pipeline/basis_cache.h"
 #include "spectral/error.h"
@@ -76,10 +79,20 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
         if (p.parse_or_help(args, pos)) return 0;
         if (!pos.empty()) throw UsageError("unexpected argument '" + pos[0] + "'");
         if (output.empty()) throw UsageError("no output file (-o BASIS.csv, or -o - for stdout)");
+        if (output != "-") {
+            ReadFiles reads;
+            reads.add(spec.observer, "--observer");
+            reads.add(spec.illuminant, "--illuminant");
+            reads.add(wavelengths_file, "--wavelengths-file");
+            if (std::string clash = reads.clash(output, "-o"); !clash.empty()) throw UsageError(clash);
+            struct stat st;
+            if (output.back() == '/' || (::stat(output.c_str(), &st) == 0 && S_ISDIR(st.st_mode)))
+                throw UsageError("-o: '" + output + "' is a folder; give a file name");
+        }
         if (spec.objective != "norm" && spec.objective != "smooth")
             throw UsageError("--objective: '" + spec.objective + "' is not one of norm, smooth");
         try {
-            spec.grid = wavelengths_file.empty() ? WavelengthGrid::parse(wavelengths)
+            spec.grid = wavelengths_file.empty() ? WavelengthGrid::parse_exact(wavelengths)
                                                  : WavelengthGrid::from_file(wavelengths_file);
         } catch (const Error& e) {
             if (!wavelengths_file.empty()) throw;

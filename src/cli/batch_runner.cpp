@@ -6,10 +6,13 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <thread>
 
 #include "cli/commands.h"
+#include "io/atomic_file.h"
+#include "io/file_identity.h"
 #include "pipeline/batch.h"
 #include "spectral/error.h"
 
@@ -30,25 +33,46 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
     const auto t0 = std::chrono::steady_clock::now();
     const size_t total = plan.files.size();
     std::mutex io;
-    std::ofstream json_file;
-    std::ostream* json = nullptr;
-    if (plan.json == "-") {
-        json = &std::cout;
-    } else if (!plan.json.empty()) {
-        json_file.open(plan.json, std::ios::out | std::ios::trunc);
-        if (!json_file) {
-            print_error(plan.json + ": cannot write the JSON report");
+    // The report is an output like the others: written to a temporary file and renamed at the end,
+    // so a failed write (a full disk) is a failure and never leaves a short report under its name.
+    std::unique_ptr<AtomicFile> json_file;
+    std::string json_error;
+    if (!plan.json.empty() && plan.json != "-") {
+        try {
+            json_file = std::make_unique<AtomicFile>(plan.json);
+        } catch (const Error& e) {
+            print_error(std::string(e.what()) + " (--json)");
             return 1;
         }
-        json = &json_file;
     }
+    auto write_json = [&](const std::string& line) {
+        if (plan.json == "-") {
+            std::cout << line << std::flush;
+            if (!std::cout && json_error.empty()) json_error = "standard output: cannot write the JSON report";
+        } else if (json_file && json_error.empty()) {
+            try {
+                write_all(json_file->fd(), line, plan.json);
+            } catch (const Error& e) {
+                json_error = std::string(e.what()) + " (--json)";
+            }
+        }
+    };
 
-    // Two inputs must never race for one output inside a batch.
-    std::map<std::string, std::string> first_input_of;
+    // Two inputs must never race for one output inside a batch: outputs are compared by where
+    // they land (folders resolved, links followed), not by how they are spelt.
+    std::map<std::string, size_t> first_by_key;
+    std::map<std::pair<dev_t, ino_t>, size_t> first_by_id;
     std::vector<std::string> clash(total);
     for (size_t i = 0; i < total; ++i) {
-        auto [it, fresh] = first_input_of.emplace(plan.files[i].second, plan.files[i].first);
-        if (!fresh) clash[i] = plan.files[i].second + ": also the output of " + it->second + "; not baked twice";
+        const OutputTarget t = output_target(plan.files[i].second);
+        size_t first = i;
+        if (auto [it, fresh] = first_by_key.emplace(t.key, i); !fresh) first = it->second;
+        if (t.existing)
+            if (auto [it, fresh] = first_by_id.emplace(std::make_pair(t.existing->dev, t.existing->ino), i); !fresh)
+                first = std::min(first, it->second);
+        if (first != i)
+            clash[i] = plan.files[i].first + ": its output " + plan.files[i].second + " is also the output of " +
+                       plan.files[first].first + " (as " + plan.files[first].second + "); not baked twice";
     }
 
     std::atomic<size_t> next{0};
@@ -61,12 +85,12 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
         if (r.status == "failed") {
             print_error(r.error);
         } else if (!plan.quiet) {
-            for (const auto& n : r.result.notes) std::cerr << "spectex: " << r.input << ": note: " << n << "\n";
+            for (const auto& n : r.result.notes) std::cerr << "spectex: " << one_line(r.input + ": note: " + n) << "\n";
             if (r.result.clamped_pixels)
-                std::cerr << "spectex: " << r.input << ": " << r.result.clamped_pixels
+                std::cerr << "spectex: " << one_line(r.input) << ": " << r.result.clamped_pixels
                           << " pixels had linear values outside [0, 1] and were clamped\n";
             if (r.result.replaced_pixels)
-                std::cerr << "spectex: " << r.input << ": " << r.result.replaced_pixels
+                std::cerr << "spectex: " << one_line(r.input) << ": " << r.result.replaced_pixels
                           << " pixels had NaN/Inf values replaced with 0\n";
         }
         if (plan.verbose && r.status == "ok")
@@ -86,10 +110,7 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
             std::cerr << buf;
         }
         if (plan.verbose && r.status == "skipped") std::cerr << "spectex: " << r.output << ": up to date\n";
-        if (json) {
-            *json << json_record(r) << "\n";
-            json->flush();
-        }
+        if (!plan.json.empty()) write_json(json_record(r) + "\n");
         ++done;
         ok += r.status == "ok";
         skipped += r.status == "skipped";
@@ -145,6 +166,17 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
         std::cerr << "spectex: " << ok << " baked, " << skipped << " up to date, " << failed << " failed";
         if (not_attempted) std::cerr << ", " << not_attempted << " not attempted (--fail-fast)";
         std::cerr << " of " << total << " in " << seconds_text(el) << "\n";
+    }
+    if (json_file && json_error.empty()) {
+        try {
+            json_file->commit();
+        } catch (const Error& e) {
+            json_error = std::string(e.what()) + " (--json)";
+        }
+    }
+    if (!json_error.empty()) {
+        print_error(json_error + "; the report is incomplete");
+        return 1;
     }
     return failed || not_attempted ? 1 : 0;
 }

@@ -11,7 +11,10 @@ int run_info(const std::vector<std::string>& args);
 int run_basis(const std::vector<std::string>& args, const std::string& command_line);
 int run_verify(const std::vector<std::string>& args);
 
-// Prints "spectex: <message>" to stderr.
+// A message as one printable line: line breaks become "; ", control bytes and bytes that are not
+// valid UTF-8 (a binary file's name or contents quoted by a library) become \xNN.
+std::string one_line(const std::string& text);
+// Prints "spectex: <message>" to stderr, as one_line().
 void print_error(const std::string& message);
 // Prints "spectex <command>: <message>" and a hint to run --help; returns 2.
 int usage_error(const std::string& command, const std::string& message);

@@ -66,23 +66,44 @@ std::string dir_of(const std::string& path) {
 
 }  // namespace
 
+// Every signal whose default action ends the process (POSIX "T" and "A"), real-time ones too.
+std::vector<int> terminating_signals() {
+    std::vector<int> v = {SIGHUP,  SIGINT,  SIGQUIT, SIGILL,    SIGTRAP, SIGABRT, SIGBUS,  SIGFPE,
+                          SIGUSR1, SIGSEGV, SIGUSR2, SIGPIPE,   SIGALRM, SIGTERM, SIGXCPU, SIGVTALRM,
+                          SIGPROF, SIGSYS,  SIGIO,   SIGPWR,    SIGSTKFLT};
+    for (int sig = SIGRTMIN; sig <= SIGRTMAX; ++sig) v.push_back(sig);
+    return v;
+}
+
 void install_signal_cleanup() {
     current_umask();
     struct sigaction sa;
     std::memset(&sa, 0, sizeof sa);
     sa.sa_handler = cleanup_and_reraise;
     sigemptyset(&sa.sa_mask);
-    // Termination requests, and crashes too: a crash must not leave the temporary file behind.
-    for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT})
+    // Termination requests, crashes, broken pipes, timers, user signals: none may leave a
+    // temporary file behind. A signal the parent set to be ignored (nohup) stays ignored.
+    for (int sig : terminating_signals()) {
+        struct sigaction old;
+        if (::sigaction(sig, nullptr, &old) == 0 && old.sa_handler == SIG_IGN && sig != SIGSEGV && sig != SIGBUS &&
+            sig != SIGFPE && sig != SIGILL && sig != SIGABRT)
+            continue;
         ::sigaction(sig, &sa, nullptr);
+    }
     ::signal(SIGXFSZ, SIG_IGN);
 }
 
 AtomicFile::AtomicFile(const std::string& final_path) : final_(final_path) {
     std::string dir = dir_of(final_path);
     std::string base = final_path.substr(final_path.find_last_of('/') + 1);
-    std::string tmpl = (dir == "." && final_path.find('/') == std::string::npos ? "" : dir + "/") + base +
-                       ".spectex-XXXXXX.tmp";
+    // The temporary name adds 19 bytes: shorten the name part so that it fits the folder's name
+    // limit whenever the final name does.
+    static const std::string suffix = ".spectex-XXXXXX.tmp";
+    long name_max = ::pathconf(dir.c_str(), _PC_NAME_MAX);
+    if (name_max <= 0) name_max = NAME_MAX;
+    if (base.size() + suffix.size() > static_cast<size_t>(name_max))
+        base.resize(static_cast<size_t>(name_max) > suffix.size() ? static_cast<size_t>(name_max) - suffix.size() : 0);
+    std::string tmpl = (dir == "." && final_path.find('/') == std::string::npos ? "" : dir + "/") + base + suffix;
     std::vector<char> buf(tmpl.begin(), tmpl.end());
     buf.push_back('\0');
     current_umask();
@@ -121,15 +142,19 @@ void AtomicFile::commit() {
 
 namespace spectex {
 
-void write_text_atomically(const std::string& path, const std::string& text) {
-    AtomicFile f(path);
+void write_all(int fd, const std::string& text, const std::string& path) {
     size_t done = 0;
     while (done < text.size()) {
-        ssize_t n = ::write(f.fd(), text.data() + done, text.size() - done);
+        ssize_t n = ::write(fd, text.data() + done, text.size() - done);
         if (n < 0 && errno == EINTR) continue;
         if (n <= 0) throw Error(path + ": write failed: " + std::strerror(n < 0 ? errno : EIO));
         done += static_cast<size_t>(n);
     }
+}
+
+void write_text_atomically(const std::string& path, const std::string& text) {
+    AtomicFile f(path);
+    write_all(f.fd(), text, path);
     f.commit();
 }
 

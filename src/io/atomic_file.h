@@ -1,7 +1,7 @@
 #pragma once
 // Atomic output: a temporary file in the destination folder, fsync, then rename over the final
-// name. Until commit() the final name is untouched; a failure, an exception or SIGINT/SIGTERM/SIGHUP
-// removes the temporary file (SIGKILL cannot be caught: it leaves the temporary, never a partial
+// name. Until commit() the final name is untouched; a failure, an exception or any terminating
+// signal removes the temporary file (SIGKILL cannot be caught: it leaves the temporary, never a partial
 // file under the final name).
 #include <string>
 
@@ -27,13 +27,16 @@ private:
     bool committed_ = false;
 };
 
-// Installs the handlers that remove live temporary files on SIGINT/SIGTERM/SIGHUP and ignores
+// Installs the handlers that remove live temporary files on every signal whose default action
+// ends the process (SIGINT, SIGTERM, SIGPIPE, SIGUSR1, SIGALRM, SIGXCPU, crashes, ...) and ignores
 // SIGXFSZ, so that a file-size limit gives EFBIG (an error we report) instead of killing us.
 void install_signal_cleanup();
 
 }  // namespace spectex
 
 namespace spectex {
+// Writes all of text to fd (retrying short writes); throws Error naming path on failure.
+void write_all(int fd, const std::string& text, const std::string& path);
 // Writes a small text file atomically (temporary file, fsync, rename).
 void write_text_atomically(const std::string& path, const std::string& text);
 }  // namespace spectex

@@ -1,5 +1,6 @@
 #include "io/library_stderr.h"
 
+#include <OpenColorIO/OpenColorIO.h>
 #include <ext/stdio_filebuf.h>
 #include <unistd.h>
 
@@ -25,14 +26,24 @@ void capture_library_stderr() {
     int p[2];
     if (real < 0 || ::pipe(p) != 0) return;  // keep things as they are rather than lose messages
     std::cerr.flush();
-    static __gnu_cxx::stdio_filebuf<char> ours(real, std::ios::out);
-    std::cerr.rdbuf(&ours);
     ::dup2(p[1], 2);
     ::close(p[1]);
     const bool forward = [] {
         const char* e = std::getenv("SPECTEX_LIBRARY_MESSAGES");
         return e && std::strcmp(e, "1") == 0;
     }();
+    // OpenColorIO logs through std::cerr (now the real stderr), not through descriptor 2: send its
+    // warnings the same way as the other libraries' messages.
+    OCIO_NAMESPACE::SetLoggingFunction([](const char* message) {
+        std::string m = message ? message : "";
+        if (!m.empty() && m.back() != '\n') m += '\n';
+        (void)!::write(2, m.data(), m.size());
+    });
+    // OCIO reads $OCIO_LOGGING_LEVEL on first use and complains about a bad one on std::cerr:
+    // make that first use now, while std::cerr still reaches descriptor 2 (the pipe).
+    (void)OCIO_NAMESPACE::GetLoggingLevel();
+    static __gnu_cxx::stdio_filebuf<char> ours(real, std::ios::out);
+    std::cerr.rdbuf(&ours);
     std::thread([fd = p[0], real, forward] {
         std::string line;
         char buf[4096];

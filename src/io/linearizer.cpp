@@ -239,3 +239,13 @@ void Linearizer::apply_rgba(float* rgba, long pixels) const {
 }
 
 }  // namespace spectex
+
+namespace spectex {
+
+std::string ocio_config_path(const std::string& data_dir, const std::string& config_override) {
+    if (!config_override.empty()) return config_override;
+    if (const char* env = std::getenv("OCIO"); env && *env) return env;
+    return data_dir + "/spectex.ocio";
+}
+
+}  // namespace spectex

@@ -51,3 +51,8 @@ std::vector<std::string> close_colour_space_names(const std::vector<std::string>
                                                   const std::string& name, size_t max = 3);
 
 }  // namespace spectex
+
+namespace spectex {
+// The OCIO config a command uses: --config, else $OCIO, else <data_dir>/spectex.ocio.
+std::string ocio_config_path(const std::string& data_dir, const std::string& config_override);
+}  // namespace spectex

@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "io/exr_preflight.h"
+#include "io/linearizer.h"
 #include "spectex/version.h"
 #include "spectral/error.h"
 
@@ -59,9 +60,26 @@ std::string file_contents(const std::string& path) {
 
 }  // namespace
 
+const std::vector<std::string>& template_tokens() {
+    static const std::vector<std::string> tokens = {"{dir}", "{stem}", "{ext}"};
+    return tokens;
+}
+
 bool has_template_tokens(const std::string& s) {
-    return s.find("{dir}") != std::string::npos || s.find("{stem}") != std::string::npos ||
-           s.find("{ext}") != std::string::npos;
+    for (const auto& t : template_tokens())
+        if (s.find(t) != std::string::npos) return true;
+    return false;
+}
+
+std::string unknown_template_token(const std::string& s) {
+    for (size_t open = s.find('{'); open != std::string::npos; open = s.find('{', open + 1)) {
+        size_t close = s.find('}', open);
+        std::string token = close == std::string::npos ? s.substr(open) : s.substr(open, close - open + 1);
+        bool known = false;
+        for (const auto& t : template_tokens()) known = known || token == t;
+        if (!known) return token;
+    }
+    return "";
 }
 
 std::vector<std::string> expand_tiles(const std::string& path) {
@@ -113,19 +131,33 @@ std::string output_for(const std::string& input, const std::string& templ, const
     size_t dot = base.find_last_of('.');
     std::string stem = dot == std::string::npos || dot == 0 ? base : base.substr(0, dot);
     std::string ext = dot == std::string::npos || dot == 0 ? "" : base.substr(dot + 1);
-    if (!output_dir.empty()) {
-        std::string name = templ.empty() ? stem + ".exr" : templ;
-        if (!templ.empty() && !has_template_tokens(templ)) name = stem + ".exr";
-        std::string out = output_dir + "/" + name;
-        return output_for(input, out, "");
+    std::string pattern = templ;
+    if (!output_dir.empty()) pattern = output_dir + "/" + (has_template_tokens(templ) ? templ : "{stem}.exr");
+    // Folder by folder, so that a name such as "...png" (stem "..") cannot add a "." or ".."
+    // component, or an empty one, that the template did not have: an output never climbs out of
+    // the folder the template names. {dir} is the input's own folder, as the user spelled it.
+    std::string out;
+    for (size_t begin = 0;;) {
+        size_t slash = pattern.find('/', begin);
+        std::string part = pattern.substr(begin, slash == std::string::npos ? std::string::npos : slash - begin);
+        std::string sub = part;
+        auto replace = [&](const std::string& token, const std::string& value) {
+            for (size_t pos = 0; (pos = sub.find(token, pos)) != std::string::npos; pos += value.size())
+                sub.replace(pos, token.size(), value);
+        };
+        const bool user_folder = part.find("{dir}") != std::string::npos;
+        replace("{stem}", stem);
+        replace("{ext}", ext);
+        replace("{dir}", dir_part(input));
+        if (!user_folder && sub != part && (sub.empty() || sub == "." || sub == ".."))
+            throw Error(input + ": the output template '" + pattern + "' makes the path component '" + sub +
+                        "' of this input's name, which would leave the folder it names; rename the file or "
+                        "change the template");
+        out += sub;
+        if (slash == std::string::npos) break;
+        out += '/';
+        begin = slash + 1;
     }
-    std::string out = templ;
-    auto sub = [&](const std::string& token, const std::string& value) {
-        for (size_t pos; (pos = out.find(token)) != std::string::npos;) out.replace(pos, token.size(), value);
-    };
-    sub("{dir}", dir_part(input));
-    sub("{stem}", stem);
-    sub("{ext}", ext);
     return out;
 }
 
@@ -162,10 +194,7 @@ std::string settings_hash(const BakeSettings& s) {
     fnv(h, s.colour_rounding ? "colour-rounding" : "nearest");
     fnv(h, std::to_string(s.tile_width) + "x" + std::to_string(s.tile_height) + (s.mipmap ? "mip" : ""));
     // The colour config decides the linearisation: its path and its contents.
-    std::string config = s.config;
-    if (config.empty())
-        if (const char* env = std::getenv("OCIO"); env && *env) config = env;
-    if (config.empty()) config = s.data_dir + "/spectex.ocio";
+    const std::string config = ocio_config_path(s.data_dir, s.config);
     fnv(h, config);
     fnv(h, file_contents(config));
     char buf[32];

@@ -17,9 +17,13 @@ std::vector<std::string> expand_tiles(const std::string& path);
 std::vector<std::string> read_list(const std::string& file);
 
 // Output name for an input: a template with {dir}, {stem}, {ext} (e.g. "{dir}/{stem}.exr"), or
-// "<output_dir>/<stem>.exr" when output_dir is given.
+// "<output_dir>/<stem>.exr" when output_dir is given. Throws Error when the input's name would
+// make a path component "", "." or ".." that the template does not have.
 std::string output_for(const std::string& input, const std::string& templ, const std::string& output_dir);
+const std::vector<std::string>& template_tokens();  // {dir}, {stem}, {ext}
 bool has_template_tokens(const std::string& s);
+// The first "{...}" in s that is not a template token ("" when none).
+std::string unknown_template_token(const std::string& s);
 
 // --shard K/N: the inputs i (0-based in the sorted list) with i mod N == K-1.
 struct Shard {

@@ -1,9 +1,11 @@
 #include "spectral/basis.h"
 
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <ostream>
+#include <string>
 #include <sys/stat.h>
 
 #include "spectral/csv_table.h"
@@ -58,6 +60,25 @@ Basis load_basis(const std::string& data_dir, const std::string& name_or_file) {
     struct stat st;
     if (::stat(name_or_file.c_str(), &st) == 0) return read_basis_csv(name_or_file, name_or_file);
     throw Error("unknown basis '" + name_or_file + "' (known: mallett2019, or a CSV file)");
+}
+
+}  // namespace spectex
+
+namespace spectex {
+
+void check_basis_values(const Basis& b) {
+    const std::vector<double>* cols[3] = {&b.r, &b.g, &b.b};
+    const char* names = "rgb";
+    for (int c = 0; c < 3; ++c)
+        for (size_t k = 0; k < b.size(); ++k) {
+            const double v = (*cols[c])[k];
+            if (!std::isfinite(v) || v < -kBasisValueTolerance || v > 1 + kBasisValueTolerance) {
+                char buf[160];
+                std::snprintf(buf, sizeof buf, ": %c is %.9g at %.9g nm; a reflectance basis holds values in [0, 1]",
+                              names[c], v, b.lambda[k]);
+                throw Error("basis " + b.name + buf);
+            }
+        }
 }
 
 }  // namespace spectex

@@ -24,4 +24,10 @@ void write_basis_csv(std::ostream& out, const Basis& basis, const std::vector<st
 Basis load_basis(const std::string& data_dir, const std::string& name_or_file);
 std::vector<std::string> shipped_bases();
 
+// A reflectance basis holds finite values in [0, 1]; the tolerance admits the published table's
+// rounding (its spectra sum to one within 1e-5 and stay inside [0, 1]). Throws Error naming the
+// first value outside.
+constexpr double kBasisValueTolerance = 1e-6;
+void check_basis_values(const Basis& basis);
+
 }  // namespace spectex

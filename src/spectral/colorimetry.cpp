@@ -1,6 +1,7 @@
 #include "spectral/colorimetry.h"
 
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 
 #include "spectral/error.h"
@@ -68,6 +69,20 @@ Colorimetry Colorimetry::make(const Observer& obs, const Spectrum& illuminant, c
     const size_t n = grid.size();
     std::vector<double> e = illuminant.sample(grid), x = obs.x.sample(grid), y = obs.y.sample(grid),
                         z = obs.z.sample(grid);
+    // User tables: a spectral power or a colour-matching value is finite and not negative.
+    auto check = [&](const std::vector<double>& v, const std::string& what) {
+        for (size_t k = 0; k < n; ++k)
+            if (!std::isfinite(v[k]) || v[k] < 0 || v[k] > 1e12) {
+                char buf[160];
+                std::snprintf(buf, sizeof buf, " has the value %.9g at %s nm: values must be finite, not negative and below 1e12",
+                              v[k], format_wavelength(grid.lambda[k]).c_str());
+                throw Error(what + buf);
+            }
+    };
+    check(e, "illuminant " + illuminant.name);
+    check(x, "observer " + obs.name + " (x)");
+    check(y, "observer " + obs.name + " (y)");
+    check(z, "observer " + obs.name + " (z)");
     c.W.resize(3, static_cast<Eigen::Index>(n));
     double norm = 0;
     for (size_t k = 0; k < n; ++k) norm += e[k] * y[k] * grid.weight[k];

@@ -107,6 +107,23 @@ WavelengthGrid WavelengthGrid::parse(const std::string& spec) {
     return make_uniform(v[0], v[1], v[2], "wavelength grid '" + spec + "'");
 }
 
+WavelengthGrid WavelengthGrid::parse_exact(const std::string& spec) {
+    WavelengthGrid g = parse(spec);
+    double v[3];
+    size_t a = spec.find(':'), b = spec.find(':', a + 1);
+    parse_double(spec.substr(0, a), &v[0]);
+    parse_double(spec.substr(a + 1, b - a - 1), &v[1]);
+    parse_double(spec.substr(b + 1), &v[2]);
+    // END must be a bin: silently stopping short (400:700:7 ending at 694) hides a typo.
+    if (std::fabs(g.lambda.back() - v[1]) > kOnGridTolerance)
+        throw Error("wavelength grid '" + spec + "': END " + format_wavelength(v[1]) + " is not on the grid " +
+                    format_wavelength(v[0]) + " + k*" + format_wavelength(v[2]) + " (its last bin would be " +
+                    format_wavelength(g.lambda.back()) + "): use " + format_wavelength(v[0]) + ":" +
+                    format_wavelength(g.lambda.back()) + ":" + format_wavelength(v[2]) +
+                    ", or a STEP that divides END - START");
+    return g;
+}
+
 WavelengthGrid WavelengthGrid::from_list(std::vector<double> lambdas) {
     if (lambdas.empty()) throw Error("wavelength list is empty");
     if (lambdas.size() > kMaxBins)

@@ -17,6 +17,8 @@ struct WavelengthGrid {
 
     // START:END:STEP; lambda_k = START + k*STEP; END included when on the grid within 1e-6 nm.
     static WavelengthGrid parse(const std::string& spec);
+    // parse(), and END must be a bin: what users type (400:700:7 is an error naming 400:694:7).
+    static WavelengthGrid parse_exact(const std::string& spec);
     static WavelengthGrid uniform_grid(double start, double end, double step);
     // Arbitrary strictly increasing list: trapezoid weights (a uniform list gets uniform weights).
     static WavelengthGrid from_list(std::vector<double> lambdas);

@@ -64,8 +64,7 @@ Child start_spectex(const ScratchDir& io, const std::vector<std::string>& args, 
         sigset_t none;
         sigemptyset(&none);
         sigprocmask(SIG_SETMASK, &none, nullptr);
-        signal(SIGXFSZ, SIG_DFL);
-        signal(SIGTERM, SIG_DFL);
+        for (int sig = 1; sig < NSIG; ++sig) signal(sig, SIG_DFL);
         if (!opt.cwd.empty() && chdir(opt.cwd.c_str()) != 0) _exit(126);
         if (opt.umask_bits >= 0) umask(static_cast<mode_t>(opt.umask_bits));
         if (opt.fsize_limit != RLIM_INFINITY && setrlimit(RLIMIT_FSIZE, &lim) != 0) _exit(123);
@@ -195,6 +194,63 @@ TEST(DataSafety, SigtermKeepsAPreviousOutputIntact) {
     }
 }
 
+TEST(DataSafety, EverySignalThatEndsTheProcessRemovesTheTemporaryFile) {
+    // Broken pipes, timers, user signals, CPU limits, real-time signals: whatever ends the process
+    // must not leave its temporary file. SIGXFSZ is ignored on purpose (the write then fails with
+    // EFBIG and is reported): that run must end without a temporary file too.
+    ScratchDir d;
+    const std::string in = d / "big.png", out = d / "big.exr";
+    write_noise_png(in, 4096, 1024);
+    for (int sig : {SIGPIPE, SIGUSR1, SIGUSR2, SIGALRM, SIGVTALRM, SIGXCPU, SIGPROF, SIGIO, SIGPWR, SIGSYS,
+                    SIGTRAP, SIGSTKFLT, SIGRTMIN, SIGRTMAX, SIGXFSZ}) {
+        std::string tmp;
+        off_t at = 0;
+        Child c = bake_and_kill(d, in, out, sig, 1 << 20, &tmp, &at);
+        EXPECT_FALSE(tmp.empty()) << strsignal(sig);
+        if (sig == SIGXFSZ)
+            EXPECT_EQ(c.status, 0) << "SIGXFSZ is ignored; the bake goes on: " << c.err;
+        else
+            EXPECT_EQ(c.status, 128 + sig) << strsignal(sig) << " did not end the run with its own status: " << c.err;
+        auto left = temp_files_in(d.path());
+        EXPECT_TRUE(left.empty()) << "temporary file left after " << strsignal(sig) << ": " << left.front();
+        for (const auto& t : left) ::unlink((d / t).c_str());
+        ::unlink(out.c_str());
+    }
+}
+
+TEST(DataSafety, AClosedStandardOutputLeavesNoTemporaryFile) {
+    // `spectex bake ... --json - | head -c 1`: the reader goes away while files are still baking.
+    ScratchDir d;
+    std::vector<std::string> args = {"bake", "--json", "-", "--jobs", "2", "-o", d.path() + "/{stem}.exr"};
+    for (int i = 0; i < 6; ++i) {
+        write_noise_png(d / ("in" + std::to_string(i) + ".png"), 1024, 512, 7 + static_cast<unsigned>(i));
+        args.push_back(d / ("in" + std::to_string(i) + ".png"));
+    }
+    std::vector<std::string> argv_s = spectex_argv(args);
+    std::vector<char*> argv = c_array(argv_s);
+    int p[2];
+    ASSERT_EQ(::pipe(p), 0);
+    pid_t pid = fork();
+    if (pid == 0) {
+        for (int sig = 1; sig < NSIG; ++sig) signal(sig, SIG_DFL);
+        dup2(p[1], 1);
+        ::close(p[0]);
+        ::close(p[1]);
+        int devnull = ::open("/dev/null", O_WRONLY);
+        dup2(devnull, 2);
+        execv(argv[0], argv.data());
+        _exit(127);
+    }
+    ::close(p[1]);
+    char byte;
+    ASSERT_EQ(::read(p[0], &byte, 1), 1);  // the first record has started: then the reader leaves
+    ::close(p[0]);
+    int st = 0;
+    ASSERT_EQ(waitpid(pid, &st, 0), pid);
+    EXPECT_TRUE(WIFSIGNALED(st) && WTERMSIG(st) == SIGPIPE) << "status " << st;
+    EXPECT_TRUE(temp_files_in(d.path()).empty()) << "temporary file left: " << temp_files_in(d.path()).front();
+}
+
 // ---------------------------------------------------------------------------------------------
 // File-size limit and a full filesystem.
 
@@ -250,6 +306,31 @@ TEST(DataSafety, FullFilesystem) {
     Child ok = run({"bake", in, "-o", out});
     EXPECT_EQ(ok.status, 0) << ok.err;
     EXPECT_TRUE(file_exists(out));
+}
+
+TEST(DataSafety, AReportThatDoesNotFitIsAFailure) {
+    // --json on a full filesystem: the report is incomplete, so the run fails and leaves no report
+    // (nor a temporary one); the baked files themselves are elsewhere and fine.
+    ScratchDir d;
+    const std::string mnt = d / "mnt";
+    ASSERT_EQ(::mkdir(mnt.c_str(), 0755), 0);
+    if (::mount("tmpfs", mnt.c_str(), "tmpfs", 0, "size=4k") != 0)
+        GTEST_SKIP() << "cannot mount a tmpfs here: " << std::strerror(errno);
+    struct Unmount {
+        std::string p;
+        ~Unmount() { ::umount2(p.c_str(), MNT_DETACH); }
+    } unmount{mnt};
+    std::vector<std::string> args = {"bake", "-q", "--json", mnt + "/report.jsonl", "-o", d.path() + "/{stem}.exr"};
+    for (int i = 0; i < 24; ++i) {  // 24 records of about 600 bytes: more than the 4 kB filesystem
+        const std::string in = d / ("in" + std::to_string(i) + ".png");
+        write_noise_png(in, 4, 4, static_cast<unsigned>(i));
+        args.push_back(in);
+    }
+    Child c = run(args);
+    EXPECT_EQ(c.status, 1) << c.err;
+    EXPECT_TRUE(contains(c.err, "No space left on device")) << c.err;
+    EXPECT_TRUE(contains(c.err, "report.jsonl")) << c.err;
+    EXPECT_TRUE(list_dir(mnt).empty()) << "left in the full filesystem: " << list_dir(mnt).front();
 }
 
 // ---------------------------------------------------------------------------------------------

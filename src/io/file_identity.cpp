@@ -1,0 +1,42 @@
+#include "io/file_identity.h"
+
+#include <sys/stat.h>
+
+#include <filesystem>
+#include <system_error>
+
+namespace spectex {
+
+std::optional<FileId> file_id(const std::string& path) {
+    struct stat st;
+    if (path.empty() || ::stat(path.c_str(), &st) != 0) return std::nullopt;
+    return FileId{st.st_dev, st.st_ino};
+}
+
+OutputTarget output_target(const std::string& path) {
+    namespace fs = std::filesystem;
+    OutputTarget t;
+    std::error_code ec;
+    fs::path p = fs::weakly_canonical(fs::absolute(fs::path(path), ec), ec);
+    t.key = ec ? fs::absolute(fs::path(path)).lexically_normal().string() : p.string();
+    t.existing = file_id(path);
+    return t;
+}
+
+void ReadFiles::add(const std::string& path, const std::string& role) {
+    struct stat st;
+    if (path.empty() || path == "-" || ::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return;
+    files_.push_back({FileId{st.st_dev, st.st_ino}, path, role});
+}
+
+std::string ReadFiles::clash(const std::string& output, const std::string& output_role) const {
+    auto id = file_id(output);
+    if (!id) return "";
+    for (const auto& f : files_)
+        if (f.id == *id)
+            return output + ": " + output_role + " is the same file as " + f.path + " (" + f.role +
+                   "), which this command reads; refusing to overwrite it";
+    return "";
+}
+
+}  // namespace spectex

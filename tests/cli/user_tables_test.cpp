@@ -1,0 +1,105 @@
+// User tables are data from outside: a --basis, --observer or --illuminant CSV must hold finite
+// values in range on the output grid, or the run fails naming the table; a basis that does not
+// reproduce the primaries gets a warning with the size of the miss; and the infeasible-grid
+// message of bake names an option that bake accepts.
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "cli/cli_util.h"
+#include "cli/exr_read.h"
+
+using namespace spectex_test;
+
+namespace {
+
+bool contains(const std::string& h, const std::string& n) { return h.find(n) != std::string::npos; }
+
+void write_png(const std::string& path) {
+    std::vector<uint8_t> px = {255, 0, 0, 0, 255, 0, 0, 0, 255, 128, 128, 128};
+    write_image(path, 2, 2, 3, OIIO::TypeDesc::UINT8, px.data());
+}
+
+// wavelength,r,g,b on 380:780:5 with each row from f(lambda).
+template <typename F>
+void write_basis(const std::string& path, F f) {
+    std::ofstream o(path);
+    o << "wavelength,r,g,b\n";
+    for (int l = 380; l <= 780; l += 5) o << l << "," << f(l) << "\n";
+}
+
+}  // namespace
+
+TEST(UserTables, BasisValuesOutsideZeroOneAreRefused) {
+    ScratchDir d;
+    write_png(d / "in.png");
+    const std::vector<std::pair<std::string, std::string>> bad = {
+        {"1e308", "1e308,0,0"}, {"-0.5", "-0.5,0.5,1"}, {"1.5", "1.5,0,0"}, {"1e-300 then 2", "2,0,0"}};
+    for (const auto& [what, row] : bad) {
+        write_basis(d / "b.csv", [&](int) { return row; });
+        RunResult r = run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--basis", d / "b.csv"});
+        EXPECT_EQ(r.status, 1) << what << ": " << r.err;
+        EXPECT_TRUE(contains(r.err, "b.csv")) << r.err;
+        EXPECT_TRUE(contains(r.err, "[0, 1]")) << r.err;
+        EXPECT_FALSE(file_exists(d / "o.exr")) << what;
+    }
+}
+
+TEST(UserTables, ABasisThatMissesThePrimariesIsReported) {
+    ScratchDir d;
+    write_png(d / "in.png");
+    // Flat thirds: every texture would bake grey. Valid values, wrong colours: a warning with the
+    // miss (2/3 in linear RGB), and the bake still does what it was told.
+    write_basis(d / "flat.csv", [](int) { return "0.3333333333,0.3333333333,0.3333333334"; });
+    RunResult r = run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--basis", d / "flat.csv"});
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_TRUE(contains(r.err, "warning: basis")) << r.err;
+    EXPECT_TRUE(contains(r.err, "misses the sRGB primaries by 0.666")) << r.err;
+    // The shipped published table is exact to 4e-8: no warning.
+    std::string table = std::string(SPECTEX_TEST_DATA_DIR) + "/spectral/basis_mallett2019.csv";
+    RunResult ok = run_spectex({"bake", d / "in.png", "-o", d / "p.exr", "--basis", table});
+    EXPECT_EQ(ok.status, 0) << ok.err;
+    EXPECT_FALSE(contains(ok.err, "warning")) << ok.err;
+}
+
+TEST(UserTables, ObserverAndIlluminantValuesAreChecked) {
+    ScratchDir d;
+    write_png(d / "in.png");
+    auto write_table = [&](const std::string& path, const std::string& header, const std::string& row_at_550) {
+        std::ofstream o(path);
+        o << header << "\n";
+        for (int l = 360; l <= 830; l += 5) o << l << "," << (l == 550 ? row_at_550 : header.size() > 20 ? "0.5,0.5,0.5" : "100") << "\n";
+    };
+    for (const std::string v : {"1e308", "-1", "inf"}) {
+        write_table(d / "ill.csv", "wavelength,value", v);
+        RunResult r = run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--illuminant", d / "ill.csv"});
+        EXPECT_EQ(r.status, 1) << v << ": " << r.err;
+        EXPECT_TRUE(contains(r.err, "ill.csv")) << r.err;
+        write_table(d / "obs.csv", "wavelength,x,y,z", v + ",0.5,0.5");
+        r = run_spectex({"basis", "-o", d / "b.csv", "--observer", d / "obs.csv"});
+        EXPECT_EQ(r.status, 1) << v << ": " << r.err;
+        EXPECT_TRUE(contains(r.err, "obs.csv")) << r.err;
+        EXPECT_FALSE(file_exists(d / "o.exr"));
+        EXPECT_FALSE(file_exists(d / "b.csv"));
+    }
+}
+
+TEST(UserTables, TheInfeasibleGridHintIsTrue) {
+    // 380:780:40 with CIE 1931 2° has no exact basis (DESIGN.md). bake's message names
+    // --allow-infeasible, and bake accepts it: the closest basis, with a warning giving the miss.
+    ScratchDir d;
+    write_png(d / "in.png");
+    RunResult r = run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--wavelengths", "380:780:40"});
+    EXPECT_EQ(r.status, 1) << r.err;
+    ASSERT_TRUE(contains(r.err, "--allow-infeasible")) << r.err;
+    RunResult ok = run_spectex(
+        {"bake", d / "in.png", "-o", d / "o.exr", "--wavelengths", "380:780:40", "--allow-infeasible"});
+    EXPECT_EQ(ok.status, 0) << ok.err;
+    EXPECT_TRUE(contains(ok.err, "warning: no exact basis")) << ok.err;
+    EXPECT_TRUE(file_exists(d / "o.exr"));
+    ExrImage img = read_exr(d / "o.exr");
+    EXPECT_TRUE(contains(img.attr("spectex:basisSource"), "infeasible allowed"));
+}
