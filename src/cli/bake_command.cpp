@@ -325,12 +325,9 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
                           << "; baking with the closest one, which misses the primaries by "
                           << std::max({r[0], r[1], r[2]}) << " in linear RGB (--allow-infeasible)\n";
             }
-            c.settings.basis = fit.basis;
-            c.settings.basis_source = "fitted by spectex: " + c.fit.describe();
+            c.settings.method = std::make_shared<BasisMethod>(fit.basis, "fitted by spectex: " + c.fit.describe());
         } else {
-            c.settings.basis = load_basis(c.settings.data_dir, c.basis);
-            c.settings.basis_source = c.basis == "mallett2019" ? "published table (Mallett & Yuksel 2019)" : "file";
-            const Basis& basis = c.settings.basis;
+            Basis basis = load_basis(c.settings.data_dir, c.basis);
             // A given basis is exact for the conditions it was made for; the default ones are recorded.
             if (c.basis == "mallett2019") c.settings.observer = "cie1931-2", c.settings.illuminant = "D65";
             WavelengthGrid basis_grid = WavelengthGrid::from_list(basis.lambda);
@@ -349,6 +346,8 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
                 std::cerr << "spectex: warning: basis " << c.basis << " misses the sRGB primaries by " << miss
                           << " in linear RGB under " << c.settings.observer << " and " << c.settings.illuminant
                           << " (tolerance " << kBasisPrimaryTolerance << "): baked colours will be off by up to that\n";
+            c.settings.method = std::make_shared<BasisMethod>(
+                std::move(basis), c.basis == "mallett2019" ? "published table (Mallett & Yuksel 2019)" : "file");
         }
     } catch (const Error& e) {
         print_error(e.what());

@@ -104,8 +104,9 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     res.input = input;
     res.output = output;
     check_not_input(input, output);
-    if (!same_wavelengths(s.basis.lambda, s.grid.lambda))
-        throw Error("basis " + s.basis.name + " is not on the output grid " + s.grid.describe());
+    const SpectralMethod& method = *s.method;
+    if (!same_wavelengths(method.lambda(), s.grid.lambda))
+        throw Error("the " + method.name() + " method is not on the output grid " + s.grid.describe());
 
     auto src = ImageSource::open(input, s.max_pixels);
     const SourceInfo& info = src->info();
@@ -146,9 +147,6 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
         {"spectex:version", SPECTEX_VERSION},
         {"spectex:commandLine", s.command_line},
         {"spectex:source", input},
-        {"spectex:basis", s.basis.name},
-        {"spectex:basisSource", s.basis_source},
-        {"spectex:basisChecksum", s.basis.checksum()},
         {"spectex:wavelengths", s.grid.describe()},
         {"spectex:wavelengthList", join_lambda(s.grid.lambda)},
         {"spectex:observer", s.observer},
@@ -161,6 +159,11 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
         {"spectex:halfRounding", s.type == SampleType::Half ? (s.colour_rounding ? "colour" : "nearest") : "n/a"},
         {"spectex:settingsHash", s.settings_hash},
     };
+    {
+        // The method's own attributes where the basis' always stood (the order is part of the bytes).
+        auto at = layout.attributes.begin() + 3;
+        for (const auto& kv : method.provenance()) at = layout.attributes.insert(at, kv) + 1;
+    }
     layout.threads = s.threads;
 
     layout.tile_width = s.mipmap && s.tile_width <= 0 ? 64 : s.tile_width;
@@ -170,22 +173,25 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     AtomicFile out(output);
     SpectralExrWriter writer(out, layout);
 
-    ExpansionMatrix m = ExpansionMatrix::from_basis(s.basis);
+    // Colour-aware half rounding integrates under the colorimetry the method is exact for: its
+    // observer and illuminant on the output bins.
+    std::vector<float> rgb_weight;
     if (s.type == SampleType::Half && s.colour_rounding) {
-        // The colorimetry the basis is exact for: its observer and illuminant on the output bins.
         Colorimetry c = Colorimetry::make(load_observer(s.data_dir, s.observer),
                                           load_illuminant(s.data_dir, s.illuminant), s.grid,
                                           primaries_by_name("srgb"));
         const Eigen::Matrix3Xd R = c.rgb_weights();
-        m.rgb_weight.resize(3 * static_cast<size_t>(m.bins));
-        for (int k = 0; k < m.bins; ++k)
-            for (int ch = 0; ch < 3; ++ch) m.rgb_weight[3 * static_cast<size_t>(k) + ch] = static_cast<float>(R(ch, k));
+        rgb_weight.resize(3 * static_cast<size_t>(method.bins()));
+        for (int k = 0; k < method.bins(); ++k)
+            for (int ch = 0; ch < 3; ++ch) rgb_weight[3 * static_cast<size_t>(k) + ch] = static_cast<float>(R(ch, k));
     }
+    const std::vector<float>* feedback = rgb_weight.empty() ? nullptr : &rgb_weight;
+    const size_t bins = static_cast<size_t>(method.bins());
     const size_t w = static_cast<size_t>(info.width);
     const size_t es = s.type == SampleType::Half ? 2 : 4;
     const bool tiled = layout.tile_width > 0;
     const int chunk = tiled ? layout.tile_height : s.compression.lines_per_chunk;
-    size_t row_bytes = w * static_cast<size_t>(m.bins) * es;
+    size_t row_bytes = w * bins * es;
     const int strip = strip_rows(row_bytes, chunk, tiled || std::string(writer.writer_name()) != "core", info.height);
 
     const bool straighten = info.alpha == AlphaKind::Associated;
@@ -250,12 +256,12 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
                                 const float* b, const float* a) {
         const void* planes;
         if (s.type == SampleType::Half) {
-            half_planes.resize(n * static_cast<size_t>(m.bins));
-            expand_to_half(m, r, g, b, n, half_planes.data(), n);
+            half_planes.resize(n * bins);
+            method.expand_half(r, g, b, n, half_planes.data(), n, feedback);
             planes = half_planes.data();
         } else {
-            float_planes.resize(n * static_cast<size_t>(m.bins));
-            expand_to_float(m, r, g, b, n, float_planes.data(), n);
+            float_planes.resize(n * bins);
+            method.expand_float(r, g, b, n, float_planes.data(), n);
             planes = float_planes.data();
         }
         if (tiled)
@@ -286,11 +292,11 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
             process_rows(st.y0, st.y1, st.r.data(), st.g.data(), st.b.data(), st.a.data());
             auto t_expand = Clock::now();
             if (s.type == SampleType::Half) {
-                st.half.resize(n * static_cast<size_t>(m.bins));
-                expand_to_half(m, st.r.data(), st.g.data(), st.b.data(), n, st.half.data(), n);
+                st.half.resize(n * bins);
+                method.expand_half(st.r.data(), st.g.data(), st.b.data(), n, st.half.data(), n, feedback);
             } else {
-                st.flt.resize(n * static_cast<size_t>(m.bins));
-                expand_to_float(m, st.r.data(), st.g.data(), st.b.data(), n, st.flt.data(), n);
+                st.flt.resize(n * bins);
+                method.expand_float(st.r.data(), st.g.data(), st.b.data(), n, st.flt.data(), n);
             }
             res.stages.expand += since(t_expand);
         };
@@ -364,7 +370,7 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     if (::fstat(out.fd(), &st) == 0) res.bytes = static_cast<uint64_t>(st.st_size);
     out.commit();
     res.pixels = static_cast<uint64_t>(info.width) * static_cast<uint64_t>(info.height);
-    res.bins = m.bins;
+    res.bins = method.bins();
     res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return res;
 }

@@ -2,11 +2,12 @@
 // The streaming bake of one texture: read (OIIO) -> linearise (OCIO) -> policies -> expand ->
 // write (OpenEXR), a strip of rows at a time, into an atomic output file.
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "io/spectral_exr_writer.h"
-#include "spectral/basis.h"
+#include "spectral/spectral_method.h"
 #include "spectral/wavelength_grid.h"
 
 namespace spectex {
@@ -19,8 +20,7 @@ struct BakeSettings {
     std::string colorspace;          // --colorspace ("" = metadata, then file rules)
     std::string config;              // --config ("" = $OCIO, then the shipped config)
     std::string data_dir;
-    Basis basis;                     // already on the output grid
-    std::string basis_source;        // how the basis was obtained (for the header)
+    std::shared_ptr<const SpectralMethod> method;  // RGB -> spectrum, already on the output grid
     std::string observer = "cie1931-2";
     std::string illuminant = "D65";
     WavelengthGrid grid;

@@ -179,7 +179,7 @@ std::vector<std::string> select_shard(const std::vector<std::string>& sorted_inp
 std::string settings_hash(const BakeSettings& s) {
     uint64_t h = 0xcbf29ce484222325ull;
     fnv(h, SPECTEX_VERSION);
-    fnv(h, s.basis.checksum());
+    fnv(h, s.method->checksum());
     for (double l : s.grid.lambda) fnv(h, format_wavelength(l));
     fnv(h, s.type == SampleType::Half ? "half" : "float");
     fnv(h, s.compression.name);

@@ -380,6 +380,66 @@ void expand_to_half_feedback(const ExpansionMatrix& m, const float* r, const flo
 
 }  // namespace
 
+void round_spectra_to_half(const float* spectra, size_t spectra_stride, size_t n, size_t bins,
+                           const std::vector<float>* rgb_weight, uint16_t* out, size_t plane_stride) {
+    if (!rgb_weight) {
+        for (size_t k = 0; k < bins; ++k) to_half(spectra + k * spectra_stride, out + k * plane_stride, n);
+        return;
+    }
+    // The same rounding as the basis kernel's (round to nearest, then greedy flips of the pixels
+    // whose colour misses by more than kColourTolerance), on spectra given as values.
+    std::vector<float> w[3];
+    for (size_t c = 0; c < 3; ++c) {
+        w[c].resize(bins);
+        for (size_t k = 0; k < bins; ++k) w[c][k] = (*rgb_weight)[3 * k + c];
+    }
+    std::vector<float> delta(bins);
+    float er[kBlock], eg[kBlock], eb[kBlock], back[kBlock];
+    for (size_t i0 = 0; i0 < n; i0 += kBlock) {
+        const size_t len = std::min(kBlock, n - i0);
+        std::fill(er, er + len, 0.0f);
+        std::fill(eg, eg + len, 0.0f);
+        std::fill(eb, eb + len, 0.0f);
+        for (size_t k = 0; k < bins; ++k) {
+            const float* src = spectra + k * spectra_stride + i0;
+            uint16_t* dst = out + k * plane_stride + i0;
+            to_half(src, dst, len);
+            from_half(dst, back, len);
+            for (size_t i = 0; i < len; ++i) {
+                const float d = back[i] - src[i];
+                er[i] += w[0][k] * d;
+                eg[i] += w[1][k] * d;
+                eb[i] += w[2][k] * d;
+            }
+        }
+        for (size_t i = 0; i < len; ++i) {
+            float e[3] = {er[i], eg[i], eb[i]};
+            if (within_tolerance(e)) continue;
+            const float* s = spectra + i0 + i;
+            uint16_t* px = out + i0 + i;
+            for (size_t k = 0; k < bins; ++k) delta[k] = flip_delta(px[k * plane_stride], s[k * spectra_stride]);
+            for (int flip = 1; flip <= kMaxFlips; ++flip) {
+                size_t best = bins;
+                float best_e2 = squared(e);
+                for (size_t k = 0; k < bins; ++k) {
+                    const float x = e[0] + w[0][k] * delta[k], y = e[1] + w[1][k] * delta[k], z = e[2] + w[2][k] * delta[k];
+                    const float t = x * x + y * y + z * z;
+                    if (t < best_e2) best_e2 = t, best = k;
+                }
+                if (best == bins) break;
+                uint16_t& h = px[best * plane_stride];
+                const float sk = s[best * spectra_stride];
+                h = other_side(h, half_to_float(h), sk);
+                e[0] += w[0][best] * delta[best];
+                e[1] += w[1][best] * delta[best];
+                e[2] += w[2][best] * delta[best];
+                if (within_tolerance(e)) break;
+                delta[best] = flip_delta(h, sk);
+            }
+        }
+    }
+}
+
 void expand_to_half(const ExpansionMatrix& m, const float* r, const float* g, const float* b, size_t n,
                     uint16_t* out, size_t plane_stride) {
     if (!m.rgb_weight.empty()) {

@@ -1,0 +1,68 @@
+#pragma once
+// "Linear RGB in, spectrum on the grid out": the one interface that every spectral upsampling
+// method implements (the three-spectrum basis of Mallett & Yuksel, the lattice, Jakob-Hanika).
+// The pipeline expands strips through it, the half rounding works on what it gives, and the
+// header and the settings hash record it.
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "spectral/basis.h"
+#include "spectral/expand.h"
+
+namespace spectex {
+
+class SpectralMethod {
+public:
+    virtual ~SpectralMethod() = default;
+
+    virtual std::string name() const = 0;  // "basis", "lattice", "jakob-hanika"
+    virtual const std::vector<double>& lambda() const = 0;
+    int bins() const { return static_cast<int>(lambda().size()); }
+    // Of everything that decides the spectra (tables, sizes): "fnv1a64:<hex>".
+    virtual std::string checksum() const = 0;
+    // spectex:* header attributes that describe the method, in a fixed order.
+    virtual std::vector<std::pair<std::string, std::string>> provenance() const = 0;
+    // spectrum(a·x + b·y) = a·spectrum(x) + b·spectrum(y): filtering linear RGB before expanding is
+    // then the same as filtering spectra (MIP levels).
+    virtual bool is_linear() const = 0;
+
+    // Bin k of pixel i goes to out[k * plane_stride + i]; r, g, b are planes of n linear values.
+    virtual void expand_float(const float* r, const float* g, const float* b, size_t n, float* out,
+                              size_t plane_stride) const = 0;
+    // Half. With rgb_weight (bins x 3, the linear RGB of a unit spectrum at each bin, under the
+    // observer and illuminant the method is exact for), the colour-aware rounding: every bin is
+    // rounded to nearest, and where the integrated colour then misses by more than 6.1e-5 the
+    // fewest bins move to their other neighbouring half. The default rounds what expand_float
+    // gives; a method may do the same faster.
+    virtual void expand_half(const float* r, const float* g, const float* b, size_t n, uint16_t* out,
+                             size_t plane_stride, const std::vector<float>* rgb_weight) const;
+};
+
+// The three-spectrum basis: spectrum = r·S_r + g·S_g + b·S_b.
+class BasisMethod : public SpectralMethod {
+public:
+    // source: how the basis was obtained, for the header ("fitted by spectex: ...", "file").
+    BasisMethod(Basis basis, std::string source);
+    const Basis& basis() const { return basis_; }
+
+    std::string name() const override { return "basis"; }
+    const std::vector<double>& lambda() const override { return basis_.lambda; }
+    std::string checksum() const override { return basis_.checksum(); }
+    std::vector<std::pair<std::string, std::string>> provenance() const override;
+    bool is_linear() const override { return true; }
+    void expand_float(const float* r, const float* g, const float* b, size_t n, float* out,
+                      size_t plane_stride) const override;
+    void expand_half(const float* r, const float* g, const float* b, size_t n, uint16_t* out, size_t plane_stride,
+                     const std::vector<float>* rgb_weight) const override;
+
+private:
+    Basis basis_;
+    std::string source_;
+    ExpansionMatrix m_;
+};
+
+}  // namespace spectex
