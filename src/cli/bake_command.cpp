@@ -214,12 +214,13 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
                 throw Error("basis " + c.basis + " is on " + basis_grid.describe() + ", not on the output grid " +
                             c.settings.grid.describe() + " (the default --basis fit works on any grid)");
         }
+        // Reads the colour config (checked: a regular file of bounded size), so inside the try.
+        c.settings.command_line = command_line;
+        c.settings.settings_hash = settings_hash(c.settings);
     } catch (const Error& e) {
         print_error(e.what());
         return 1;
     }
-    c.settings.command_line = command_line;
-    c.settings.settings_hash = settings_hash(c.settings);
 
     BatchPlan plan;
     try {
@@ -236,6 +237,9 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         std::vector<std::string> listed = inputs;
         if (!c.from_list.empty()) {
             auto more = read_list(c.from_list);
+            if (more.empty() && inputs.empty())
+                throw Error((c.from_list == "-" ? std::string("standard input (--from-list -)") : c.from_list) +
+                            ": the input list names no files, and no input was given");
             listed.insert(listed.end(), more.begin(), more.end());
         }
         std::vector<std::string> expanded;
