@@ -214,6 +214,17 @@ std::vector<Slot> slots() {
         {"bake INPUT", [](const std::string& f, const ScratchDir& d) {
              return std::vector<std::string>{"bake", f, "-o", d / "out.exr"};
          }},
+        {"verify --source", [](const std::string& f, const ScratchDir& d) {
+             write_rgb_exr(d / "in.exr");
+             run_spectex({"bake", d / "in.exr", "-o", d / "baked.exr"});
+             return std::vector<std::string>{"verify", d / "baked.exr", "--source", f};
+         }},
+        {"verify EXR", [](const std::string& f, const ScratchDir&) {
+             return std::vector<std::string>{"verify", f};
+         }},
+        {"info EXR", [](const std::string& f, const ScratchDir&) {
+             return std::vector<std::string>{"info", f};
+         }},
         {"basis --observer", [](const std::string& f, const ScratchDir& d) {
              return std::vector<std::string>{"basis", "-o", d / "basis.csv", "--observer", f};
          }},
