@@ -259,6 +259,9 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         std::vector<std::string> listed = inputs;
         if (!c.from_list.empty()) {
             auto more = read_list(c.from_list);
+            if (more.empty() && inputs.empty())
+                throw Error((c.from_list == "-" ? std::string("standard input (--from-list -)") : c.from_list) +
+                            ": the input list names no files, and no input was given");
             listed.insert(listed.end(), more.begin(), more.end());
         }
         std::vector<std::string> expanded;
@@ -285,7 +288,12 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         ReadFiles reads;
         for (const auto& in : expanded) reads.add(in, "an input");
         reads.add(c.from_list, "--from-list");
-        reads.add(ocio_config_path(c.settings.data_dir, c.settings.config), "the OCIO config");
+        {
+            const std::string config = ocio_config_path(c.settings.data_dir, c.settings.config);
+            const auto files = ocio_config_files(config);
+            reads.add(files.front(), "the OCIO config");
+            for (size_t i = 1; i < files.size(); ++i) reads.add(files[i], "a LUT file of " + config);
+        }
         if (c.basis != "fit" && c.basis != "mallett2019") reads.add(c.basis, "--basis");
         reads.add(c.fit.observer, "--observer");
         reads.add(c.fit.illuminant, "--illuminant");
@@ -349,12 +357,13 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
             c.settings.method = std::make_shared<BasisMethod>(
                 std::move(basis), c.basis == "mallett2019" ? "published table (Mallett & Yuksel 2019)" : "file");
         }
+        // Reads the colour config (checked: a regular file of bounded size), so inside the try.
+        c.settings.command_line = command_line;
+        c.settings.settings_hash = settings_hash(c.settings);
     } catch (const Error& e) {
         print_error(e.what());
         return 1;
     }
-    c.settings.command_line = command_line;
-    c.settings.settings_hash = settings_hash(c.settings);
 
 
     unsigned hw = std::max(1u, std::thread::hardware_concurrency());

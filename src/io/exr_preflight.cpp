@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "spectral/bounded_read.h"
 #include "spectral/error.h"
 
 namespace spectex {
@@ -27,6 +28,8 @@ int32_t le32(const unsigned char* p) {
 }  // namespace
 
 void exr_preflight(const std::string& path) {
+    // A regular file (never a FIFO, which would block, or a device), checked before reading.
+    check_regular_file(path, file_limits::kImage, "an OpenEXR file");
     std::ifstream in(path, std::ios::binary);
     if (!in) throw Error(path + ": cannot open");
     std::vector<unsigned char> buf(kMaxHeaderBytes);

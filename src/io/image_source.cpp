@@ -5,16 +5,21 @@
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
+#include <algorithm>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 
+#include "spectral/bounded_read.h"
 #include "spectral/error.h"
 
 namespace spectex {
 
 struct ImageSource::Impl {
     std::unique_ptr<OIIO::ImageInput> in;
-    int color_channels[3] = {0, 0, 0};
+    int chbegin = 0, chend = 0;        // the channels read: [chbegin, chend) of the file
+    int color_channels[3] = {0, 0, 0};  // relative to chbegin
+    int alpha = -1;                     // relative to chbegin, -1 when none
     bool tiled = false;
     std::vector<float> whole;  // tiled inputs: the whole first level, read once
 };
@@ -28,22 +33,173 @@ namespace {
 std::string oiio_error(OIIO::ImageInput* in) {
     std::string e = in ? in->geterror() : OIIO::geterror();
     while (!e.empty() && (e.back() == '\n' || e.back() == ' ')) e.pop_back();
+    for (char& c : e)
+        if (c == '\n' || c == '\r') c = ' ';  // one line: some readers report several errors
     return e.empty() ? "unknown OpenImageIO error" : e;
+}
+
+// A channel name as it may appear in a one-line message: control bytes escaped, at most 64 chars.
+std::string printable(const std::string& s) {
+    std::string out;
+    for (unsigned char c : s) {
+        if (out.size() >= 64) return out + "...";
+        if (c < 0x20 || c == 0x7f) {
+            char b[8];
+            std::snprintf(b, sizeof b, "\\x%02x", c);
+            out += b;
+        } else {
+            out += static_cast<char>(c);
+        }
+    }
+    return out;
+}
+
+std::string lower(std::string s) {
+    for (char& c : s)
+        if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
+    return s;
+}
+
+// "R, G, B, Z" or, for long lists, the first ten then "... (1000 channels)".
+std::string channel_list(const std::vector<std::string>& names) {
+    std::string out;
+    const size_t shown = names.size() > 12 ? 10 : names.size();
+    for (size_t i = 0; i < shown; ++i) out += (i ? ", " : "") + printable(names[i]);
+    if (shown < names.size()) out += ", ... (" + std::to_string(names.size()) + " channels)";
+    return out.empty() ? "no channels" : out;
+}
+
+// PNG: the chunks must run to an IEND chunk inside the file. libpng stops once it has the rows it
+// needs, so a file cut in its last IDAT's checksum or in IEND would otherwise read as whole. Reads
+// 8 bytes per chunk.
+void check_png_chunks(const CheckedFile& f, const std::string& path) {
+    unsigned char sig[8];
+    if (::pread(f.fd(), sig, 8, 0) != 8) throw Error(path + ": truncated PNG (no signature)");
+    uint64_t pos = 8;
+    for (;;) {
+        unsigned char h[8];
+        ssize_t n = ::pread(f.fd(), h, 8, static_cast<off_t>(pos));
+        if (n != 8)
+            throw Error(path + ": truncated PNG: the file ends at byte " + std::to_string(f.size()) +
+                        " without an IEND chunk");
+        const uint64_t len = (uint64_t{h[0]} << 24) | (uint64_t{h[1]} << 16) | (uint64_t{h[2]} << 8) | h[3];
+        const std::string type(reinterpret_cast<const char*>(h + 4), 4);
+        if (pos + 12 + len > f.size())
+            throw Error(path + ": truncated PNG: chunk '" + printable(type) + "' at byte " + std::to_string(pos) +
+                        " runs past the end of the file (" + std::to_string(f.size()) + " bytes)");
+        if (type == "IEND") return;
+        pos += 12 + len;
+    }
+}
+
+struct ChannelChoice {
+    int colour[3] = {-1, -1, -1};
+    int alpha = -1;
+    std::string note;
+};
+
+// OpenEXR names its channels: choose them by name, never by position (a spectral, polarised or
+// depth channel is not a colour, and Z is not alpha).
+//   1. R, G, B;  2. Y (grey);  3. one layer's <layer>.R/.G/.B, the first layer in name order, with a
+//   note;  4. a layer's <layer>.Y.  Alpha only from a channel named A or alpha (any case), the
+//   chosen layer's own first. Anything else: refused, listing what the file has.
+ChannelChoice choose_by_name(const std::vector<std::string>& names, const std::string& path) {
+    auto find = [&](const std::string& n) -> int {
+        for (size_t i = 0; i < names.size(); ++i)
+            if (names[i] == n) return static_cast<int>(i);
+        return -1;
+    };
+    auto find_alpha = [&](const std::string& prefix) -> int {
+        for (size_t i = 0; i < names.size(); ++i) {
+            const std::string& n = names[i];
+            if (n.size() <= prefix.size() || n.compare(0, prefix.size(), prefix) != 0) continue;
+            const std::string rest = lower(n.substr(prefix.size()));
+            if (rest == "a" || rest == "alpha") return static_cast<int>(i);
+        }
+        return -1;
+    };
+    ChannelChoice c;
+    if (int r = find("R"), g = find("G"), b = find("B"); r >= 0 && g >= 0 && b >= 0) {
+        c.colour[0] = r, c.colour[1] = g, c.colour[2] = b;
+        c.alpha = find_alpha("");
+        return c;
+    }
+    if (int y = find("Y"); y >= 0) {
+        c.colour[0] = c.colour[1] = c.colour[2] = y;
+        c.alpha = find_alpha("");
+        return c;
+    }
+    // Layers, in name order (deterministic whatever the file's channel order).
+    std::vector<std::string> layers;
+    for (const auto& n : names) {
+        size_t dot = n.find_last_of('.');
+        if (dot != std::string::npos && dot > 0) layers.push_back(n.substr(0, dot));
+    }
+    std::sort(layers.begin(), layers.end());
+    layers.erase(std::unique(layers.begin(), layers.end()), layers.end());
+    auto use_layer_alpha = [&](const std::string& layer) {
+        c.alpha = find_alpha(layer + ".");
+        if (c.alpha < 0) {
+            // A top-level A/alpha (no dot) goes with any layer.
+            for (size_t i = 0; i < names.size(); ++i) {
+                const std::string l = lower(names[i]);
+                if (l == "a" || l == "alpha") c.alpha = static_cast<int>(i);
+            }
+        }
+    };
+    for (const auto& layer : layers) {
+        int r = find(layer + ".R"), g = find(layer + ".G"), b = find(layer + ".B");
+        if (r < 0 || g < 0 || b < 0) continue;
+        c.colour[0] = r, c.colour[1] = g, c.colour[2] = b;
+        use_layer_alpha(layer);
+        c.note = "input has no R, G, B channels: used layer '" + printable(layer) + "' (" + printable(layer) +
+                 ".R, .G, .B" + (c.alpha >= 0 ? ", alpha " + printable(names[static_cast<size_t>(c.alpha)]) : "") +
+                 ")";
+        return c;
+    }
+    for (const auto& layer : layers) {
+        int y = find(layer + ".Y");
+        if (y < 0) continue;
+        c.colour[0] = c.colour[1] = c.colour[2] = y;
+        use_layer_alpha(layer);
+        c.note = "input has no R, G, B or Y channels: used layer '" + printable(layer) + "' (" + printable(layer) +
+                 ".Y as grey" + (c.alpha >= 0 ? ", alpha " + printable(names[static_cast<size_t>(c.alpha)]) : "") +
+                 ")";
+        return c;
+    }
+    throw Error(path + ": no colour channels (R, G, B or Y, or a layer's <layer>.R/.G/.B or <layer>.Y); the file has " +
+                channel_list(names));
+}
+
+// Formats without channel names (PNG, JPEG, TIFF, ...): OpenImageIO calls them Y / Y,A / R,G,B /
+// R,G,B,A (2-channel TIFF and TGA read as "R,G", still grey + alpha) by position.
+ChannelChoice choose_by_position(const OIIO::ImageSpec& spec) {
+    ChannelChoice c;
+    int alpha = spec.alpha_channel;
+    if (alpha < 0 && spec.nchannels == 2) alpha = 1;
+    if (alpha < 0 && spec.nchannels >= 4) alpha = 3;
+    if (spec.nchannels == 1) alpha = -1;  // a lone channel is the image, never alpha over nothing
+    std::vector<int> colour;
+    for (int i = 0; i < spec.nchannels && colour.size() < 3; ++i)
+        if (i != alpha) colour.push_back(i);
+    if (colour.size() == 1 || colour.size() == 2) colour.resize(1);
+    if (colour.size() == 1) colour = {colour[0], colour[0], colour[0]};
+    for (int i = 0; i < 3; ++i) c.colour[i] = colour[static_cast<size_t>(i)];
+    c.alpha = alpha;
+    return c;
 }
 
 }  // namespace
 
 std::unique_ptr<ImageSource> ImageSource::open(const std::string& path, uint64_t max_pixels) {
-    struct stat st;
-    if (::stat(path.c_str(), &st) != 0) throw Error(path + ": " + std::strerror(errno));
-    if (S_ISDIR(st.st_mode)) throw Error(path + ": is a directory");
-    if (!S_ISREG(st.st_mode)) throw Error(path + ": not a regular file");
-    if (st.st_size == 0) throw Error(path + ": empty file");
-    // OIIO says only "Could not open file": ask the system for the cause first.
-    if (int fd = ::open(path.c_str(), O_RDONLY); fd < 0)
-        throw Error(path + ": " + std::strerror(errno));
-    else
-        ::close(fd);
+    // A regular file, checked before any library opens it: a FIFO, device or folder is refused
+    // at once (OIIO would block on a FIFO, or read /dev/zero forever).
+    {
+        CheckedFile f(path, file_limits::kImage, "an input image");
+        if (f.size() == 0) throw Error(path + ": empty file");
+        unsigned char sig[8] = {0};
+        if (::pread(f.fd(), sig, 8, 0) == 8 && std::memcmp(sig, "\x89PNG\r\n\x1a\n", 8) == 0) check_png_chunks(f, path);
+    }
 
     // Unassociated alpha as stored: OIIO would otherwise premultiply PNG alpha on gamma-encoded
     // 8-bit values, before we linearise.
@@ -51,6 +207,9 @@ std::unique_ptr<ImageSource> ImageSource::open(const std::string& path, uint64_t
     config.attribute("oiio:UnassociatedAlpha", 1);
     auto in = OIIO::ImageInput::open(path, &config);
     if (!in) throw Error(path + ": cannot read: " + oiio_error(nullptr));
+    // Some readers report damage found while opening (libjpeg's "Premature end of JPEG file" on a
+    // truncated progressive JPEG, whose scans are read at once) as an error but still open.
+    if (in->has_error()) throw Error(path + ": cannot read: " + oiio_error(in.get()));
 
     std::unique_ptr<ImageSource> src(new ImageSource);
     src->impl_ = std::make_unique<Impl>();
@@ -82,51 +241,56 @@ std::unique_ptr<ImageSource> ImageSource::open(const std::string& path, uint64_t
     info.bits = static_cast<int>(spec.format.size() * 8);
     if (int b = spec.get_int_attribute("oiio:BitsPerSample", 0); b > 0 && !info.is_float) info.bits = b;
     info.colorspace_hint = spec.get_string_attribute("oiio:ColorSpace");
+
+    // Channels: by name where the format has names (OpenEXR), else by position.
+    const ChannelChoice choice = info.format_name == "openexr" ? choose_by_name(spec.channelnames, path)
+                                                               : choose_by_position(spec);
+    if (!choice.note.empty()) info.notes.push_back(choice.note);
+    // Only the span of channels in use is read (a 1000-channel file is not decoded whole).
+    int lo = choice.colour[0], hi = choice.colour[0];
+    for (int c : {choice.colour[1], choice.colour[2], choice.alpha})
+        if (c >= 0) lo = std::min(lo, c), hi = std::max(hi, c);
+    Impl& I = *src->impl_;
+    I.chbegin = lo;
+    I.chend = hi + 1;
+    for (int i = 0; i < 3; ++i) I.color_channels[i] = choice.colour[i] - lo;
+    I.alpha = choice.alpha >= 0 ? choice.alpha - lo : -1;
+    info.alpha_channel = choice.alpha;
+    if (choice.alpha >= 0)
+        info.alpha = spec.get_int_attribute("oiio:UnassociatedAlpha", 0) ? AlphaKind::Unassociated
+                                                                         : AlphaKind::Associated;
+    I.tiled = spec.tile_width > 0;
+
     info.miplevels = 1;
     while (in->seek_subimage(0, info.miplevels)) ++info.miplevels;
     info.subimages = 1;
     while (in->seek_subimage(info.subimages, 0)) ++info.subimages;
     if (!in->seek_subimage(0, 0)) throw Error(path + ": " + oiio_error(in.get()));
     (void)in->geterror();  // counting levels probed one past the last: forget that error
-
-    // Channels: grey, grey+alpha, RGB, RGBA; extra channels are ignored.
-    int alpha = spec.alpha_channel;
-    if (alpha < 0 && spec.nchannels == 2) alpha = 1;
-    if (alpha < 0 && spec.nchannels >= 4) alpha = 3;
-    std::vector<int> colour;
-    for (int c = 0; c < spec.nchannels && colour.size() < 3; ++c)
-        if (c != alpha) colour.push_back(c);
-    if (colour.size() == 1 || colour.size() == 2) colour.resize(1);
-    if (colour.size() == 1) colour = {colour[0], colour[0], colour[0]};
-    for (int i = 0; i < 3; ++i) src->impl_->color_channels[i] = colour[static_cast<size_t>(i)];
-    info.alpha_channel = alpha;
-    if (alpha >= 0)
-        info.alpha = spec.get_int_attribute("oiio:UnassociatedAlpha", 0) ? AlphaKind::Unassociated
-                                                                         : AlphaKind::Associated;
-    src->impl_->tiled = spec.tile_width > 0;
-    src->impl_->in = std::move(in);
+    I.in = std::move(in);
     return src;
 }
 
 void ImageSource::read_rgba(int y0, int y1, float* rgba) {
-    const int nch = info_.channels;
+    Impl& I = *impl_;
+    const int nch = I.chend - I.chbegin;
     const size_t w = static_cast<size_t>(info_.width);
     const size_t rows = static_cast<size_t>(y1 - y0);
-    OIIO::ImageInput* in = impl_->in.get();
+    OIIO::ImageInput* in = I.in.get();
     const float* s;
-    if (impl_->tiled) {
+    if (I.tiled) {
         // OIIO 2.4's read_scanlines divides by zero on tiled TIFFs when it converts types, and
         // bands of rows need not be tile-aligned: read the whole level once (the RGB input is the
         // one thing DESIGN.md allows to be whole in memory).
-        if (impl_->whole.empty()) {
-            impl_->whole.resize(w * static_cast<size_t>(info_.height) * static_cast<size_t>(nch));
-            if (!in->read_image(0, 0, 0, nch, OIIO::TypeDesc::FLOAT, impl_->whole.data()))
+        if (I.whole.empty()) {
+            I.whole.resize(w * static_cast<size_t>(info_.height) * static_cast<size_t>(nch));
+            if (!in->read_image(0, 0, I.chbegin, I.chend, OIIO::TypeDesc::FLOAT, I.whole.data()))
                 throw Error(info_.path + ": read failed: " + oiio_error(in));
         }
-        s = impl_->whole.data() + static_cast<size_t>(y0) * w * static_cast<size_t>(nch);
+        s = I.whole.data() + static_cast<size_t>(y0) * w * static_cast<size_t>(nch);
     } else {
         scratch_.resize(w * rows * static_cast<size_t>(nch));
-        if (!in->read_scanlines(0, 0, info_.y + y0, info_.y + y1, 0, 0, nch, OIIO::TypeDesc::FLOAT,
+        if (!in->read_scanlines(0, 0, info_.y + y0, info_.y + y1, 0, I.chbegin, I.chend, OIIO::TypeDesc::FLOAT,
                                 scratch_.data()))
             throw Error(info_.path + ": read failed at rows " + std::to_string(y0) + "-" +
                         std::to_string(y1 - 1) + ": " + oiio_error(in));
@@ -134,8 +298,8 @@ void ImageSource::read_rgba(int y0, int y1, float* rgba) {
     }
     // Some readers (JPEG) report a truncated file as an error but still return true.
     if (in->has_error()) throw Error(info_.path + ": read failed: " + oiio_error(in));
-    const int* cc = impl_->color_channels;
-    const int a = info_.alpha_channel;
+    const int* cc = I.color_channels;
+    const int a = I.alpha;
     for (size_t i = 0; i < w * rows; ++i, s += nch, rgba += 4) {
         rgba[0] = s[cc[0]];
         rgba[1] = s[cc[1]];

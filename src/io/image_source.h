@@ -15,18 +15,23 @@ struct SourceInfo {
     int x = 0, y = 0, width = 0, height = 0;                    // data window
     int full_x = 0, full_y = 0, full_width = 0, full_height = 0;  // display window
     int channels = 0;              // in the file
-    int alpha_channel = -1;        // index in the file, -1 when none
+    int alpha_channel = -1;        // index in the file, -1 when none (only a channel named A/alpha
+                                   // in OpenEXR; never depth or other data)
     AlphaKind alpha = AlphaKind::None;
     bool is_float = false;         // float or half samples
     int bits = 8;                  // bits per sample in the file (8, 16, 32, ...)
     std::string colorspace_hint;   // oiio:ColorSpace
     int subimages = 1;
     int miplevels = 1;
+    std::vector<std::string> notes;  // how channels were chosen, when not plainly (a layer's R, G, B)
 };
 
 class ImageSource {
 public:
-    // Opens `path` and checks its header; refuses images above max_pixels before allocating.
+    // Opens `path` (a regular file, checked before any library opens it) and checks its header;
+    // refuses images above max_pixels before allocating. Colour and alpha channels are chosen by
+    // name in OpenEXR (R,G,B; Y; a layer's; alpha only from A/alpha), by position in formats
+    // without channel names; a file without colour channels is refused.
     static std::unique_ptr<ImageSource> open(const std::string& path, uint64_t max_pixels);
     ~ImageSource();
 

@@ -4,10 +4,14 @@
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <sstream>
+#include <unistd.h>
 
+#include "spectral/bounded_read.h"
 #include "spectral/error.h"
 
 namespace OCIO = OCIO_NAMESPACE;
@@ -78,6 +82,104 @@ std::vector<std::string> names_for_hint(const std::string& hint) {
     return {hint};
 }
 
+// The folder a config's relative search paths are resolved from, as CreateFromFile sets it: the
+// absolute folder of the config file.
+std::string config_dir(const std::string& path) {
+    std::string abs = path;
+    if (abs.empty() || abs[0] != '/') {
+        char cwd[PATH_MAX];
+        if (::getcwd(cwd, sizeof cwd)) abs = std::string(cwd) + "/" + path;
+    }
+    size_t s = abs.find_last_of('/');
+    return s == std::string::npos ? "." : (s == 0 ? "/" : abs.substr(0, s));
+}
+
+// Every FileTransform anywhere in `t` (groups included).
+void collect_file_transforms(const OCIO::ConstTransformRcPtr& t, std::vector<std::string>& out, int depth = 0) {
+    if (!t || depth > 64) return;
+    if (auto f = OCIO::DynamicPtrCast<const OCIO::FileTransform>(t)) {
+        if (f->getSrc() && *f->getSrc()) out.emplace_back(f->getSrc());
+    } else if (auto g = OCIO::DynamicPtrCast<const OCIO::GroupTransform>(t)) {
+        for (int i = 0; i < g->getNumTransforms(); ++i) collect_file_transforms(g->getTransform(i), out, depth + 1);
+    }
+}
+
+// The LUT files a config references (FileTransform src in its colour spaces, looks, view and named
+// transforms), resolved through the config's context as the processor would: each must be a
+// regular file of bounded size, checked before OCIO reads it (a LUT on /dev/zero, /dev/urandom or
+// a FIFO would otherwise hang the processor build). A reference that does not resolve is left to
+// OCIO, which reports it when (and only when) a transform uses it.
+// The resolved paths of the LUT files a config references (those that resolve).
+std::vector<std::pair<std::string, std::string>> lut_files(const OCIO::ConstConfigRcPtr& cfg) {
+    std::vector<std::string> srcs;
+    const int n = cfg->getNumColorSpaces(OCIO::SEARCH_REFERENCE_SPACE_ALL, OCIO::COLORSPACE_ALL);
+    for (int i = 0; i < n; ++i) {
+        auto cs = cfg->getColorSpace(
+            cfg->getColorSpaceNameByIndex(OCIO::SEARCH_REFERENCE_SPACE_ALL, OCIO::COLORSPACE_ALL, i));
+        if (!cs) continue;
+        collect_file_transforms(cs->getTransform(OCIO::COLORSPACE_DIR_TO_REFERENCE), srcs);
+        collect_file_transforms(cs->getTransform(OCIO::COLORSPACE_DIR_FROM_REFERENCE), srcs);
+    }
+    for (int i = 0; i < cfg->getNumLooks(); ++i) {
+        auto look = cfg->getLook(cfg->getLookNameByIndex(i));
+        if (!look) continue;
+        collect_file_transforms(look->getTransform(), srcs);
+        collect_file_transforms(look->getInverseTransform(), srcs);
+    }
+    for (int i = 0; i < cfg->getNumViewTransforms(); ++i) {
+        auto vt = cfg->getViewTransform(cfg->getViewTransformNameByIndex(i));
+        if (!vt) continue;
+        collect_file_transforms(vt->getTransform(OCIO::VIEWTRANSFORM_DIR_TO_REFERENCE), srcs);
+        collect_file_transforms(vt->getTransform(OCIO::VIEWTRANSFORM_DIR_FROM_REFERENCE), srcs);
+    }
+    for (int i = 0; i < cfg->getNumNamedTransforms(OCIO::NAMEDTRANSFORM_ALL); ++i) {
+        auto nt = cfg->getNamedTransform(cfg->getNamedTransformNameByIndex(OCIO::NAMEDTRANSFORM_ALL, i));
+        if (!nt) continue;
+        collect_file_transforms(nt->getTransform(OCIO::TRANSFORM_DIR_FORWARD), srcs);
+        collect_file_transforms(nt->getTransform(OCIO::TRANSFORM_DIR_INVERSE), srcs);
+    }
+    std::sort(srcs.begin(), srcs.end());
+    srcs.erase(std::unique(srcs.begin(), srcs.end()), srcs.end());
+    OCIO::ConstContextRcPtr ctx = cfg->getCurrentContext();
+    std::vector<std::pair<std::string, std::string>> out;  // (src as written, resolved path)
+    for (const auto& src : srcs) {
+        try {
+            out.emplace_back(src, ctx->resolveFileLocation(src.c_str()));
+        } catch (const OCIO::Exception&) {
+            // missing: OCIO's own error, if a transform in use needs it
+        }
+    }
+    return out;
+}
+
+void check_lut_files(const OCIO::ConstConfigRcPtr& cfg, const std::string& config_path) {
+    for (const auto& [src, resolved] : lut_files(cfg))
+        check_regular_file(resolved, file_limits::kLutFile, "a LUT file (FileTransform '" + src + "' in " + config_path + ")");
+}
+
+// An OCIO config read from checked bytes (a regular file of bounded size, never a device or a
+// FIFO), with the working folder CreateFromFile would give it, and its LUT files checked too.
+OCIO::ConstConfigRcPtr load_ocio_config(const std::string& path) {
+    std::istringstream text(read_file_bounded(path, file_limits::kOcioConfig, "an OCIO config"));
+    OCIO::ConstConfigRcPtr cfg;
+    try {
+        OCIO::ConfigRcPtr editable = OCIO::Config::CreateFromStream(text)->createEditableCopy();
+        editable->setWorkingDir(config_dir(path).c_str());
+        cfg = editable;
+    } catch (const OCIO::Exception& e) {
+        std::string why = e.what();
+        for (char& c : why)
+            if (c == '\n' || c == '\r') c = ' ';
+        throw Error(path + ": cannot load OCIO config: " + why);
+    }
+    try {
+        check_lut_files(cfg, path);
+    } catch (const OCIO::Exception& e) {
+        throw Error(path + ": cannot list the config's LUT files: " + e.what());
+    }
+    return cfg;
+}
+
 }  // namespace
 
 struct Linearizer::Impl {
@@ -118,12 +220,7 @@ Linearizer Linearizer::make(const ColourRequest& req) {
     if (path.empty()) path = shipped;
     lin.config_path_ = path;
 
-    OCIO::ConstConfigRcPtr cfg;
-    try {
-        cfg = OCIO::Config::CreateFromFile(path.c_str());
-    } catch (const OCIO::Exception& e) {
-        throw Error(path + ": cannot load OCIO config: " + e.what());
-    }
+    OCIO::ConstConfigRcPtr cfg = load_ocio_config(path);
 
     // 1. --colorspace, 2. the file's own metadata when the config knows it, 3. the file rules.
     std::string src;
@@ -166,7 +263,7 @@ Linearizer Linearizer::make(const ColourRequest& req) {
             // A foreign config without linear Rec.709: bridge to ours through ACES2065-1.
             if (!cfg->hasRole("aces_interchange"))
                 throw Error(path + ": config has no linear Rec.709 space (lin_srgb) and no aces_interchange role");
-            auto ours = OCIO::Config::CreateFromFile(shipped.c_str());
+            auto ours = load_ocio_config(shipped);
             proc = OCIO::Config::GetProcessorFromConfigs(cfg, src.c_str(), ours, "lin_srgb");
         }
         lin.identity_ = proc->isNoOp();
@@ -241,6 +338,13 @@ void Linearizer::apply_rgba(float* rgba, long pixels) const {
 }  // namespace spectex
 
 namespace spectex {
+
+std::vector<std::string> ocio_config_files(const std::string& config_path) {
+    std::vector<std::string> files = {config_path};
+    OCIO::ConstConfigRcPtr cfg = load_ocio_config(config_path);
+    for (const auto& f : lut_files(cfg)) files.push_back(f.second);
+    return files;
+}
 
 std::string ocio_config_path(const std::string& data_dir, const std::string& config_override) {
     if (!config_override.empty()) return config_override;

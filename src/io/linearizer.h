@@ -55,4 +55,7 @@ std::vector<std::string> close_colour_space_names(const std::vector<std::string>
 namespace spectex {
 // The OCIO config a command uses: --config, else $OCIO, else <data_dir>/spectex.ocio.
 std::string ocio_config_path(const std::string& data_dir, const std::string& config_override);
+// The files that config reads: itself and the LUT files its transforms reference, resolved through
+// its context. Throws Error when the config cannot be read (not a regular file, too large, ...).
+std::vector<std::string> ocio_config_files(const std::string& config_path);
 }  // namespace spectex

@@ -22,6 +22,7 @@
 #include <fstream>
 
 #include "io/exr_preflight.h"
+#include "spectral/bounded_read.h"
 #include "spectral/error.h"
 #include "spectral/wavelength_grid.h"
 
@@ -80,9 +81,8 @@ bool is_emissive(const std::string& name) {
 }  // namespace
 
 SpectralExrInfo read_spectral_exr_info(const std::string& path) {
-    struct stat st;
-    if (::stat(path.c_str(), &st) != 0) throw Error(path + ": " + std::strerror(errno));
-    if (S_ISDIR(st.st_mode)) throw Error(path + ": is a directory");
+    // A regular file (never a FIFO, which would block, or a device), checked before reading.
+    check_regular_file(path, file_limits::kImage, "an OpenEXR file");
     {
         std::ifstream f(path, std::ios::binary);
         unsigned char magic[4] = {0, 0, 0, 0};

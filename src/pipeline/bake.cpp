@@ -114,6 +114,7 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
         res.notes.push_back("input has " + std::to_string(info.miplevels) + " MIP levels: the first was used");
     if (info.subimages > 1)
         res.notes.push_back("input has " + std::to_string(info.subimages) + " subimages: the first was used");
+    res.notes.insert(res.notes.end(), info.notes.begin(), info.notes.end());
     if (info.channels > 4)
         res.notes.push_back("input has " + std::to_string(info.channels) + " channels: only RGB(A) were used");
 

@@ -4,11 +4,14 @@
 #include <ImfMultiPartInputFile.h>
 #include <ImfStringAttribute.h>
 #include <dirent.h>
+#include <limits.h>
+#include <unistd.h>
 #include <sys/stat.h>
 
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
+#include <memory>
 #include <fstream>
 #include <iostream>
 #include <regex>
@@ -16,6 +19,7 @@
 
 #include "io/exr_preflight.h"
 #include "io/linearizer.h"
+#include "spectral/bounded_read.h"
 #include "spectex/version.h"
 #include "spectral/error.h"
 
@@ -51,11 +55,10 @@ void fnv(uint64_t& h, const std::string& s) {
     h *= 0x100000001b3ull;
 }
 
+// The colour config's bytes, for the settings hash: a regular file of bounded size (never
+// /dev/zero or a FIFO, which would never end), checked like every file spectex reads.
 std::string file_contents(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
+    return read_file_bounded(path, file_limits::kOcioConfig, "an OCIO config");
 }
 
 }  // namespace
@@ -109,20 +112,62 @@ std::vector<std::string> expand_tiles(const std::string& path) {
 }
 
 std::vector<std::string> read_list(const std::string& file) {
+    // The list is a regular file of bounded size, checked before it is read (never a device, FIFO
+    // or folder), or standard input ("-"), which may be anything and is read up to the same limit.
+    // It is parsed as it is read, so that binary data is refused at its first bad byte: a NUL or
+    // another control character, or a line longer than PATH_MAX, names the line and stops.
+    const bool is_stdin = file == "-";
+    const std::string name = is_stdin ? "standard input (--from-list -)" : file;
+    std::unique_ptr<CheckedFile> checked;
+    if (!is_stdin) checked = std::make_unique<CheckedFile>(file, file_limits::kInputList, "an input list");
+    const int fd = is_stdin ? 0 : checked->fd();
+
     std::vector<std::string> out;
-    std::ifstream f;
-    std::istream* in = &std::cin;
-    if (file != "-") {
-        f.open(file);
-        if (!f) throw Error(file + ": cannot open the input list: " + std::strerror(errno));
-        in = &f;
-    }
     std::string line;
-    while (std::getline(*in, line)) {
-        if (!line.empty() && line.back() == '\r') line.pop_back();
-        if (line.empty() || line[0] == '#') continue;
-        out.push_back(line);
+    size_t lineno = 1;
+    uint64_t total = 0;
+    auto bad = [&](const std::string& why) {
+        return Error(name + ": line " + std::to_string(lineno) + ": " + why);
+    };
+    auto control = [&](unsigned char c) {
+        char hex[8];
+        std::snprintf(hex, sizeof hex, "0x%02x", c);
+        return bad(std::string("control character ") + hex + ": binary data, not a list of paths (one per line)");
+    };
+    auto finish_line = [&] {
+        if (!line.empty() && line.back() == '\r') line.pop_back();  // CRLF lists
+        if (line.find('\r') != std::string::npos) throw control('\r');
+        if (line.size() >= PATH_MAX) throw bad("longer than PATH_MAX (" + std::to_string(PATH_MAX) + " bytes): not a path");
+        if (!line.empty() && line[0] != '#') out.push_back(line);
+        line.clear();
+        ++lineno;
+    };
+    char buf[65536];
+    for (;;) {
+        ssize_t n = ::read(fd, buf, sizeof buf);
+        if (n < 0) {
+            if (errno == EINTR) continue;
+            throw Error(name + ": read error: " + std::strerror(errno));
+        }
+        if (n == 0) break;
+        total += static_cast<uint64_t>(n);
+        if (total > file_limits::kInputList)
+            throw Error(name + ": an input list may not exceed " + format_bytes(file_limits::kInputList));
+        for (ssize_t i = 0; i < n; ++i) {
+            const unsigned char c = static_cast<unsigned char>(buf[i]);
+            if (c == '\n') {
+                finish_line();
+                continue;
+            }
+            if (c == 0) throw bad("NUL byte: binary data, not a list of paths (one per line)");
+            if ((c < 0x20 && c != '\t' && c != '\r') || c == 0x7f) throw control(c);
+            // PATH_MAX counts the terminating NUL; one more byte for a CR before the newline.
+            if (line.size() >= PATH_MAX)
+                throw bad("longer than PATH_MAX (" + std::to_string(PATH_MAX) + " bytes): not a path");
+            line += static_cast<char>(c);
+        }
     }
+    if (!line.empty()) finish_line();
     return out;
 }
 

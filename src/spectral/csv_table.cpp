@@ -5,10 +5,10 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <fstream>
 #include <ostream>
 #include <sstream>
 
+#include "spectral/bounded_read.h"
 #include "spectral/error.h"
 
 namespace spectex {
@@ -113,16 +113,9 @@ CsvTable parse_csv_table(const std::string& text, const std::string& source,
 }
 
 CsvTable read_csv_table(const std::string& path, const std::vector<std::string>& expected) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw Error(path + ": cannot open: " + std::string(std::strerror(errno)));
-    std::string text;
-    char buf[65536];
-    while (in.read(buf, sizeof buf) || in.gcount() > 0) {
-        text.append(buf, static_cast<size_t>(in.gcount()));
-        if (text.size() > kMaxBytes) throw Error(path + ": file too large for a spectral table");
-    }
-    if (in.bad()) throw Error(path + ": read error");
-    return parse_csv_table(text, path, expected);
+    // A regular file of bounded size, checked before it is read: never a device, FIFO or folder.
+    static_assert(kMaxBytes == file_limits::kSpectralTable, "one limit for spectral tables");
+    return parse_csv_table(read_file_bounded(path, file_limits::kSpectralTable, "a spectral table"), path, expected);
 }
 
 void write_csv_table(std::ostream& out, const CsvTable& table) {

@@ -10,9 +10,11 @@ namespace spectex {
 
 namespace {
 
-bool is_regular_file(const std::string& path) {
+// A name that is not a shipped table is a file when something exists at that path: it is then
+// read (and refused when it is not a regular file of bounded size) by read_csv_table.
+bool exists(const std::string& path) {
     struct stat st;
-    return ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
+    return ::stat(path.c_str(), &st) == 0;
 }
 
 std::string upper(std::string s) {
@@ -68,7 +70,7 @@ std::vector<std::string> shipped_illuminants() { return {"D65", "A", "FL11"}; }
 Observer load_observer(const std::string& data_dir, const std::string& name) {
     for (const auto& o : shipped_observers())
         if (o == name) return load_observer_csv(data_dir + "/spectral/observer_" + o + ".csv", o);
-    if (is_regular_file(name)) return load_observer_csv(name, name);
+    if (exists(name)) return load_observer_csv(name, name);
     throw Error("unknown observer '" + name + "' (known: cie1931-2, cie1964-10, or a CSV file)");
 }
 
@@ -76,7 +78,7 @@ Spectrum load_illuminant(const std::string& data_dir, const std::string& name_or
     for (const auto& i : shipped_illuminants())
         if (upper(name_or_file) == upper(i))
             return load_illuminant_csv(data_dir + "/spectral/illuminant_" + i + ".csv", i);
-    if (is_regular_file(name_or_file)) return load_illuminant_csv(name_or_file, name_or_file);
+    if (exists(name_or_file)) return load_illuminant_csv(name_or_file, name_or_file);
     throw Error("unknown illuminant '" + name_or_file + "' (known: D65, A, FL11, or a CSV file)");
 }
 

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "spectral/bounded_read.h"
 #include "spectral/error.h"
 
 namespace spectex {
@@ -42,6 +43,22 @@ void check_names(const std::vector<double>& lambda, const std::string& label) {
                         std::to_string(lambda[k]) + " nm are closer than 1e-6 nm (one channel name)");
         prev = name;
     }
+}
+
+// A line of a file, quoted in a one-line message: control bytes escaped, at most 60 characters.
+std::string printable(const std::string& s) {
+    std::string out;
+    for (unsigned char c : s) {
+        if (out.size() >= 60) return out + "...";
+        if (c < 0x20 || c == 0x7f) {
+            char b[8];
+            std::snprintf(b, sizeof b, "\\x%02x", c);
+            out += b;
+        } else {
+            out += static_cast<char>(c);
+        }
+    }
+    return out;
 }
 
 }  // namespace
@@ -163,8 +180,8 @@ WavelengthGrid WavelengthGrid::from_list(std::vector<double> lambdas) {
 }
 
 WavelengthGrid WavelengthGrid::from_file(const std::string& path) {
-    std::ifstream in(path);
-    if (!in) throw Error(path + ": cannot open wavelength file");
+    // A regular file of bounded size, checked before it is read: never a device, FIFO or folder.
+    std::istringstream in(read_file_bounded(path, file_limits::kWavelengthFile, "a wavelength file"));
     std::vector<double> values;
     std::string line;
     size_t lineno = 0;
@@ -176,7 +193,7 @@ WavelengthGrid WavelengthGrid::from_file(const std::string& path) {
         size_t b = line.find_last_not_of(" \t");
         double v;
         if (!parse_double(line.substr(a, b - a + 1), &v))
-            throw Error(path + ":" + std::to_string(lineno) + ": not a wavelength: '" + line + "'");
+            throw Error(path + ":" + std::to_string(lineno) + ": not a wavelength: '" + printable(line) + "'");
         values.push_back(v);
     }
     try {

@@ -198,3 +198,38 @@ TEST(OutputIdentity, LongOutputNamesKeepTheirTemporaryWithinTheNameLimit) {
     EXPECT_EQ(r.status, 1) << r.err;
     EXPECT_TRUE(temp_files_in(d.path()).empty());
 }
+
+TEST(OutputIdentity, NoOutputIsALutFileOfTheConfig) {
+    // The OCIO config reads its LUT files (FileTransform src, resolved through its search path):
+    // an output may not be one of them either, however it is spelt.
+    ScratchDir d;
+    ASSERT_EQ(::mkdir((d / "luts").c_str(), 0755), 0);
+    const std::string lut = d / "luts/curve.cube";
+    std::ofstream(lut) << "LUT_1D_SIZE 2\n0 0 0\n1 1 1\n";
+    const std::string cfg = d / "c.ocio";
+    std::ofstream(cfg) << "ocio_profile_version: 2\n"
+                          "search_path: \"luts\"\n"
+                          "roles:\n  default: lin_srgb\n  scene_linear: lin_srgb\n"
+                          "file_rules:\n  - !<Rule> {name: Default, colorspace: lin_srgb}\n"
+                          "displays:\n  d:\n    - !<View> {name: v, colorspace: raw}\n"
+                          "colorspaces:\n"
+                          "  - !<ColorSpace>\n    name: raw\n    isdata: true\n"
+                          "  - !<ColorSpace>\n    name: lin_srgb\n"
+                          "  - !<ColorSpace>\n    name: lut_space\n"
+                          "    to_scene_reference: !<FileTransform> {src: curve.cube, interpolation: linear}\n";
+    write_png(d / "in.png");
+    const std::string before = read_file(lut);
+    for (const std::string& alias : {lut, d.path() + "/luts/../luts/curve.cube"}) {
+        expect_usage_error(run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--config", cfg, "--colorspace",
+                                        "lut_space", "--json", alias}),
+                           "LUT file");
+        expect_usage_error(run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--colorspace", "lut_space", "--json",
+                                        alias},
+                                       {"OCIO=" + cfg}),
+                           "LUT file");
+    }
+    EXPECT_EQ(read_file(lut), before);
+    RunResult ok = run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--config", cfg, "--colorspace", "lut_space",
+                                "--json", d / "report.jsonl"});
+    EXPECT_EQ(ok.status, 0) << ok.err;
+}
