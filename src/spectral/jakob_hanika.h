@@ -1,0 +1,84 @@
+#pragma once
+// Jakob & Hanika 2019, "A Low-Dimensional Function Space for Efficient Spectral Upsampling":
+// a reflectance s(λ) = S(c0 λ² + c1 λ + c2) with S(x) = 1/2 + x / (2 sqrt(1 + x²)), fitted to an
+// RGB colour. Smooth and bounded in (0, 1), but not exact: colours at the edges of the RGB cube
+// need coefficients that diverge, and the fit is capped there (see fit_jakob_hanika).
+#include <Eigen/Dense>
+#include <cstddef>
+#include <vector>
+
+#include "spectral/colorimetry.h"
+#include "spectral/srgb_axis.h"
+
+namespace spectex {
+
+// Coefficients for λ in nm.
+struct JHCoefficients {
+    double c0 = 0, c1 = 0, c2 = 0;
+};
+
+double jh_sigmoid(double x);
+double jh_eval(const JHCoefficients& c, double lambda_nm);
+
+// Fit diagnostics of the last fit_jakob_hanika call that asked for them.
+struct JHFitInfo {
+    double lab_residual = 0;  // ||Lab(C s) - Lab(rgb)||_2 (CIELAB units, ΔE76)
+    double rgb_residual = 0;  // ||C s - rgb||_inf (linear RGB)
+    int iterations = 0;
+    bool capped = false;      // the coefficients hit the cap (colour outside the sigmoid gamut)
+};
+
+// Levenberg-Marquardt on the CIELAB difference (as pbrt-v4's rgb2spec_opt, with analytic
+// Jacobian), in a normalised wavelength u = (λ - λ_first) / (λ_last - λ_first) of the colorimetry
+// grid. CIELAB rather than linear RGB because it weights dark colours by what is visible (a
+// linear residual is dominated by bright colours and leaves near-black fits loose), and this fit
+// only has to be perceptually close: the lattice projects it onto the exact colour afterwards.
+// The coefficients in u are capped at |c| <= kJHCoefficientCap (scaled down together, which keeps
+// the spectrum's shape): at black, white and on the faces of the cube the optimum is at infinity
+// and the best bounded answer is returned. start (nm coefficients) warm-starts the iteration.
+// Never returns NaN; rgb is clamped to [0, 1].
+constexpr double kJHCoefficientCap = 1000.0;
+JHCoefficients fit_jakob_hanika(const Colorimetry& c, const Eigen::Vector3d& rgb,
+                                const JHCoefficients* start = nullptr, JHFitInfo* info = nullptr);
+
+// Fits at every node of axis³ (layout (ir*n + ig)*n + ib), each warm-started from the fitted
+// neighbour one step nearer the centre node; the largest residuals over the nodes if asked.
+std::vector<JHCoefficients> fit_jakob_hanika_nodes(const Colorimetry& c, const std::vector<double>& axis,
+                                                   double* max_rgb_residual = nullptr,
+                                                   double* max_lab_residual = nullptr);
+
+// The spectrum of coefficients on the colorimetry's grid.
+Eigen::VectorXd jh_spectrum(const Colorimetry& c, const JHCoefficients& k);
+
+// pbrt-style lookup: coefficients fitted at the nodes of a res³ lattice over linear RGB with
+// sRGB-encoded spacing (srgb_axis.h), interpolated trilinearly in the cell's linear coordinates
+// and evaluated on the colorimetry grid. The sigmoid of interpolated coefficients is smooth and
+// in (0, 1) but, like the fit itself, not colour-exact.
+class JakobHanikaTable {
+public:
+    static JakobHanikaTable build(const Colorimetry& c, int res);
+
+    int res() const { return res_; }
+    int bins() const { return static_cast<int>(u_.size()); }
+    // Node coefficients in nm, layout (ir*res + ig)*res + ib.
+    JHCoefficients node(int ir, int ig, int ib) const;
+    const std::vector<double>& axis() const { return locator_.axis(); }
+
+    void spectrum(const float rgb[3], float* out) const;
+    // Bin k of pixel i goes to out[k * plane_stride + i] (the layout of expand_to_float).
+    void expand(const float* r, const float* g, const float* b, size_t n, float* out, size_t plane_stride) const;
+
+    double max_rgb_residual = 0;  // max over nodes of ||C s(node fit) - node rgb||_inf (linear)
+    double max_lab_residual = 0;  // the same in CIELAB ΔE76
+    double build_seconds = 0;
+
+private:
+    int res_ = 0;
+    AxisLocator locator_;
+    std::vector<float> u_;      // normalised wavelength of each bin
+    std::vector<float> coeff_;  // 3 per node, in u units
+    std::vector<JHCoefficients> nm_;
+    void coefficients(const float rgb[3], float k[3]) const;
+};
+
+}  // namespace spectex
