@@ -162,7 +162,8 @@ struct Fitter {
     // Fit from a start, then (if the answer is poor) by continuation from grey towards rgb, keeping
     // the best.
     Eigen::Vector3d fit(const Eigen::Vector3d& rgb_in, const Eigen::Vector3d* start, JHFitInfo* info) const {
-        const Eigen::Vector3d target = rgb_in.cwiseMax(0.0).cwiseMin(1.0);
+        Eigen::Vector3d target;
+        for (int i = 0; i < 3; ++i) target[i] = rgb_in[i] > 0 ? std::min(rgb_in[i], 1.0) : 0.0;  // NaN -> 0
         const Eigen::Vector3d tl = lab(target);
         int iterations = 0;
         bool capped = false;

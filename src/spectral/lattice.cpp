@@ -112,6 +112,10 @@ SpectralLattice SpectralLattice::build(const Colorimetry& c, int n, VertexPrior 
                 std::copy(s.data(), s.data() + N, L.table_d_.begin() + static_cast<std::ptrdiff_t>(idx * N));
             }
     L.table_.assign(L.table_d_.begin(), L.table_d_.end());
+    L.padded_ld_ = (static_cast<size_t>(N) + 7) & ~size_t{7};
+    L.padded_.assign(verts * L.padded_ld_, 0.0f);
+    for (size_t v = 0; v < verts; ++v)
+        std::copy_n(&L.table_[v * static_cast<size_t>(N)], N, &L.padded_[v * L.padded_ld_]);
     L.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return L;
 }

@@ -59,6 +59,10 @@ private:
     AxisLocator locator_;
     std::vector<double> table_d_;
     std::vector<float> table_;
+    // The kernel's copy: rows padded with zeros to a multiple of 8 floats, so every row is read in
+    // whole 8-float vectors.
+    std::vector<float> padded_;
+    size_t padded_ld_ = 0;
 };
 
 }  // namespace spectex

@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <string>
 
@@ -66,7 +67,8 @@ TEST(JakobHanika, InGamutColoursFitClosely) {
 TEST(JakobHanika, ExtremeColoursGiveFiniteBoundedCoefficients) {
     const Eigen::Vector3d cases[] = {{0, 0, 0}, {1, 1, 1}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 0},
                                      {0, 1, 1}, {1, 0, 1}, {1e-6, 1e-6, 1e-6}, {1, 1, 1 - 1e-6},
-                                     {0.5, 0, 0}, {1, 0.5, 0}, {-1, 2, 0.5}};
+                                     {0.5, 0, 0}, {1, 0.5, 0}, {-1, 2, 0.5},
+                                     {std::nan(""), 0.5, std::numeric_limits<double>::infinity()}};
     for (const auto& rgb : cases) {
         JHFitInfo info;
         const JHCoefficients k = fit_jakob_hanika(d65(), rgb, nullptr, &info);

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/SparseCore>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -13,6 +14,7 @@
 #include "spectral/error.h"
 #include "spectral/qp_solver.h"
 #include "spectral/spectrum.h"
+#include "spectral/srgb_axis.h"
 
 using namespace spectex;
 
@@ -21,9 +23,9 @@ namespace {
 const std::string kData = SPECTEX_TEST_DATA_DIR;
 
 Colorimetry make(const std::string& grid, const std::string& observer = "cie1931-2",
-                 const std::string& illuminant = "D65") {
+                 const std::string& illuminant = "D65", const std::string& primaries = "srgb") {
     return Colorimetry::make(load_observer(kData, observer), load_illuminant(kData, illuminant),
-                             WavelengthGrid::parse(grid), primaries_by_name("srgb"));
+                             WavelengthGrid::parse(grid), primaries_by_name(primaries));
 }
 
 const Colorimetry& d65() {
@@ -237,15 +239,21 @@ TEST(Lattice, HardColoursExact) {
 
 TEST(Lattice, OtherGridsObserversIlluminants) {
     struct Case {
-        std::string grid, observer, illuminant;
+        std::string grid, observer, illuminant, primaries = "srgb";
     };
+    // The last ones are meant to be infeasible (rec2020 green is outside the object colours;
+    // a grid without short wavelengths cannot make blue), but the expectation comes from
+    // corners_feasible(), not from this comment.
     const Case cases[] = {{"380:780:20", "cie1931-2", "D65"}, {"380:780:5", "cie1931-2", "D65"},
                           {"360:830:1", "cie1931-2", "D65"},  {"380:780:5", "cie1964-10", "D65"},
                           {"380:780:5", "cie1931-2", "A"},    {"400:700:10", "cie1931-2", "D65"},
-                          {"450:650:10", "cie1931-2", "D65"}};
+                          {"450:650:10", "cie1931-2", "D65"}, {"380:780:5", "cie1931-2", "D65", "rec2020"},
+                          {"480:700:10", "cie1931-2", "D65"}};
+    int infeasible = 0;
     for (const auto& cs : cases) {
-        const Colorimetry c = make(cs.grid, cs.observer, cs.illuminant);
-        const std::string what = cs.grid + " " + cs.observer + " " + cs.illuminant;
+        const Colorimetry c = make(cs.grid, cs.observer, cs.illuminant, cs.primaries);
+        const std::string what = cs.grid + " " + cs.observer + " " + cs.illuminant + " " + cs.primaries;
+        infeasible += !corners_feasible(c);
         const bool feasible = corners_feasible(c);
         // fit_basis feasible (3 exact bounded spectra summing to 1) implies every colour of the
         // cube is feasible; the converse does not hold, so it is only checked one way.
@@ -275,6 +283,7 @@ TEST(Lattice, OtherGridsObserversIlluminants) {
             }
         }
     }
+    EXPECT_GE(infeasible, 1) << "the error path was not exercised";
 }
 
 TEST(Lattice, ChecksumIsDeterministicAndTracksContent) {
@@ -303,4 +312,37 @@ TEST(Lattice, BlendIsBetweenPriors) {
     const double sm = rough(SpectralLattice::build(d65(), 5, VertexPrior::Smooth));
     EXPECT_LT(bl, jh);
     EXPECT_GT(bl, sm);
+}
+
+TEST(Lattice, ExpandIsTheFloatFormulaBitForBit) {
+    // The kernel (AVX or SSE2, whichever this CPU runs) against the plain float formula: cell from
+    // AxisLocator::locate_fast, Kuhn weights, ((w0 a + w1 b) + w2 c) + w3 d on the float table.
+    const SpectralLattice L = SpectralLattice::build(d65(), 9, VertexPrior::Smooth);
+    const AxisLocator loc(9);
+    const size_t B = static_cast<size_t>(L.bins()), n = 9;
+    const size_t m = 1000 + 3;  // not a multiple of the kernel's block or vector width
+    std::mt19937 rng(99);
+    std::uniform_real_distribution<float> u(-0.1f, 1.1f);
+    std::vector<float> r(m), g(m), b(m), out(m * B);
+    for (size_t i = 0; i < m; ++i) r[i] = u(rng), g[i] = u(rng), b[i] = u(rng);
+    L.expand(r.data(), g.data(), b.data(), m, out.data(), m);
+    for (size_t i = 0; i < m; ++i) {
+        float t[3];
+        size_t c[3];
+        const float in[3] = {r[i], g[i], b[i]};
+        for (int a = 0; a < 3; ++a) c[a] = static_cast<size_t>(loc.locate_fast(in[a], &t[a]));
+        int p[3] = {0, 1, 2};
+        std::stable_sort(p, p + 3, [&](int x, int y) { return t[x] > t[y]; });
+        const size_t stride[3] = {n * n, n, 1};
+        size_t v[4];
+        v[0] = (c[0] * n + c[1]) * n + c[2];
+        for (int j = 0; j < 3; ++j) v[j + 1] = v[j] + stride[p[j]];
+        const float w[4] = {1.0f - t[p[0]], t[p[0]] - t[p[1]], t[p[1]] - t[p[2]], t[p[2]]};
+        for (size_t k = 0; k < B; ++k) {
+            const float* T = L.table().data();
+            const float want = w[0] * T[v[0] * B + k] + w[1] * T[v[1] * B + k] + w[2] * T[v[2] * B + k] +
+                               w[3] * T[v[3] * B + k];
+            ASSERT_EQ(out[k * m + i], want) << i << " bin " << k;
+        }
+    }
 }
