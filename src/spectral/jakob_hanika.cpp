@@ -36,10 +36,12 @@ struct GridMap {
     }
     JHCoefficients to_nm(const Eigen::Vector3d& a) const {
         const double s2 = span * span;
-        return {a[0] / s2, a[1] / span - 2.0 * a[0] * lo / s2, a[0] * lo * lo / s2 - a[1] * lo / span + a[2]};
+        return {a[0] / s2, a[1] / span - 2.0 * a[0] * lo / s2,
+                a[0] * lo * lo / s2 - a[1] * lo / span + a[2]};
     }
     Eigen::Vector3d from_nm(const JHCoefficients& c) const {
-        return {c.c0 * span * span, (c.c1 + 2.0 * c.c0 * lo) * span, (c.c0 * lo + c.c1) * lo + c.c2};
+        return {c.c0 * span * span, (c.c1 + 2.0 * c.c0 * lo) * span,
+                (c.c0 * lo + c.c1) * lo + c.c2};
     }
 };
 
@@ -82,7 +84,8 @@ struct Fitter {
 
     explicit Fitter(const Colorimetry& c) : C(c.rgb_weights()), map(c.grid) {
         u.resize(static_cast<Eigen::Index>(c.grid.size()));
-        for (size_t k = 0; k < c.grid.size(); ++k) u[static_cast<Eigen::Index>(k)] = (c.grid.lambda[k] - map.lo) / map.span;
+        for (size_t k = 0; k < c.grid.size(); ++k)
+            u[static_cast<Eigen::Index>(k)] = (c.grid.lambda[k] - map.lo) / map.span;
         lab.rgb_to_xyz = c.rgb_to_xyz;
         lab.white = c.white_xyz;
     }
@@ -117,8 +120,8 @@ struct Fitter {
     }
 
     // Levenberg-Marquardt from a on the Lab residual to target; returns 0.5 ||r||².
-    double solve(const Eigen::Vector3d& target_lab, Eigen::Vector3d& a, int max_iter, int* iterations,
-                  bool* capped) const {
+    double solve(const Eigen::Vector3d& target_lab, Eigen::Vector3d& a, int max_iter,
+                 int* iterations, bool* capped) const {
         Eigen::Matrix3d D, Jl;
         Eigen::Vector3d r = lab(rgb(a, &D), &Jl) - target_lab;
         double cost = 0.5 * r.squaredNorm(), mu = 1e-4;
@@ -161,9 +164,11 @@ struct Fitter {
 
     // Fit from a start, then (if the answer is poor) by continuation from grey towards rgb, keeping
     // the best.
-    Eigen::Vector3d fit(const Eigen::Vector3d& rgb_in, const Eigen::Vector3d* start, JHFitInfo* info) const {
+    Eigen::Vector3d fit(const Eigen::Vector3d& rgb_in, const Eigen::Vector3d* start,
+                        JHFitInfo* info) const {
         Eigen::Vector3d target;
-        for (int i = 0; i < 3; ++i) target[i] = rgb_in[i] > 0 ? std::min(rgb_in[i], 1.0) : 0.0;  // NaN -> 0
+        for (int i = 0; i < 3; ++i)
+            target[i] = rgb_in[i] > 0 ? std::min(rgb_in[i], 1.0) : 0.0;  // NaN -> 0
         const Eigen::Vector3d tl = lab(target);
         int iterations = 0;
         bool capped = false;
@@ -200,8 +205,8 @@ struct Fitter {
 // already fitted node one step nearer the centre in every coordinate: nodes are visited by
 // increasing Chebyshev distance from the centre, so every path starts at mid grey and runs
 // straight out, and neighbours have close optima.
-std::vector<Eigen::Vector3d> fit_nodes(const Fitter& f, const std::vector<double>& axis, double* max_rgb,
-                                       double* max_lab) {
+std::vector<Eigen::Vector3d> fit_nodes(const Fitter& f, const std::vector<double>& axis,
+                                       double* max_rgb, double* max_lab) {
     const int n = static_cast<int>(axis.size());
     const int mid = (n - 1) / 2;
     std::vector<int> order(static_cast<size_t>(n) * n * n);
@@ -220,7 +225,8 @@ std::vector<Eigen::Vector3d> fit_nodes(const Fitter& f, const std::vector<double
         const Eigen::Vector3d rgb(axis[static_cast<size_t>(ir)], axis[static_cast<size_t>(ig)],
                                   axis[static_cast<size_t>(ib)]);
         JHFitInfo info;
-        a[static_cast<size_t>(idx)] = f.fit(rgb, parent == idx ? nullptr : &a[static_cast<size_t>(parent)], &info);
+        a[static_cast<size_t>(idx)] =
+            f.fit(rgb, parent == idx ? nullptr : &a[static_cast<size_t>(parent)], &info);
         *max_rgb = std::max(*max_rgb, info.rgb_residual);
         *max_lab = std::max(*max_lab, info.lab_residual);
     }
@@ -229,16 +235,18 @@ std::vector<Eigen::Vector3d> fit_nodes(const Fitter& f, const std::vector<double
 
 }  // namespace
 
-JHCoefficients fit_jakob_hanika(const Colorimetry& c, const Eigen::Vector3d& rgb, const JHCoefficients* start,
-                                JHFitInfo* info) {
+JHCoefficients fit_jakob_hanika(const Colorimetry& c, const Eigen::Vector3d& rgb,
+                                const JHCoefficients* start, JHFitInfo* info) {
     const Fitter f(c);
     Eigen::Vector3d s0;
     if (start) s0 = f.map.from_nm(*start);
     return f.map.to_nm(f.fit(rgb, start ? &s0 : nullptr, info));
 }
 
-std::vector<JHCoefficients> fit_jakob_hanika_nodes(const Colorimetry& c, const std::vector<double>& axis,
-                                                   double* max_rgb_residual, double* max_lab_residual) {
+std::vector<JHCoefficients> fit_jakob_hanika_nodes(const Colorimetry& c,
+                                                   const std::vector<double>& axis,
+                                                   double* max_rgb_residual,
+                                                   double* max_lab_residual) {
     const Fitter f(c);
     double mr = 0, ml = 0;
     const std::vector<Eigen::Vector3d> a = fit_nodes(f, axis, &mr, &ml);
@@ -251,7 +259,8 @@ std::vector<JHCoefficients> fit_jakob_hanika_nodes(const Colorimetry& c, const s
 
 Eigen::VectorXd jh_spectrum(const Colorimetry& c, const JHCoefficients& k) {
     Eigen::VectorXd s(static_cast<Eigen::Index>(c.grid.size()));
-    for (size_t i = 0; i < c.grid.size(); ++i) s[static_cast<Eigen::Index>(i)] = jh_eval(k, c.grid.lambda[i]);
+    for (size_t i = 0; i < c.grid.size(); ++i)
+        s[static_cast<Eigen::Index>(i)] = jh_eval(k, c.grid.lambda[i]);
     return s;
 }
 
@@ -261,15 +270,18 @@ JakobHanikaTable JakobHanikaTable::build(const Colorimetry& c, int res) {
     t.res_ = res;
     t.locator_ = AxisLocator(res);
     const Fitter f(c);
-    const std::vector<Eigen::Vector3d> a = fit_nodes(f, t.locator_.axis(), &t.max_rgb_residual, &t.max_lab_residual);
+    const std::vector<Eigen::Vector3d> a =
+        fit_nodes(f, t.locator_.axis(), &t.max_rgb_residual, &t.max_lab_residual);
     t.coeff_.resize(3 * a.size());
     t.nm_.resize(a.size());
     for (size_t i = 0; i < a.size(); ++i) {
-        for (int j = 0; j < 3; ++j) t.coeff_[3 * i + static_cast<size_t>(j)] = static_cast<float>(a[i][j]);
+        for (int j = 0; j < 3; ++j)
+            t.coeff_[3 * i + static_cast<size_t>(j)] = static_cast<float>(a[i][j]);
         t.nm_[i] = f.map.to_nm(a[i]);
     }
     t.u_.resize(c.grid.size());
-    for (size_t k = 0; k < c.grid.size(); ++k) t.u_[k] = static_cast<float>(f.u[static_cast<Eigen::Index>(k)]);
+    for (size_t k = 0; k < c.grid.size(); ++k)
+        t.u_[k] = static_cast<float>(f.u[static_cast<Eigen::Index>(k)]);
     t.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return t;
 }
@@ -291,7 +303,8 @@ void JakobHanikaTable::coefficients(const float rgb[3], float k[3]) const {
             w *= bit ? t[c] : 1 - t[c];
             idx = idx * res_ + i[c] + bit;
         }
-        for (int j = 0; j < 3; ++j) k[j] += w * coeff_[3 * static_cast<size_t>(idx) + static_cast<size_t>(j)];
+        for (int j = 0; j < 3; ++j)
+            k[j] += w * coeff_[3 * static_cast<size_t>(idx) + static_cast<size_t>(j)];
     }
 }
 
@@ -325,7 +338,8 @@ void JakobHanikaTable::expand(const float* r, const float* g, const float* b, si
             const __m128 vu = _mm_set1_ps(u), half = _mm_set1_ps(0.5f), one = _mm_set1_ps(1.0f);
             for (; i + 4 <= len; i += 4) {
                 const __m128 x = _mm_add_ps(
-                    _mm_mul_ps(_mm_add_ps(_mm_mul_ps(_mm_load_ps(k0 + i), vu), _mm_load_ps(k1 + i)), vu),
+                    _mm_mul_ps(_mm_add_ps(_mm_mul_ps(_mm_load_ps(k0 + i), vu), _mm_load_ps(k1 + i)),
+                               vu),
                     _mm_load_ps(k2 + i));
                 const __m128 s = _mm_sqrt_ps(_mm_add_ps(one, _mm_mul_ps(x, x)));
                 _mm_storeu_ps(dst + i, _mm_add_ps(half, _mm_div_ps(_mm_mul_ps(half, x), s)));

@@ -25,7 +25,7 @@ struct JHFitInfo {
     double lab_residual = 0;  // ||Lab(C s) - Lab(rgb)||_2 (CIELAB units, ΔE76)
     double rgb_residual = 0;  // ||C s - rgb||_inf (linear RGB)
     int iterations = 0;
-    bool capped = false;      // the coefficients hit the cap (colour outside the sigmoid gamut)
+    bool capped = false;  // the coefficients hit the cap (colour outside the sigmoid gamut)
 };
 
 // Levenberg-Marquardt on the CIELAB difference (as pbrt-v4's rgb2spec_opt, with analytic
@@ -43,7 +43,8 @@ JHCoefficients fit_jakob_hanika(const Colorimetry& c, const Eigen::Vector3d& rgb
 
 // Fits at every node of axis³ (layout (ir*n + ig)*n + ib), each warm-started from the fitted
 // neighbour one step nearer the centre node; the largest residuals over the nodes if asked.
-std::vector<JHCoefficients> fit_jakob_hanika_nodes(const Colorimetry& c, const std::vector<double>& axis,
+std::vector<JHCoefficients> fit_jakob_hanika_nodes(const Colorimetry& c,
+                                                   const std::vector<double>& axis,
                                                    double* max_rgb_residual = nullptr,
                                                    double* max_lab_residual = nullptr);
 
@@ -55,7 +56,7 @@ Eigen::VectorXd jh_spectrum(const Colorimetry& c, const JHCoefficients& k);
 // and evaluated on the colorimetry grid. The sigmoid of interpolated coefficients is smooth and
 // in (0, 1) but, like the fit itself, not colour-exact.
 class JakobHanikaTable {
-public:
+  public:
     static JakobHanikaTable build(const Colorimetry& c, int res);
 
     int res() const { return res_; }
@@ -66,13 +67,14 @@ public:
 
     void spectrum(const float rgb[3], float* out) const;
     // Bin k of pixel i goes to out[k * plane_stride + i] (the layout of expand_to_float).
-    void expand(const float* r, const float* g, const float* b, size_t n, float* out, size_t plane_stride) const;
+    void expand(const float* r, const float* g, const float* b, size_t n, float* out,
+                size_t plane_stride) const;
 
     double max_rgb_residual = 0;  // max over nodes of ||C s(node fit) - node rgb||_inf (linear)
     double max_lab_residual = 0;  // the same in CIELAB ΔE76
     double build_seconds = 0;
 
-private:
+  private:
     int res_ = 0;
     AxisLocator locator_;
     std::vector<float> u_;      // normalised wavelength of each bin

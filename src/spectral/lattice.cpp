@@ -15,16 +15,20 @@ namespace spectex {
 
 std::string to_string(VertexPrior p) {
     switch (p) {
-        case VertexPrior::JakobHanika: return "jakob-hanika";
-        case VertexPrior::Smooth: return "smooth";
-        case VertexPrior::Blend: return "blend";
+        case VertexPrior::JakobHanika:
+            return "jakob-hanika";
+        case VertexPrior::Smooth:
+            return "smooth";
+        case VertexPrior::Blend:
+            return "blend";
     }
     return "?";
 }
 
 VertexPrior parse_vertex_prior(const std::string& s) {
     std::string l = s;
-    std::transform(l.begin(), l.end(), l.begin(), [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
+    std::transform(l.begin(), l.end(), l.begin(),
+                   [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
     if (l == "jakob-hanika" || l == "jh" || l == "jakob_hanika") return VertexPrior::JakobHanika;
     if (l == "smooth") return VertexPrior::Smooth;
     if (l == "blend") return VertexPrior::Blend;
@@ -41,16 +45,21 @@ constexpr double kSmoothTieBreak = 1e-6;
 // Roughness weights d_k = 10 nm / Δλ_k (differences measured per 10 nm), times sqrt(scale).
 std::vector<double> roughness(const WavelengthGrid& g, double scale) {
     std::vector<double> d(g.size() - 1);
-    for (size_t k = 0; k + 1 < g.size(); ++k) d[k] = std::sqrt(scale) * 10.0 / (g.lambda[k + 1] - g.lambda[k]);
+    for (size_t k = 0; k + 1 < g.size(); ++k)
+        d[k] = std::sqrt(scale) * 10.0 / (g.lambda[k + 1] - g.lambda[k]);
     return d;
 }
 
 }  // namespace
 
-SpectralLattice SpectralLattice::build(const Colorimetry& c, int n, VertexPrior prior, double blend) {
+SpectralLattice SpectralLattice::build(const Colorimetry& c, int n, VertexPrior prior,
+                                       double blend) {
     const auto t0 = std::chrono::steady_clock::now();
-    if (n < 2) throw Error("spectral lattice needs at least 2 breakpoints per axis, got " + std::to_string(n));
-    if (c.grid.size() < 3) throw Error("spectral lattice needs at least 3 wavelengths, got " + c.grid.describe());
+    if (n < 2)
+        throw Error("spectral lattice needs at least 2 breakpoints per axis, got " +
+                    std::to_string(n));
+    if (c.grid.size() < 3)
+        throw Error("spectral lattice needs at least 3 wavelengths, got " + c.grid.describe());
     if (prior == VertexPrior::Blend && !(blend >= 0 && std::isfinite(blend)))
         throw Error("blend weight must be finite and >= 0");
     SpectralLattice L;
@@ -99,17 +108,21 @@ SpectralLattice SpectralLattice::build(const Colorimetry& c, int n, VertexPrior 
                             q[k] = -jh_eval(jh[idx], c.grid.lambda[static_cast<size_t>(k)]);
                     }
                     char what[200];
-                    std::snprintf(what, sizeof what, "spectral lattice (n = %d, %s prior) vertex (%d, %d, %d) = "
-                                  "linear RGB (%.9g, %.9g, %.9g) on grid %s", n, to_string(prior).c_str(), ir, ig, ib,
-                                  v[0], v[1], v[2], c.grid.describe().c_str());
+                    std::snprintf(what, sizeof what,
+                                  "spectral lattice (n = %d, %s prior) vertex (%d, %d, %d) = "
+                                  "linear RGB (%.9g, %.9g, %.9g) on grid %s",
+                                  n, to_string(prior).c_str(), ir, ig, ib, v[0], v[1], v[2],
+                                  c.grid.describe().c_str());
                     VertexQpStats st;
                     s = solve_vertex_qp(C, H, q, v, kVertexTolerance, what, &st);
                     L.fallback_vertices += st.used_fallback;
                 }
-                L.max_colour_residual = std::max(L.max_colour_residual, (C * s - v).cwiseAbs().maxCoeff());
+                L.max_colour_residual =
+                    std::max(L.max_colour_residual, (C * s - v).cwiseAbs().maxCoeff());
                 L.min_value = std::min(L.min_value, s.minCoeff());
                 L.max_value = std::max(L.max_value, s.maxCoeff());
-                std::copy(s.data(), s.data() + N, L.table_d_.begin() + static_cast<std::ptrdiff_t>(idx * N));
+                std::copy(s.data(), s.data() + N,
+                          L.table_d_.begin() + static_cast<std::ptrdiff_t>(idx * N));
             }
     L.table_.assign(L.table_d_.begin(), L.table_d_.end());
     L.padded_ld_ = (static_cast<size_t>(N) + 7) & ~size_t{7};
@@ -152,7 +165,8 @@ void SpectralLattice::spectrum(const double rgb[3], double* out) const {
     const size_t B = static_cast<size_t>(bins_);
     const double *s0 = &table_d_[v[0] * B], *s1 = &table_d_[v[1] * B], *s2 = &table_d_[v[2] * B],
                  *s3 = &table_d_[v[3] * B];
-    for (size_t k = 0; k < B; ++k) out[k] = w[0] * s0[k] + w[1] * s1[k] + w[2] * s2[k] + w[3] * s3[k];
+    for (size_t k = 0; k < B; ++k)
+        out[k] = w[0] * s0[k] + w[1] * s1[k] + w[2] * s2[k] + w[3] * s3[k];
 }
 
 }  // namespace spectex

@@ -23,14 +23,15 @@ namespace spectex {
 //   grid step (blend = 1: a 10 nm step of size x costs as much as a deviation x from the
 //   sigmoid at one bin).
 enum class VertexPrior { JakobHanika, Smooth, Blend };
-std::string to_string(VertexPrior p);               // "jakob-hanika" | "smooth" | "blend"
+std::string to_string(VertexPrior p);                // "jakob-hanika" | "smooth" | "blend"
 VertexPrior parse_vertex_prior(const std::string&);  // the same names (and "jh"); throws Error
 
 class SpectralLattice {
-public:
+  public:
     // n >= 2 breakpoints per axis: v_i = sRGB_decode(i / (n - 1)). Throws Error naming the vertex
     // and the grid when a vertex colour has no spectrum in [0, 1] (never returns a wrong table).
-    static SpectralLattice build(const Colorimetry& c, int n, VertexPrior prior, double blend = 0.5);
+    static SpectralLattice build(const Colorimetry& c, int n, VertexPrior prior,
+                                 double blend = 0.5);
 
     int size() const { return n_; }
     int bins() const { return bins_; }
@@ -51,9 +52,10 @@ public:
     // Reference evaluation in double (inputs clamped to [0, 1], NaN to 0); out has bins() values.
     void spectrum(const double rgb[3], double* out) const;
     // Batch kernel on the float table: bin k of pixel i goes to out[k * plane_stride + i].
-    void expand(const float* r, const float* g, const float* b, size_t n, float* out, size_t plane_stride) const;
+    void expand(const float* r, const float* g, const float* b, size_t n, float* out,
+                size_t plane_stride) const;
 
-private:
+  private:
     int n_ = 0, bins_ = 0;
     VertexPrior prior_ = VertexPrior::Smooth;
     AxisLocator locator_;

@@ -3,7 +3,8 @@
 // (contiguous along wavelength, so the bin loop is plain vector code), and the block is then
 // transposed into the bin planes. AVX (8 floats) when the CPU has it, chosen at run time as in
 // expand.cpp (one binary for the farm); SSE2 otherwise. Both evaluate
-// ((w0 a + w1 b) + w2 c) + w3 d per bin without FMA (-ffp-contract=off), so they give the same bits.
+// ((w0 a + w1 b) + w2 c) + w3 d per bin without FMA (-ffp-contract=off), so they give the same
+// bits.
 #include <algorithm>
 #include <cstdint>
 #include <vector>
@@ -28,7 +29,8 @@ struct Simplex {
 
 // The Kuhn simplex of one pixel: the cell's low corner, then one step along each axis in order
 // of decreasing local coordinate; weights 1 - t_a, t_a - t_b, t_b - t_c, t_c.
-inline Simplex simplex(const AxisLocator& loc, const float* T, size_t ld, size_t n, float r, float g, float b) {
+inline Simplex simplex(const AxisLocator& loc, const float* T, size_t ld, size_t n, float r,
+                       float g, float b) {
     float ta, tb, tc;
     const size_t ir = static_cast<size_t>(loc.locate_fast(r, &ta));
     const size_t ig = static_cast<size_t>(loc.locate_fast(g, &tb));
@@ -38,19 +40,20 @@ inline Simplex simplex(const AxisLocator& loc, const float* T, size_t ld, size_t
     if (tb < tc) std::swap(tb, tc), std::swap(sb, sc);
     if (ta < tb) std::swap(ta, tb), std::swap(sa, sb);
     const size_t v0 = (ir * n + ig) * n + ib;
-    return {{T + v0 * ld, T + (v0 + sa) * ld, T + (v0 + sa + sb) * ld, T + (v0 + sa + sb + sc) * ld},
-            {1.0f - ta, ta - tb, tb - tc, tc}};
+    return {
+        {T + v0 * ld, T + (v0 + sa) * ld, T + (v0 + sa + sb) * ld, T + (v0 + sa + sb + sc) * ld},
+        {1.0f - ta, ta - tb, tb - tc, tc}};
 }
 
 void blend4(const Simplex& s, float* __restrict out, size_t ld) {
-    const float *__restrict a = s.row[0], *__restrict b = s.row[1], *__restrict c = s.row[2],
-                           *__restrict d = s.row[3];
+    const float* __restrict a = s.row[0], * __restrict b = s.row[1], * __restrict c = s.row[2], * __restrict d = s.row[3];
     const float w0 = s.w[0], w1 = s.w[1], w2 = s.w[2], w3 = s.w[3];
     for (size_t k = 0; k < ld; ++k) out[k] = w0 * a[k] + w1 * b[k] + w2 * c[k] + w3 * d[k];
 }
 
 // len pixel rows (row p at tmp + p * ld) -> planes out[k * stride + p], k < bins.
-void transpose_sse(const float* tmp, size_t ld, size_t len, size_t bins, float* out, size_t stride) {
+void transpose_sse(const float* tmp, size_t ld, size_t len, size_t bins, float* out,
+                   size_t stride) {
     size_t k0 = 0;
 #if defined(__SSE2__)
     for (; k0 + 4 <= bins; k0 += 4) {
@@ -58,7 +61,8 @@ void transpose_sse(const float* tmp, size_t ld, size_t len, size_t bins, float* 
         size_t p = 0;
         for (; p + 4 <= len; p += 4) {
             __m128 r0 = _mm_load_ps(tmp + p * ld + k0), r1 = _mm_load_ps(tmp + (p + 1) * ld + k0);
-            __m128 r2 = _mm_load_ps(tmp + (p + 2) * ld + k0), r3 = _mm_load_ps(tmp + (p + 3) * ld + k0);
+            __m128 r2 = _mm_load_ps(tmp + (p + 2) * ld + k0),
+                   r3 = _mm_load_ps(tmp + (p + 3) * ld + k0);
             _MM_TRANSPOSE4_PS(r0, r1, r2, r3);
             _mm_storeu_ps(o + p, r0);
             _mm_storeu_ps(o + stride + p, r1);
@@ -81,8 +85,8 @@ bool have_avx() {
 }
 
 __attribute__((target("avx"))) void blend4_avx(const Simplex& s, float* out, size_t ld) {
-    const __m256 w0 = _mm256_set1_ps(s.w[0]), w1 = _mm256_set1_ps(s.w[1]), w2 = _mm256_set1_ps(s.w[2]),
-                 w3 = _mm256_set1_ps(s.w[3]);
+    const __m256 w0 = _mm256_set1_ps(s.w[0]), w1 = _mm256_set1_ps(s.w[1]),
+                 w2 = _mm256_set1_ps(s.w[2]), w3 = _mm256_set1_ps(s.w[3]);
     for (size_t k = 0; k < ld; k += 8) {
         const __m256 x = _mm256_add_ps(
             _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(w0, _mm256_loadu_ps(s.row[0] + k)),
@@ -93,18 +97,18 @@ __attribute__((target("avx"))) void blend4_avx(const Simplex& s, float* out, siz
     }
 }
 
-__attribute__((target("avx"))) void transpose_avx(const float* tmp, size_t ld, size_t len, size_t bins, float* out,
-                                                  size_t stride) {
+__attribute__((target("avx"))) void transpose_avx(const float* tmp, size_t ld, size_t len,
+                                                  size_t bins, float* out, size_t stride) {
     size_t k0 = 0;
     for (; k0 + 8 <= bins; k0 += 8) {
         float* o = out + k0 * stride;
         size_t p = 0;
         for (; p + 8 <= len; p += 8) {
             const float* t = tmp + p * ld + k0;
-            const __m256 r0 = _mm256_load_ps(t), r1 = _mm256_load_ps(t + ld), r2 = _mm256_load_ps(t + 2 * ld),
-                         r3 = _mm256_load_ps(t + 3 * ld), r4 = _mm256_load_ps(t + 4 * ld),
-                         r5 = _mm256_load_ps(t + 5 * ld), r6 = _mm256_load_ps(t + 6 * ld),
-                         r7 = _mm256_load_ps(t + 7 * ld);
+            const __m256 r0 = _mm256_load_ps(t), r1 = _mm256_load_ps(t + ld),
+                         r2 = _mm256_load_ps(t + 2 * ld), r3 = _mm256_load_ps(t + 3 * ld),
+                         r4 = _mm256_load_ps(t + 4 * ld), r5 = _mm256_load_ps(t + 5 * ld),
+                         r6 = _mm256_load_ps(t + 6 * ld), r7 = _mm256_load_ps(t + 7 * ld);
             const __m256 u0 = _mm256_unpacklo_ps(r0, r1), u1 = _mm256_unpackhi_ps(r0, r1);
             const __m256 u2 = _mm256_unpacklo_ps(r2, r3), u3 = _mm256_unpackhi_ps(r2, r3);
             const __m256 u4 = _mm256_unpacklo_ps(r4, r5), u5 = _mm256_unpackhi_ps(r4, r5);
@@ -134,7 +138,8 @@ __attribute__((target("avx"))) void transpose_avx(const float* tmp, size_t ld, s
 #else
 bool have_avx() { return false; }
 void blend4_avx(const Simplex& s, float* out, size_t ld) { blend4(s, out, ld); }
-void transpose_avx(const float* tmp, size_t ld, size_t len, size_t bins, float* out, size_t stride) {
+void transpose_avx(const float* tmp, size_t ld, size_t len, size_t bins, float* out,
+                   size_t stride) {
     transpose_sse(tmp, ld, len, bins, out, stride);
 }
 #endif
@@ -158,11 +163,15 @@ void SpectralLattice::expand(const float* r, const float* g, const float* b, siz
         const size_t len = std::min(block, n - i0);
         for (size_t p = 0; p < len; ++p) {
             const Simplex s = simplex(locator_, T, ld, nn, r[i0 + p], g[i0 + p], b[i0 + p]);
-            if (avx) blend4_avx(s, tmp + p * ld, ld);
-            else blend4(s, tmp + p * ld, ld);
+            if (avx)
+                blend4_avx(s, tmp + p * ld, ld);
+            else
+                blend4(s, tmp + p * ld, ld);
         }
-        if (avx) transpose_avx(tmp, ld, len, B, out + i0, plane_stride);
-        else transpose_sse(tmp, ld, len, B, out + i0, plane_stride);
+        if (avx)
+            transpose_avx(tmp, ld, len, B, out + i0, plane_stride);
+        else
+            transpose_sse(tmp, ld, len, B, out + i0, plane_stride);
     }
 }
 

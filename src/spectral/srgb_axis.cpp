@@ -7,13 +7,18 @@
 
 namespace spectex {
 
-double srgb_decode(double v) { return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4); }
-double srgb_encode(double x) { return x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1.0 / 2.4) - 0.055; }
+double srgb_decode(double v) {
+    return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4);
+}
+double srgb_encode(double x) {
+    return x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1.0 / 2.4) - 0.055;
+}
 
 AxisLocator::AxisLocator(int n) {
     if (n < 2) throw Error("a lattice axis needs at least 2 breakpoints, got " + std::to_string(n));
     axis_.resize(static_cast<size_t>(n));
-    for (int i = 0; i < n; ++i) axis_[static_cast<size_t>(i)] = srgb_decode(static_cast<double>(i) / (n - 1));
+    for (int i = 0; i < n; ++i)
+        axis_[static_cast<size_t>(i)] = srgb_decode(static_cast<double>(i) / (n - 1));
     axis_.front() = 0.0;
     axis_.back() = 1.0;  // exact ends: black and white vertices are exactly 0 and 1
     const int cells = n - 1;

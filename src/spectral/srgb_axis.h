@@ -12,7 +12,7 @@ double srgb_decode(double v);
 double srgb_encode(double x);
 
 class AxisLocator {
-public:
+  public:
     AxisLocator() = default;
     explicit AxisLocator(int n);  // n >= 2 breakpoints
 
@@ -40,7 +40,7 @@ public:
     // Float copies used by locate_fast (lower breakpoint of a cell, the next one, 1 / gap).
     const std::vector<float>& lower_f() const { return lower_f_; }
 
-private:
+  private:
     std::vector<double> axis_;
     std::vector<float> lower_f_, upper_f_, inv_gap_f_;  // per cell
     std::vector<int> lut_;

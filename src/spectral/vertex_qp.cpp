@@ -40,8 +40,10 @@ namespace {
 // 3×3 Schur complement for mu; two rounds of refinement against the full residuals make the
 // colour exact to rounding even when H_FF is ill-conditioned (the Smooth prior's small alpha).
 class FreeSystem {
-public:
-    FreeSystem(const Eigen::Matrix3Xd& C, const TridiagonalHessian& H, const std::vector<char>& free) : C_(C) {
+  public:
+    FreeSystem(const Eigen::Matrix3Xd& C, const TridiagonalHessian& H,
+               const std::vector<char>& free)
+        : C_(C) {
         for (Eigen::Index k = 0; k < C.cols(); ++k)
             if (free[static_cast<size_t>(k)]) F_.push_back(k);
         const size_t m = F_.size();
@@ -75,8 +77,8 @@ public:
     }
 
     // Solves for s_F and mu given the fixed part of s; refines twice.
-    void solve(const TridiagonalHessian& H, const Eigen::VectorXd& q, const Eigen::Vector3d& v, Eigen::VectorXd& s,
-               Eigen::Vector3d& mu) const {
+    void solve(const TridiagonalHessian& H, const Eigen::VectorXd& q, const Eigen::Vector3d& v,
+               Eigen::VectorXd& s, Eigen::Vector3d& mu) const {
         mu.setZero();
         for (size_t j = 0; j < F_.size(); ++j) s[F_[j]] = 0;
         for (int round = 0; round < 3; ++round) {
@@ -89,14 +91,15 @@ public:
             Eigen::Vector3d cx = Eigen::Vector3d::Zero();
             for (size_t j = 0; j < F_.size(); ++j) cx += C_.col(F_[j]) * x[j];
             const Eigen::Vector3d dmu = lu_.solve(r2 - cx);
-            for (size_t j = 0; j < F_.size(); ++j) s[F_[j]] += x[j] + XC_.row(static_cast<Eigen::Index>(j)).dot(dmu);
+            for (size_t j = 0; j < F_.size(); ++j)
+                s[F_[j]] += x[j] + XC_.row(static_cast<Eigen::Index>(j)).dot(dmu);
             mu += dmu;
         }
     }
 
     const std::vector<Eigen::Index>& free_indices() const { return F_; }
 
-private:
+  private:
     const Eigen::Matrix3Xd& C_;
     std::vector<Eigen::Index> F_;
     std::vector<double> cp_, den_, sub_;
@@ -110,17 +113,20 @@ private:
     }
 };
 
-double colour_residual(const Eigen::Matrix3Xd& C, const Eigen::VectorXd& s, const Eigen::Vector3d& v) {
+double colour_residual(const Eigen::Matrix3Xd& C, const Eigen::VectorXd& s,
+                       const Eigen::Vector3d& v) {
     return (C * s - v).cwiseAbs().maxCoeff();
 }
 
 }  // namespace
 
-bool project_dual_newton(const Eigen::Matrix3Xd& C, const Eigen::VectorXd& s0, const Eigen::Vector3d& v,
-                         Eigen::VectorXd& s, int* iterations) {
+bool project_dual_newton(const Eigen::Matrix3Xd& C, const Eigen::VectorXd& s0,
+                         const Eigen::Vector3d& v, Eigen::VectorXd& s, int* iterations) {
     const Eigen::Index N = C.cols();
     Eigen::Vector3d mu = Eigen::Vector3d::Zero();
-    auto primal = [&](const Eigen::Vector3d& m) { return (s0 + C.transpose() * m).cwiseMax(0.0).cwiseMin(1.0).eval(); };
+    auto primal = [&](const Eigen::Vector3d& m) {
+        return (s0 + C.transpose() * m).cwiseMax(0.0).cwiseMin(1.0).eval();
+    };
     // Dual function (concave, maximised): min over the box of the Lagrangian.
     auto dual = [&](const Eigen::Vector3d& m, const Eigen::VectorXd& sm) {
         return 0.5 * (sm - s0).squaredNorm() - m.dot(C * sm - v);
@@ -159,9 +165,9 @@ bool project_dual_newton(const Eigen::Matrix3Xd& C, const Eigen::VectorXd& s0, c
         if (!moved) break;
     }
     if (iterations) *iterations += it;
-    // Polish: the equality system on the final free set (a Newton step with the exact Jacobian lands
-    // on the solution only up to rounding of mu; re-solving for s_F directly gives rounding-level
-    // colour error).
+    // Polish: the equality system on the final free set (a Newton step with the exact Jacobian
+    // lands on the solution only up to rounding of mu; re-solving for s_F directly gives
+    // rounding-level colour error).
     const Eigen::VectorXd z = s0 + C.transpose() * mu;
     std::vector<char> free(static_cast<size_t>(N));
     for (Eigen::Index k = 0; k < N; ++k) free[static_cast<size_t>(k)] = z[k] > 0 && z[k] < 1;
@@ -214,14 +220,15 @@ bool solve_pdas(const Eigen::Matrix3Xd& C, const TridiagonalHessian& H, const Ei
     return false;
 }
 
-Eigen::VectorXd solve_vertex_qp(const Eigen::Matrix3Xd& C, const TridiagonalHessian& H, const Eigen::VectorXd& q,
-                                const Eigen::Vector3d& v, double tolerance, const std::string& what,
-                                VertexQpStats* stats) {
+Eigen::VectorXd solve_vertex_qp(const Eigen::Matrix3Xd& C, const TridiagonalHessian& H,
+                                const Eigen::VectorXd& q, const Eigen::Vector3d& v,
+                                double tolerance, const std::string& what, VertexQpStats* stats) {
     const Eigen::Index N = C.cols();
     Eigen::VectorXd s;
     int it = 0;
     const bool projection = H.d.empty() && H.alpha == 1.0;
-    const bool ok = projection ? project_dual_newton(C, -q, v, s, &it) : solve_pdas(C, H, q, v, s, &it);
+    const bool ok =
+        projection ? project_dual_newton(C, -q, v, s, &it) : solve_pdas(C, H, q, v, s, &it);
     if (stats) stats->iterations += it;
     auto good = [&](const Eigen::VectorXd& x) {
         return x.size() == N && x.allFinite() && x.minCoeff() >= 0 && x.maxCoeff() <= 1 &&
@@ -235,7 +242,8 @@ Eigen::VectorXd solve_vertex_qp(const Eigen::Matrix3Xd& C, const TridiagonalHess
     std::vector<Eigen::Triplet<double>> tp, ta;
     for (Eigen::Index k = 0; k < N; ++k) {
         tp.emplace_back(k, k, H.diag(k));
-        if (!H.d.empty() && k + 1 < N) tp.emplace_back(k, k + 1, H.off(k)), tp.emplace_back(k + 1, k, H.off(k));
+        if (!H.d.empty() && k + 1 < N)
+            tp.emplace_back(k, k + 1, H.off(k)), tp.emplace_back(k + 1, k, H.off(k));
         for (int c = 0; c < 3; ++c) ta.emplace_back(c, k, C(c, k));
     }
     p.P.resize(N, N);
@@ -249,7 +257,8 @@ Eigen::VectorXd solve_vertex_qp(const Eigen::Matrix3Xd& C, const TridiagonalHess
     const QpResult r = solve_qp(p);
     char buf[160];
     if (r.status == QpStatus::Infeasible) {
-        std::snprintf(buf, sizeof buf, ": no reflectance in [0, 1] has this colour (least-squares miss %.3g)",
+        std::snprintf(buf, sizeof buf,
+                      ": no reflectance in [0, 1] has this colour (least-squares miss %.3g)",
                       colour_residual(C, r.x, v));
         throw Error(what + buf);
     }
@@ -257,8 +266,10 @@ Eigen::VectorXd solve_vertex_qp(const Eigen::Matrix3Xd& C, const TridiagonalHess
         Eigen::VectorXd x = r.x.cwiseMax(0.0).cwiseMin(1.0);
         if (good(x)) return x;
     }
-    std::snprintf(buf, sizeof buf, ": no exact vertex spectrum (fast method %s, solve_qp %s, residual %.3g)",
-                  ok ? "inexact" : "failed", to_string(r.status), r.x.size() == N ? colour_residual(C, r.x, v) : -1.0);
+    std::snprintf(buf, sizeof buf,
+                  ": no exact vertex spectrum (fast method %s, solve_qp %s, residual %.3g)",
+                  ok ? "inexact" : "failed", to_string(r.status),
+                  r.x.size() == N ? colour_residual(C, r.x, v) : -1.0);
     throw Error(what + buf);
 }
 

@@ -19,7 +19,9 @@ struct TridiagonalHessian {
     std::vector<double> d;
     Eigen::Index size = 0;
     double diag(Eigen::Index k) const;
-    double off(Eigen::Index k) const { return -d[static_cast<size_t>(k)] * d[static_cast<size_t>(k)]; }  // H(k, k+1)
+    double off(Eigen::Index k) const {
+        return -d[static_cast<size_t>(k)] * d[static_cast<size_t>(k)];
+    }  // H(k, k+1)
     Eigen::VectorXd times(const Eigen::VectorXd& s) const;
 };
 
@@ -33,8 +35,8 @@ struct VertexQpStats {
 // and an Armijo line search on the (concave) dual function; then the equality system is re-solved
 // on the final free set, with one step of refinement, so the colour is exact to rounding.
 // Returns false when it does not converge (e.g. infeasible v).
-bool project_dual_newton(const Eigen::Matrix3Xd& C, const Eigen::VectorXd& s0, const Eigen::Vector3d& v,
-                         Eigen::VectorXd& s, int* iterations);
+bool project_dual_newton(const Eigen::Matrix3Xd& C, const Eigen::VectorXd& s0,
+                         const Eigen::Vector3d& v, Eigen::VectorXd& s, int* iterations);
 
 // General H (tridiagonal): primal-dual active set (Hintermüller-Ito-Kunisch; a semismooth Newton
 // method on the complementarity conditions). Each iteration solves the equality-constrained QP on
@@ -43,11 +45,12 @@ bool project_dual_newton(const Eigen::Matrix3Xd& C, const Eigen::VectorXd& s0, c
 bool solve_pdas(const Eigen::Matrix3Xd& C, const TridiagonalHessian& H, const Eigen::VectorXd& q,
                 const Eigen::Vector3d& v, Eigen::VectorXd& s, int* iterations);
 
-// Tries the fast method (projection when H = alpha I with alpha = 1 and no D, else PDAS), checks the
-// answer, and falls back to solve_qp. Throws Error (with what) when solve_qp finds v infeasible or
-// no method reaches a colour residual <= tolerance with exact bounds.
-Eigen::VectorXd solve_vertex_qp(const Eigen::Matrix3Xd& C, const TridiagonalHessian& H, const Eigen::VectorXd& q,
-                                const Eigen::Vector3d& v, double tolerance, const std::string& what,
+// Tries the fast method (projection when H = alpha I with alpha = 1 and no D, else PDAS), checks
+// the answer, and falls back to solve_qp. Throws Error (with what) when solve_qp finds v infeasible
+// or no method reaches a colour residual <= tolerance with exact bounds.
+Eigen::VectorXd solve_vertex_qp(const Eigen::Matrix3Xd& C, const TridiagonalHessian& H,
+                                const Eigen::VectorXd& q, const Eigen::Vector3d& v,
+                                double tolerance, const std::string& what,
                                 VertexQpStats* stats = nullptr);
 
 }  // namespace spectex

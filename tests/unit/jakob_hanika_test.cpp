@@ -28,9 +28,13 @@ const Colorimetry& d65() {
     return c;
 }
 
-Eigen::Vector3d rgb_of(const Colorimetry& c, const JHCoefficients& k) { return c.rgb_weights() * jh_spectrum(c, k); }
+Eigen::Vector3d rgb_of(const Colorimetry& c, const JHCoefficients& k) {
+    return c.rgb_weights() * jh_spectrum(c, k);
+}
 
-bool finite(const JHCoefficients& k) { return std::isfinite(k.c0) && std::isfinite(k.c1) && std::isfinite(k.c2); }
+bool finite(const JHCoefficients& k) {
+    return std::isfinite(k.c0) && std::isfinite(k.c1) && std::isfinite(k.c2);
+}
 
 }  // namespace
 
@@ -41,8 +45,10 @@ TEST(JakobHanika, SigmoidAndNanometreCoefficients) {
     // A fitted spectrum evaluated through the nm coefficients equals the one the fit integrated:
     // its colour is the fit's (checked through jh_spectrum, which uses jh_eval).
     JHFitInfo info;
-    const JHCoefficients k = fit_jakob_hanika(d65(), Eigen::Vector3d(0.2, 0.4, 0.1), nullptr, &info);
-    EXPECT_NEAR((rgb_of(d65(), k) - Eigen::Vector3d(0.2, 0.4, 0.1)).cwiseAbs().maxCoeff(), info.rgb_residual, 1e-9);
+    const JHCoefficients k =
+        fit_jakob_hanika(d65(), Eigen::Vector3d(0.2, 0.4, 0.1), nullptr, &info);
+    EXPECT_NEAR((rgb_of(d65(), k) - Eigen::Vector3d(0.2, 0.4, 0.1)).cwiseAbs().maxCoeff(),
+                info.rgb_residual, 1e-9);
 }
 
 TEST(JakobHanika, InGamutColoursFitClosely) {
@@ -65,10 +71,14 @@ TEST(JakobHanika, InGamutColoursFitClosely) {
 }
 
 TEST(JakobHanika, ExtremeColoursGiveFiniteBoundedCoefficients) {
-    const Eigen::Vector3d cases[] = {{0, 0, 0}, {1, 1, 1}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 0},
-                                     {0, 1, 1}, {1, 0, 1}, {1e-6, 1e-6, 1e-6}, {1, 1, 1 - 1e-6},
-                                     {0.5, 0, 0}, {1, 0.5, 0}, {-1, 2, 0.5},
-                                     {std::nan(""), 0.5, std::numeric_limits<double>::infinity()}};
+    const Eigen::Vector3d cases[] = {
+        {0, 0, 0},          {1, 1, 1},
+        {1, 0, 0},          {0, 1, 0},
+        {0, 0, 1},          {1, 1, 0},
+        {0, 1, 1},          {1, 0, 1},
+        {1e-6, 1e-6, 1e-6}, {1, 1, 1 - 1e-6},
+        {0.5, 0, 0},        {1, 0.5, 0},
+        {-1, 2, 0.5},       {std::nan(""), 0.5, std::numeric_limits<double>::infinity()}};
     for (const auto& rgb : cases) {
         JHFitInfo info;
         const JHCoefficients k = fit_jakob_hanika(d65(), rgb, nullptr, &info);
@@ -77,8 +87,8 @@ TEST(JakobHanika, ExtremeColoursGiveFiniteBoundedCoefficients) {
         EXPECT_TRUE(s.allFinite());
         EXPECT_GE(s.minCoeff(), 0.0);
         EXPECT_LE(s.maxCoeff(), 1.0);
-        std::printf("JH (%g %g %g): ΔE76 %.3g rgb %.3g capped %d it %d\n", rgb[0], rgb[1], rgb[2], info.lab_residual,
-                    info.rgb_residual, info.capped, info.iterations);
+        std::printf("JH (%g %g %g): ΔE76 %.3g rgb %.3g capped %d it %d\n", rgb[0], rgb[1], rgb[2],
+                    info.lab_residual, info.rgb_residual, info.capped, info.iterations);
     }
     // Black and white: the optimum is at infinity, the capped answer is within 1e-3 ΔE76.
     JHFitInfo black, white;
@@ -98,8 +108,8 @@ TEST(JakobHanika, WarmStartConverges) {
 
 TEST(JakobHanika, TableMatchesNodeFitsAndIsFast) {
     const JakobHanikaTable t = JakobHanikaTable::build(d65(), 17);
-    std::printf("JH table res 17 at 81 bins: %.3f s, max rgb residual %.3g, max ΔE76 %.3g\n", t.build_seconds,
-                t.max_rgb_residual, t.max_lab_residual);
+    std::printf("JH table res 17 at 81 bins: %.3f s, max rgb residual %.3g, max ΔE76 %.3g\n",
+                t.build_seconds, t.max_rgb_residual, t.max_lab_residual);
     EXPECT_LT(t.build_seconds, 5.0);  // ~2 s budget at 81 bins on one core, with margin for load
     const auto& ax = t.axis();
     const int n = t.res();
