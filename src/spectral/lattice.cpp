@@ -89,6 +89,7 @@ SpectralLattice SpectralLattice::build(const Colorimetry& c, int n, VertexPrior 
     L.table_d_.assign(verts * static_cast<size_t>(N), 0.0);
     L.min_value = 1, L.max_value = 0;
     Eigen::VectorXd q(N);
+    std::vector<char> warm;  // PDAS active set of the previous vertex (a neighbour along blue)
     for (int ir = 0; ir < n; ++ir)
         for (int ig = 0; ig < n; ++ig)
             for (int ib = 0; ib < n; ++ib) {
@@ -114,8 +115,9 @@ SpectralLattice SpectralLattice::build(const Colorimetry& c, int n, VertexPrior 
                                   n, to_string(prior).c_str(), ir, ig, ib, v[0], v[1], v[2],
                                   c.grid.describe().c_str());
                     VertexQpStats st;
-                    s = solve_vertex_qp(C, H, q, v, kVertexTolerance, what, &st);
+                    s = solve_vertex_qp(C, H, q, v, kVertexTolerance, what, &st, &warm);
                     L.fallback_vertices += st.used_fallback;
+                    L.solver_iterations += st.iterations;
                 }
                 L.max_colour_residual =
                     std::max(L.max_colour_residual, (C * s - v).cwiseAbs().maxCoeff());

@@ -47,7 +47,8 @@ class SpectralLattice {
     double max_colour_residual = 0;  // max over vertices of ||C s_v - v||_inf
     double min_value = 0, max_value = 0;
     double build_seconds = 0;
-    int fallback_vertices = 0;  // vertices the fast solver left to solve_qp
+    int fallback_vertices = 0;   // vertices the fast solver left to solve_qp
+    long solver_iterations = 0;  // Newton / active-set iterations over all vertices
 
     // Reference evaluation in double (inputs clamped to [0, 1], NaN to 0); out has bins() values.
     void spectrum(const double rgb[3], double* out) const;

@@ -185,12 +185,14 @@ bool project_dual_newton(const Eigen::Matrix3Xd& C, const Eigen::VectorXd& s0,
 }
 
 bool solve_pdas(const Eigen::Matrix3Xd& C, const TridiagonalHessian& H, const Eigen::VectorXd& q,
-                const Eigen::Vector3d& v, Eigen::VectorXd& s, int* iterations) {
+                const Eigen::Vector3d& v, Eigen::VectorXd& s, int* iterations,
+                std::vector<char>* active) {
     const Eigen::Index N = C.cols();
     double maxdiag = 0;
     for (Eigen::Index k = 0; k < N; ++k) maxdiag = std::max(maxdiag, H.diag(k));
     const double c = 1.0 / maxdiag;
     std::vector<char> state(static_cast<size_t>(N), 0);  // 0 free, 1 at 0, 2 at 1
+    if (active && active->size() == state.size()) state = *active;
     s = Eigen::VectorXd::Zero(N);
     for (int it = 0; it < 80; ++it) {
         std::vector<char> free(static_cast<size_t>(N));
@@ -214,6 +216,7 @@ bool solve_pdas(const Eigen::Matrix3Xd& C, const TridiagonalHessian& H, const Ei
         }
         if (!changed) {
             s = s.cwiseMax(0.0).cwiseMin(1.0);
+            if (active) *active = state;
             return true;
         }
     }
@@ -222,13 +225,22 @@ bool solve_pdas(const Eigen::Matrix3Xd& C, const TridiagonalHessian& H, const Ei
 
 Eigen::VectorXd solve_vertex_qp(const Eigen::Matrix3Xd& C, const TridiagonalHessian& H,
                                 const Eigen::VectorXd& q, const Eigen::Vector3d& v,
-                                double tolerance, const std::string& what, VertexQpStats* stats) {
+                                double tolerance, const std::string& what, VertexQpStats* stats,
+                                std::vector<char>* warm) {
     const Eigen::Index N = C.cols();
     Eigen::VectorXd s;
     int it = 0;
     const bool projection = H.d.empty() && H.alpha == 1.0;
-    const bool ok =
-        projection ? project_dual_newton(C, -q, v, s, &it) : solve_pdas(C, H, q, v, s, &it);
+    bool ok = false;
+    if (projection) {
+        ok = project_dual_newton(C, -q, v, s, &it);
+    } else {
+        ok = solve_pdas(C, H, q, v, s, &it, warm);
+        if (!ok && warm && !warm->empty()) {  // a poor warm start: once more from all free
+            warm->clear();
+            ok = solve_pdas(C, H, q, v, s, &it, warm);
+        }
+    }
     if (stats) stats->iterations += it;
     auto good = [&](const Eigen::VectorXd& x) {
         return x.size() == N && x.allFinite() && x.minCoeff() >= 0 && x.maxCoeff() <= 1 &&

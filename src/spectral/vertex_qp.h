@@ -41,9 +41,12 @@ bool project_dual_newton(const Eigen::Matrix3Xd& C, const Eigen::VectorXd& s0,
 // General H (tridiagonal): primal-dual active set (Hintermüller-Ito-Kunisch; a semismooth Newton
 // method on the complementarity conditions). Each iteration solves the equality-constrained QP on
 // the free set: tridiagonal solves (Thomas) for 4 right-hand sides and a 3×3 Schur complement.
-// Returns false when it does not converge or an equality system is singular.
+// Returns false when it does not converge or an equality system is singular. active (optional):
+// in, a starting guess of the bounds' states (0 free, 1 at 0, 2 at 1; ignored unless of size N);
+// out, the final states. Neighbouring vertices have nearly the same active sets.
 bool solve_pdas(const Eigen::Matrix3Xd& C, const TridiagonalHessian& H, const Eigen::VectorXd& q,
-                const Eigen::Vector3d& v, Eigen::VectorXd& s, int* iterations);
+                const Eigen::Vector3d& v, Eigen::VectorXd& s, int* iterations,
+                std::vector<char>* active = nullptr);
 
 // Tries the fast method (projection when H = alpha I with alpha = 1 and no D, else PDAS), checks
 // the answer, and falls back to solve_qp. Throws Error (with what) when solve_qp finds v infeasible
@@ -51,6 +54,6 @@ bool solve_pdas(const Eigen::Matrix3Xd& C, const TridiagonalHessian& H, const Ei
 Eigen::VectorXd solve_vertex_qp(const Eigen::Matrix3Xd& C, const TridiagonalHessian& H,
                                 const Eigen::VectorXd& q, const Eigen::Vector3d& v,
                                 double tolerance, const std::string& what,
-                                VertexQpStats* stats = nullptr);
+                                VertexQpStats* stats = nullptr, std::vector<char>* warm = nullptr);
 
 }  // namespace spectex

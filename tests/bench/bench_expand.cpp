@@ -281,6 +281,8 @@ void BM_BuildLattice(benchmark::State& state) {
         state.SetIterationTime(L.build_seconds);
         state.counters["max_colour_residual"] = L.max_colour_residual;
         state.counters["fallback_vertices"] = L.fallback_vertices;
+        state.counters["iterations_per_vertex"] =
+            static_cast<double>(L.solver_iterations) / (static_cast<double>(n) * n * n);
     }
     state.counters["bins"] = bins;
     state.counters["n"] = n;
