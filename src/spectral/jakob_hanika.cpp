@@ -3,9 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
 
 #include "spectral/error.h"
 
@@ -147,7 +144,9 @@ struct Fitter {
                 const Eigen::Vector3d rn = lab(rgb(an, &Dn), &Jn) - target_lab;
                 const double cn = 0.5 * rn.squaredNorm();
                 if (cn < cost) {
-                    const bool tiny = cost - cn <= 1e-15 * cost;
+                    // At the cap the optimum is at infinity and each step only turns the
+                    // direction a little: stop once that gains less than 1e-6 of the cost.
+                    const bool tiny = cost - cn <= (c ? 1e-6 : 1e-15) * cost;
                     a = an, r = rn, D = Dn, Jl = Jn, cost = cn;
                     *capped = c;
                     mu = std::max(mu / 4, 1e-12);
@@ -177,7 +176,9 @@ struct Fitter {
         a = cap(a, &capped);
         double cost = solve(tl, a, start ? 60 : 100, &iterations, &capped);
         // 0.5 ΔE² > 0.5e-6: not converged, or outside the sigmoid gamut; a path from grey decides.
-        if (cost > 0.5e-6) {
+        // Not when capped close to the colour (ΔE < 0.05): that is black, white or a very dark
+        // saturated colour, whose optimum is at infinity whatever the path.
+        if (cost > 0.5e-6 && !(capped && cost < 0.5 * 0.05 * 0.05)) {
             const double grey = std::clamp(target.mean(), 0.05, 0.95);
             Eigen::Vector3d b = Eigen::Vector3d::Zero();
             b[2] = grey < 0.5 ? -0.3 : 0.3;
@@ -201,38 +202,6 @@ struct Fitter {
     }
 };
 
-// Coefficients at every node of axis³ (layout (ir*n + ig)*n + ib), each warm-started from the
-// already fitted node one step nearer the centre in every coordinate: nodes are visited by
-// increasing Chebyshev distance from the centre, so every path starts at mid grey and runs
-// straight out, and neighbours have close optima.
-std::vector<Eigen::Vector3d> fit_nodes(const Fitter& f, const std::vector<double>& axis,
-                                       double* max_rgb, double* max_lab) {
-    const int n = static_cast<int>(axis.size());
-    const int mid = (n - 1) / 2;
-    std::vector<int> order(static_cast<size_t>(n) * n * n);
-    for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
-    auto dist = [&](int idx) {
-        const int ir = idx / (n * n), ig = idx / n % n, ib = idx % n;
-        return std::max({std::abs(ir - mid), std::abs(ig - mid), std::abs(ib - mid)});
-    };
-    std::stable_sort(order.begin(), order.end(), [&](int x, int y) { return dist(x) < dist(y); });
-    auto toward = [&](int i) { return i < mid ? i + 1 : (i > mid ? i - 1 : i); };
-    std::vector<Eigen::Vector3d> a(order.size(), Eigen::Vector3d::Zero());
-    *max_rgb = 0, *max_lab = 0;
-    for (int idx : order) {
-        const int ir = idx / (n * n), ig = idx / n % n, ib = idx % n;
-        const int parent = (toward(ir) * n + toward(ig)) * n + toward(ib);
-        const Eigen::Vector3d rgb(axis[static_cast<size_t>(ir)], axis[static_cast<size_t>(ig)],
-                                  axis[static_cast<size_t>(ib)]);
-        JHFitInfo info;
-        a[static_cast<size_t>(idx)] =
-            f.fit(rgb, parent == idx ? nullptr : &a[static_cast<size_t>(parent)], &info);
-        *max_rgb = std::max(*max_rgb, info.rgb_residual);
-        *max_lab = std::max(*max_lab, info.lab_residual);
-    }
-    return a;
-}
-
 }  // namespace
 
 JHCoefficients fit_jakob_hanika(const Colorimetry& c, const Eigen::Vector3d& rgb,
@@ -243,17 +212,68 @@ JHCoefficients fit_jakob_hanika(const Colorimetry& c, const Eigen::Vector3d& rgb
     return f.map.to_nm(f.fit(rgb, start ? &s0 : nullptr, info));
 }
 
+std::vector<JHCoefficients> fit_jakob_hanika_path(const Colorimetry& c,
+                                                  const std::vector<Eigen::Vector3d>& rgb,
+                                                  const std::vector<int>& start_from,
+                                                  double* max_rgb_residual,
+                                                  double* max_lab_residual) {
+    if (start_from.size() != rgb.size()) throw Error("fit_jakob_hanika_path: sizes differ");
+    const Fitter f(c);
+    std::vector<Eigen::Vector3d> a(rgb.size(), Eigen::Vector3d::Zero());
+    std::vector<JHCoefficients> out(rgb.size());
+    double mr = 0, ml = 0;
+    for (size_t i = 0; i < rgb.size(); ++i) {
+        const int from = start_from[i];
+        if (from >= static_cast<int>(i)) throw Error("fit_jakob_hanika_path: start after colour");
+        JHFitInfo info;
+        a[i] = f.fit(rgb[i], from >= 0 ? &a[static_cast<size_t>(from)] : nullptr, &info);
+        out[i] = f.map.to_nm(a[i]);
+        mr = std::max(mr, info.rgb_residual);
+        ml = std::max(ml, info.lab_residual);
+    }
+    if (max_rgb_residual) *max_rgb_residual = mr;
+    if (max_lab_residual) *max_lab_residual = ml;
+    return out;
+}
+
+Eigen::Vector3d jh_unit_coefficients(const WavelengthGrid& g, const JHCoefficients& k) {
+    return GridMap(g).from_nm(k);
+}
+
+// Nodes visited by increasing Chebyshev distance from the centre node, each warm-started from
+// the node one step nearer the centre in every coordinate: every path starts at mid grey and runs
+// straight out, and neighbours have close optima.
 std::vector<JHCoefficients> fit_jakob_hanika_nodes(const Colorimetry& c,
                                                    const std::vector<double>& axis,
                                                    double* max_rgb_residual,
                                                    double* max_lab_residual) {
-    const Fitter f(c);
-    double mr = 0, ml = 0;
-    const std::vector<Eigen::Vector3d> a = fit_nodes(f, axis, &mr, &ml);
-    std::vector<JHCoefficients> out(a.size());
-    for (size_t i = 0; i < a.size(); ++i) out[i] = f.map.to_nm(a[i]);
-    if (max_rgb_residual) *max_rgb_residual = mr;
-    if (max_lab_residual) *max_lab_residual = ml;
+    const int n = static_cast<int>(axis.size());
+    const int mid = (n - 1) / 2;
+    std::vector<int> order(static_cast<size_t>(n) * n * n);
+    for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+    auto dist = [&](int idx) {
+        const int ir = idx / (n * n), ig = idx / n % n, ib = idx % n;
+        return std::max({std::abs(ir - mid), std::abs(ig - mid), std::abs(ib - mid)});
+    };
+    std::stable_sort(order.begin(), order.end(), [&](int x, int y) { return dist(x) < dist(y); });
+    std::vector<int> position(order.size());
+    for (size_t p = 0; p < order.size(); ++p)
+        position[static_cast<size_t>(order[p])] = static_cast<int>(p);
+    auto toward = [&](int i) { return i < mid ? i + 1 : (i > mid ? i - 1 : i); };
+    std::vector<Eigen::Vector3d> rgb(order.size());
+    std::vector<int> from(order.size());
+    for (size_t p = 0; p < order.size(); ++p) {
+        const int idx = order[p];
+        const int ir = idx / (n * n), ig = idx / n % n, ib = idx % n;
+        const int parent = (toward(ir) * n + toward(ig)) * n + toward(ib);
+        rgb[p] = Eigen::Vector3d(axis[static_cast<size_t>(ir)], axis[static_cast<size_t>(ig)],
+                                 axis[static_cast<size_t>(ib)]);
+        from[p] = parent == idx ? -1 : position[static_cast<size_t>(parent)];
+    }
+    const std::vector<JHCoefficients> fitted =
+        fit_jakob_hanika_path(c, rgb, from, max_rgb_residual, max_lab_residual);
+    std::vector<JHCoefficients> out(order.size());
+    for (size_t p = 0; p < order.size(); ++p) out[static_cast<size_t>(order[p])] = fitted[p];
     return out;
 }
 
@@ -262,95 +282,6 @@ Eigen::VectorXd jh_spectrum(const Colorimetry& c, const JHCoefficients& k) {
     for (size_t i = 0; i < c.grid.size(); ++i)
         s[static_cast<Eigen::Index>(i)] = jh_eval(k, c.grid.lambda[i]);
     return s;
-}
-
-JakobHanikaTable JakobHanikaTable::build(const Colorimetry& c, int res) {
-    const auto t0 = std::chrono::steady_clock::now();
-    JakobHanikaTable t;
-    t.res_ = res;
-    t.locator_ = AxisLocator(res);
-    const Fitter f(c);
-    const std::vector<Eigen::Vector3d> a =
-        fit_nodes(f, t.locator_.axis(), &t.max_rgb_residual, &t.max_lab_residual);
-    t.coeff_.resize(3 * a.size());
-    t.nm_.resize(a.size());
-    for (size_t i = 0; i < a.size(); ++i) {
-        for (int j = 0; j < 3; ++j)
-            t.coeff_[3 * i + static_cast<size_t>(j)] = static_cast<float>(a[i][j]);
-        t.nm_[i] = f.map.to_nm(a[i]);
-    }
-    t.u_.resize(c.grid.size());
-    for (size_t k = 0; k < c.grid.size(); ++k)
-        t.u_[k] = static_cast<float>(f.u[static_cast<Eigen::Index>(k)]);
-    t.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    return t;
-}
-
-JHCoefficients JakobHanikaTable::node(int ir, int ig, int ib) const {
-    return nm_[static_cast<size_t>((ir * res_ + ig) * res_ + ib)];
-}
-
-void JakobHanikaTable::coefficients(const float rgb[3], float k[3]) const {
-    float t[3];
-    int i[3];
-    for (int c = 0; c < 3; ++c) i[c] = locator_.locate_fast(rgb[c], &t[c]);
-    k[0] = k[1] = k[2] = 0;
-    for (int corner = 0; corner < 8; ++corner) {
-        float w = 1;
-        int idx = 0;
-        for (int c = 0; c < 3; ++c) {
-            const int bit = (corner >> (2 - c)) & 1;
-            w *= bit ? t[c] : 1 - t[c];
-            idx = idx * res_ + i[c] + bit;
-        }
-        for (int j = 0; j < 3; ++j)
-            k[j] += w * coeff_[3 * static_cast<size_t>(idx) + static_cast<size_t>(j)];
-    }
-}
-
-void JakobHanikaTable::spectrum(const float rgb[3], float* out) const {
-    float k[3];
-    coefficients(rgb, k);
-    for (size_t b = 0; b < u_.size(); ++b) {
-        const float x = (k[0] * u_[b] + k[1]) * u_[b] + k[2];
-        out[b] = 0.5f + 0.5f * x / std::sqrt(1.0f + x * x);
-    }
-}
-
-void JakobHanikaTable::expand(const float* r, const float* g, const float* b, size_t n, float* out,
-                              size_t plane_stride) const {
-    constexpr size_t kBlock = 256;
-    alignas(16) float k0[kBlock], k1[kBlock], k2[kBlock];
-    for (size_t i0 = 0; i0 < n; i0 += kBlock) {
-        const size_t len = std::min(kBlock, n - i0);
-        for (size_t i = 0; i < len; ++i) {
-            const float rgb[3] = {r[i0 + i], g[i0 + i], b[i0 + i]};
-            float k[3];
-            coefficients(rgb, k);
-            k0[i] = k[0], k1[i] = k[1], k2[i] = k[2];
-        }
-        for (size_t bin = 0; bin < u_.size(); ++bin) {
-            const float u = u_[bin];
-            float* dst = out + bin * plane_stride + i0;
-            size_t i = 0;
-#if defined(__SSE2__)
-            // sqrtps directly: the scalar sqrtf keeps an errno path that stops the vectoriser.
-            const __m128 vu = _mm_set1_ps(u), half = _mm_set1_ps(0.5f), one = _mm_set1_ps(1.0f);
-            for (; i + 4 <= len; i += 4) {
-                const __m128 x = _mm_add_ps(
-                    _mm_mul_ps(_mm_add_ps(_mm_mul_ps(_mm_load_ps(k0 + i), vu), _mm_load_ps(k1 + i)),
-                               vu),
-                    _mm_load_ps(k2 + i));
-                const __m128 s = _mm_sqrt_ps(_mm_add_ps(one, _mm_mul_ps(x, x)));
-                _mm_storeu_ps(dst + i, _mm_add_ps(half, _mm_div_ps(_mm_mul_ps(half, x), s)));
-            }
-#endif
-            for (; i < len; ++i) {
-                const float x = (k0[i] * u + k1[i]) * u + k2[i];
-                dst[i] = 0.5f + 0.5f * x / std::sqrt(1.0f + x * x);
-            }
-        }
-    }
 }
 
 }  // namespace spectex

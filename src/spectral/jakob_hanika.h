@@ -41,6 +41,18 @@ constexpr double kJHCoefficientCap = 1000.0;
 JHCoefficients fit_jakob_hanika(const Colorimetry& c, const Eigen::Vector3d& rgb,
                                 const JHCoefficients* start = nullptr, JHFitInfo* info = nullptr);
 
+// Fits a list of colours in order, colour i warm-started from the coefficients of colour
+// start_from[i] (< i), or cold when start_from[i] < 0; the largest residuals if asked.
+std::vector<JHCoefficients> fit_jakob_hanika_path(const Colorimetry& c,
+                                                  const std::vector<Eigen::Vector3d>& rgb,
+                                                  const std::vector<int>& start_from,
+                                                  double* max_rgb_residual = nullptr,
+                                                  double* max_lab_residual = nullptr);
+
+// Coefficients in the normalised wavelength u = (λ - λ_first) / (λ_last - λ_first) of c's grid:
+// p(u) = a[0] u² + a[1] u + a[2] (the fit's own variables; tables interpolate these).
+Eigen::Vector3d jh_unit_coefficients(const WavelengthGrid& g, const JHCoefficients& k);
+
 // Fits at every node of axis³ (layout (ir*n + ig)*n + ib), each warm-started from the fitted
 // neighbour one step nearer the centre node; the largest residuals over the nodes if asked.
 std::vector<JHCoefficients> fit_jakob_hanika_nodes(const Colorimetry& c,
@@ -51,19 +63,23 @@ std::vector<JHCoefficients> fit_jakob_hanika_nodes(const Colorimetry& c,
 // The spectrum of coefficients on the colorimetry's grid.
 Eigen::VectorXd jh_spectrum(const Colorimetry& c, const JHCoefficients& k);
 
-// pbrt-style lookup: coefficients fitted at the nodes of a res³ lattice over linear RGB with
-// sRGB-encoded spacing (srgb_axis.h), interpolated trilinearly in the cell's linear coordinates
-// and evaluated on the colorimetry grid. The sigmoid of interpolated coefficients is smooth and
-// in (0, 1) but, like the fit itself, not colour-exact.
+// pbrt-v4's RGBToSpectrumTable, on this colorimetry: for each channel l holding the maximum
+// component m = rgb[l], a res³ table over (m, x = rgb[l+1]/m, y = rgb[l+2]/m) (channels mod 3) of
+// fitted coefficients, m at smoothstep(smoothstep(i/(res-1))) (dense near 0 and 1, where the
+// coefficients run to the cap) and x, y uniform; trilinear interpolation of the coefficients.
+// Greys (r = g = b) get the exact constant spectrum S(c2) = v. Fitted along paths in m from
+// m_{res/5}, each node warm-started from its neighbour. The sigmoid of interpolated coefficients
+// is smooth and in (0, 1), but not colour-exact (max_rgb_residual at the nodes; more in between).
 class JakobHanikaTable {
   public:
-    static JakobHanikaTable build(const Colorimetry& c, int res);
+    static JakobHanikaTable build(const Colorimetry& c, int res);  // res >= 3
 
     int res() const { return res_; }
     int bins() const { return static_cast<int>(u_.size()); }
-    // Node coefficients in nm, layout (ir*res + ig)*res + ib.
-    JHCoefficients node(int ir, int ig, int ib) const;
-    const std::vector<double>& axis() const { return locator_.axis(); }
+    const std::vector<double>& scale() const { return scale_; }  // the res node values of m
+    // Node (l, zi, yi, xi): its linear RGB and fitted coefficients (nm).
+    Eigen::Vector3d node_rgb(int l, int zi, int yi, int xi) const;
+    JHCoefficients node(int l, int zi, int yi, int xi) const;
 
     void spectrum(const float rgb[3], float* out) const;
     // Bin k of pixel i goes to out[k * plane_stride + i] (the layout of expand_to_float).
@@ -76,10 +92,12 @@ class JakobHanikaTable {
 
   private:
     int res_ = 0;
-    AxisLocator locator_;
+    std::vector<double> scale_;
+    std::vector<float> scale_f_;
     std::vector<float> u_;      // normalised wavelength of each bin
-    std::vector<float> coeff_;  // 3 per node, in u units
+    std::vector<float> coeff_;  // 3 per node, in u units, layout ((l*res + zi)*res + yi)*res + xi
     std::vector<JHCoefficients> nm_;
+    float grey_cap_ = 0;
     void coefficients(const float rgb[3], float k[3]) const;
 };
 

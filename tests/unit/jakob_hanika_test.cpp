@@ -110,19 +110,20 @@ TEST(JakobHanika, TableMatchesNodeFitsAndIsFast) {
     const JakobHanikaTable t = JakobHanikaTable::build(d65(), 17);
     std::printf("JH table res 17 at 81 bins: %.3f s, max rgb residual %.3g, max ΔE76 %.3g\n",
                 t.build_seconds, t.max_rgb_residual, t.max_lab_residual);
-    EXPECT_LT(t.build_seconds, 5.0);  // ~2 s budget at 81 bins on one core, with margin for load
-    const auto& ax = t.axis();
+    EXPECT_LT(t.build_seconds, 5.0);  // ~2 s budget at 81 bins on one core, margin for load
     const int n = t.res();
     std::vector<float> r, g, b;
     std::vector<JHCoefficients> k;
-    for (int ir = 0; ir < n; ir += 3)
-        for (int ig = 0; ig < n; ig += 2)
-            for (int ib = 0; ib < n; ib += 5) {
-                r.push_back(static_cast<float>(ax[static_cast<size_t>(ir)]));
-                g.push_back(static_cast<float>(ax[static_cast<size_t>(ig)]));
-                b.push_back(static_cast<float>(ax[static_cast<size_t>(ib)]));
-                k.push_back(t.node(ir, ig, ib));
-            }
+    for (int l = 0; l < 3; ++l)
+        for (int zi = 0; zi < n; zi += 3)
+            for (int yi = 0; yi < n; yi += 2)
+                for (int xi = 0; xi < n; xi += 5) {
+                    const Eigen::Vector3d rgb = t.node_rgb(l, zi, yi, xi);
+                    r.push_back(static_cast<float>(rgb[0]));
+                    g.push_back(static_cast<float>(rgb[1]));
+                    b.push_back(static_cast<float>(rgb[2]));
+                    k.push_back(t.node(l, zi, yi, xi));
+                }
     const size_t m = r.size(), bins = static_cast<size_t>(t.bins());
     std::vector<float> out(m * bins), one(bins);
     t.expand(r.data(), g.data(), b.data(), m, out.data(), m);
@@ -130,11 +131,11 @@ TEST(JakobHanika, TableMatchesNodeFitsAndIsFast) {
     for (size_t i = 0; i < m; ++i) {
         const float rgb[3] = {r[i], g[i], b[i]};
         t.spectrum(rgb, one.data());
+        const bool grey = r[i] == g[i] && g[i] == b[i];  // looked up as the exact constant instead
         for (size_t j = 0; j < bins; ++j) {
-            // At a node the interpolation weights are 0/1; the only differences are float
-            // evaluation of the sigmoid (coefficients up to 1e3: x to ~1e-4 absolute, s to ~1e-6
-            // where the sigmoid is steep but its slope 1/(2(1+x²)^1.5) is then tiny).
-            const double ref = jh_eval(k[i], d65().grid.lambda[j]);
+            // At a node the weights are 0/1 up to the float division x = rgb/m (~1e-7), and the
+            // sigmoid is evaluated in float with coefficients up to 1e3: 1e-4 absolute.
+            const double ref = grey ? rgb[0] : jh_eval(k[i], d65().grid.lambda[j]);
             worst = std::max(worst, std::fabs(out[j * m + i] - ref));
             EXPECT_EQ(out[j * m + i], one[j]);
             EXPECT_GE(out[j * m + i], 0.0f);
@@ -143,4 +144,32 @@ TEST(JakobHanika, TableMatchesNodeFitsAndIsFast) {
     }
     EXPECT_LT(worst, 1e-4);
     std::printf("JH table vs node fits: max |diff| %.3g\n", worst);
+}
+
+TEST(JakobHanika, TableColourErrorBetweenNodes) {
+    // Between nodes the coefficients are interpolated, so the colour is not the fitted one: this
+    // measures how far it goes (the reason the lattice exists). Bound: 0.05 linear, far above the
+    // measured value, only to catch a broken table; the figure is printed.
+    const Eigen::Matrix3Xd C = d65().rgb_weights();
+    for (int res : {17, 33}) {
+        const JakobHanikaTable t = JakobHanikaTable::build(d65(), res);
+        std::mt19937 rng(3);
+        std::uniform_real_distribution<float> u(0.0f, 1.0f);
+        std::vector<float> s(static_cast<size_t>(t.bins()));
+        double worst = 0, sum = 0;
+        const int count = 2000;
+        for (int i = 0; i < count; ++i) {
+            const float rgb[3] = {u(rng), u(rng), u(rng)};
+            t.spectrum(rgb, s.data());
+            const Eigen::VectorXd sd =
+                Eigen::Map<Eigen::VectorXf>(s.data(), t.bins()).cast<double>();
+            const double e =
+                (C * sd - Eigen::Vector3d(rgb[0], rgb[1], rgb[2])).cwiseAbs().maxCoeff();
+            worst = std::max(worst, e), sum += e;
+        }
+        EXPECT_LT(worst, 0.05);
+        if (res == 33) EXPECT_LT(worst, 0.01);
+        std::printf("JH table res %d: colour error between nodes max %.3g mean %.3g (linear RGB)\n",
+                    res, worst, sum / count);
+    }
 }
