@@ -36,7 +36,11 @@ struct JHFitInfo {
 // The coefficients in u are capped at |c| <= kJHCoefficientCap (scaled down together, which keeps
 // the spectrum's shape): at black, white and on the faces of the cube the optimum is at infinity
 // and the best bounded answer is returned. start (nm coefficients) warm-starts the iteration.
-// Never returns NaN; rgb is clamped to [0, 1].
+// Never returns NaN; rgb is clamped to [0, 1] (NaN to 0).
+// Residuals reached (CIE 1931 2°, D65, sRGB, 380:780:5; tests/unit/jakob_hanika_test.cpp): ΔE76
+// ~1e-12 inside the cube, sRGB primaries and secondaries included (the sigmoid gamut covers sRGB
+// here); capped: black ΔE76 2.3e-4 (linear 2.5e-7), white 1e-5 (2.5e-7), and very dark saturated
+// colours such as (0, 3.8e-4, 0) ΔE76 0.025 (linear 3.3e-5).
 constexpr double kJHCoefficientCap = 1000.0;
 JHCoefficients fit_jakob_hanika(const Colorimetry& c, const Eigen::Vector3d& rgb,
                                 const JHCoefficients* start = nullptr, JHFitInfo* info = nullptr);
@@ -69,7 +73,10 @@ Eigen::VectorXd jh_spectrum(const Colorimetry& c, const JHCoefficients& k);
 // coefficients run to the cap) and x, y uniform; trilinear interpolation of the coefficients.
 // Greys (r = g = b) get the exact constant spectrum S(c2) = v. Fitted along paths in m from
 // m_{res/5}, each node warm-started from its neighbour. The sigmoid of interpolated coefficients
-// is smooth and in (0, 1), but not colour-exact (max_rgb_residual at the nodes; more in between).
+// is smooth and in (0, 1), but not colour-exact: max_rgb_residual at the nodes, and between
+// nodes (2000 random colours, D65, 81 bins) max 0.027 / mean 0.0033 linear at res 17, max 0.0077
+// / mean 0.0008 at res 33. Build: 3 res³ fits, ~0.1 s at res 17 and ~0.5 s at res 33 (81 bins,
+// one core). expand() is thread-safe (const, own scratch).
 class JakobHanikaTable {
   public:
     static JakobHanikaTable build(const Colorimetry& c, int res);  // res >= 3

@@ -52,7 +52,8 @@ class SpectralLattice {
 
     // Reference evaluation in double (inputs clamped to [0, 1], NaN to 0); out has bins() values.
     void spectrum(const double rgb[3], double* out) const;
-    // Batch kernel on the float table: bin k of pixel i goes to out[k * plane_stride + i].
+    // Batch kernel on the float table: bin k of pixel i goes to out[k * plane_stride + i]. Same
+    // clamping; colour exact to float rounding (~1e-7). Const and thread-safe (own scratch).
     void expand(const float* r, const float* g, const float* b, size_t n, float* out,
                 size_t plane_stride) const;
 

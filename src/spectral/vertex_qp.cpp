@@ -136,16 +136,25 @@ bool project_dual_newton(const Eigen::Matrix3Xd& C, const Eigen::VectorXd& s0,
     double theta = dual(mu, s);
     int it = 0;
     bool converged = false;
+    // Stop at |F| <= 1e-12 (the polish below takes it to rounding: near the solution the dual
+    // function is flat to double precision, so the line search cannot see further progress), or
+    // after a full Newton step that kept the free set (that step solved the final linear system).
+    std::vector<char> free_prev;
+    bool full_step = false;
     for (; it < 100; ++it) {
         const Eigen::Vector3d F = C * s - v;
-        if (F.cwiseAbs().maxCoeff() <= 1e-15 * std::max(1.0, cscale)) {
+        const Eigen::VectorXd z = s0 + C.transpose() * mu;
+        std::vector<char> free(static_cast<size_t>(N));
+        for (Eigen::Index k = 0; k < N; ++k) free[static_cast<size_t>(k)] = z[k] > 0 && z[k] < 1;
+        if (F.cwiseAbs().maxCoeff() <= 1e-12 * std::max(1.0, cscale) ||
+            (full_step && free == free_prev)) {
             converged = true;
             break;
         }
-        const Eigen::VectorXd z = s0 + C.transpose() * mu;
+        free_prev = free;
         Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
         for (Eigen::Index k = 0; k < N; ++k)
-            if (z[k] > 0 && z[k] < 1) J += C.col(k) * C.col(k).transpose();
+            if (free[static_cast<size_t>(k)]) J += C.col(k) * C.col(k).transpose();
         // A free set too small for rank 3 (or empty): regularise; the line search keeps it safe.
         const double reg = 1e-12 * std::max(J.trace(), 1e-300) + 1e-300;
         const Eigen::Vector3d d = (J + reg * Eigen::Matrix3d::Identity()).ldlt().solve(-F);
@@ -158,7 +167,7 @@ bool project_dual_newton(const Eigen::Matrix3Xd& C, const Eigen::VectorXd& s0,
             const Eigen::VectorXd st = primal(mt);
             const double th = dual(mt, st);
             if (th >= theta + 1e-4 * t * slope) {
-                mu = mt, s = st, theta = th, moved = true;
+                mu = mt, s = st, theta = th, moved = true, full_step = ls == 0;
                 break;
             }
         }

@@ -122,7 +122,7 @@ TEST(LatticePrior, NamesRoundTrip) {
 }
 
 TEST(Lattice, EveryVertexExactAllPriors) {
-    for (int n : {5, 9, 17})
+    for (int n : {2, 3, 5, 9, 17})
         for (VertexPrior p : {VertexPrior::JakobHanika, VertexPrior::Smooth, VertexPrior::Blend}) {
             const SpectralLattice L = SpectralLattice::build(d65(), n, p);
             const std::string what = "n " + std::to_string(n) + " " + to_string(p);
@@ -425,4 +425,30 @@ TEST(Lattice, VertexSpectraAreTheOptimaOfTheirPriors) {
         EXPECT_LE(worst, 1e-10) << to_string(prior);
         std::printf("%s: max |vertex - solve_qp| %.2e\n", to_string(prior).c_str(), worst);
     }
+}
+
+TEST(Lattice, SpectrumIsContinuousAcrossCellsAndSimplices) {
+    // Kuhn simplices of neighbouring cells share faces, so the interpolant is continuous: a step
+    // of 1e-9 moves the spectrum by at most L·1e-9, L <= (max vertex difference = 1) / (smallest
+    // gap, axis[1] = 0.0144 at n = 9), i.e. 7e-8; probes on breakpoints and on t_r = t_g ties.
+    const SpectralLattice L = SpectralLattice::build(d65(), 9, VertexPrior::JakobHanika);
+    const double bound = 1e-9 / L.axis()[1] * 1.05;
+    std::mt19937 rng(5);
+    std::uniform_int_distribution<int> cell(0, 8);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    double worst = 0;
+    for (int i = 0; i < 2000; ++i) {
+        Eigen::Vector3d p(u(rng), u(rng), u(rng));
+        p[i % 3] = L.axis()[static_cast<size_t>(cell(rng))];  // on a breakpoint
+        if (i % 2) p[(i + 1) % 3] = p[i % 3];                 // and often on a tie
+        for (int axis = 0; axis < 3; ++axis)
+            for (double step : {-1e-9, 1e-9}) {
+                Eigen::Vector3d q = p;
+                q[axis] = std::clamp(q[axis] + step, 0.0, 1.0);
+                const double d = (eval(L, p) - eval(L, q)).cwiseAbs().maxCoeff();
+                worst = std::max(worst, d);
+                ASSERT_LE(d, bound) << p.transpose() << " axis " << axis;
+            }
+    }
+    std::printf("largest change for a 1e-9 step: %.2e (bound %.2e)\n", worst, bound);
 }
