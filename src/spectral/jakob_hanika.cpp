@@ -176,9 +176,10 @@ struct Fitter {
         a = cap(a, &capped);
         double cost = solve(tl, a, start ? 60 : 100, &iterations, &capped);
         // 0.5 ΔE² > 0.5e-6: not converged, or outside the sigmoid gamut; a path from grey decides.
-        // Not when capped close to the colour (ΔE < 0.05): that is black, white or a very dark
-        // saturated colour, whose optimum is at infinity whatever the path.
-        if (cost > 0.5e-6 && !(capped && cost < 0.5 * 0.05 * 0.05)) {
+        // Not when capped close to the colour (ΔE < 1e-3): black and white, whose optimum is at
+        // infinity whatever the path (capped ultra-dark saturated colours do gain from the retry:
+        // a warm path can stop at a worse point of the cap, e.g. ΔE 0.015 against 0.0025).
+        if (cost > 0.5e-6 && !(capped && cost < 0.5 * 1e-3 * 1e-3)) {
             const double grey = std::clamp(target.mean(), 0.05, 0.95);
             Eigen::Vector3d b = Eigen::Vector3d::Zero();
             b[2] = grey < 0.5 ? -0.3 : 0.3;

@@ -75,8 +75,9 @@ Eigen::VectorXd jh_spectrum(const Colorimetry& c, const JHCoefficients& k);
 // m_{res/5}, each node warm-started from its neighbour. The sigmoid of interpolated coefficients
 // is smooth and in (0, 1), but not colour-exact: max_rgb_residual at the nodes, and between
 // nodes (2000 random colours, D65, 81 bins) max 0.027 / mean 0.0033 linear at res 17, max 0.0077
-// / mean 0.0008 at res 33. Build: 3 res³ fits, ~0.1 s at res 17 and ~0.5 s at res 33 (81 bins,
-// one core). expand() is thread-safe (const, own scratch).
+// / mean 0.0008 at res 33. Build: 3 res³ fits, ~0.1 s at res 17, ~0.7 s at res 33 (81 bins,
+// one core), ~6 s at res 64 (pbrt's size; over the 2 s budget: use res <= 33 here). expand() is
+// thread-safe (const, own scratch).
 class JakobHanikaTable {
   public:
     static JakobHanikaTable build(const Colorimetry& c, int res);  // res >= 3
