@@ -27,6 +27,8 @@
 #include "spectral/colorimetry.h"
 #include "spectral/expand.h"
 #include "spectral/half.h"
+#include "spectral/jakob_hanika.h"
+#include "spectral/lattice.h"
 
 using namespace spectex;
 
@@ -197,8 +199,122 @@ void BM_ExpandColour(benchmark::State& state) {
     state.SetLabel("half, colour rounding");
 }
 
+// The colorimetry of a default bake on 380:780:5 (81 bins) or 380:780:1 (401 bins).
+const Colorimetry& colorimetry_for(int bins) {
+    static const auto make = [](double step) {
+        return Colorimetry::make(load_observer(SPECTEX_TEST_DATA_DIR, "cie1931-2"),
+                                 load_illuminant(SPECTEX_TEST_DATA_DIR, "D65"),
+                                 WavelengthGrid::uniform_grid(380, 780, step), primaries_by_name("srgb"));
+    };
+    static const Colorimetry c81 = make(5), c401 = make(1);
+    return bins == 401 ? c401 : c81;
+}
+
+// BM_ExpandLattice: SpectralLattice::expand (n breakpoints, smooth prior; the prior does not change
+// the kernel's cost) on the same planes as BM_Expand, with expand_to_float of the basis of the same
+// bin count timed in every iteration too: `ratio_vs_basis` = lattice time / basis time.
+void BM_ExpandLattice(benchmark::State& state) {
+    const int bins = static_cast<int>(state.range(0)), n = static_cast<int>(state.range(1));
+    const SpectralLattice L = SpectralLattice::build(colorimetry_for(bins), n, VertexPrior::Smooth);
+    const ExpansionMatrix m = ExpansionMatrix::from_basis(basis_for(bins));
+    const Planes& p = planes();
+    std::vector<float> out(kPixels * static_cast<size_t>(bins)), ref(out.size());
+    using clock = std::chrono::steady_clock;
+    double lattice_s = 0, basis_s = 0;
+    for (auto _ : state) {
+        auto t0 = clock::now();
+        L.expand(p.r.data(), p.g.data(), p.b.data(), kPixels, out.data(), kPixels);
+        benchmark::ClobberMemory();
+        auto t1 = clock::now();
+        expand_to_float(m, p.r.data(), p.g.data(), p.b.data(), kPixels, ref.data(), kPixels);
+        benchmark::ClobberMemory();
+        auto t2 = clock::now();
+        const double k = std::chrono::duration<double>(t1 - t0).count();
+        lattice_s += k;
+        basis_s += std::chrono::duration<double>(t2 - t1).count();
+        state.SetIterationTime(k);
+    }
+    state.SetItemsProcessed(static_cast<int64_t>(state.iterations()) * static_cast<int64_t>(kPixels));
+    state.counters["bins"] = bins;
+    state.counters["n"] = n;
+    state.counters["ratio_vs_basis"] = basis_s > 0 ? lattice_s / basis_s : 0;
+    state.counters["basis_pixels_per_second"] =
+        basis_s > 0 ? static_cast<double>(state.iterations()) * kPixels / basis_s : 0;
+    state.SetLabel("float, lattice");
+}
+
+// BM_JakobHanikaTable: the sigmoid table's expand (res 33), same planes, same comparison.
+void BM_ExpandJakobHanika(benchmark::State& state) {
+    const int bins = static_cast<int>(state.range(0));
+    const JakobHanikaTable t = JakobHanikaTable::build(colorimetry_for(bins), 33);
+    const ExpansionMatrix m = ExpansionMatrix::from_basis(basis_for(bins));
+    const Planes& p = planes();
+    std::vector<float> out(kPixels * static_cast<size_t>(bins)), ref(out.size());
+    using clock = std::chrono::steady_clock;
+    double jh_s = 0, basis_s = 0;
+    for (auto _ : state) {
+        auto t0 = clock::now();
+        t.expand(p.r.data(), p.g.data(), p.b.data(), kPixels, out.data(), kPixels);
+        benchmark::ClobberMemory();
+        auto t1 = clock::now();
+        expand_to_float(m, p.r.data(), p.g.data(), p.b.data(), kPixels, ref.data(), kPixels);
+        benchmark::ClobberMemory();
+        auto t2 = clock::now();
+        const double k = std::chrono::duration<double>(t1 - t0).count();
+        jh_s += k;
+        basis_s += std::chrono::duration<double>(t2 - t1).count();
+        state.SetIterationTime(k);
+    }
+    state.SetItemsProcessed(static_cast<int64_t>(state.iterations()) * static_cast<int64_t>(kPixels));
+    state.counters["bins"] = bins;
+    state.counters["ratio_vs_basis"] = basis_s > 0 ? jh_s / basis_s : 0;
+    state.SetLabel("float, jakob-hanika table");
+}
+
+// Build times (one build per run; single thread): lattice at n breakpoints with each prior, and
+// the Jakob-Hanika table at res 33.
+void BM_BuildLattice(benchmark::State& state) {
+    const int bins = static_cast<int>(state.range(0)), n = static_cast<int>(state.range(1));
+    const VertexPrior prior = static_cast<VertexPrior>(state.range(2));
+    for (auto _ : state) {
+        const SpectralLattice L = SpectralLattice::build(colorimetry_for(bins), n, prior);
+        state.SetIterationTime(L.build_seconds);
+        state.counters["max_colour_residual"] = L.max_colour_residual;
+        state.counters["fallback_vertices"] = L.fallback_vertices;
+        state.counters["iterations_per_vertex"] =
+            static_cast<double>(L.solver_iterations) / (static_cast<double>(n) * n * n);
+    }
+    state.counters["bins"] = bins;
+    state.counters["n"] = n;
+    state.SetLabel(to_string(prior));
+}
+
+void BM_BuildJakobHanikaTable(benchmark::State& state) {
+    const int bins = static_cast<int>(state.range(0)), res = static_cast<int>(state.range(1));
+    for (auto _ : state) {
+        const JakobHanikaTable t = JakobHanikaTable::build(colorimetry_for(bins), res);
+        state.SetIterationTime(t.build_seconds);
+        state.counters["max_rgb_residual"] = t.max_rgb_residual;
+        state.counters["max_lab_residual"] = t.max_lab_residual;
+    }
+    state.counters["bins"] = bins;
+    state.counters["res"] = res;
+}
+
 }  // namespace
 
+BENCHMARK(BM_ExpandLattice)->Args({81, 9})->Args({81, 17})->Args({401, 17})->UseManualTime()->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_ExpandJakobHanika)->Arg(81)->Arg(401)->UseManualTime()->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_BuildLattice)
+    ->ArgsProduct({{81, 401}, {9, 17}, {0, 1, 2}})
+    ->Iterations(1)
+    ->UseManualTime()
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_BuildJakobHanikaTable)
+    ->ArgsProduct({{81, 401}, {17, 33, 64}})
+    ->Iterations(1)
+    ->UseManualTime()
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK_TEMPLATE(BM_Expand, uint16_t)->Arg(81)->Arg(401)->UseManualTime()->Unit(benchmark::kMicrosecond);
 BENCHMARK_TEMPLATE(BM_Expand, float)->Arg(81)->Arg(401)->UseManualTime()->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_ExpandColour)->Arg(81)->Arg(401)->UseManualTime()->Unit(benchmark::kMicrosecond);
