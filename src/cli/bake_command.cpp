@@ -23,6 +23,7 @@
 #include "io/linearizer.h"
 #include "pipeline/bake.h"
 #include "pipeline/basis_cache.h"
+#include "pipeline/method_cache.h"
 #include "pipeline/batch.h"
 #include "cli/batch_runner.h"
 #include "spectral/basis_fit.h"
@@ -41,6 +42,9 @@ struct BakeCli {
     std::string output, basis = "fit", wavelengths = "380:780:5", type = "half", compression = "zip";
     std::string alpha = "associated", range = "clamp", nan = "replace";
     std::string wavelengths_file;
+    std::string method = "basis", vertex_prior = "jakob-hanika";
+    int lattice_size = 9;
+    bool basis_given = false, objective_given = false, lattice_given = false;
     FitSpec fit;
     std::string output_dir, from_list, json, shard;
     int threads = 0, jobs = 1;
@@ -167,16 +171,46 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
              [&](const std::string& v) { c.wavelengths = v; });
     p.option("--wavelengths-file", "FILE", "Output wavelengths, one per line (any strictly increasing list).",
              [&](const std::string& v) { c.wavelengths_file = v; });
+    p.option("--method", "basis|lattice|jakob-hanika",
+             "How a linear RGB becomes a spectrum. basis: r·S_r + g·S_g + b·S_b with --basis (exact under "
+             "the illuminant). lattice: exact vertex spectra on an N^3 lattice over linear RGB, tetrahedral "
+             "interpolation (exact under the illuminant, natural under other light). jakob-hanika: pbrt-v4's "
+             "sigmoid spectra (not exact: for comparison and render-time consistency). Default basis.",
+             [&](const std::string& v) {
+                 if (v != "basis" && v != "lattice" && v != "jakob-hanika")
+                     throw UsageError("--method: '" + v + "' is not one of basis, lattice, jakob-hanika");
+                 c.method = v;
+             });
+    p.option("--lattice-size", "N", "Breakpoints per axis of the lattice (default 9; 2 to 65).",
+             [&](const std::string& v) {
+                 c.lattice_size = parse_int("--lattice-size", v, 2, 65);
+                 c.lattice_given = true;
+             });
+    p.option("--vertex-prior", "jakob-hanika|smooth|blend",
+             "What the lattice's vertex spectra are closest to while exact: jakob-hanika (default: the sigmoid "
+             "spectrum, projected), smooth (least first differences), blend (both, smoothness weight 100).",
+             [&](const std::string& v) {
+                 if (v != "jakob-hanika" && v != "smooth" && v != "blend")
+                     throw UsageError("--vertex-prior: '" + v + "' is not one of jakob-hanika, smooth, blend");
+                 c.vertex_prior = v;
+                 c.lattice_given = true;
+             });
     p.option("--basis", "fit|mallett2019|FILE",
              "fit (default): a basis fitted on the output grid by 'spectex basis' rules, exact on any grid; "
              "mallett2019: the published table (380:780:5 only); or a CSV wavelength,r,g,b on the output grid.",
-             [&](const std::string& v) { c.basis = v; });
+             [&](const std::string& v) {
+                 c.basis = v;
+                 c.basis_given = true;
+             });
     p.flag("--allow-infeasible",
            "When no exact basis exists on the grid, bake with the least-squares closest one (colours are then "
            "not exact; a warning gives the miss and the header records it).",
            [&] { c.fit.allow_infeasible = true; });
     p.option("--objective", "smooth|norm", "Objective of the fitted basis (default smooth; see spectex basis).",
-             [&](const std::string& v) { c.fit.objective = v; });
+             [&](const std::string& v) {
+                 c.fit.objective = v;
+                 c.objective_given = true;
+             });
     p.option("--observer", "NAME|FILE", "Observer of the fitted basis: cie1931-2 (default), cie1964-10, or a CSV.",
              [&](const std::string& v) { c.fit.observer = v; });
     p.option("--illuminant", "NAME|FILE", "Illuminant under which the fitted basis is exact: D65 (default), or a CSV.",
@@ -229,6 +263,14 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         } catch (const Error& e) {
             throw UsageError(std::string("--compression: ") + e.what());
         }
+        if (c.method != "basis" && (c.basis_given || c.objective_given || c.fit.allow_infeasible))
+            throw UsageError("--basis, --objective and --allow-infeasible choose the basis of --method basis, not of "
+                             "--method " + c.method);
+        if (c.method != "lattice" && c.lattice_given)
+            throw UsageError("--lattice-size and --vertex-prior belong to --method lattice");
+        if (c.method != "basis" && c.range == "keep")
+            throw UsageError("--out-of-range keep needs --method basis: the " + c.method +
+                             " method is defined on linear RGB in [0, 1] only");
         if (c.fit.objective != "smooth" && c.fit.objective != "norm")
             throw UsageError("--objective: '" + c.fit.objective + "' is not one of smooth, norm");
         if (c.wavelengths_file.empty()) {
@@ -323,7 +365,19 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         if (!c.wavelengths_file.empty()) c.settings.grid = WavelengthGrid::from_file(c.wavelengths_file);
         c.settings.observer = c.fit.observer;
         c.settings.illuminant = c.fit.illuminant;
-        if (c.basis == "fit") {
+        if (c.method != "basis") {
+            MethodSpec spec;
+            spec.method = c.method;
+            spec.fit = c.fit;
+            spec.fit.data_dir = c.settings.data_dir;
+            spec.fit.grid = c.settings.grid;
+            spec.lattice_size = c.lattice_size;
+            spec.vertex_prior = c.vertex_prior;
+            MethodResult made = make_method(spec);
+            c.settings.method = made.method;
+            if (c.verbose)
+                std::cerr << "spectex: " << spec.describe() << ": built in " << made.build_seconds << " s\n";
+        } else if (c.basis == "fit") {
             c.fit.data_dir = c.settings.data_dir;
             c.fit.grid = c.settings.grid;
             FitResult fit = fit_basis_for(c.fit);

@@ -21,7 +21,7 @@ BasisMethod::BasisMethod(Basis basis, std::string source)
     : basis_(std::move(basis)), source_(std::move(source)), m_(ExpansionMatrix::from_basis(basis_)) {}
 
 std::vector<std::pair<std::string, std::string>> BasisMethod::provenance() const {
-    return {{"spectex:basis", basis_.name}, {"spectex:basisSource", source_}, {"spectex:basisChecksum", checksum()}};
+    return {{"spectex:method", "basis"}, {"spectex:basis", basis_.name}, {"spectex:basisSource", source_}, {"spectex:basisChecksum", checksum()}};
 }
 
 void BasisMethod::expand_float(const float* r, const float* g, const float* b, size_t n, float* out,

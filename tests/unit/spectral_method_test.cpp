@@ -95,10 +95,12 @@ TEST(SpectralMethod, BasisProvenanceIsTheBasisAttributes) {
     FittedBasis s = fitted("380:780:5");
     BasisMethod method(s.basis, "fitted by spectex: x");
     auto p = method.provenance();
-    ASSERT_EQ(p.size(), 3u);
-    EXPECT_EQ(p[0].first, "spectex:basis");
-    EXPECT_EQ(p[1].second, "fitted by spectex: x");
-    EXPECT_EQ(p[2].second, s.basis.checksum());
+    ASSERT_EQ(p.size(), 4u);
+    EXPECT_EQ(p[0].first, "spectex:method");
+    EXPECT_EQ(p[0].second, "basis");
+    EXPECT_EQ(p[1].first, "spectex:basis");
+    EXPECT_EQ(p[2].second, "fitted by spectex: x");
+    EXPECT_EQ(p[3].second, s.basis.checksum());
     EXPECT_EQ(method.checksum(), s.basis.checksum());
     EXPECT_TRUE(method.is_linear());
 }

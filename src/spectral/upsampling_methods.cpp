@@ -1,0 +1,63 @@
+#include "spectral/upsampling_methods.h"
+
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+
+namespace spectex {
+
+namespace {
+
+std::string number(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.3g", v);
+    return buf;
+}
+
+}  // namespace
+
+LatticeMethod::LatticeMethod(SpectralLattice lattice, std::vector<double> lambda, std::string conditions, double blend)
+    : lattice_(std::move(lattice)), lambda_(std::move(lambda)), conditions_(std::move(conditions)), blend_(blend) {}
+
+std::vector<std::pair<std::string, std::string>> LatticeMethod::provenance() const {
+    std::string prior = to_string(lattice_.prior());
+    if (lattice_.prior() == VertexPrior::Blend) prior += " (weight " + number(blend_) + ")";
+    return {{"spectex:method", "lattice"},
+            {"spectex:latticeSize", std::to_string(lattice_.size())},
+            {"spectex:vertexPrior", prior},
+            {"spectex:methodSource", "built by spectex: " + conditions_},
+            {"spectex:methodChecksum", checksum()}};
+}
+
+JakobHanikaMethod::JakobHanikaMethod(JakobHanikaTable table, std::vector<double> lambda, std::string conditions)
+    : table_(std::move(table)), lambda_(std::move(lambda)), conditions_(std::move(conditions)) {
+    // FNV-1a over the resolution and every node's coefficients (little-endian IEEE doubles).
+    uint64_t h = 0xcbf29ce484222325ull;
+    auto add = [&](const void* p, size_t n) {
+        const unsigned char* c = static_cast<const unsigned char*>(p);
+        for (size_t i = 0; i < n; ++i) h = (h ^ c[i]) * 0x100000001b3ull;
+    };
+    const int res = table_.res();
+    add(&res, sizeof res);
+    for (double l : lambda_) add(&l, sizeof l);
+    for (int l = 0; l < 3; ++l)
+        for (int z = 0; z < res; ++z)
+            for (int y = 0; y < res; ++y)
+                for (int x = 0; x < res; ++x) {
+                    const JHCoefficients k = table_.node(l, z, y, x);
+                    add(&k.c0, sizeof k.c0), add(&k.c1, sizeof k.c1), add(&k.c2, sizeof k.c2);
+                }
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "fnv1a64:%016llx", static_cast<unsigned long long>(h));
+    checksum_ = buf;
+}
+
+std::vector<std::pair<std::string, std::string>> JakobHanikaMethod::provenance() const {
+    return {{"spectex:method", "jakob-hanika"},
+            {"spectex:jhTableResolution", std::to_string(table_.res())},
+            {"spectex:methodSource", "built by spectex: " + conditions_ + " (not exact: largest linear RGB "
+                                     "residual at the table's nodes " + number(table_.max_rgb_residual) + ")"},
+            {"spectex:methodChecksum", checksum()}};
+}
+
+}  // namespace spectex
