@@ -38,21 +38,6 @@ std::string oiio_error(OIIO::ImageInput* in) {
     return e.empty() ? "unknown OpenImageIO error" : e;
 }
 
-// A channel name as it may appear in a one-line message: control bytes escaped, at most 64 chars.
-std::string printable(const std::string& s) {
-    std::string out;
-    for (unsigned char c : s) {
-        if (out.size() >= 64) return out + "...";
-        if (c < 0x20 || c == 0x7f) {
-            char b[8];
-            std::snprintf(b, sizeof b, "\\x%02x", c);
-            out += b;
-        } else {
-            out += static_cast<char>(c);
-        }
-    }
-    return out;
-}
 
 std::string lower(std::string s) {
     for (char& c : s)
@@ -64,7 +49,7 @@ std::string lower(std::string s) {
 std::string channel_list(const std::vector<std::string>& names) {
     std::string out;
     const size_t shown = names.size() > 12 ? 10 : names.size();
-    for (size_t i = 0; i < shown; ++i) out += (i ? ", " : "") + printable(names[i]);
+    for (size_t i = 0; i < shown; ++i) out += (i ? ", " : "") + printable_excerpt(names[i], 64);
     if (shown < names.size()) out += ", ... (" + std::to_string(names.size()) + " channels)";
     return out.empty() ? "no channels" : out;
 }
@@ -85,7 +70,7 @@ void check_png_chunks(const CheckedFile& f, const std::string& path) {
         const uint64_t len = (uint64_t{h[0]} << 24) | (uint64_t{h[1]} << 16) | (uint64_t{h[2]} << 8) | h[3];
         const std::string type(reinterpret_cast<const char*>(h + 4), 4);
         if (pos + 12 + len > f.size())
-            throw Error(path + ": truncated PNG: chunk '" + printable(type) + "' at byte " + std::to_string(pos) +
+            throw Error(path + ": truncated PNG: chunk '" + printable_excerpt(type, 64) + "' at byte " + std::to_string(pos) +
                         " runs past the end of the file (" + std::to_string(f.size()) + " bytes)");
         if (type == "IEND") return;
         pos += 12 + len;
@@ -152,8 +137,8 @@ ChannelChoice choose_by_name(const std::vector<std::string>& names, const std::s
         if (r < 0 || g < 0 || b < 0) continue;
         c.colour[0] = r, c.colour[1] = g, c.colour[2] = b;
         use_layer_alpha(layer);
-        c.note = "input has no R, G, B channels: used layer '" + printable(layer) + "' (" + printable(layer) +
-                 ".R, .G, .B" + (c.alpha >= 0 ? ", alpha " + printable(names[static_cast<size_t>(c.alpha)]) : "") +
+        c.note = "input has no R, G, B channels: used layer '" + printable_excerpt(layer, 64) + "' (" + printable_excerpt(layer, 64) +
+                 ".R, .G, .B" + (c.alpha >= 0 ? ", alpha " + printable_excerpt(names[static_cast<size_t>(c.alpha)], 64) : "") +
                  ")";
         return c;
     }
@@ -162,8 +147,8 @@ ChannelChoice choose_by_name(const std::vector<std::string>& names, const std::s
         if (y < 0) continue;
         c.colour[0] = c.colour[1] = c.colour[2] = y;
         use_layer_alpha(layer);
-        c.note = "input has no R, G, B or Y channels: used layer '" + printable(layer) + "' (" + printable(layer) +
-                 ".Y as grey" + (c.alpha >= 0 ? ", alpha " + printable(names[static_cast<size_t>(c.alpha)]) : "") +
+        c.note = "input has no R, G, B or Y channels: used layer '" + printable_excerpt(layer, 64) + "' (" + printable_excerpt(layer, 64) +
+                 ".Y as grey" + (c.alpha >= 0 ? ", alpha " + printable_excerpt(names[static_cast<size_t>(c.alpha)], 64) : "") +
                  ")";
         return c;
     }

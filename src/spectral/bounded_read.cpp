@@ -112,4 +112,19 @@ void check_regular_file(const std::string& path, uint64_t max_bytes, const std::
     CheckedFile f(path, max_bytes, what);
 }
 
+std::string printable_excerpt(const std::string& s, size_t max) {
+    std::string out;
+    for (unsigned char c : s) {
+        if (out.size() >= max) return out + "...";
+        if (c < 0x20 || c == 0x7f) {
+            char b[8];
+            std::snprintf(b, sizeof b, "\\x%02x", c);
+            out += b;
+        } else {
+            out += static_cast<char>(c);
+        }
+    }
+    return out;
+}
+
 }  // namespace spectex

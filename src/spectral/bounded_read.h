@@ -68,4 +68,8 @@ void check_regular_file(const std::string& path, uint64_t max_bytes, const std::
 // "1.5 GiB", "64 MiB", "812 bytes".
 std::string format_bytes(uint64_t n);
 
+// Text from a file (a channel name, a line) for a one-line message: control bytes escaped as
+// \xNN, cut after max characters with "...".
+std::string printable_excerpt(const std::string& s, size_t max);
+
 }  // namespace spectex

@@ -45,21 +45,6 @@ void check_names(const std::vector<double>& lambda, const std::string& label) {
     }
 }
 
-// A line of a file, quoted in a one-line message: control bytes escaped, at most 60 characters.
-std::string printable(const std::string& s) {
-    std::string out;
-    for (unsigned char c : s) {
-        if (out.size() >= 60) return out + "...";
-        if (c < 0x20 || c == 0x7f) {
-            char b[8];
-            std::snprintf(b, sizeof b, "\\x%02x", c);
-            out += b;
-        } else {
-            out += static_cast<char>(c);
-        }
-    }
-    return out;
-}
 
 }  // namespace
 
@@ -193,7 +178,7 @@ WavelengthGrid WavelengthGrid::from_file(const std::string& path) {
         size_t b = line.find_last_not_of(" \t");
         double v;
         if (!parse_double(line.substr(a, b - a + 1), &v))
-            throw Error(path + ":" + std::to_string(lineno) + ": not a wavelength: '" + printable(line) + "'");
+            throw Error(path + ":" + std::to_string(lineno) + ": not a wavelength: '" + printable_excerpt(line, 60) + "'");
         values.push_back(v);
     }
     try {
