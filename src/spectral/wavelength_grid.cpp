@@ -111,7 +111,7 @@ WavelengthGrid WavelengthGrid::parse(const std::string& spec) {
 
 WavelengthGrid WavelengthGrid::parse_exact(const std::string& spec) {
     WavelengthGrid g = parse(spec);
-    double v[3];
+    double v[3] = {0, 0, 0};  // parse() has checked all three
     size_t a = spec.find(':'), b = spec.find(':', a + 1);
     parse_double(spec.substr(0, a), &v[0]);
     parse_double(spec.substr(a + 1, b - a - 1), &v[1]);
