@@ -337,9 +337,18 @@ ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const SpectralExrL
     int part = 0;
     I.check(exr_add_part(I.ctxt, nullptr, I.tiled ? EXR_STORAGE_TILED : EXR_STORAGE_SCANLINE, &part),
             "cannot add the image part");
-    exr_attr_box2i_t data{{L.x, L.y}, {L.x + L.width - 1, L.y + L.height - 1}};
-    exr_attr_box2i_t display{{L.full_x, L.full_y}, {L.full_x + L.full_width - 1, L.full_y + L.full_height - 1}};
-    exr_attr_v2f_t center{0.0f, 0.0f};
+    // The attribute types hold their fields in anonymous unions: set them by name.
+    exr_attr_box2i_t data{};
+    data.min.x = L.x;
+    data.min.y = L.y;
+    data.max.x = L.x + L.width - 1;
+    data.max.y = L.y + L.height - 1;
+    exr_attr_box2i_t display{};
+    display.min.x = L.full_x;
+    display.min.y = L.full_y;
+    display.max.x = L.full_x + L.full_width - 1;
+    display.max.y = L.full_y + L.full_height - 1;
+    exr_attr_v2f_t center{};
     I.check(exr_initialize_required_attr(I.ctxt, part, &display, &data, 1.0f, &center, 1.0f,
                                          EXR_LINEORDER_INCREASING_Y, comp),
             "cannot set the header");

@@ -4,11 +4,23 @@
 #include <ext/stdio_filebuf.h>
 #include <unistd.h>
 
+#include <cstdint>
 #include <cstdlib>
 #include <cstring>
 #include <iostream>
 #include <string>
 #include <thread>
+
+#if defined(__SANITIZE_ADDRESS__)
+#define SPECTEX_SANITIZED 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(undefined_behavior_sanitizer)
+#define SPECTEX_SANITIZED 1
+#endif
+#endif
+#ifdef SPECTEX_SANITIZED
+#include <sanitizer/common_interface_defs.h>
+#endif
 
 namespace spectex {
 
@@ -42,6 +54,11 @@ void capture_library_stderr() {
     // OCIO reads $OCIO_LOGGING_LEVEL on first use and complains about a bad one on std::cerr:
     // make that first use now, while std::cerr still reaches descriptor 2 (the pipe).
     (void)OCIO_NAMESPACE::GetLoggingLevel();
+#ifdef SPECTEX_SANITIZED
+    // A sanitizer's report must reach the real stderr, not the pipe of library chatter (which is
+    // dropped, and no longer read at exit, where leak reports are written).
+    __sanitizer_set_report_fd(reinterpret_cast<void*>(static_cast<intptr_t>(real)));
+#endif
     static __gnu_cxx::stdio_filebuf<char> ours(real, std::ios::out);
     std::cerr.rdbuf(&ours);
     std::thread([fd = p[0], real, forward] {

@@ -38,7 +38,8 @@ TEST(UserTables, BasisValuesOutsideZeroOneAreRefused) {
     write_png(d / "in.png");
     const std::vector<std::pair<std::string, std::string>> bad = {
         {"1e308", "1e308,0,0"}, {"-0.5", "-0.5,0.5,1"}, {"1.5", "1.5,0,0"}, {"1e-300 then 2", "2,0,0"}};
-    for (const auto& [what, row] : bad) {
+    for (const auto& [what, row_text] : bad) {
+        const std::string row = row_text;  // a lambda may not capture a structured binding in C++17 (clang refuses)
         write_basis(d / "b.csv", [&](int) { return row; });
         RunResult r = run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--basis", d / "b.csv"});
         EXPECT_EQ(r.status, 1) << what << ": " << r.err;

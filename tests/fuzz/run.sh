@@ -41,9 +41,9 @@ compile() {  # compile SRC OBJ EXTRA_FLAGS...
 }
 
 declare -A deps
-deps[fuzz_wavelength_grid]="spectral/wavelength_grid.cpp"
-deps[fuzz_basis_csv]="spectral/csv_table.cpp"
-deps[fuzz_exr_header]="spectral/wavelength_grid.cpp io/spectral_exr_info.cpp io/exr_preflight.cpp"
+deps[fuzz_wavelength_grid]="spectral/wavelength_grid.cpp spectral/bounded_read.cpp"
+deps[fuzz_basis_csv]="spectral/csv_table.cpp spectral/bounded_read.cpp"
+deps[fuzz_exr_header]="spectral/wavelength_grid.cpp spectral/bounded_read.cpp io/spectral_exr_info.cpp io/exr_preflight.cpp"
 
 status=0
 summary=()
