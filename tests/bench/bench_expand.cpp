@@ -210,65 +210,59 @@ const Colorimetry& colorimetry_for(int bins) {
     return bins == 401 ? c401 : c81;
 }
 
+// Times `expand(r, g, b, n, out, stride)` of a method on the planes of BM_Expand, with
+// expand_to_float of the basis of the same bin count timed in every iteration too (so that load
+// on the machine falls on both): `ratio_vs_basis` = method time / basis time.
+template <class Expand>
+void expand_against_basis(benchmark::State& state, int bins, const Expand& expand, const char* label) {
+    const ExpansionMatrix m = ExpansionMatrix::from_basis(basis_for(bins));
+    const Planes& p = planes();
+    std::vector<float> out(kPixels * static_cast<size_t>(bins)), ref(out.size());
+    using clock = std::chrono::steady_clock;
+    double method_s = 0, basis_s = 0;
+    for (auto _ : state) {
+        auto t0 = clock::now();
+        expand(p.r.data(), p.g.data(), p.b.data(), kPixels, out.data(), kPixels);
+        benchmark::ClobberMemory();
+        auto t1 = clock::now();
+        expand_to_float(m, p.r.data(), p.g.data(), p.b.data(), kPixels, ref.data(), kPixels);
+        benchmark::ClobberMemory();
+        auto t2 = clock::now();
+        const double k = std::chrono::duration<double>(t1 - t0).count();
+        method_s += k;
+        basis_s += std::chrono::duration<double>(t2 - t1).count();
+        state.SetIterationTime(k);
+    }
+    state.SetItemsProcessed(static_cast<int64_t>(state.iterations()) * static_cast<int64_t>(kPixels));
+    state.counters["bins"] = bins;
+    state.counters["ratio_vs_basis"] = basis_s > 0 ? method_s / basis_s : 0;
+    state.counters["basis_pixels_per_second"] =
+        basis_s > 0 ? static_cast<double>(state.iterations()) * kPixels / basis_s : 0;
+    state.SetLabel(label);
+}
+
 // BM_ExpandLattice: SpectralLattice::expand (n breakpoints, smooth prior; the prior does not change
-// the kernel's cost) on the same planes as BM_Expand, with expand_to_float of the basis of the same
-// bin count timed in every iteration too: `ratio_vs_basis` = lattice time / basis time.
+// the kernel's cost).
 void BM_ExpandLattice(benchmark::State& state) {
     const int bins = static_cast<int>(state.range(0)), n = static_cast<int>(state.range(1));
     const SpectralLattice L = SpectralLattice::build(colorimetry_for(bins), n, VertexPrior::Smooth);
-    const ExpansionMatrix m = ExpansionMatrix::from_basis(basis_for(bins));
-    const Planes& p = planes();
-    std::vector<float> out(kPixels * static_cast<size_t>(bins)), ref(out.size());
-    using clock = std::chrono::steady_clock;
-    double lattice_s = 0, basis_s = 0;
-    for (auto _ : state) {
-        auto t0 = clock::now();
-        L.expand(p.r.data(), p.g.data(), p.b.data(), kPixels, out.data(), kPixels);
-        benchmark::ClobberMemory();
-        auto t1 = clock::now();
-        expand_to_float(m, p.r.data(), p.g.data(), p.b.data(), kPixels, ref.data(), kPixels);
-        benchmark::ClobberMemory();
-        auto t2 = clock::now();
-        const double k = std::chrono::duration<double>(t1 - t0).count();
-        lattice_s += k;
-        basis_s += std::chrono::duration<double>(t2 - t1).count();
-        state.SetIterationTime(k);
-    }
-    state.SetItemsProcessed(static_cast<int64_t>(state.iterations()) * static_cast<int64_t>(kPixels));
-    state.counters["bins"] = bins;
     state.counters["n"] = n;
-    state.counters["ratio_vs_basis"] = basis_s > 0 ? lattice_s / basis_s : 0;
-    state.counters["basis_pixels_per_second"] =
-        basis_s > 0 ? static_cast<double>(state.iterations()) * kPixels / basis_s : 0;
-    state.SetLabel("float, lattice");
+    expand_against_basis(state, bins,
+                         [&](const float* r, const float* g, const float* b, size_t k, float* out, size_t stride) {
+                             L.expand(r, g, b, k, out, stride);
+                         },
+                         "float, lattice");
 }
 
-// BM_JakobHanikaTable: the sigmoid table's expand (res 33), same planes, same comparison.
+// BM_ExpandJakobHanika: the sigmoid table's expand (res 33).
 void BM_ExpandJakobHanika(benchmark::State& state) {
     const int bins = static_cast<int>(state.range(0));
     const JakobHanikaTable t = JakobHanikaTable::build(colorimetry_for(bins), 33);
-    const ExpansionMatrix m = ExpansionMatrix::from_basis(basis_for(bins));
-    const Planes& p = planes();
-    std::vector<float> out(kPixels * static_cast<size_t>(bins)), ref(out.size());
-    using clock = std::chrono::steady_clock;
-    double jh_s = 0, basis_s = 0;
-    for (auto _ : state) {
-        auto t0 = clock::now();
-        t.expand(p.r.data(), p.g.data(), p.b.data(), kPixels, out.data(), kPixels);
-        benchmark::ClobberMemory();
-        auto t1 = clock::now();
-        expand_to_float(m, p.r.data(), p.g.data(), p.b.data(), kPixels, ref.data(), kPixels);
-        benchmark::ClobberMemory();
-        auto t2 = clock::now();
-        const double k = std::chrono::duration<double>(t1 - t0).count();
-        jh_s += k;
-        basis_s += std::chrono::duration<double>(t2 - t1).count();
-        state.SetIterationTime(k);
-    }
-    state.SetItemsProcessed(static_cast<int64_t>(state.iterations()) * static_cast<int64_t>(kPixels));
-    state.counters["bins"] = bins;
-    state.counters["ratio_vs_basis"] = basis_s > 0 ? jh_s / basis_s : 0;
-    state.SetLabel("float, jakob-hanika table");
+    expand_against_basis(state, bins,
+                         [&](const float* r, const float* g, const float* b, size_t k, float* out, size_t stride) {
+                             t.expand(r, g, b, k, out, stride);
+                         },
+                         "float, jakob-hanika table");
 }
 
 // Build times (one build per run; single thread): lattice at n breakpoints with each prior, and

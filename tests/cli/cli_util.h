@@ -145,4 +145,20 @@ inline std::vector<std::string> temp_files_in(const std::string& dir) {
     return v;
 }
 
+// The text of a small OCIO v2 config whose colour space "lut_space" reads `lut_src` through a
+// FileTransform nested in a GroupTransform, resolved through `search_path`.
+inline std::string lut_config_text(const std::string& search_path, const std::string& lut_src) {
+    return "ocio_profile_version: 2\n"
+           "search_path: \"" + search_path + "\"\n"
+           "roles:\n  default: lin_srgb\n  scene_linear: lin_srgb\n"
+           "file_rules:\n  - !<Rule> {name: Default, colorspace: lin_srgb}\n"
+           "displays:\n  d:\n    - !<View> {name: v, colorspace: raw}\n"
+           "colorspaces:\n"
+           "  - !<ColorSpace>\n    name: raw\n    isdata: true\n"
+           "  - !<ColorSpace>\n    name: lin_srgb\n"
+           "  - !<ColorSpace>\n    name: lut_space\n"
+           "    to_scene_reference: !<GroupTransform>\n      children:\n"
+           "        - !<FileTransform> {src: \"" + lut_src + "\", interpolation: linear}\n";
+}
+
 }  // namespace spectex_test

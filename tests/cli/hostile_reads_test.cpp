@@ -195,17 +195,7 @@ std::string mkfifo_in(const ScratchDir& d, const std::string& name) {
 // A small OCIO v2 config whose colour space "lut_space" reads `lut` through a FileTransform.
 std::string lut_config(const ScratchDir& d, const std::string& lut, const std::string& name = "c.ocio") {
     const std::string p = d / name;
-    write_bytes(p, "ocio_profile_version: 2\n"
-                   "search_path: \".\"\n"
-                   "roles:\n  default: lin_srgb\n  scene_linear: lin_srgb\n"
-                   "file_rules:\n  - !<Rule> {name: Default, colorspace: lin_srgb}\n"
-                   "displays:\n  d:\n    - !<View> {name: v, colorspace: raw}\n"
-                   "colorspaces:\n"
-                   "  - !<ColorSpace>\n    name: raw\n    isdata: true\n"
-                   "  - !<ColorSpace>\n    name: lin_srgb\n"
-                   "  - !<ColorSpace>\n    name: lut_space\n"
-                   "    to_scene_reference: !<GroupTransform>\n      children:\n"
-                   "        - !<FileTransform> {src: \"" + lut + "\", interpolation: linear}\n");
+    write_bytes(p, lut_config_text(".", lut));
     return p;
 }
 

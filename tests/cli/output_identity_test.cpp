@@ -207,16 +207,7 @@ TEST(OutputIdentity, NoOutputIsALutFileOfTheConfig) {
     const std::string lut = d / "luts/curve.cube";
     std::ofstream(lut) << "LUT_1D_SIZE 2\n0 0 0\n1 1 1\n";
     const std::string cfg = d / "c.ocio";
-    std::ofstream(cfg) << "ocio_profile_version: 2\n"
-                          "search_path: \"luts\"\n"
-                          "roles:\n  default: lin_srgb\n  scene_linear: lin_srgb\n"
-                          "file_rules:\n  - !<Rule> {name: Default, colorspace: lin_srgb}\n"
-                          "displays:\n  d:\n    - !<View> {name: v, colorspace: raw}\n"
-                          "colorspaces:\n"
-                          "  - !<ColorSpace>\n    name: raw\n    isdata: true\n"
-                          "  - !<ColorSpace>\n    name: lin_srgb\n"
-                          "  - !<ColorSpace>\n    name: lut_space\n"
-                          "    to_scene_reference: !<FileTransform> {src: curve.cube, interpolation: linear}\n";
+    std::ofstream(cfg) << lut_config_text("luts", "curve.cube");
     write_png(d / "in.png");
     const std::string before = read_file(lut);
     for (const std::string& alias : {lut, d.path() + "/luts/../luts/curve.cube"}) {

@@ -171,23 +171,31 @@ TEST(RoundTripSlow, EveryEightBitColourHalfNearestRoundingIsMeasured) {
     EXPECT_GT(st.code_match, st.pixels - st.pixels / 10000);
 }
 
-TEST(RoundTripSlow, EveryEightBitColourFloatFittedBasis) {
-    // The default (fitted) basis in float: every colour within 1e-6 of the linear value that went
-    // in (OCIO's decoding of the code), and every code re-encodes exactly.
+// Bakes all 16,777,216 8-bit colours as float with `extra` options and checks every colour against
+// the linear value that went in (OCIO's decoding of its code): within the float bound (see
+// check(): the float rounding of each bin and of the expansion through the weights, ~3e-7), below
+// 1e-6, and every code re-encoding exactly.
+static void expect_every_colour_exact_in_float(const std::vector<std::string>& extra, const char* label) {
     ScratchDir dir;
     write_codes_png(dir / "all.png", 4096, 4096, all_colours);
-    auto r = run_spectex({"bake", dir / "all.png", "-o", dir / "all.exr", "--compression", "none", "--type", "float"});
+    std::vector<std::string> args = {"bake", dir / "all.png", "-o", dir / "all.exr", "--compression", "none",
+                                     "--type", "float"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    auto r = run_spectex(args);
     ASSERT_EQ(r.status, 0) << r.err;
     auto table = ocio_decode_table();
-    // Tolerance: 0 extra (the fitted basis is exact to 1e-15); the bound is then the float
-    // rounding of each bin and of the expansion through the weights, ~3e-7 at most.
     Stats st = check(dir / "all.exr", all_colours, &table, 0.0);
-    std::printf("round trip, 16777216 colours, fitted smooth basis, float: max |err| %.3g, mean %.3g, "
-                "bound <= %.3g, codes exact: %llu\n", st.max_err, st.sum_err / (3.0 * st.pixels), st.max_bound,
+    std::printf("round trip, 16777216 colours, %s, float: max |err| %.3g, mean %.3g, bound <= %.3g, codes exact: "
+                "%llu\n", label, st.max_err, st.sum_err / (3.0 * st.pixels), st.max_bound,
                 static_cast<unsigned long long>(st.code_match));
     EXPECT_EQ(st.over_bound, 0u);
     EXPECT_LT(st.max_err, 1e-6);
     EXPECT_EQ(st.code_match, st.pixels);
+}
+
+TEST(RoundTripSlow, EveryEightBitColourFloatFittedBasis) {
+    // The default (fitted) basis: exact to 1e-15, so no tolerance beyond the float bound.
+    expect_every_colour_exact_in_float({}, "fitted smooth basis");
 }
 
 TEST(RoundTrip, SampleOfColoursFloatAndHalf) {
@@ -271,21 +279,9 @@ TEST(RoundTripSlow, EveryEightBitColourHalfLattice) {
 }
 
 TEST(RoundTripSlow, EveryEightBitColourFloatLattice) {
-    ScratchDir dir;
-    write_codes_png(dir / "all.png", 4096, 4096, all_colours);
-    auto r = run_spectex({"bake", dir / "all.png", "-o", dir / "all.exr", "--compression", "none", "--type", "float",
-                          "--method", "lattice"});
-    ASSERT_EQ(r.status, 0) << r.err;
-    auto table = ocio_decode_table();
-    // Tolerance: the vertex spectra are exact to 2e-15 in double; the float table (rounding of each
-    // vertex value, 6e-8 relative) and the float interpolation stay inside the float bound.
-    Stats st = check(dir / "all.exr", all_colours, &table, 0.0);
-    std::printf("round trip, 16777216 colours, lattice 9, float: max |err| %.3g, mean %.3g, bound <= %.3g, "
-                "codes exact: %llu\n", st.max_err, st.sum_err / (3.0 * st.pixels), st.max_bound,
-                static_cast<unsigned long long>(st.code_match));
-    EXPECT_EQ(st.over_bound, 0u);
-    EXPECT_LT(st.max_err, 1e-6);
-    EXPECT_EQ(st.code_match, st.pixels);
+    // The vertex spectra are exact to 2e-15 in double; the float table (rounding of each vertex
+    // value, 6e-8 relative) and the float interpolation stay inside the float bound.
+    expect_every_colour_exact_in_float({"--method", "lattice"}, "lattice 9");
 }
 
 TEST(RoundTrip, LatticeSamplesExactOnOtherGridsObserversAndSizes) {
