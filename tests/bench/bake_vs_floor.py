@@ -13,6 +13,11 @@ Targets (issue 4), checked from child processes (os.wait4 rusage):
   * 81 bins, half, zip: bake wall <= 1.15 x floor wall; CPU time / wall close to the thread count;
     peak RSS < 2 x decoded float RGB + 64 MiB (466 MiB at 4096²);
   * 401 bins (380:780:1): peak RSS < 512 MiB.
+With --methods basis,lattice (issue 11) every method is baked and given its own floor (the floor
+writes that method's spectra, expanded by the same SpectralMethod and half rounding), alternately
+in one run, and two more targets are checked: each method's bake within 1.15x its own floor (the
+kernel hides under the encoder), and the lattice bake within 1.10x the basis bake (which measures
+the encoder's cost of the lattice's spectra against the basis's, too: they compress differently).
 Without --input, a photograph-like PNG of --size² is made (numpy + OpenImageIO from the venv).
 --check exits 1 if a target is missed. Writes OUT/bake_vs_floor.md and .json.
 """
@@ -70,6 +75,8 @@ def main():
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--zip-level", type=int, default=4)
     ap.add_argument("--no-401", action="store_true", help="skip the 401-bin memory run")
+    ap.add_argument("--methods", default="basis", help="comma-separated --method values to bake (first: basis)")
+    ap.add_argument("--no-nearest", action="store_true", help="skip the --half-rounding nearest runs")
     ap.add_argument("--out", default="bench-report")
     ap.add_argument("--check", action="store_true", help="exit 1 if a target is missed")
     a = ap.parse_args()
@@ -99,21 +106,39 @@ def main():
             rec = json.loads(jl.read_text().splitlines()[-1])
             return dict(wall=wall, cpu=cpu, rss=rss, bytes=rec["bytes"], stages=rec.get("stages", {}))
 
-        def floor(grid):
+        def floor(grid, method=None):
+            extra = ["--method", method] if method else []
             wall, cpu, rss, text = run_child([a.floor, "--source", src, "--whole", "--wavelengths", grid,
-                                              "--out", floor_exr, *common])
+                                              "--out", floor_exr, *common, *extra])
             rec = json.loads(text.strip().splitlines()[-1])
             return dict(wall=rec["wall_s"], cpu=rec["cpu_s"], rss=rss, bytes=rec["bytes"], writer=rec.get("writer"))
 
-        rows = {}
-        log(f"{src}: {w}x{h}, threads {T}, zip level {a.zip_level}, {a.repeat} alternating runs")
-        runs = {"floor": [], "bake": [], "bake_nearest": []}
+        methods = [m for m in a.methods.split(",") if m]
+        if methods[0] != "basis":
+            methods.insert(0, "basis")
+        multi = len(methods) > 1
+        rows, names, floor_of = {}, {}, {}
+        log(f"{src}: {w}x{h}, threads {T}, zip level {a.zip_level}, {a.repeat} alternating runs, methods {methods}")
+        runs = {}
+        for m in methods:
+            fk, bk_ = ("floor", "bake") if m == "basis" else (f"floor_{m}", f"bake_{m}")
+            runs[fk], runs[bk_] = [], []
+            names[fk] = f"floor (writer only, 81 bins{', ' + m + ' spectra' if multi else ''})"
+            names[bk_] = f"bake, 81 bins{' --method ' + m if multi else ''} (default colour rounding)"
+            floor_of[bk_] = fk
+        if not a.no_nearest:
+            runs["bake_nearest"] = []
+            names["bake_nearest"] = "bake, 81 bins, --half-rounding nearest"
+            floor_of["bake_nearest"] = "floor"
         for i in range(a.repeat):
-            runs["floor"].append(floor("380:780:5"))
-            runs["bake"].append(bake())
-            runs["bake_nearest"].append(bake(["--half-rounding", "nearest"]))
-            log(f"  run {i + 1}: floor {runs['floor'][-1]['wall']:.2f} s, bake {runs['bake'][-1]['wall']:.2f} s, "
-                f"bake nearest {runs['bake_nearest'][-1]['wall']:.2f} s")
+            for m in methods:
+                fk, bk_ = ("floor", "bake") if m == "basis" else (f"floor_{m}", f"bake_{m}")
+                runs[fk].append(floor("380:780:5", m if multi else None))
+                runs[bk_].append(bake(["--method", m] if multi else []))
+                log(f"  run {i + 1}, {m}: floor {runs[fk][-1]['wall']:.2f} s, bake {runs[bk_][-1]['wall']:.2f} s")
+            if not a.no_nearest:
+                runs["bake_nearest"].append(bake(["--half-rounding", "nearest"]))
+                log(f"  run {i + 1}: bake nearest {runs['bake_nearest'][-1]['wall']:.2f} s")
         for k, v in runs.items():
             best = min(v, key=lambda r: r["wall"])
             best["rss_max"] = max(r["rss"] for r in v)
@@ -122,6 +147,8 @@ def main():
             log("  401 bins (380:780:1), one run for memory")
             rows["bake_401"] = bake(["--wavelengths", "380:780:1"])
             rows["bake_401"]["rss_max"] = rows["bake_401"]["rss"]
+            names["bake_401"] = "bake, 401 bins (380:780:1)"
+            floor_of["bake_401"] = "floor"
 
         fl, bk = rows["floor"], rows["bake"]
         ratio = bk["wall"] / fl["wall"]
@@ -132,19 +159,27 @@ def main():
             (f"81 bins: peak RSS < 2 x float RGB + 64 MiB ({budget81 / MIB:.0f} MiB)", bk["rss_max"] < budget81,
              f"{bk['rss_max'] / MIB:.0f} MiB"),
         ]
+        for m in methods[1:]:
+            r, f = rows[f"bake_{m}"], rows[f"floor_{m}"]
+            checks.append((f"--method {m}: bake wall / its own floor wall <= 1.15", r["wall"] / f["wall"] <= 1.15,
+                           f"{r['wall'] / f['wall']:.3f}"))
+            checks.append((f"--method {m}: bake wall / basis bake wall <= 1.10", r["wall"] / bk["wall"] <= 1.10,
+                           f"{r['wall'] / bk['wall']:.3f} (bytes {r['bytes'] / bk['bytes']:.2f}x)"))
+            checks.append((f"--method {m}: peak RSS < {budget81 / MIB:.0f} MiB", r["rss_max"] < budget81,
+                           f"{r['rss_max'] / MIB:.0f} MiB"))
         if "bake_401" in rows:
             r4 = rows["bake_401"]
             checks.append(("401 bins: peak RSS < 512 MiB", r4["rss_max"] < 512 * MIB, f"{r4['rss_max'] / MIB:.0f} MiB"))
 
         L = [f"# spectex bake against its floor\n",
              f"Input `{src.name}` {w}×{h}; {T} threads; ZIP level {a.zip_level}; best of {a.repeat} alternating "
-             f"runs (peak RSS: the largest). Floor: `bench_exr_floor --whole` ({fl['writer']} writer).\n",
+             f"runs (peak RSS: the largest). Floor: `bench_exr_floor --whole` ({fl['writer']} writer); "
+             f"× floor: against the floor of the same spectra.\n",
              "| run | wall s | × floor | CPU s | cores busy | peak RSS MiB | bytes |",
              "|---|---|---|---|---|---|---|"]
-        names = {"floor": "floor (writer only, 81 bins)", "bake": "bake, 81 bins (default colour rounding)",
-                 "bake_nearest": "bake, 81 bins, --half-rounding nearest", "bake_401": "bake, 401 bins (380:780:1)"}
         for k, r in rows.items():
-            L.append(f"| {names[k]} | {r['wall']:.2f} | {r['wall'] / fl['wall']:.3f} | {r['cpu']:.2f} | "
+            ref = rows[floor_of.get(k, k)]
+            L.append(f"| {names[k]} | {r['wall']:.2f} | {r['wall'] / ref['wall']:.3f} | {r['cpu']:.2f} | "
                      f"{r['cpu'] / r['wall']:.2f} | {r['rss_max'] / MIB:.0f} | {r['bytes']} |")
         L.append("\nStages of the bake (seconds; producer thread: read, colour, expand; writer thread: pack, waits; "
                  "compress: CPU seconds over the workers):\n")

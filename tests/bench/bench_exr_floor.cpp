@@ -10,6 +10,11 @@
 // same strip size (spectex::strip_rows: about 32 MB of samples, whole chunks for the C++ writer), T compression
 // threads (Imf::setGlobalThreadCount(T) for the C++ writer).
 //
+// --method basis|lattice|jakob-hanika (with --lattice-size N) expands with that method, through the
+// same SpectralMethod and colour-aware half rounding as spectex bake, so that each method's bake is
+// compared with the floor of writing its own spectra (ZIP's cost depends on them). Without it the
+// fitted basis with plain rounding (the floor's original figures).
+//
 // --source IMAGE replaces the synthetic pattern by the first strip of that image (read and
 // linearised as spectex does, clamped to [0, 1]), so that the encoder sees the same kind of content
 // as the bake it is compared with (ZIP's cost depends on it); the size is then the image's unless
@@ -42,6 +47,8 @@
 #include "io/linearizer.h"
 #include "io/spectral_exr_writer.h"
 #include "pipeline/bake.h"
+#include "pipeline/method_cache.h"
+#include "spectral/spectral_method.h"
 #include "spectral/basis.h"
 #include "spectral/basis_fit.h"
 #include "spectral/expand.h"
@@ -63,6 +70,7 @@ double cpu_seconds() {
                  "%s\nusage: bench_exr_floor [--width W] [--height H] [--bins N | --wavelengths S:E:STEP]\n"
                  "                       [--type half|float] [--compression NAME] [--threads T]\n"
                  "                       [--zip-level L] [--writer auto|core|imf] [--source IMAGE] [--whole]\n"
+                 "                       [--method basis|lattice|jakob-hanika] [--lattice-size N]\n"
                  "                       [--out FILE.exr] [--keep]\n"
                  "defaults: 4096 x 4096, 81 bins (380:780:5), half, zip, T = cores, /tmp/bench_exr_floor.exr\n",
                  msg);
@@ -80,6 +88,8 @@ int main(int argc, char** argv) {
     // compresses exactly the pixels spectex writes (ZIP's time depends on content).
     bool whole = false;
     bool keep = false;
+    std::string method_name;  // empty: the fitted basis, plain rounding
+    int lattice_size = 9;
     for (int i = 1; i < argc; ++i) {
         std::string a = argv[i];
         auto val = [&]() -> std::string {
@@ -99,6 +109,8 @@ int main(int argc, char** argv) {
         else if (a == "--keep") keep = true;
         else if (a == "--source") source = val();
         else if (a == "--whole") whole = true;
+        else if (a == "--method") method_name = val();
+        else if (a == "--lattice-size") lattice_size = std::stoi(val());
         else if (a == "-h" || a == "--help") usage("bench_exr_floor: the OpenEXR-only floor of spectex bake");
         else usage(("unknown option " + a).c_str());
     }
@@ -154,6 +166,41 @@ int main(int argc, char** argv) {
             }
         }
         const ExpansionMatrix m = ExpansionMatrix::from_basis(basis);
+        // With --method: the method and the colour-aware rounding weights, as bake.cpp makes them.
+        std::shared_ptr<const SpectralMethod> method;
+        std::vector<float> rgb_weight;
+        if (!method_name.empty()) {
+            FitSpec fit;
+            fit.data_dir = SPECTEX_TEST_DATA_DIR;
+            fit.grid = grid;
+            if (method_name == "basis") {
+                method = std::make_shared<BasisMethod>(fit_basis_for(fit).basis, "fitted by spectex");
+            } else {
+                MethodSpec ms;
+                ms.method = method_name;
+                ms.fit = fit;
+                ms.lattice_size = lattice_size;
+                method = make_method(ms).method;
+            }
+            const Colorimetry c = Colorimetry::make(load_observer(fit.data_dir, fit.observer),
+                                                    load_illuminant(fit.data_dir, fit.illuminant), grid,
+                                                    primaries_by_name("srgb"));
+            const Eigen::Matrix3Xd R = c.rgb_weights();
+            for (Eigen::Index k = 0; k < R.cols(); ++k)
+                for (int ch = 0; ch < 3; ++ch) rgb_weight.push_back(static_cast<float>(R(ch, k)));
+        }
+        auto expand_half = [&](const float* rr, const float* gg, const float* bb, size_t count, uint16_t* o) {
+            if (method)
+                method->expand_half(rr, gg, bb, count, o, count, &rgb_weight);
+            else
+                expand_to_half(m, rr, gg, bb, count, o, count);
+        };
+        auto expand_float = [&](const float* rr, const float* gg, const float* bb, size_t count, float* o) {
+            if (method)
+                method->expand_float(rr, gg, bb, count, o, count);
+            else
+                expand_to_float(m, rr, gg, bb, count, o, count);
+        };
         const size_t n = w * static_cast<size_t>(strip);
         std::vector<float> r(n), g(n), b(n);
         for (int y = 0; y < strip; ++y)
@@ -185,11 +232,11 @@ int main(int argc, char** argv) {
         const char* planes;
         if (half) {
             hbuf.resize(n * static_cast<size_t>(bins));
-            expand_to_half(m, r.data(), g.data(), b.data(), n, hbuf.data(), n);
+            expand_half(r.data(), g.data(), b.data(), n, hbuf.data());
             planes = reinterpret_cast<const char*>(hbuf.data());
         } else {
             fbuf.resize(n * static_cast<size_t>(bins));
-            expand_to_float(m, r.data(), g.data(), b.data(), n, fbuf.data(), n);
+            expand_float(r.data(), g.data(), b.data(), n, fbuf.data());
             planes = reinterpret_cast<const char*>(fbuf.data());
         }
         std::vector<std::string> names;
@@ -211,9 +258,9 @@ int main(int argc, char** argv) {
                 for (size_t i = 0; i < ns; ++i) rr[i] = c01(rgba[4 * i]), gg[i] = c01(rgba[4 * i + 1]), bb[i] = c01(rgba[4 * i + 2]);
                 whole_strips.emplace_back(ns * static_cast<size_t>(bins) * es);
                 if (half)
-                    expand_to_half(m, rr.data(), gg.data(), bb.data(), ns, reinterpret_cast<uint16_t*>(whole_strips.back().data()), ns);
+                    expand_half(rr.data(), gg.data(), bb.data(), ns, reinterpret_cast<uint16_t*>(whole_strips.back().data()));
                 else
-                    expand_to_float(m, rr.data(), gg.data(), bb.data(), ns, reinterpret_cast<float*>(whole_strips.back().data()), ns);
+                    expand_float(rr.data(), gg.data(), bb.data(), ns, reinterpret_cast<float*>(whole_strips.back().data()));
             }
         }
 
@@ -255,9 +302,9 @@ int main(int argc, char** argv) {
         std::printf(
             "{\"width\": %d, \"height\": %d, \"bins\": %d, \"type\": \"%s\", \"compression\": \"%s\", "
             "\"writer\": \"%s\", \"zip_level\": %d, \"threads\": %d, \"strip_rows\": %d, \"lines_per_chunk\": %d, "
-            "\"pattern\": \"%s\", \"wall_s\": %.4f, \"cpu_s\": %.4f, \"bytes\": %llu, \"megapixels_per_s\": %.3f, \"peak_rss_mb\": %.1f}\n",
+            "\"method\": \"%s\", \"pattern\": \"%s\", \"wall_s\": %.4f, \"cpu_s\": %.4f, \"bytes\": %llu, \"megapixels_per_s\": %.3f, \"peak_rss_mb\": %.1f}\n",
             width, height, bins, type.c_str(), comp.name.c_str(), used.c_str(), zip_level >= 0 ? zip_level : SpectralExrLayout().zip_level, threads, strip, chunk,
-            whole_strips.size() ? "source, whole image" : src ? "source first strip" : "synthetic smooth", wall, cpu,
+            method ? method->name().c_str() : "basis (plain rounding)", whole_strips.size() ? "source, whole image" : src ? "source first strip" : "synthetic smooth", wall, cpu,
             static_cast<unsigned long long>(bytes), static_cast<double>(width) * height / 1e6 / wall,
             ru.ru_maxrss / 1024.0);
     } catch (const std::exception& e) {
