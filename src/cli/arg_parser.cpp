@@ -174,4 +174,26 @@ uint64_t parse_count(const std::string& option, const std::string& value) {
     return static_cast<uint64_t>(v);
 }
 
+std::vector<std::string> split_list(const std::string& value, const std::string& option) {
+    std::vector<std::string> out;
+    size_t start = 0;
+    while (true) {
+        const size_t comma = value.find(',', start);
+        std::string item = value.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+        const size_t b = item.find_first_not_of(" \t"), e = item.find_last_not_of(" \t");
+        item = b == std::string::npos ? std::string() : item.substr(b, e - b + 1);
+        if (item.empty()) throw UsageError((option.empty() ? std::string() : option + ": ") + "empty name in '" + value + "'");
+        out.push_back(item);
+        if (comma == std::string::npos) break;
+        start = comma + 1;
+    }
+    return out;
+}
+
+std::string join_names(const std::vector<std::string>& names) {
+    std::string s;
+    for (size_t i = 0; i < names.size(); ++i) s += (i ? ", " : "") + names[i];
+    return s;
+}
+
 }  // namespace spectex

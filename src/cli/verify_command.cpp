@@ -8,11 +8,19 @@
 #include <sstream>
 #include <thread>
 
+#include <algorithm>
+#include <atomic>
+#include <filesystem>
+
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
 #include "pipeline/batch.h"
 #include "io/data_dir.h"
+#include "io/atomic_file.h"
+#include "io/file_identity.h"
+#include "io/spectral_exr_info.h"
 #include "pipeline/verify.h"
+#include "spectral/spectrum.h"
 #include "spectral/error.h"
 #include "spectral/wavelength_grid.h"
 
@@ -46,28 +54,7 @@ double share(uint64_t count, uint64_t total) {
     return total ? static_cast<double>(count) / static_cast<double>(total) : 0.0;
 }
 
-struct Thresholds {
-    bool de = false, rgb = false, code = false;
-    double max_de = 0, max_rgb = 0, min_code = 0;  // min_code in percent
-};
-
-std::vector<std::string> check(const VerifyReport& r, const Thresholds& t) {
-    std::vector<std::string> fail;
-    if (t.de && !(r.de_max <= t.max_de))
-        fail.push_back("max CIEDE2000 " + num(r.de_max) + " exceeds --max-de " + num(t.max_de));
-    if (t.rgb && !(r.rgb_error_max <= t.max_rgb))
-        fail.push_back("max linear RGB error " + num(r.rgb_error_max) + " exceeds --max-rgb-error " + num(t.max_rgb));
-    if (t.code) {
-        if (!r.code_match_available)
-            fail.push_back("--min-code-match " + num(t.min_code) + "%: code match is n/a (" + r.code_match_note + ")");
-        else if (!(100.0 * r.code_match_share() >= t.min_code))
-            fail.push_back("code match " + num(100.0 * r.code_match_share()) + "% is below --min-code-match " +
-                           num(t.min_code) + "%");
-    }
-    return fail;
-}
-
-void print_text(const VerifyReport& r, const std::vector<std::string>& failures) {
+void print_text(const VerifyReport& r, const VerifyGates& g, const std::vector<std::string>& failures) {
     std::ostream& o = std::cout;
     o << r.file << "\n";
     o << "  size:                 " << r.width << " x " << r.height << " (" << r.pixels << " pixels)\n";
@@ -76,6 +63,7 @@ void print_text(const VerifyReport& r, const std::vector<std::string>& failures)
     o << "  samples:              " << r.sample_type << ", " << r.compression << ", " << r.storage << "\n";
     o << "  alpha:                " << (r.alpha == "none" ? std::string("none") : "A (" + r.alpha + ")") << "\n";
     o << "  integrated under:     " << r.illuminant << ", observer " << r.observer << "\n";
+    if (!r.method.empty()) o << "  method:               " << r.method << "\n";
     o << "  outside [0, 1]:       " << r.below_zero + r.above_one << " samples ("
       << percent(r.below_zero + r.above_one, r.samples) << "): " << r.below_zero << " below 0, " << r.above_one
       << " above 1\n";
@@ -102,22 +90,50 @@ void print_text(const VerifyReport& r, const std::vector<std::string>& failures)
         o << "  CIEDE2000:            max " << num(r.de_max) << " at (" << r.de_x << ", " << r.de_y << "), mean "
           << num(r.de_mean) << ", 99th percentile " << num(r.de_p99) << "\n";
         if (r.code_match_available)
-            o << "  code match:           " << percent(r.code_matched, r.compared_pixels) << " (" << r.code_matched
-              << " of " << r.compared_pixels << " pixels re-encode to their " << r.source_bits << "-bit codes; "
+            o << "  code match:           " << percent(r.code_matched, r.code_checked) << " (" << r.code_matched
+              << " of " << r.code_checked << " pixels re-encode to their " << r.source_bits << "-bit codes"
+              << (r.code_checked < r.compared_pixels ? "; pixels the bake clamped are not counted" : "") << "; "
               << r.code_match_note << ")\n";
         else
             o << "  code match:           n/a (" << r.code_match_note << ")\n";
     }
+    for (const auto& l : r.other_lights)
+        o << "  under " << l.light << " (Bradford to " << r.illuminant << "'s white), CIEDE2000 from " << r.illuminant
+          << ": mean " << num(l.de_mean) << ", 99th percentile " << num(l.de_p99) << ", max " << num(l.de_max) << " at ("
+          << l.de_x << ", " << l.de_y << "); linear RGB R " << num(l.rgb_min[0]) << " .. " << num(l.rgb_max[0])
+          << ", G " << num(l.rgb_min[1]) << " .. " << num(l.rgb_max[1]) << ", B " << num(l.rgb_min[2]) << " .. "
+          << num(l.rgb_max[2]) << " (reported, not gated)\n";
     o << "  time:                 " << num(r.seconds, "%.3f") << " s\n";
+    if (g.report_only) o << "  gates:                none (--report-only)\n";
+    else if (r.compared && r.method == "jakob-hanika")
+        o << "  gates:                colour gates off: jakob-hanika spectra are not exact\n";
+    for (const auto& a : gates_applied(r, g)) o << "  gate:                 " << a << "\n";
     if (failures.empty())
         o << "  result:               ok\n";
     else
         for (const auto& f : failures) o << "  result:               FAILED: " << f << "\n";
 }
 
-void print_json(const VerifyReport& r, const Thresholds& t, const std::vector<std::string>& failures) {
+// One line per file when several are verified.
+void print_line(const VerifyReport& r, const std::vector<std::string>& failures) {
     std::ostringstream o;
-    o << "{\"schema_version\":1";
+    o << r.file << ": " << (failures.empty() ? "ok" : "FAILED");
+    o << " (" << r.bins << " bins, " << r.sample_type;
+    if (r.nonfinite) o << ", " << r.nonfinite << " non-finite";
+    if (r.below_tol + r.above_tol) o << ", " << r.below_tol + r.above_tol << " outside [0, 1]";
+    if (r.compared) {
+        o << ", CIEDE2000 max " << num(r.de_max);
+        if (r.code_match_available) o << ", codes " << percent(r.code_matched, r.code_checked);
+    }
+    for (const auto& l : r.other_lights) o << ", under " << l.light << " mean " << num(l.de_mean, "%.3g");
+    o << ")";
+    for (const auto& f : failures) o << "; " << f;
+    std::cout << one_line(o.str()) << "\n";
+}
+
+std::string json_line(const VerifyReport& r, const VerifyGates& t, const std::vector<std::string>& failures) {
+    std::ostringstream o;
+    o << "{\"schema_version\":2";
     o << ",\"file\":" << json_string(r.file);
     o << ",\"width\":" << r.width << ",\"height\":" << r.height << ",\"pixels\":" << r.pixels;
     o << ",\"bins\":" << r.bins << ",\"wavelength_min\":" << json_number(r.lambda_min)
@@ -125,6 +141,22 @@ void print_json(const VerifyReport& r, const Thresholds& t, const std::vector<st
     o << ",\"sample_type\":" << json_string(r.sample_type) << ",\"compression\":" << json_string(r.compression)
       << ",\"storage\":" << json_string(r.storage) << ",\"alpha\":" << json_string(r.alpha);
     o << ",\"illuminant\":" << json_string(r.illuminant) << ",\"observer\":" << json_string(r.observer);
+    o << ",\"method\":" << (r.method.empty() ? std::string("null") : json_string(r.method))
+      << ",\"out_of_range\":" << json_string(r.out_of_range) << ",\"nan\":" << json_string(r.nan);
+    o << ",\"warnings\":[";
+    for (size_t i = 0; i < r.warnings.size(); ++i) o << (i ? "," : "") << json_string(r.warnings[i]);
+    o << "],\"other_lights\":[";
+    for (size_t i = 0; i < r.other_lights.size(); ++i) {
+        const auto& l = r.other_lights[i];
+        o << (i ? "," : "") << "{\"illuminant\":" << json_string(l.light) << ",\"adaptation\":\"bradford\""
+          << ",\"pixels\":" << l.pixels << ",\"ciede2000\":{\"mean\":" << json_number(l.de_mean)
+          << ",\"p99\":" << json_number(l.de_p99) << ",\"max\":" << json_number(l.de_max) << ",\"max_at\":["
+          << l.de_x << "," << l.de_y << "]},\"rgb_range\":{\"min\":[" << json_number(l.rgb_min[0]) << ","
+          << json_number(l.rgb_min[1]) << "," << json_number(l.rgb_min[2]) << "],\"max\":["
+          << json_number(l.rgb_max[0]) << "," << json_number(l.rgb_max[1]) << "," << json_number(l.rgb_max[2])
+          << "]}}";
+    }
+    o << "]";
     o << ",\"samples\":" << r.samples;
     o << ",\"outside_unit_interval\":{\"count\":" << r.below_zero + r.above_one
       << ",\"share\":" << json_number(share(r.below_zero + r.above_one, r.samples)) << ",\"below\":" << r.below_zero
@@ -150,7 +182,7 @@ void print_json(const VerifyReport& r, const Thresholds& t, const std::vector<st
           << ",\"code_match\":";
         if (r.code_match_available)
             o << "{\"share\":" << json_number(r.code_match_share()) << ",\"matched\":" << r.code_matched
-              << ",\"encoding\":" << json_string(r.code_match_note) << "}";
+              << ",\"checked\":" << r.code_checked << ",\"encoding\":" << json_string(r.code_match_note) << "}";
         else
             o << "{\"share\":null,\"note\":" << json_string(r.code_match_note) << "}";
         o << "}";
@@ -160,106 +192,233 @@ void print_json(const VerifyReport& r, const Thresholds& t, const std::vector<st
     o << ",\"thresholds\":{\"max_de\":" << (t.de ? json_number(t.max_de) : "null")
       << ",\"max_rgb_error\":" << (t.rgb ? json_number(t.max_rgb) : "null")
       << ",\"min_code_match_percent\":" << (t.code ? json_number(t.min_code) : "null") << "}";
+    o << ",\"report_only\":" << (t.report_only ? "true" : "false") << ",\"gates\":[";
+    {
+        const auto applied = gates_applied(r, t);
+        for (size_t i = 0; i < applied.size(); ++i) o << (i ? "," : "") << json_string(applied[i]);
+    }
+    o << "]";
     o << ",\"failures\":[";
     for (size_t i = 0; i < failures.size(); ++i) o << (i ? "," : "") << json_string(failures[i]);
     o << "],\"passed\":" << (failures.empty() ? "true" : "false");
     o << ",\"seconds\":" << json_number(r.seconds) << "}\n";
-    std::cout << o.str();
+    return o.str();
+}
+
+std::string json_error_line(const std::string& file, const std::string& error) {
+    return "{\"schema_version\":2,\"file\":" + json_string(file) + ",\"error\":" + json_string(error) +
+           ",\"failures\":[" + json_string(error) + "],\"passed\":false}\n";
 }
 
 }  // namespace
 
 int run_verify(const std::vector<std::string>& args) {
     VerifySettings s;
-    Thresholds t;
-    bool json = false;
-    ArgParser p("verify", "spectex verify [options] FILE.exr",
-                "Reads a reflective spectral OpenEXR (Fichet 2021 layout, channels T.<wavelength>nm, from spectex\n"
-                "or any other tool) a band of rows at a time, integrates every pixel under an illuminant with an\n"
-                "observer on the file's own bins (linear Rec.709 through the white-consistent matrix; spectra\n"
-                "premultiplied by A are divided by it unless spectex:alpha says 'unassociated'), and reports the\n"
-                "samples outside [0, 1] and the non-finite ones. With --source, it also compares every pixel with\n"
-                "the source image, linearised and clamped as 'spectex bake' does by default: linear RGB error,\n"
-                "CIEDE2000 (L*a*b* relative to the illuminant's white) max, mean and 99th percentile, and the\n"
-                "share of pixels that re-encode to the source's 8- or 16-bit codes.\n"
-                "Exit status: 0 all thresholds met, 1 a threshold exceeded or the file unreadable, 2 usage error.");
+    VerifyGates t;
+    std::string json, from_list;
+    bool source_from_header = false, quiet = false;
+    int jobs = 1;
+    ArgParser p("verify", "spectex verify [options] FILE.exr [FILE.exr ...]",
+                "Reads reflective spectral OpenEXRs (Fichet 2021 layout, channels T.<wavelength>nm, from spectex\n"
+                "or any other tool) a band of rows at a time, integrates every pixel under the light the file\n"
+                "was baked for (spectex:illuminant, else D65) with its observer, on the file's own bins (linear\n"
+                "Rec.709 through the white-consistent matrix; spectra premultiplied by A are divided by it unless\n"
+                "spectex:alpha says 'unassociated'), and checks it. With --source, it compares every pixel with\n"
+                "the source image, linearised as the file records (input colour space, OCIO config, out-of-range\n"
+                "and NaN policies): linear RGB error, CIEDE2000 (L*a*b* relative to the light's white) and the\n"
+                "share of pixels that re-encode to the source's 8- or 16-bit codes through the config's inverse\n"
+                "transform. Options given override what the file records (a warning says so).\n"
+                "Default gates (a correct bake passes them, --report-only turns them off): no non-finite sample;\n"
+                "no sample more than 1e-6 outside [0, 1] unless the file records --out-of-range keep; with a\n"
+                "source, CIEDE2000 max <= 0.5 and every unchanged pixel re-encoding to its 8-bit code (half or\n"
+                "float; 99.99 % for half with plain rounding) or 16-bit code (float; in half, which cannot keep\n"
+                "16-bit codes, linear RGB error <= 1e-4, 5e-4 with plain rounding). Files baked with\n"
+                "--method jakob-hanika (not exact) get no colour gates unless thresholds are given.\n"
+                "Exit status: 0 every file passed, 1 a gate failed or a file could not be read, 2 usage error.");
+    p.section("Inputs");
+    p.option("--from-list", "FILE", "Read more files to verify from FILE, one per line ('-' = stdin).",
+             [&](const std::string& v) { from_list = v; });
     p.section("Comparison");
-    p.option("--source", "FILE", "The image the EXR was baked from (anything OpenImageIO reads); same size.",
+    p.option("--source", "FILE", "The image the EXR was baked from (anything OpenImageIO reads); same size. One file.",
              [&](const std::string& v) { s.source = v; });
-    p.option("--colorspace", "NAME", "Colour space of the source (as for bake). Default: metadata, then file rules.",
+    p.flag("--source-from-header", "Compare each file with the source its header records (spectex:source).",
+           [&] { source_from_header = true; });
+    p.option("--colorspace", "NAME", "Colour space of the source. Default: the file's spectex:inputColorSpace.",
              [&](const std::string& v) { s.colorspace = v; });
-    p.option("--config", "FILE", "OCIO config for the source instead of $OCIO or the shipped config/spectex.ocio.",
+    p.option("--config", "FILE", "OCIO config for the source. Default: the file's spectex:config if unchanged.",
              [&](const std::string& v) { s.config = v; });
     p.section("Colorimetry");
-    p.option("--illuminant", "NAME|FILE", "Illuminant: D65 (default), A, FL11, or a CSV wavelength,value.",
+    p.option("--check-illuminant", "NAME|FILE", "The light the file is checked under. Default: the file's, else D65.",
              [&](const std::string& v) { s.illuminant = v; });
-    p.option("--observer", "NAME|FILE", "Observer: cie1931-2 (default), cie1964-10, or a CSV wavelength,x,y,z.",
+    p.option("--illuminant", "NAME[,NAME...]",
+             "Also report each pixel's colour under these lights (Bradford-adapted), next to the check light's;\n"
+             "never gated. Repeatable. Names: " + join_names(shipped_illuminants()) + ", or a CSV wavelength,value.",
+             [&](const std::string& v) {
+                 for (const auto& n : split_list(v, "--illuminant")) s.other_lights.push_back(n);
+             });
+    p.option("--observer", "NAME|FILE", "Observer: the file's, else cie1931-2; cie1964-10, or a CSV wavelength,x,y,z.",
              [&](const std::string& v) { s.observer = v; });
-    p.section("Thresholds (need --source; exit 1 when not met)");
-    p.option("--max-de", "X", "Largest CIEDE2000 allowed.", [&](const std::string& v) {
+    p.section("Gates (exit 1 when not met)");
+    p.option("--max-de", "X", "Largest CIEDE2000 allowed (default 0.5; needs a source).", [&](const std::string& v) {
         t.max_de = parse_number("--max-de", v);
         if (!(t.max_de >= 0)) throw UsageError("--max-de: must be >= 0");
         t.de = true;
     });
-    p.option("--max-rgb-error", "X", "Largest absolute linear RGB error allowed.", [&](const std::string& v) {
-        t.max_rgb = parse_number("--max-rgb-error", v);
-        if (!(t.max_rgb >= 0)) throw UsageError("--max-rgb-error: must be >= 0");
-        t.rgb = true;
-    });
+    p.option("--max-rgb-error", "X", "Largest absolute linear RGB error allowed (needs a source).",
+             [&](const std::string& v) {
+                 t.max_rgb = parse_number("--max-rgb-error", v);
+                 if (!(t.max_rgb >= 0)) throw UsageError("--max-rgb-error: must be >= 0");
+                 t.rgb = true;
+             });
     p.option("--min-code-match", "PERCENT", "Smallest share of pixels, in percent, that re-encode to the source codes.",
              [&](const std::string& v) {
                  t.min_code = parse_number("--min-code-match", v);
                  if (!(t.min_code >= 0 && t.min_code <= 100)) throw UsageError("--min-code-match: must be in [0, 100]");
                  t.code = true;
              });
+    p.flag("--report-only", "Measure and report, gate nothing (exit 0 unless a file cannot be read).",
+           [&] { t.report_only = true; });
     p.section("Output");
-    p.flag("--json", "Print one JSON object (schema_version 1) instead of text.", [&] { json = true; });
-    p.option("--threads", "N", "Threads measuring pixels (default: all cores); decoding runs in one more thread.",
+    p.option("--json", "FILE", "Write one JSON object per file (JSON Lines, schema_version 2) to FILE ('-' = stdout).",
+             [&](const std::string& v) { json = v; });
+    p.flag("-q, --quiet", "Print nothing but errors and failed gates.", [&] { quiet = true; });
+    p.option("--jobs", "N", "Verify N files at once (default 1).",
+             [&](const std::string& v) { jobs = parse_int("--jobs", v, 1, 256); });
+    p.option("--threads", "N", "Threads measuring pixels per file (default: cores / jobs); decoding runs in one more.",
              [&](const std::string& v) { s.threads = parse_int("--threads", v, 0, 1024); });
 
     std::vector<std::string> files;
     try {
         if (p.parse_or_help(args, files)) return 0;
-        if (files.empty()) throw UsageError("no input file");
-        if (files.size() > 1) throw UsageError("one file at a time (got " + std::to_string(files.size()) + ")");
-        if (s.source.empty()) {
+        if (!from_list.empty()) {
+            auto more = read_list(from_list);
+            files.insert(files.end(), more.begin(), more.end());
+        }
+        if (files.empty()) throw UsageError(from_list.empty() ? "no input file" : "the input list names no files");
+        const bool any_source = !s.source.empty() || source_from_header;
+        if (!s.source.empty() && source_from_header) throw UsageError("--source and --source-from-header exclude each other");
+        if (!s.source.empty() && files.size() > 1)
+            throw UsageError("--source compares one file (got " + std::to_string(files.size()) +
+                             "); use --source-from-header for several");
+        if (!any_source) {
             if (t.de) throw UsageError("--max-de needs --source");
             if (t.rgb) throw UsageError("--max-rgb-error needs --source");
             if (t.code) throw UsageError("--min-code-match needs --source");
             if (!s.colorspace.empty()) throw UsageError("--colorspace needs --source");
             if (!s.config.empty()) throw UsageError("--config needs --source");
         }
+        if (!json.empty() && json != "-") {
+            ReadFiles reads;
+            for (const auto& f : files) reads.add(f, "a file to verify");
+            reads.add(from_list, "--from-list");
+            reads.add(s.source, "--source");
+            reads.add(s.config, "--config");
+            reads.add(s.observer, "--observer");
+            reads.add(s.illuminant, "--check-illuminant");
+            for (const auto& l : s.other_lights) reads.add(l, "--illuminant");
+            if (std::string clash = reads.clash(json, "--json"); !clash.empty()) throw UsageError(clash);
+            if (json.back() == '/' || std::filesystem::is_directory(json))
+                throw UsageError("--json: '" + json + "' is a folder; give a file name");
+        }
     } catch (const UsageError& e) {
         return usage_error("verify", e.what());
+    } catch (const Error& e) {
+        print_error(e.what());
+        return 1;
     }
 
     unsigned hw = std::max(1u, std::thread::hardware_concurrency());
-    int threads = s.threads > 0 ? s.threads : static_cast<int>(hw);
+    jobs = std::min<int>(jobs, static_cast<int>(files.size()));
+    if (s.threads <= 0) s.threads = std::max(1, static_cast<int>(hw) / jobs);
     // OpenEXR decodes in verify's own reading thread, overlapped with the measuring threads: its
     // thread pool would hold two decoded chunks per thread (21 MB each at 4K, 81 bins, ZIP), so
     // memory would grow with the core count.
     Imf::setGlobalThreadCount(0);
-    OIIO::attribute("threads", threads);
-
-    VerifyReport r;
+    OIIO::attribute("threads", s.threads);
     try {
         s.data_dir = find_data_dir();
-        r = verify_file(files[0], s);
     } catch (const Error& e) {
         print_error(e.what());
         return 1;
-    } catch (const std::exception& e) {
-        print_error(files[0] + ": " + e.what());
-        return 1;
     }
-    std::vector<std::string> failures = check(r, t);
-    if (json)
-        print_json(r, t, failures);
-    else
-        print_text(r, failures);
+
+    struct Outcome {
+        bool done = false, readable = false;
+        VerifyReport report;
+        std::string error;
+        std::vector<std::string> failures;
+    };
+    std::vector<Outcome> outcomes(files.size());
+    std::atomic<size_t> next{0};
+    auto work = [&] {
+        for (size_t i; (i = next++) < files.size();) {
+            Outcome& o = outcomes[i];
+            VerifySettings fs = s;
+            try {
+                if (source_from_header) {
+                    fs.source.clear();
+                    for (const auto& [k, v] : read_spectral_exr_info(files[i]).attributes)
+                        if (k == "spectex:source") fs.source = v;
+                    if (fs.source.empty()) throw Error(files[i] + ": the header records no spectex:source");
+                }
+                o.report = verify_file(files[i], fs);
+                o.failures = gate_failures(o.report, t);
+                o.readable = true;
+            } catch (const Error& e) {
+                o.error = e.what();
+            } catch (const std::exception& e) {
+                o.error = files[i] + ": " + e.what();
+            }
+        }
+    };
+    std::vector<std::thread> pool;
+    for (int j = 1; j < jobs; ++j) pool.emplace_back(work);
+    work();
+    for (auto& th : pool) th.join();
+
+    const bool json_stdout = json == "-";
+    std::string json_text;
+    size_t failed = 0, unreadable = 0;
+    for (size_t i = 0; i < files.size(); ++i) {
+        const Outcome& o = outcomes[i];
+        if (!o.readable) {
+            ++unreadable;
+            print_error(o.error);
+            json_text += json_error_line(files[i], o.error);
+            continue;
+        }
+        for (const auto& w : o.report.warnings) print_error("warning: " + files[i] + ": " + w);
+        if (!o.failures.empty()) ++failed;
+        if (!json_stdout && !quiet) {
+            if (files.size() == 1)
+                print_text(o.report, t, o.failures);
+            else
+                print_line(o.report, o.failures);
+        }
+        json_text += json_line(o.report, t, o.failures);
+        for (const auto& f : o.failures) print_error(o.report.file + ": " + f);
+    }
+    if (files.size() > 1 && !json_stdout && !quiet)
+        std::cout << files.size() << " files: " << files.size() - failed - unreadable << " passed, " << failed
+                  << " failed, " << unreadable << " unreadable\n";
     std::cout.flush();
-    for (const auto& f : failures) print_error(r.file + ": " + f);
-    return failures.empty() ? 0 : 1;
+    int status = failed || unreadable ? 1 : 0;
+    if (json_stdout) {
+        std::cout << json_text;
+        std::cout.flush();
+        if (!std::cout) {
+            print_error("standard output: cannot write the JSON report");
+            status = 1;
+        }
+    } else if (!json.empty()) {
+        try {
+            write_text_atomically(json, json_text);
+        } catch (const std::exception& e) {
+            print_error(std::string(e.what()) + " (--json); no report was written");
+            status = 1;
+        }
+    }
+    return status;
 }
 
 }  // namespace spectex

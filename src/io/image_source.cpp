@@ -1,4 +1,5 @@
 #include "io/image_source.h"
+#include "spectral/text.h"
 
 #include <OpenImageIO/imageio.h>
 
@@ -39,11 +40,6 @@ std::string oiio_error(OIIO::ImageInput* in) {
 }
 
 
-std::string lower(std::string s) {
-    for (char& c : s)
-        if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
-    return s;
-}
 
 // "R, G, B, Z" or, for long lists, the first ten then "... (1000 channels)".
 std::string channel_list(const std::vector<std::string>& names) {
@@ -98,7 +94,7 @@ ChannelChoice choose_by_name(const std::vector<std::string>& names, const std::s
         for (size_t i = 0; i < names.size(); ++i) {
             const std::string& n = names[i];
             if (n.size() <= prefix.size() || n.compare(0, prefix.size(), prefix) != 0) continue;
-            const std::string rest = lower(n.substr(prefix.size()));
+            const std::string rest = lower_ascii(n.substr(prefix.size()));
             if (rest == "a" || rest == "alpha") return static_cast<int>(i);
         }
         return -1;
@@ -127,7 +123,7 @@ ChannelChoice choose_by_name(const std::vector<std::string>& names, const std::s
         if (c.alpha < 0) {
             // A top-level A/alpha (no dot) goes with any layer.
             for (size_t i = 0; i < names.size(); ++i) {
-                const std::string l = lower(names[i]);
+                const std::string l = lower_ascii(names[i]);
                 if (l == "a" || l == "alpha") c.alpha = static_cast<int>(i);
             }
         }

@@ -1,4 +1,5 @@
 #include "io/linearizer.h"
+#include "spectral/text.h"
 
 #include <OpenColorIO/OpenColorIO.h>
 #include <OpenImageIO/imageio.h>
@@ -27,11 +28,6 @@ const std::vector<std::string> kLinearRec709Names = {
 const std::vector<std::string> kSrgbTextureNames = {"srgb_tx", "sRGB - Texture", "Utility - sRGB - Texture",
                                                     "sRGB"};
 
-std::string lower(std::string s) {
-    for (char& c : s)
-        if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
-    return s;
-}
 
 size_t edit_distance(const std::string& a, const std::string& b) {
     std::vector<size_t> prev(b.size() + 1), cur(b.size() + 1);
@@ -71,7 +67,7 @@ std::vector<std::string> all_names(const OCIO::ConstConfigRcPtr& cfg) {
 
 // OIIO's generic oiio:ColorSpace values, mapped to the names configs use for them.
 std::vector<std::string> names_for_hint(const std::string& hint) {
-    std::string h = lower(hint);
+    std::string h = lower_ascii(hint);
     if (h == "srgb" || h == "srgb_texture") return kSrgbTextureNames;
     if (h == "linear" || h == "scene_linear" || h == "lin_srgb") {
         std::vector<std::string> v = kLinearRec709Names;
@@ -184,6 +180,7 @@ OCIO::ConstConfigRcPtr load_ocio_config(const std::string& path) {
 
 struct Linearizer::Impl {
     OCIO::ConstCPUProcessorRcPtr cpu;
+    OCIO::ConstCPUProcessorRcPtr inverse;  // null when the transform cannot be inverted
     bool crosstalk = true;
     // Code table: key[i] is the float OpenImageIO gives for code i, out[c][i] OCIO's result.
     float scale = 0;
@@ -199,7 +196,7 @@ Linearizer& Linearizer::operator=(Linearizer&&) noexcept = default;
 std::vector<std::string> close_colour_space_names(const std::vector<std::string>& known,
                                                   const std::string& name, size_t max) {
     std::vector<std::pair<size_t, std::string>> scored;
-    for (const auto& k : known) scored.emplace_back(edit_distance(lower(k), lower(name)), k);
+    for (const auto& k : known) scored.emplace_back(edit_distance(lower_ascii(k), lower_ascii(name)), k);
     std::stable_sort(scored.begin(), scored.end(),
                      [](const auto& a, const auto& b) { return a.first < b.first; });
     std::vector<std::string> out;
@@ -271,6 +268,16 @@ Linearizer Linearizer::make(const ColourRequest& req) {
         // Full-precision ops only: no LUT approximations of the transfer curves.
         lin.impl_->cpu = proc->getOptimizedCPUProcessor(OCIO::BIT_DEPTH_F32, OCIO::BIT_DEPTH_F32,
                                                         OCIO::OPTIMIZATION_LOSSLESS);
+        try {
+            OCIO::ConstProcessorRcPtr inv =
+                !dst.empty() ? cfg->getProcessor(dst.c_str(), src.c_str())
+                             : OCIO::Config::GetProcessorFromConfigs(load_ocio_config(shipped), "lin_srgb", cfg,
+                                                                     src.c_str());
+            lin.impl_->inverse = inv->getOptimizedCPUProcessor(OCIO::BIT_DEPTH_F32, OCIO::BIT_DEPTH_F32,
+                                                               OCIO::OPTIMIZATION_LOSSLESS);
+        } catch (const OCIO::Exception&) {
+            lin.impl_->inverse.reset();  // e.g. a LUT OCIO cannot invert: no code check, the rest works
+        }
     } catch (const OCIO::Exception& e) {
         throw Error(path + ": cannot build the transform from '" + src + "' to linear Rec.709: " + e.what());
     }
@@ -301,6 +308,15 @@ bool Linearizer::use_code_table(int bits) {
     }
     I.scale = static_cast<float>(n - 1);
     return true;
+}
+
+bool Linearizer::can_encode() const { return identity_ || (impl_ && impl_->inverse); }
+
+void Linearizer::encode_rgba(float* rgba, long pixels) const {
+    if (identity_ || pixels <= 0) return;
+    if (!impl_->inverse) throw Error(config_path_ + ": the transform to linear Rec.709 cannot be inverted");
+    OCIO::PackedImageDesc desc(rgba, pixels, 1, 4);
+    impl_->inverse->apply(desc);
 }
 
 void Linearizer::apply_rgba(float* rgba, long pixels) const {

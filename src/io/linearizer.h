@@ -26,6 +26,12 @@ public:
 
     // In place on `pixels` packed RGBA float pixels (alpha passes through).
     void apply_rgba(float* rgba, long pixels) const;
+    // The inverse, linear Rec.709 -> the input colour space, through the config's own inverse
+    // transform (so that re-encoding undoes exactly what apply_rgba did); verify uses it to check
+    // that colours re-encode to the source's codes, for any colour space of any config. False when
+    // the config cannot invert the transform (encode_rgba then throws).
+    bool can_encode() const;
+    void encode_rgba(float* rgba, long pixels) const;
 
     // For integer sources of at most 16 bits, read as float by OpenImageIO: each channel then
     // takes at most 2^bits values, and when the transform has no channel crosstalk (a curve per

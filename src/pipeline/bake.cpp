@@ -10,11 +10,13 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <memory>
 
 #include "io/atomic_file.h"
 #include "io/image_source.h"
 #include "io/linearizer.h"
+#include "pipeline/batch.h"
 #include "spectex/version.h"
 #include "spectral/error.h"
 #include "spectral/colorimetry.h"
@@ -153,6 +155,8 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
         {"spectex:observer", s.observer},
         {"spectex:illuminant", s.illuminant},
         {"spectex:inputColorSpace", lin.input_space()},
+        {"spectex:config", std::filesystem::absolute(lin.config_path()).lexically_normal().string()},
+        {"spectex:configChecksum", config_checksum(lin.config_path())},
         {"spectex:alpha", has_alpha ? (s.alpha == AlphaMode::Associated ? "associated" : "unassociated") : "none"},
         {"spectex:outOfRange", to_string(s.range)},
         {"spectex:nan", to_string(s.nan)},

@@ -247,6 +247,14 @@ std::string settings_hash(const BakeSettings& s) {
     return buf;
 }
 
+std::string config_checksum(const std::string& config_path) {
+    uint64_t h = 0xcbf29ce484222325ull;
+    fnv(h, file_contents(config_path));
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "fnv1a64:%016llx", static_cast<unsigned long long>(h));
+    return buf;
+}
+
 bool up_to_date(const std::string& input, const std::string& output, const std::string& hash) {
     struct stat si, so;
     if (::stat(input.c_str(), &si) != 0 || ::stat(output.c_str(), &so) != 0) return false;

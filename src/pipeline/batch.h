@@ -36,6 +36,10 @@ std::vector<std::string> select_shard(const std::vector<std::string>& sorted_inp
 // or the command line): "fnv1a64:<hex>".
 std::string settings_hash(const BakeSettings& s);
 
+// "fnv1a64:<hex>" of an OCIO config's bytes (recorded as spectex:configChecksum, so that verify
+// knows whether the config a file was baked with is still the same). Throws Error as every reader.
+std::string config_checksum(const std::string& config_path);
+
 // --update: true when `output` exists, is newer than `input` and carries the same settings hash.
 bool up_to_date(const std::string& input, const std::string& output, const std::string& hash);
 

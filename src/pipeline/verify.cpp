@@ -15,7 +15,9 @@
 #include <memory>
 #include <thread>
 
+#include "io/file_identity.h"
 #include "io/image_source.h"
+#include "pipeline/batch.h"
 #include "io/linearizer.h"
 #include "io/spectral_exr_info.h"
 #include "spectral/ciede2000.h"
@@ -23,6 +25,7 @@
 #include "io/exr_preflight.h"
 #include "spectral/error.h"
 #include "spectral/spectrum.h"
+#include "spectral/text.h"
 #include "spectral/wavelength_grid.h"
 
 namespace spectex {
@@ -76,18 +79,6 @@ double ErrorHistogram::percentile(double p, double max) const {
 
 namespace {
 
-enum class Encoding { None, Srgb, Linear, Gamma22 };
-
-double encode(Encoding e, double l) {
-    double v;
-    switch (e) {
-        case Encoding::Srgb: v = l <= 0.0031308 ? 12.92 * l : 1.055 * std::pow(l, 1.0 / 2.4) - 0.055; break;
-        case Encoding::Gamma22: v = l > 0 ? std::pow(l, 1.0 / 2.2) : 0.0; break;
-        default: v = l; break;
-    }
-    return std::min(1.0, std::max(0.0, v));
-}
-
 int lines_per_chunk(const Imf::Header& h) {
     if (h.hasTileDescription()) return std::max(1, static_cast<int>(h.tileDescription().ySize));
     switch (h.compression()) {
@@ -108,19 +99,36 @@ struct Band {
     std::vector<float> planes;         // bins x (w * band_rows)
     std::vector<float> alpha;          // w * band_rows
     std::vector<float> raw, lin;       // source RGBA as read, and linearised + sanitised
+    std::vector<uint8_t> changed;      // the bake's policies changed this source pixel (clamp, NaN)
     uint64_t clamped = 0, replaced = 0;
+};
+
+// Accumulators of one other light (OtherLightReport).
+struct LightStats {
+    uint64_t pixels = 0;
+    double de_max = -1, de_sum = 0;
+    int de_x = 0, de_y = 0;
+    double rgb_min[3] = {DBL_MAX, DBL_MAX, DBL_MAX}, rgb_max[3] = {-DBL_MAX, -DBL_MAX, -DBL_MAX};
+    ErrorHistogram hist;
 };
 
 // Per-thread accumulators, merged at the end.
 struct Stats {
     uint64_t below_zero = 0, above_one = 0, below_tol = 0, above_tol = 0, nonfinite = 0;
     double rgb_min[3] = {DBL_MAX, DBL_MAX, DBL_MAX}, rgb_max[3] = {-DBL_MAX, -DBL_MAX, -DBL_MAX};
-    uint64_t compared = 0, transparent = 0, nonfinite_pixels = 0, code_matched = 0;
+    uint64_t compared = 0, transparent = 0, nonfinite_pixels = 0, code_checked = 0, code_matched = 0;
     double rgb_err_max = -1, rgb_err_sum = 0;
     int rgb_err_x = 0, rgb_err_y = 0;
     double de_max = -1, de_sum = 0;
     int de_x = 0, de_y = 0;
     ErrorHistogram hist;
+    std::vector<LightStats> lights;
+};
+
+// Another light: XYZ weights already adapted to the check light's white (Bradford), so that the
+// adapted XYZ of a spectrum S is xyz_weights · S.
+struct OtherLight {
+    Eigen::Matrix3Xd xyz_weights;
 };
 
 struct Context {
@@ -128,21 +136,43 @@ struct Context {
     int bins = 0;
     int x0 = 0, y0 = 0;                // data window origin, for reported coordinates
     const double* wrgb = nullptr;      // 3 x bins, column-major (Eigen)
-    Eigen::Matrix3d rgb_to_xyz;
+    Eigen::Matrix3d rgb_to_xyz, xyz_to_rgb;
     Eigen::Vector3d white;
     bool has_alpha = false, associated = false, compare = false;
-    Encoding enc = Encoding::None;
+    const Linearizer* encoder = nullptr;  // re-encodes linear Rec.709 to the source's space (code check)
     double max_code = 255;
     bool source_associated = false;
+    std::vector<OtherLight> lights;
 };
 
 void compute_range(const Context& c, const Band& b, size_t begin, size_t end, Stats& st) {
     constexpr size_t kBlock = 256;
     double acc[3][kBlock];
+    const size_t nl = c.lights.size();
+    std::vector<double> lacc(nl * 3 * kBlock);  // XYZ under each other light, adapted
+    float enc[4 * kBlock];                      // colours to re-encode (code check)
+    size_t enc_idx[kBlock];
     const float hi_tol = 1.0f + 1e-6f;
+    if (st.lights.size() < nl) st.lights.resize(nl);
     for (size_t i0 = begin; i0 < end; i0 += kBlock) {
         const size_t m = std::min(kBlock, end - i0);
         for (int ch = 0; ch < 3; ++ch) std::fill(acc[ch], acc[ch] + m, 0.0);
+        std::fill(lacc.begin(), lacc.end(), 0.0);
+        for (size_t l = 0; l < nl; ++l) {
+            const Eigen::Matrix3Xd& Wl = c.lights[l].xyz_weights;
+            double* a = &lacc[l * 3 * kBlock];
+            for (int k = 0; k < c.bins; ++k) {
+                const float* p = b.planes.data() + static_cast<size_t>(k) * c.plane + i0;
+                const double w0 = Wl(0, k), w1 = Wl(1, k), w2 = Wl(2, k);
+                for (size_t j = 0; j < m; ++j) {
+                    const double d = p[j];
+                    a[j] += w0 * d;
+                    a[kBlock + j] += w1 * d;
+                    a[2 * kBlock + j] += w2 * d;
+                }
+            }
+        }
+        size_t nenc = 0;
         // Fast path: integrate and track the block's range; NaN fails both comparisons of the
         // range check below, Inf lands in it. Samples are counted one by one only when needed.
         float lo = 0.0f, hi = 1.0f;
@@ -198,11 +228,32 @@ void compute_range(const Context& c, const Band& b, size_t begin, size_t end, St
                     st.rgb_min[ch] = std::min(st.rgb_min[ch], rgb[ch]);
                     st.rgb_max[ch] = std::max(st.rgb_max[ch], rgb[ch]);
                 }
+            const int px = c.x0 + static_cast<int>(idx % c.w);
+            const int py = c.y0 + b.y0 + static_cast<int>(idx / c.w);
+            if (finite && nl) {
+                const double inv_a = c.associated ? 1.0 / static_cast<double>(b.alpha[idx]) : 1.0;
+                const Eigen::Vector3d ref = c.rgb_to_xyz * Eigen::Vector3d(rgb[0], rgb[1], rgb[2]);
+                const Lab ref_lab = lab_from_xyz(ref, c.white);
+                for (size_t l = 0; l < nl; ++l) {
+                    const double* a = &lacc[l * 3 * kBlock];
+                    const Eigen::Vector3d xyz(a[j] * inv_a, a[kBlock + j] * inv_a, a[2 * kBlock + j] * inv_a);
+                    if (!xyz.allFinite()) continue;
+                    LightStats& ls = st.lights[l];
+                    ++ls.pixels;
+                    const double de = ciede2000(lab_from_xyz(xyz, c.white), ref_lab);
+                    ls.de_sum += de;
+                    if (de > ls.de_max) ls.de_max = de, ls.de_x = px, ls.de_y = py;
+                    ls.hist.add(de);
+                    const Eigen::Vector3d lrgb = c.xyz_to_rgb * xyz;
+                    for (int ch = 0; ch < 3; ++ch) {
+                        ls.rgb_min[ch] = std::min(ls.rgb_min[ch], lrgb[ch]);
+                        ls.rgb_max[ch] = std::max(ls.rgb_max[ch], lrgb[ch]);
+                    }
+                }
+            }
             if (!c.compare) continue;
             ++st.compared;
             const float* src = &b.lin[4 * idx];
-            const int px = c.x0 + static_cast<int>(idx % c.w);
-            const int py = c.y0 + b.y0 + static_cast<int>(idx / c.w);
             if (!finite) {
                 ++st.nonfinite_pixels;
                 const double inf = std::numeric_limits<double>::infinity();
@@ -228,15 +279,26 @@ void compute_range(const Context& c, const Band& b, size_t begin, size_t end, St
             st.de_sum += de;
             if (de > st.de_max) st.de_max = de, st.de_x = px, st.de_y = py;
             st.hist.add(de);
-            if (c.enc != Encoding::None) {
-                const float* raw = &b.raw[4 * idx];
+            if (c.encoder && !b.changed[idx]) {
+                for (int ch = 0; ch < 3; ++ch) enc[4 * nenc + ch] = static_cast<float>(rgb[ch]);
+                enc[4 * nenc + 3] = 1.0f;
+                enc_idx[nenc++] = idx;
+            }
+        }
+        // Code check: re-encode through the config's inverse transform, round to the source's codes.
+        if (nenc) {
+            c.encoder->encode_rgba(enc, static_cast<long>(nenc));
+            for (size_t e = 0; e < nenc; ++e) {
+                const float* raw = &b.raw[4 * enc_idx[e]];
                 const double k = c.source_associated ? static_cast<double>(raw[3]) : 1.0;
                 bool match = true;
                 for (int ch = 0; ch < 3 && match; ++ch) {
-                    const long expect = std::lround(encode(c.enc, rgb[ch]) * k * c.max_code);
+                    const double v = std::min(1.0, std::max(0.0, static_cast<double>(enc[4 * e + ch])));
+                    const long expect = std::lround(v * k * c.max_code);
                     const long have = std::lround(static_cast<double>(raw[ch]) * c.max_code);
                     match = expect == have;
                 }
+                ++st.code_checked;
                 st.code_matched += match;
             }
         }
@@ -261,23 +323,50 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
     r.compression = info.compression;
     r.storage = info.tiled ? "tiled " + std::to_string(info.tile_width) + "x" + std::to_string(info.tile_height)
                            : std::string("scanline");
-    r.illuminant = s.illuminant;
-    r.observer = s.observer;
+    // What the file records, and what is used: a setting given overrides the file's, with a warning.
+    auto recorded = [&](const std::string& key) {
+        for (const auto& [k, v] : info.attributes)
+            if (k == key) return v;
+        return std::string();
+    };
+    auto differ = [](const std::string& a, const std::string& b) { return lower_ascii(a) != lower_ascii(b); };
+    auto choose = [&](const std::string& given, const std::string& key, const std::string& fallback,
+                      const std::string& option) {
+        const std::string rec = recorded(key);
+        if (given.empty()) return rec.empty() ? fallback : rec;
+        if (!rec.empty() && differ(given, rec))
+            r.warnings.push_back(option + " '" + given + "' overrides the file's '" + rec + "' (" + key + ")");
+        return given;
+    };
+    r.method = recorded("spectex:method");
+    if (r.method.empty() && !recorded("spectex:basis").empty()) r.method = "basis";  // spectex before 0.1's methods
+    if (const std::string v = recorded("spectex:outOfRange"); !v.empty()) r.out_of_range = v;
+    if (const std::string v = recorded("spectex:nan"); !v.empty()) r.nan = v;
+    r.half_rounding = recorded("spectex:halfRounding");
+    r.illuminant = choose(s.illuminant, "spectex:illuminant", "D65", "--check-illuminant");
+    r.observer = choose(s.observer, "spectex:observer", "cie1931-2", "--observer");
     if (info.alpha) {
         r.alpha = "associated";  // OpenEXR's convention when nothing says otherwise
-        for (const auto& [k, v] : info.attributes)
-            if (k == "spectex:alpha" && v == "unassociated") r.alpha = "unassociated";
+        if (recorded("spectex:alpha") == "unassociated") r.alpha = "unassociated";
     }
 
     std::vector<double> lambdas;
     for (const auto& b : info.reflective) lambdas.push_back(b.lambda);
     Colorimetry col;
+    std::vector<OtherLight> lights;
     try {
         WavelengthGrid grid = WavelengthGrid::from_list(lambdas);
         r.wavelengths = grid.describe();
-        Observer obs = load_observer(s.data_dir, s.observer);
-        Spectrum ill = load_illuminant(s.data_dir, s.illuminant);
-        col = Colorimetry::make(obs, ill, grid, primaries_by_name("srgb"));
+        Observer obs = load_observer(s.data_dir, r.observer);
+        col = Colorimetry::make(obs, load_illuminant(s.data_dir, r.illuminant), grid, primaries_by_name("srgb"));
+        for (const auto& name : s.other_lights) {
+            const Colorimetry cl =
+                Colorimetry::make(obs, load_illuminant(s.data_dir, name), grid, primaries_by_name("srgb"));
+            lights.push_back({bradford_adaptation(cl.white_xyz, col.white_xyz) * cl.W});
+            OtherLightReport lr;
+            lr.light = name;
+            r.other_lights.push_back(lr);
+        }
     } catch (const Error& e) {
         throw Error(exr_path + ": " + e.what());
     }
@@ -287,6 +376,7 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
     std::unique_ptr<ImageSource> src;
     Linearizer lin;
     Context ctx;
+    ctx.lights = std::move(lights);
     if (!s.source.empty()) {
         src = ImageSource::open(s.source, s.max_pixels);
         const SourceInfo& si = src->info();
@@ -294,34 +384,50 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
             throw Error(exr_path + ": data window " + std::to_string(info.width) + "x" + std::to_string(info.height) +
                         " differs from the source's " + std::to_string(si.width) + "x" + std::to_string(si.height) +
                         " (" + s.source + ")");
-        ColourRequest req{s.data_dir, s.config, s.colorspace, s.source, si.colorspace_hint};
+        // The OCIO config: the one given, else the one the bake used when it is still there.
+        std::string config = s.config;
+        const std::string rec_config = recorded("spectex:config"), rec_sum = recorded("spectex:configChecksum");
+        if (config.empty() && !rec_config.empty()) {
+            if (file_id(rec_config)) {
+                config = rec_config;
+                if (!rec_sum.empty() && config_checksum(rec_config) != rec_sum)
+                    r.warnings.push_back("the OCIO config the file records (" + rec_config +
+                                         ") has changed since the bake");
+            } else {
+                r.warnings.push_back("the OCIO config the file records (" + rec_config +
+                                     ") is not there; using " + ocio_config_path(s.data_dir, ""));
+            }
+        } else if (!config.empty() && !rec_sum.empty() && config_checksum(config) != rec_sum) {
+            r.warnings.push_back("--config " + config + " differs from the config the file records (" + rec_config +
+                                 ")");
+        }
+        const std::string rec_space = recorded("spectex:inputColorSpace");
+        ColourRequest req{s.data_dir, config, s.colorspace.empty() ? rec_space : s.colorspace, s.source,
+                          si.colorspace_hint};
         lin = Linearizer::make(req);
+        if (!s.colorspace.empty() && !rec_space.empty() && lin.input_space() != rec_space)
+            r.warnings.push_back("--colorspace '" + s.colorspace + "' ('" + lin.input_space() +
+                                 "') overrides the file's '" + rec_space + "' (spectex:inputColorSpace)");
         r.compared = true;
         r.source = s.source;
         r.source_colorspace = lin.input_space();
-        r.source_colorspace_how = lin.how_chosen();
+        r.source_colorspace_how = s.colorspace.empty() && !rec_space.empty() ? "the file's spectex:inputColorSpace"
+                                                                             : lin.how_chosen();
         r.source_bits = si.bits;
         r.source_float = si.is_float;
         ctx.compare = true;
         ctx.source_associated = si.alpha == AlphaKind::Associated;
-        const std::string& cs = lin.input_space();
         if (si.is_float) {
             r.code_match_note = "float source: no codes to match";
         } else if (si.bits != 8 && si.bits != 16) {
             r.code_match_note = std::to_string(si.bits) + "-bit source: only 8- and 16-bit codes are checked";
-        } else if (cs == "sRGB - Texture") {
-            ctx.enc = Encoding::Srgb;
-            r.code_match_note = "IEC 61966-2-1 sRGB encoding";
-        } else if (cs == "Linear Rec.709 (sRGB)" || cs == "Raw" || lin.is_identity()) {
-            ctx.enc = Encoding::Linear;
-            r.code_match_note = "linear (no encoding)";
-        } else if (cs == "Gamma 2.2 Rec.709 - Texture") {
-            ctx.enc = Encoding::Gamma22;
-            r.code_match_note = "gamma 2.2 encoding";
+        } else if (!lin.can_encode()) {
+            r.code_match_note = "the config cannot invert the transform of '" + lin.input_space() + "'";
         } else {
-            r.code_match_note = "re-encoding to '" + cs + "' is not supported";
+            ctx.encoder = &lin;
+            r.code_match_note = "re-encoded through the config's inverse transform to '" + lin.input_space() + "'";
         }
-        r.code_match_available = ctx.enc != Encoding::None;
+        r.code_match_available = ctx.encoder != nullptr;
         ctx.max_code = si.bits == 16 ? 65535.0 : 255.0;
     }
 
@@ -350,6 +456,7 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
         ctx.y0 = dw.min.y;
         ctx.wrgb = wrgb.data();
         ctx.rgb_to_xyz = col.rgb_to_xyz;
+        ctx.xyz_to_rgb = col.xyz_to_rgb;
         ctx.white = col.white_xyz;
         ctx.has_alpha = info.alpha;
         ctx.associated = r.alpha == "associated";
@@ -361,9 +468,11 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
             if (src) {
                 b.raw.resize(ctx.plane * 4);
                 b.lin.resize(ctx.plane * 4);
+                b.changed.resize(ctx.plane);
             }
         }
         const bool straighten = src && src->info().alpha == AlphaKind::Associated;
+        const bool clamp = r.out_of_range != "keep";
 
         auto read_band = [&](Band& b, int y0) {
             b.y0 = y0;
@@ -391,17 +500,20 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
                         for (int c = 0; c < 3; ++c) p[4 * i + c] /= al;
                 }
             lin.apply_rgba(p, static_cast<long>(n));
-            // bake's defaults: NaN/Inf -> 0 (--nan replace), clamp to [0, 1] (--out-of-range clamp)
+            // The bake's policies, as the file records them: NaN/Inf -> 0 (a bake with --nan error had
+            // none), values outside [0, 1] clamped unless --out-of-range keep.
             b.clamped = b.replaced = 0;
             for (size_t i = 0; i < n; ++i) {
                 float* q = p + 4 * i;
                 bool bad = false, out = false;
                 for (int c = 0; c < 4; ++c)
                     if (!std::isfinite(q[c])) q[c] = 0.0f, bad = true;
-                for (int c = 0; c < 3; ++c)
-                    if (q[c] < 0.0f || q[c] > 1.0f) q[c] = std::min(1.0f, std::max(0.0f, q[c])), out = true;
+                if (clamp)
+                    for (int c = 0; c < 3; ++c)
+                        if (q[c] < 0.0f || q[c] > 1.0f) q[c] = std::min(1.0f, std::max(0.0f, q[c])), out = true;
                 b.replaced += bad;
                 b.clamped += out;
+                b.changed[i] = bad || out;
             }
         };
 
@@ -457,7 +569,22 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
             total.compared += st.compared;
             total.transparent += st.transparent;
             total.nonfinite_pixels += st.nonfinite_pixels;
+            total.code_checked += st.code_checked;
             total.code_matched += st.code_matched;
+            if (total.lights.size() < st.lights.size()) total.lights.resize(st.lights.size());
+            for (size_t l = 0; l < st.lights.size(); ++l) {
+                LightStats& T = total.lights[l];
+                const LightStats& L = st.lights[l];
+                T.pixels += L.pixels;
+                T.de_sum += L.de_sum;
+                if (L.de_max > T.de_max || (L.de_max == T.de_max && (L.de_y < T.de_y || (L.de_y == T.de_y && L.de_x < T.de_x))))
+                    T.de_max = L.de_max, T.de_x = L.de_x, T.de_y = L.de_y;
+                for (int c = 0; c < 3; ++c) {
+                    T.rgb_min[c] = std::min(T.rgb_min[c], L.rgb_min[c]);
+                    T.rgb_max[c] = std::max(T.rgb_max[c], L.rgb_max[c]);
+                }
+                T.hist.merge(L.hist);
+            }
             total.rgb_err_sum += st.rgb_err_sum;
             total.de_sum += st.de_sum;
             // Each thread keeps its first maximum; across threads, ties go to the first pixel in
@@ -486,6 +613,7 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
             r.compared_pixels = total.compared;
             r.transparent_pixels = total.transparent;
             r.nonfinite_pixels = total.nonfinite_pixels;
+            r.code_checked = total.code_checked;
             r.code_matched = total.code_matched;
             const double n = static_cast<double>(total.compared);
             r.rgb_error_max = std::max(0.0, total.rgb_err_max);
@@ -498,6 +626,20 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
             r.de_mean = total.compared ? total.de_sum / n : 0.0;
             r.de_p99 = total.hist.percentile(99.0, r.de_max);
         }
+        for (size_t l = 0; l < r.other_lights.size() && l < total.lights.size(); ++l) {
+            OtherLightReport& o = r.other_lights[l];
+            const LightStats& L = total.lights[l];
+            o.pixels = L.pixels;
+            o.de_max = std::max(0.0, L.de_max);
+            o.de_x = L.de_x;
+            o.de_y = L.de_y;
+            o.de_mean = L.pixels ? L.de_sum / static_cast<double>(L.pixels) : 0.0;
+            o.de_p99 = L.hist.percentile(99.0, o.de_max);
+            for (int c = 0; c < 3; ++c) {
+                o.rgb_min[c] = L.rgb_min[c] <= L.rgb_max[c] ? L.rgb_min[c] : 0.0;
+                o.rgb_max[c] = L.rgb_min[c] <= L.rgb_max[c] ? L.rgb_max[c] : 0.0;
+            }
+        }
     } catch (const Error&) {
         throw;
     } catch (const std::exception& e) {
@@ -505,6 +647,95 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
     }
     r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return r;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Gates
+
+namespace {
+
+std::string fmt(double v, const char* f = "%.6g") {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, f, v);
+    return buf;
+}
+
+std::string pct(uint64_t n, uint64_t total) {
+    return total ? fmt(100.0 * static_cast<double>(n) / static_cast<double>(total), "%.6g") + "%" : std::string("0%");
+}
+
+struct Gate {
+    std::string what;   // "non-finite samples", ...
+    std::string limit;  // "none", "<= 0.5", ...
+    bool passed = true;
+    std::string measured;
+};
+
+// The gates of one report (VerifyGates' documented defaults, or the explicit thresholds).
+std::vector<Gate> gates_of(const VerifyReport& r, const VerifyGates& g) {
+    std::vector<Gate> out;
+    if (g.report_only) return out;
+    out.push_back({"non-finite samples", "none", r.nonfinite == 0,
+                   std::to_string(r.nonfinite) + " (" + pct(r.nonfinite, r.samples) + ")"});
+    if (r.out_of_range != "keep") {
+        const uint64_t n = r.below_tol + r.above_tol;
+        out.push_back({"samples outside [0, 1] by more than 1e-6", "none", n == 0,
+                       std::to_string(n) + " (" + pct(n, r.samples) + "; " + std::to_string(r.below_tol) + " below, " +
+                           std::to_string(r.above_tol) + " above)"});
+    }
+    if (!r.compared) return out;
+    const bool exact = r.method != "jakob-hanika";
+    const bool half = r.sample_type == "half" || r.sample_type == "mixed";
+    const bool plain_half = half && r.half_rounding != "colour";
+    if (g.de || exact) {
+        const double lim = g.de ? g.max_de : kDefaultMaxDe;
+        out.push_back({"CIEDE2000 max", "<= " + fmt(lim) + (g.de ? " (--max-de)" : ""), r.de_max <= lim,
+                       fmt(r.de_max) + " at (" + std::to_string(r.de_x) + ", " + std::to_string(r.de_y) + ")"});
+    }
+    if (g.rgb) {
+        out.push_back({"linear RGB error max", "<= " + fmt(g.max_rgb) + " (--max-rgb-error)", r.rgb_error_max <= g.max_rgb,
+                       fmt(r.rgb_error_max) + " at (" + std::to_string(r.rgb_error_x) + ", " +
+                           std::to_string(r.rgb_error_y) + ")"});
+    }
+    const std::string share = r.code_match_available ? fmt(100.0 * r.code_match_share(), "%.6g") + "% (" +
+                                                           std::to_string(r.code_matched) + " of " +
+                                                           std::to_string(r.code_checked) + ")"
+                                                     : "n/a (" + r.code_match_note + ")";
+    if (g.code) {
+        out.push_back({"pixels that re-encode to their codes", ">= " + fmt(g.min_code) + "% (--min-code-match)",
+                       r.code_match_available && 100.0 * r.code_match_share() >= g.min_code, share});
+    } else if (exact && r.code_match_available && !(r.source_bits == 16 && half)) {
+        const double need = plain_half ? 99.99 : 100.0;
+        out.push_back({"pixels that re-encode to their " + std::to_string(r.source_bits) + "-bit codes",
+                       ">= " + fmt(need) + "%" + (plain_half ? " (half with plain rounding)" : ""),
+                       100.0 * r.code_match_share() >= need, share});
+    }
+    if (exact && !g.rgb && r.source_bits == 16 && half && !r.source_float) {
+        // Half's step (up to 6e-5 in linear RGB once integrated) is coarser than 16-bit codes (down to
+        // 1.2e-6 near black): the colour error is gated instead of the codes.
+        const double lim = plain_half ? 5e-4 : 1e-4;
+        out.push_back({"linear RGB error max (half cannot keep 16-bit codes)", "<= " + fmt(lim),
+                       r.rgb_error_max <= lim,
+                       fmt(r.rgb_error_max) + " at (" + std::to_string(r.rgb_error_x) + ", " +
+                           std::to_string(r.rgb_error_y) + ")"});
+    }
+    return out;
+}
+
+}  // namespace
+
+std::vector<std::string> gate_failures(const VerifyReport& r, const VerifyGates& g) {
+    std::vector<std::string> f;
+    for (const Gate& x : gates_of(r, g))
+        if (!x.passed) f.push_back(x.what + ": " + x.measured + ", gate " + x.limit);
+    return f;
+}
+
+std::vector<std::string> gates_applied(const VerifyReport& r, const VerifyGates& g) {
+    std::vector<std::string> a;
+    for (const Gate& x : gates_of(r, g))
+        a.push_back(x.what + " " + x.limit + ": " + x.measured + (x.passed ? "" : "  FAILED"));
+    return a;
 }
 
 }  // namespace spectex

@@ -10,12 +10,18 @@
 
 namespace spectex {
 
+// Every setting left empty is taken from what the file records (its spectex:* provenance), and
+// from the defaults when the file records nothing (a file from another tool): a bake is checked
+// under the conditions it was made for without repeating them. A setting given here overrides the
+// file's, and the report says so (warnings).
 struct VerifySettings {
     std::string source;                 // --source ("" = no comparison)
-    std::string illuminant = "D65";     // name or CSV file
-    std::string observer = "cie1931-2"; // name or CSV file
-    std::string colorspace;             // --colorspace of the source ("" = metadata, then file rules)
-    std::string config;                 // --config ("" = $OCIO, then the shipped config)
+    std::string illuminant;             // the light the file is checked under: name or CSV ("" = file's, else D65)
+    std::string observer;               // name or CSV ("" = file's, else cie1931-2)
+    std::string colorspace;             // of the source ("" = file's input colour space, else metadata, file rules)
+    std::string config;                 // OCIO config ("" = the file's when it is still there unchanged, else
+                                        // $OCIO, then the shipped config)
+    std::vector<std::string> other_lights;  // --illuminant: reported next to the check light, never gated
     std::string data_dir;
     uint64_t max_pixels = 268435456;    // refuse larger sources (as bake does)
     size_t band_bytes = 8u << 20;       // float spectral samples per band buffer (two buffers are used)
@@ -38,6 +44,18 @@ private:
     uint64_t n_ = 0;
 };
 
+// The colour under another light, next to the check light: every pixel's colour under `light`,
+// adapted from its white to the check light's white (Bradford), against its colour under the check
+// light, as CIEDE2000 (Lab relative to the check light's white). How far a texture's colours move
+// under that light: methods that give the same D65 colour can differ here.
+struct OtherLightReport {
+    std::string light;
+    uint64_t pixels = 0;
+    double de_mean = 0, de_p99 = 0, de_max = 0;
+    int de_x = 0, de_y = 0;
+    double rgb_min[3] = {0, 0, 0}, rgb_max[3] = {0, 0, 0};  // linear RGB under the light, adapted
+};
+
 struct VerifyReport {
     std::string file;
     int width = 0, height = 0;
@@ -49,6 +67,12 @@ struct VerifyReport {
     std::string alpha = "none";        // "none", "associated", "unassociated"
     std::string illuminant, observer;
     int band_rows = 0;
+    // What the file records (spectex:*; "" when absent) and what was used.
+    std::string method;                // spectex:method ("" for other tools' files)
+    std::string out_of_range = "clamp", nan = "replace";  // the bake's policies (defaults when absent)
+    std::string half_rounding;         // spectex:halfRounding ("colour", "nearest", "n/a", "")
+    std::vector<std::string> warnings; // settings given that differ from the file's, config not found, ...
+    std::vector<OtherLightReport> other_lights;
 
     // Spectral samples (pixels x bins), as stored.
     uint64_t samples = 0;
@@ -73,9 +97,11 @@ struct VerifyReport {
     int de_x = 0, de_y = 0;
     bool code_match_available = false;
     std::string code_match_note;       // why not available, or which encoding was used
-    uint64_t code_matched = 0;         // of compared_pixels
+    uint64_t code_checked = 0;         // compared pixels the bake's policies left unchanged (not clamped,
+                                       // not replaced): only those can re-encode to their codes
+    uint64_t code_matched = 0;         // of code_checked
     double code_match_share() const {
-        return compared_pixels ? static_cast<double>(code_matched) / static_cast<double>(compared_pixels) : 1.0;
+        return code_checked ? static_cast<double>(code_matched) / static_cast<double>(code_checked) : 1.0;
     }
 
     double seconds = 0;
@@ -84,5 +110,29 @@ struct VerifyReport {
 // Throws Error("<file>: <cause>") for unreadable or non-spectral files, a source whose data window
 // differs in size, unknown illuminants/observers/colour spaces, or a grid outside their tables.
 VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s);
+
+// The gates a report must pass. Defaults (report_only false, nothing explicit) are ones a correct
+// bake always passes and a wrong one fails:
+//   * no non-finite sample;
+//   * no sample more than 1e-6 outside [0, 1] unless the file records --out-of-range keep
+//     (half and float store 0 and 1 exactly; the colour-aware rounding never leaves [0, 1]);
+//   * with a source, for methods that are exact (not jakob-hanika):
+//       - codes: every pixel the bake left unchanged re-encodes to its 8-bit code, in half and in
+//         float (99.99 % for half written with plain rounding, which can miss one colour in
+//         millions); 16-bit codes likewise in float; in half, which cannot keep 16-bit codes, the
+//         linear RGB error instead (1e-4 with the colour-aware rounding, 5e-4 with plain rounding);
+//       - CIEDE2000 max <= 0.5 (a correct bake measures below 0.05; 1 is about a just-visible
+//         difference).
+// Explicit thresholds replace the matching default.
+struct VerifyGates {
+    bool report_only = false;
+    bool de = false, rgb = false, code = false;
+    double max_de = 0, max_rgb = 0, min_code = 0;  // min_code in percent
+};
+constexpr double kDefaultMaxDe = 0.5;
+// One line per failed gate, naming it and by how much it failed; empty when all pass.
+std::vector<std::string> gate_failures(const VerifyReport& r, const VerifyGates& g);
+// The gates that were applied, as text ("non-finite samples: none", ...), for the report.
+std::vector<std::string> gates_applied(const VerifyReport& r, const VerifyGates& g);
 
 }  // namespace spectex

@@ -1,4 +1,5 @@
 #include "spectral/colorimetry.h"
+#include "spectral/text.h"
 
 #include <cmath>
 #include <cstdio>
@@ -11,15 +12,10 @@ namespace spectex {
 namespace {
 constexpr Chromaticity kD65{0.3127, 0.3290};
 
-std::string lower(std::string s) {
-    for (char& c : s)
-        if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
-    return s;
-}
 }  // namespace
 
 RgbPrimaries primaries_by_name(const std::string& name) {
-    std::string n = lower(name);
+    std::string n = lower_ascii(name);
     if (n == "srgb" || n == "rec709" || n == "bt709")
         return {"srgb", {0.64, 0.33}, {0.30, 0.60}, {0.15, 0.06}, kD65};
     if (n == "p3" || n == "display-p3" || n == "p3-d65")
@@ -100,6 +96,13 @@ Colorimetry Colorimetry::make(const Observer& obs, const Spectrum& illuminant, c
     c.xyz_to_rgb = c.rgb_to_xyz.inverse();
     c.nominal_xyz_to_rgb = rgb_to_xyz_matrix(primaries, xyz_from_chromaticity(primaries.white)).inverse();
     return c;
+}
+
+Eigen::Matrix3d bradford_adaptation(const Eigen::Vector3d& from_white, const Eigen::Vector3d& to_white) {
+    Eigen::Matrix3d B;
+    B << 0.8951, 0.2664, -0.1614, -0.7502, 1.7135, 0.0367, 0.0389, -0.0685, 1.0296;
+    const Eigen::Vector3d from = B * from_white, to = B * to_white;
+    return B.inverse() * to.cwiseQuotient(from).asDiagonal() * B;
 }
 
 }  // namespace spectex

@@ -1,4 +1,5 @@
 #include "spectral/csv_table.h"
+#include "spectral/text.h"
 
 #include <cerrno>
 #include <cmath>
@@ -25,11 +26,6 @@ std::string trim(const std::string& s) {
     return s.substr(a, b - a + 1);
 }
 
-std::string lower(std::string s) {
-    for (char& c : s)
-        if (c >= 'A' && c <= 'Z') c = static_cast<char>(c - 'A' + 'a');
-    return s;
-}
 
 std::vector<std::string> split_commas(const std::string& line) {
     std::vector<std::string> out;
@@ -80,7 +76,7 @@ CsvTable parse_csv_table(const std::string& text, const std::string& source,
             if (!expected.empty()) {
                 bool ok = fields.size() == expected.size();
                 for (size_t i = 0; ok && i < fields.size(); ++i)
-                    ok = lower(fields[i]) == lower(expected[i]);
+                    ok = lower_ascii(fields[i]) == lower_ascii(expected[i]);
                 if (!ok) {
                     std::string want;
                     for (size_t i = 0; i < expected.size(); ++i) want += (i ? "," : "") + expected[i];

@@ -150,7 +150,7 @@ def floor(a, cfg, size, out, source):
 
 
 def verify(a, exr, src):
-    p = subprocess.run([str(x) for x in [a.spectex, "verify", exr, "--source", src, "--json", "--threads", a.threads]],
+    p = subprocess.run([str(x) for x in [a.spectex, "verify", exr, "--source", src, "--json", "-", "--threads", a.threads]],
                        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     if p.returncode not in (0, 1):
         raise RuntimeError(f"verify failed: {p.stderr}")

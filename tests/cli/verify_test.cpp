@@ -118,9 +118,9 @@ TEST(Verify, FloatBakeRoundTripsWithinHundredthOfDeltaE) {
     std::string png = make_png(d, "in.png", 61, 37);
     std::string exr = d / "out.exr";
     ASSERT_EQ(run_spectex({"bake", png, "-o", exr, "--type", "float", "-q"}).status, 0);
-    RunResult r = run_spectex({"verify", exr, "--source", png, "--json", "--max-de", "0.01", "--min-code-match", "100"});
+    RunResult r = run_spectex({"verify", exr, "--source", png, "--json", "-", "--max-de", "0.01", "--min-code-match", "100"});
     ASSERT_EQ(r.status, 0) << r.out << r.err;
-    EXPECT_EQ(json_number(r.out, "", "schema_version"), 1.0);
+    EXPECT_EQ(json_number(r.out, "", "schema_version"), 2.0);
     EXPECT_EQ(json_number(r.out, "", "pixels"), 61.0 * 37.0);
     EXPECT_EQ(json_number(r.out, "", "bins"), 81.0);
     EXPECT_EQ(json_number(r.out, "", "wavelength_min"), 380.0);
@@ -148,7 +148,7 @@ TEST(Verify, HalfBakeFailsMaxDeZeroAndPassesAReasonableOne) {
     std::string png = make_png(d, "in.png", 64, 48);
     std::string exr = d / "half.exr";
     ASSERT_EQ(run_spectex({"bake", png, "-o", exr, "-q"}).status, 0);
-    RunResult ok = run_spectex({"verify", exr, "--source", png, "--json", "--max-de", "0.5"});
+    RunResult ok = run_spectex({"verify", exr, "--source", png, "--json", "-", "--max-de", "0.5"});
     ASSERT_EQ(ok.status, 0) << ok.out << ok.err;
     const double de_max = json_number(ok.out, "\"ciede2000\":{", "max");
     EXPECT_GT(de_max, 0.0);   // half rounding is visible to a strict threshold
@@ -169,10 +169,14 @@ TEST(Verify, AlteredSpectraAreDetected) {
     std::string exr = d / "out.exr", altered = d / "altered.exr";
     ASSERT_EQ(run_spectex({"bake", png, "-o", exr, "--type", "float", "-q"}).status, 0);
     write_scaled_copy(exr, altered, "T.550nm", 1.2f);
-    RunResult a = run_spectex({"verify", exr, "--source", png, "--json"});
-    RunResult b = run_spectex({"verify", altered, "--source", png, "--json"});
+    RunResult a = run_spectex({"verify", exr, "--source", png, "--json", "-"});
+    RunResult b = run_spectex({"verify", altered, "--source", png, "--json", "-", "--report-only"});
     ASSERT_EQ(a.status, 0) << a.err;
     ASSERT_EQ(b.status, 0) << b.err;
+    // The default gates fail it: its codes no longer re-encode.
+    RunResult gated = run_spectex({"verify", altered, "--source", png});
+    EXPECT_EQ(gated.status, 1) << gated.out << gated.err;
+    EXPECT_NE(gated.err.find("re-encode"), std::string::npos) << gated.err;
     const double de_a = json_number(a.out, "\"ciede2000\":{", "max"), de_b = json_number(b.out, "\"ciede2000\":{", "max");
     EXPECT_GT(de_b, 0.1);
     EXPECT_GT(de_b, 100 * de_a);
@@ -230,14 +234,14 @@ TEST(Verify, ForeignTiledFileWithPremultipliedAlpha) {
         out.setFrameBuffer(fb);
         out.writeTiles(0, out.numXTiles() - 1, 0, out.numYTiles() - 1);
     }
-    RunResult r = run_spectex({"verify", exr, "--source", png, "--json", "--max-de", "0.01", "--min-code-match", "100"});
+    RunResult r = run_spectex({"verify", exr, "--source", png, "--json", "-", "--max-de", "0.01", "--min-code-match", "100"});
     ASSERT_EQ(r.status, 0) << r.out << r.err;
     EXPECT_NE(r.out.find("\"alpha\":\"associated\""), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("\"storage\":\"tiled 16x16\""), std::string::npos) << r.out;
     EXPECT_LT(json_number(r.out, "\"rgb_error\":{", "max"), 1e-5);
     EXPECT_EQ(json_number(r.out, "\"source\":{", "compared_pixels"), static_cast<double>(n));
     // Band size does not matter: one thread, and a file read in many bands, give the same numbers.
-    RunResult one = run_spectex({"verify", exr, "--source", png, "--json", "--threads", "1"});
+    RunResult one = run_spectex({"verify", exr, "--source", png, "--json", "-", "--threads", "1"});
     ASSERT_EQ(one.status, 0);
     EXPECT_EQ(json_number(one.out, "\"ciede2000\":{", "max"), json_number(r.out, "\"ciede2000\":{", "max"));
     EXPECT_EQ(json_number(one.out, "\"ciede2000\":{", "mean"), json_number(r.out, "\"ciede2000\":{", "mean"));
@@ -253,11 +257,19 @@ TEST(Verify, OtherIlluminantAndObserver) {
     std::string png = make_png(d, "in.png", 20, 20);
     std::string exr = d / "out.exr";
     ASSERT_EQ(run_spectex({"bake", png, "-o", exr, "--type", "float", "-q"}).status, 0);
-    // Under A the baked spectra are not exact metamers of the source colours any more.
-    RunResult a = run_spectex({"verify", exr, "--source", png, "--illuminant", "A", "--json"});
-    ASSERT_EQ(a.status, 0) << a.err;
+    // Checked under A, the baked spectra are not exact metamers of the source colours any more: the
+    // default gates fail, and a warning says the file was baked for D65.
+    RunResult a = run_spectex({"verify", exr, "--source", png, "--check-illuminant", "A", "--json", "-"});
+    ASSERT_EQ(a.status, 1) << a.err;
     EXPECT_NE(a.out.find("\"illuminant\":\"A\""), std::string::npos);
     EXPECT_GT(json_number(a.out, "\"ciede2000\":{", "max"), 0.1);
+    EXPECT_NE(a.err.find("warning: " + exr + ": --check-illuminant 'A' overrides the file's 'D65'"), std::string::npos)
+        << a.err;
+    // --illuminant A reports the colours under A next to D65, and gates nothing more.
+    RunResult rep = run_spectex({"verify", exr, "--source", png, "--illuminant", "A", "--json", "-"});
+    ASSERT_EQ(rep.status, 0) << rep.err;
+    EXPECT_NE(rep.out.find("\"illuminant\":\"D65\""), std::string::npos);
+    EXPECT_GT(json_number(rep.out, "\"other_lights\":[{", "mean"), 0.1) << rep.out;
     RunResult o = run_spectex({"verify", exr, "--observer", "cie1964-10"});
     EXPECT_EQ(o.status, 0) << o.err;
     RunResult bad = run_spectex({"verify", exr, "--illuminant", "nope"});
@@ -289,7 +301,7 @@ TEST(Verify, RejectsNonSpectralFilesMismatchedSourcesAndBadUsage) {
     EXPECT_NE(mm.err.find("8x16"), std::string::npos) << mm.err;
 
     EXPECT_EQ(run_spectex({"verify"}).status, 2);
-    EXPECT_EQ(run_spectex({"verify", exr, exr}).status, 2);
+    EXPECT_EQ(run_spectex({"verify", exr, "--source", png, exr}).status, 2);  // --source compares one file
     EXPECT_EQ(run_spectex({"verify", exr, "--max-de", "0.1"}).status, 2);  // needs --source
     EXPECT_EQ(run_spectex({"verify", exr, "--source", png, "--max-de", "abc"}).status, 2);
     EXPECT_EQ(run_spectex({"verify", exr, "--source", png, "--min-code-match", "101"}).status, 2);
@@ -360,8 +372,13 @@ TEST(Verify, CountsOutOfRangeAndNonFiniteSamples) {
         out.setFrameBuffer(fb);
         out.writePixels(h);
     }
-    RunResult r = run_spectex({"verify", exr, "--json"});
+    RunResult r = run_spectex({"verify", exr, "--json", "-", "--report-only"});
     ASSERT_EQ(r.status, 0) << r.out << r.err;
+    // The default gates name both problems.
+    RunResult gated = run_spectex({"verify", exr});
+    EXPECT_EQ(gated.status, 1) << gated.out << gated.err;
+    EXPECT_NE(gated.err.find("non-finite samples: 1 "), std::string::npos) << gated.err;
+    EXPECT_NE(gated.err.find("samples outside [0, 1] by more than 1e-6: 2 "), std::string::npos) << gated.err;
     EXPECT_EQ(json_number(r.out, "", "samples"), static_cast<double>(n * bins));
     EXPECT_EQ(json_number(r.out, "\"nonfinite\":{", "count"), 1.0);
     EXPECT_EQ(json_number(r.out, "\"outside_unit_interval\":{", "count"), 4.0);
@@ -375,7 +392,7 @@ TEST(Verify, CountsOutOfRangeAndNonFiniteSamples) {
     std::vector<uint8_t> px(n * 3, 188);
     std::string png = d / "grey.png";
     write_image(png, w, h, 3, OIIO::TypeDesc::UINT8, px.data());
-    RunResult c = run_spectex({"verify", exr, "--source", png, "--json", "--max-de", "100"});
+    RunResult c = run_spectex({"verify", exr, "--source", png, "--json", "-", "--max-de", "100"});
     EXPECT_EQ(c.status, 1) << c.out << c.err;
     EXPECT_EQ(json_number(c.out, "\"source\":{", "nonfinite_pixels"), 1.0);
     EXPECT_NE(c.out.find("\"ciede2000\":{\"max\":null"), std::string::npos) << c.out;

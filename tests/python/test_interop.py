@@ -106,7 +106,7 @@ def test_verify_reads_colour_science_files(tmp, bit_depth):
     cube = np.einsum("hwc,nc->hwn", lin, basis.values)
     out = os.path.join(tmp, f"colour_{bit_depth}.exr")
     assert colour.io.write_spectral_image_Fichet2021({"T": (wl, cube)}, out, bit_depth)
-    r = subprocess.run([SPECTEX, "verify", out, "--source", CHART, "--json"], capture_output=True, text=True)
+    r = subprocess.run([SPECTEX, "verify", out, "--source", CHART, "--json", "-"], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     import json
 
