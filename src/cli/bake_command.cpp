@@ -44,7 +44,7 @@ struct BakeCli {
     std::string wavelengths_file;
     std::string method = "basis", vertex_prior = "jakob-hanika";
     int lattice_size = 9;
-    bool basis_given = false, objective_given = false, lattice_given = false;
+    bool basis_given = false, objective_given = false, lattice_given = false, wavelengths_given = false;
     FitSpec fit;
     std::string output_dir, from_list, json, shard;
     int threads = 0, jobs = 1;
@@ -168,7 +168,10 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
              [&](const std::string& v) { c.nan = v; });
     p.section("Spectra");
     p.option("--wavelengths", "START:END:STEP", "Output wavelength grid in nm (default 380:780:5).",
-             [&](const std::string& v) { c.wavelengths = v; });
+             [&](const std::string& v) {
+                 c.wavelengths = v;
+                 c.wavelengths_given = true;
+             });
     p.option("--wavelengths-file", "FILE", "Output wavelengths, one per line (any strictly increasing list).",
              [&](const std::string& v) { c.wavelengths_file = v; });
     p.option("--method", "basis|lattice|jakob-hanika",
@@ -332,7 +335,13 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         reads.add(c.from_list, "--from-list");
         {
             const std::string config = ocio_config_path(c.settings.data_dir, c.settings.config);
-            const auto files = ocio_config_files(config);
+            std::vector<std::string> files;
+            try {
+                files = ocio_config_files(config);  // a config that cannot be read fails every file: once
+            } catch (const Error& e) {
+                print_error(e.what());
+                return 2;
+            }
             reads.add(files.front(), "the OCIO config");
             for (size_t i = 1; i < files.size(); ++i) reads.add(files[i], "a LUT file of " + config);
         }
@@ -361,10 +370,16 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         return 1;
     }
 
+    // Settings that are the same for every file (grid, colour config and space, observer,
+    // illuminant, basis, method) are checked once, before any input is read: one message, exit 2.
     try {
         if (!c.wavelengths_file.empty()) c.settings.grid = WavelengthGrid::from_file(c.wavelengths_file);
         c.settings.observer = c.fit.observer;
         c.settings.illuminant = c.fit.illuminant;
+        (void)load_observer(c.settings.data_dir, c.fit.observer);
+        (void)load_illuminant(c.settings.data_dir, c.fit.illuminant);
+        if (!c.settings.colorspace.empty())
+            (void)Linearizer::make(ColourRequest{c.settings.data_dir, c.settings.config, c.settings.colorspace, "", ""});
         if (c.method != "basis") {
             MethodSpec spec;
             spec.method = c.method;
@@ -393,6 +408,8 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
             // A given basis is exact for the conditions it was made for; the default ones are recorded.
             if (c.basis == "mallett2019") c.settings.observer = "cie1931-2", c.settings.illuminant = "D65";
             WavelengthGrid basis_grid = WavelengthGrid::from_list(basis.lambda);
+            // Without --wavelengths, the output is on the basis' own grid.
+            if (!c.wavelengths_given && c.wavelengths_file.empty()) c.settings.grid = basis_grid;
             if (!same_wavelengths(c.settings.grid.lambda, basis_grid.lambda))
                 throw Error("basis " + c.basis + " is on " + basis_grid.describe() + ", not on the output grid " +
                             c.settings.grid.describe() + " (the default --basis fit works on any grid)");
@@ -416,7 +433,7 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         c.settings.settings_hash = settings_hash(c.settings);
     } catch (const Error& e) {
         print_error(e.what());
-        return 1;
+        return 2;
     }
 
 

@@ -1,5 +1,6 @@
 #include "spectral/basis.h"
 
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -59,7 +60,13 @@ Basis load_basis(const std::string& data_dir, const std::string& name_or_file) {
         if (b == name_or_file) return read_basis_csv(data_dir + "/spectral/basis_" + b + ".csv", b);
     struct stat st;
     if (::stat(name_or_file.c_str(), &st) == 0) return read_basis_csv(name_or_file, name_or_file);
-    throw Error("unknown basis '" + name_or_file + "' (known: mallett2019, or a CSV file)");
+    const int err = errno;
+    // A name that looks like a path is a missing file, not an unknown name.
+    const bool path_like = name_or_file.find('/') != std::string::npos || name_or_file.find('.') != std::string::npos;
+    if (path_like)
+        throw Error(name_or_file + ": cannot read the basis: " + std::strerror(err) +
+                    " (--basis takes fit, mallett2019 or a wavelength,r,g,b CSV file)");
+    throw Error("unknown basis '" + name_or_file + "' (known: fit, mallett2019, or a CSV file)");
 }
 
 }  // namespace spectex
