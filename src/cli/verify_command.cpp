@@ -14,6 +14,7 @@
 #include "io/data_dir.h"
 #include "pipeline/verify.h"
 #include "spectral/error.h"
+#include "spectral/spectrum.h"
 #include "spectral/wavelength_grid.h"
 
 namespace spectex {
@@ -191,7 +192,9 @@ int run_verify(const std::vector<std::string>& args) {
     p.option("--config", "FILE", "OCIO config for the source instead of $OCIO or the shipped config/spectex.ocio.",
              [&](const std::string& v) { s.config = v; });
     p.section("Colorimetry");
-    p.option("--illuminant", "NAME|FILE", "Illuminant: D65 (default), A, FL11, or a CSV wavelength,value.",
+    p.option("--illuminant", "NAME|FILE",
+             "Illuminant: " + shipped_illuminants_list(VerifySettings().illuminant) +
+                 " (any case), or a CSV wavelength,value.",
              [&](const std::string& v) { s.illuminant = v; });
     p.option("--observer", "NAME|FILE", "Observer: cie1931-2 (default), cie1964-10, or a CSV wavelength,x,y,z.",
              [&](const std::string& v) { s.observer = v; });
