@@ -4,7 +4,8 @@
 Run:  /tmp/datavenv/bin/python config/spectral/export_tables.py
 (venv: python3 -m venv /tmp/datavenv && /tmp/datavenv/bin/pip install colour-science==0.4.7 numpy)
 
-Writes the CSV files next to this script. Output is deterministic: values are
+Writes the CSV files next to this script (observers, illuminants D50 D55 D65 D75 A FL1-FL12 and the
+CIE LED series, the Mallett 2019 basis, ColorChecker). Output is deterministic: values are
 taken as shipped (no interpolation) and written with repr() of the float.
 """
 
@@ -28,6 +29,31 @@ ILLUM_SOURCE = {
     "A": "CIE standard illuminant A, ISO/CIE 11664-2 (CIE S 014-2/E:2006), CIE 015:2018 tables",
     "FL11": "CIE illuminant F11 (fluorescent, tri-band), CIE 015:2018 / CIE 15:2004 tables",
 }
+# CIE daylight illuminants and their nominal CCT (K, on the pre-1968 c2 = 1.4380e-2 m K scale).
+DAYLIGHT_CCT = {"D50": 5000, "D55": 5500, "D65": 6500, "D75": 7500}
+for _key in ["D50", "D55", "D75"]:
+    _cct = round(DAYLIGHT_CCT[_key] * 1.4388 / 1.4380)
+    ILLUM_SOURCE[_key] = f"CIE illuminant {_key} (daylight, CCT {_cct} K), CIE 015:2018 / CIE 15:2004 tables"
+# CIE 015:2018 groups of the F illuminants: standard halophosphate (F1-F6), broadband (F7-F9),
+# narrow tri-band (F10-F12).
+for _k in range(1, 13):
+    if _k != 11:  # FL11's line predates the others and stays as it was (byte-identical file)
+        _kind = "standard halophosphate" if _k <= 6 else "broadband" if _k <= 9 else "tri-band"
+        ILLUM_SOURCE[f"FL{_k}"] = (f"CIE illuminant F{_k} (fluorescent, {_kind}), "
+                                   "CIE 015:2018 / CIE 15:2004 tables")
+# CIE 015:2018 LED illuminants (typical white LEDs) by kind of source.
+LED_KIND = {
+    "LED-B1": "phosphor-converted blue", "LED-B2": "phosphor-converted blue",
+    "LED-B3": "phosphor-converted blue", "LED-B4": "phosphor-converted blue",
+    "LED-B5": "phosphor-converted blue", "LED-BH1": "hybrid: phosphor-converted blue and red",
+    "LED-RGB1": "mixed red, green and blue", "LED-V1": "phosphor-converted violet",
+    "LED-V2": "phosphor-converted violet",
+}
+for _key, _kind in LED_KIND.items():
+    ILLUM_SOURCE[_key] = (f"CIE illuminant {_key} (white LED, {_kind}), CIE 015:2018 "
+                          "(Colorimetry, 4th ed., doi:10.25039/TR.015.2018) tables of the LED illuminants")
+# Tables written as colour ships them, in the order spectex lists them (shipped_illuminants()).
+TABULATED = ["A"] + [f"FL{k}" for k in range(1, 13)] + list(LED_KIND)
 
 
 def fmt_wl(w):
@@ -70,28 +96,38 @@ def write_sd(name, source, obj_name, licence, sd):
     write_table(name, source, obj_name, licence, sd.wavelengths, [sd.values], ["value"])
 
 
+def write_daylight(key):
+    """A CIE D illuminant from its 300-780 nm table, extended to 830 nm by the daylight formula.
+
+    colour-science's D50, D55, D65 and D75 tables stop at 780 nm; CIE 015:2018 defines the D
+    illuminants to 830 nm by the daylight formula S0 + M1 S1 + M2 S2 (S0, S1, S2 tabulated 300-830 nm).
+    Grids that reach past 780 nm (e.g. 360:830) need those values: they are appended from
+    colour.sd_CIE_illuminant_D_series at the illuminant's chromaticity (nominal CCT x 1.4388/1.4380),
+    scaled by the ratio table/formula at 780 nm (1.0 up to 6e-6) so that the spectrum is continuous.
+    """
+    sd = colour.SDS_ILLUMINANTS[key]
+    cct = DAYLIGHT_CCT[key] * 1.4388 / 1.4380
+    formula = colour.sd_CIE_illuminant_D_series(colour.temperature.CCT_to_xy_CIE_D(cct))
+    scale = sd[780] / formula[780]
+    ext = np.arange(785, 831, 5, dtype=float)
+    assert sd.wavelengths[-1] == 780 and formula.wavelengths[-1] == 830, key
+    write_table(f"illuminant_{key}.csv",
+                ILLUM_SOURCE[key] + "; 785-830 nm: CIE daylight formula (colour.sd_CIE_illuminant_D_series "
+                f"at CCT {round(cct)} K), scaled by {scale!r} to join the table at 780 nm",
+                f"colour.SDS_ILLUMINANTS['{key}'] + colour.sd_CIE_illuminant_D_series", CIE_LICENCE,
+                np.concatenate([sd.wavelengths, ext]),
+                [np.concatenate([sd.values, np.array([formula[w] * scale for w in ext])])], ["value"])
+
+
 def main():
     for fname, key in [("observer_cie1931-2.csv", "CIE 1931 2 Degree Standard Observer"),
                        ("observer_cie1964-10.csv", "CIE 1964 10 Degree Standard Observer")]:
         write_msds(fname, CMFS_SOURCE, f"colour.MSDS_CMFS['{key}']", CIE_LICENCE,
                    colour.MSDS_CMFS[key], ["x", "y", "z"])
 
-    # colour-science's D65 table stops at 780 nm; CIE S 014-2 defines D65 to 830 nm by the daylight
-    # formula S0 + M1 S1 + M2 S2. Grids that reach past 780 nm (e.g. 360:830) need those values: they
-    # are appended from colour.sd_CIE_illuminant_D_series at D65's chromaticity, scaled by the ratio
-    # table/formula at 780 nm (1.0004) so that the spectrum is continuous.
-    d65 = colour.SDS_ILLUMINANTS["D65"]
-    xy = colour.temperature.CCT_to_xy_CIE_D(6500 * 1.4388 / 1.4380)
-    formula = colour.sd_CIE_illuminant_D_series(xy)
-    scale = d65[780] / formula[780]
-    ext = np.arange(785, 831, 5, dtype=float)
-    write_table("illuminant_D65.csv",
-                ILLUM_SOURCE["D65"] + "; 785-830 nm: CIE daylight formula (colour.sd_CIE_illuminant_D_series "
-                f"at CCT 6504 K), scaled by {scale!r} to join the table at 780 nm",
-                "colour.SDS_ILLUMINANTS['D65'] + colour.sd_CIE_illuminant_D_series", CIE_LICENCE,
-                np.concatenate([d65.wavelengths, ext]),
-                [np.concatenate([d65.values, np.array([formula[w] * scale for w in ext])])], ["value"])
-    for key in ["A", "FL11"]:
+    for key in DAYLIGHT_CCT:
+        write_daylight(key)
+    for key in TABULATED:
         write_sd(f"illuminant_{key}.csv", ILLUM_SOURCE[key], f"colour.SDS_ILLUMINANTS['{key}']",
                  CIE_LICENCE, colour.SDS_ILLUMINANTS[key])
 
@@ -120,6 +156,16 @@ def main():
                     ("observer_cie1931-2.csv", "illuminant_D65.csv", "basis_mallett2019.csv"))
     ybar555 = float(cmf[cmf[:, 0] == 555, 2][0])
     d65_560 = float(d65[d65[:, 0] == 560, 1][0])
+    for key in list(DAYLIGHT_CCT) + TABULATED:  # every illuminant file reads back as colour ships it
+        t = read_csv(f"illuminant_{key}.csv")
+        sd = colour.SDS_ILLUMINANTS[key]
+        assert np.array_equal(t[:len(sd.wavelengths), 0], sd.wavelengths), key
+        assert np.array_equal(t[:len(sd.wavelengths), 1], sd.values), key
+        assert np.all(np.diff(t[:, 0]) > 0) and np.all(t[:, 1] >= 0), key
+        if key in DAYLIGHT_CCT or key == "A":  # CIE normalisation: 100 at 560 nm
+            assert float(t[t[:, 0] == 560, 1][0]) == 100.0, key
+    print(f"check: {len(DAYLIGHT_CCT) + len(TABULATED)} illuminants read back equal to colour's tables; "
+          "D50, D55, D65, D75, A = 100.0 at 560 nm")
     sum_err = float(np.max(np.abs(mb[:, 1:].sum(axis=1) - 1.0)))
     assert np.array_equal(mb[:, 1:], basis.values)  # exact round trip
     print(f"check: CIE 1931 2deg ybar(555 nm) = {ybar555!r} (expect 1.0)")

@@ -190,10 +190,4 @@ std::vector<std::string> split_list(const std::string& value, const std::string&
     return out;
 }
 
-std::string join_names(const std::vector<std::string>& names) {
-    std::string s;
-    for (size_t i = 0; i < names.size(); ++i) s += (i ? ", " : "") + names[i];
-    return s;
-}
-
 }  // namespace spectex

@@ -29,6 +29,7 @@
 #include "spectral/basis_fit.h"
 #include "spectral/colorimetry.h"
 #include "spectral/error.h"
+#include "spectral/spectrum.h"
 
 namespace spectex {
 
@@ -216,7 +217,10 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
              });
     p.option("--observer", "NAME|FILE", "Observer of the fitted basis: cie1931-2 (default), cie1964-10, or a CSV.",
              [&](const std::string& v) { c.fit.observer = v; });
-    p.option("--illuminant", "NAME|FILE", "Illuminant under which the fitted basis is exact: D65 (default), or a CSV.",
+    p.option("--illuminant", "NAME|FILE",
+             "Illuminant under which the fitted basis is exact: " +
+                 shipped_illuminants_list(FitSpec().illuminant) +
+                 " (any case), or a CSV wavelength,value.",
              [&](const std::string& v) { c.fit.illuminant = v; });
     p.section("Batches");
     p.option("--from-list", "FILE", "Read input paths from FILE, one per line ('-' = stdin), after those given.",

@@ -13,6 +13,7 @@
 #include "io/data_dir.h"
 #include "pipeline/basis_cache.h"
 #include "spectral/error.h"
+#include "spectral/spectrum.h"
 
 namespace spectex {
 
@@ -64,7 +65,9 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
              [&](const std::string& v) { wavelengths_file = v; });
     p.option("--observer", "NAME|FILE", "cie1931-2 (default) or cie1964-10, or a CSV wavelength,x,y,z.",
              [&](const std::string& v) { spec.observer = v; });
-    p.option("--illuminant", "NAME|FILE", "D65 (default), A, FL11, or a CSV wavelength,value.",
+    p.option("--illuminant", "NAME|FILE",
+             shipped_illuminants_list(FitSpec().illuminant) +
+                 " (any case), or a CSV wavelength,value.",
              [&](const std::string& v) { spec.illuminant = v; });
     p.option("--primaries", "NAME", "srgb (default), rec709, p3, rec2020, or xr,yr,xg,yg,xb,yb.",
              [&](const std::string& v) { spec.primaries = v; });

@@ -20,8 +20,8 @@
 #include "io/file_identity.h"
 #include "io/spectral_exr_info.h"
 #include "pipeline/verify.h"
-#include "spectral/spectrum.h"
 #include "spectral/error.h"
+#include "spectral/spectrum.h"
 #include "spectral/wavelength_grid.h"
 
 namespace spectex {
@@ -248,11 +248,13 @@ int run_verify(const std::vector<std::string>& args) {
     p.option("--config", "FILE", "OCIO config for the source. Default: the file's spectex:config if unchanged.",
              [&](const std::string& v) { s.config = v; });
     p.section("Colorimetry");
-    p.option("--check-illuminant", "NAME|FILE", "The light the file is checked under. Default: the file's, else D65.",
+    p.option("--check-illuminant", "NAME|FILE",
+             "The light the file is checked under: the file's by default, else D65. " +
+                 shipped_illuminants_list() + " (any case), or a CSV wavelength,value.",
              [&](const std::string& v) { s.illuminant = v; });
     p.option("--illuminant", "NAME[,NAME...]",
              "Also report each pixel's colour under these lights (Bradford-adapted), next to the check light's;\n"
-             "never gated. Repeatable. Names: " + join_names(shipped_illuminants()) + ", or a CSV wavelength,value.",
+             "never gated. Repeatable. Names as for --check-illuminant.",
              [&](const std::string& v) {
                  for (const auto& n : split_list(v, "--illuminant")) s.other_lights.push_back(n);
              });

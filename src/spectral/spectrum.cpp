@@ -65,7 +65,23 @@ Observer load_observer_csv(const std::string& path, const std::string& name) {
 }
 
 std::vector<std::string> shipped_observers() { return {"cie1931-2", "cie1964-10"}; }
-std::vector<std::string> shipped_illuminants() { return {"D65", "A", "FL11"}; }
+
+std::vector<std::string> shipped_illuminants() {
+    // D65 first (the default), then daylight, incandescent, fluorescent, LED.
+    return {"D65",    "D50",    "D55",    "D75",    "A",       "FL1",      "FL2",    "FL3",   "FL4",
+            "FL5",    "FL6",    "FL7",    "FL8",    "FL9",     "FL10",     "FL11",   "FL12",  "LED-B1",
+            "LED-B2", "LED-B3", "LED-B4", "LED-B5", "LED-BH1", "LED-RGB1", "LED-V1", "LED-V2"};
+}
+
+std::string shipped_illuminants_list(const std::string& default_name) {
+    std::string out;
+    for (const auto& i : shipped_illuminants()) {
+        if (!out.empty()) out += ", ";
+        out += i;
+        if (!default_name.empty() && upper(i) == upper(default_name)) out += " (default)";
+    }
+    return out;
+}
 
 Observer load_observer(const std::string& data_dir, const std::string& name) {
     for (const auto& o : shipped_observers())
@@ -79,7 +95,8 @@ Spectrum load_illuminant(const std::string& data_dir, const std::string& name_or
         if (upper(name_or_file) == upper(i))
             return load_illuminant_csv(data_dir + "/spectral/illuminant_" + i + ".csv", i);
     if (exists(name_or_file)) return load_illuminant_csv(name_or_file, name_or_file);
-    throw Error("unknown illuminant '" + name_or_file + "' (known: D65, A, FL11, or a CSV file)");
+    throw Error("unknown illuminant '" + name_or_file + "' (known: " + shipped_illuminants_list() +
+                ", or a CSV file)");
 }
 
 }  // namespace spectex

@@ -25,11 +25,17 @@ struct Observer {
 Spectrum load_illuminant_csv(const std::string& path, const std::string& name);
 Observer load_observer_csv(const std::string& path, const std::string& name);
 
-// Named data shipped in <data_dir>/spectral/: observers "cie1931-2", "cie1964-10"; illuminants
-// "D65", "A", "FL11" (case-insensitive). A name that is an existing file is read as a CSV.
+// Named data shipped in <data_dir>/spectral/: observers "cie1931-2", "cie1964-10"; illuminants as
+// listed by shipped_illuminants(), matched case-insensitively ("led-b3" is LED-B3; the Spectrum
+// gets the shipped spelling). A name that is an existing file is read as a CSV.
 Observer load_observer(const std::string& data_dir, const std::string& name);
 Spectrum load_illuminant(const std::string& data_dir, const std::string& name_or_file);
 std::vector<std::string> shipped_observers();
+// The CIE illuminants of config/spectral/illuminant_<name>.csv (see config/spectral/README.md):
+// D65, D50, D55, D75, A, FL1-FL12, LED-B1-B5, LED-BH1, LED-RGB1, LED-V1, LED-V2.
 std::vector<std::string> shipped_illuminants();
+// shipped_illuminants() as "D65, D50, ..., LED-V2", with " (default)" after default_name when it
+// is one of them: the one list that help texts and error messages print.
+std::string shipped_illuminants_list(const std::string& default_name = "");
 
 }  // namespace spectex
