@@ -84,6 +84,7 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
         if (output.empty()) throw UsageError("no output file (-o BASIS.csv, or -o - for stdout)");
         if (output != "-") {
             ReadFiles reads;
+            reads.add_data_dir(find_data_dir());
             reads.add(spec.observer, "--observer");
             reads.add(spec.illuminant, "--illuminant");
             reads.add(wavelengths_file, "--wavelengths-file");
@@ -91,6 +92,11 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
             struct stat st;
             if (output.back() == '/' || (::stat(output.c_str(), &st) == 0 && S_ISDIR(st.st_mode)))
                 throw UsageError("-o: '" + output + "' is a folder; give a file name");
+            try {
+                check_output_path(output);
+            } catch (const Error& e) {
+                throw UsageError(e.what());
+            }
         }
         if (spec.objective != "norm" && spec.objective != "smooth")
             throw UsageError("--objective: '" + spec.objective + "' is not one of norm, smooth");

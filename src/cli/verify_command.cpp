@@ -18,6 +18,7 @@
 #include "io/data_dir.h"
 #include "io/atomic_file.h"
 #include "io/file_identity.h"
+#include "io/linearizer.h"
 #include "io/spectral_exr_info.h"
 #include "pipeline/verify.h"
 #include "spectral/error.h"
@@ -310,17 +311,13 @@ int run_verify(const std::vector<std::string>& args) {
             if (!s.config.empty()) throw UsageError("--config needs --source");
         }
         if (!json.empty() && json != "-") {
-            ReadFiles reads;
-            for (const auto& f : files) reads.add(f, "a file to verify");
-            reads.add(from_list, "--from-list");
-            reads.add(s.source, "--source");
-            reads.add(s.config, "--config");
-            reads.add(s.observer, "--observer");
-            reads.add(s.illuminant, "--check-illuminant");
-            for (const auto& l : s.other_lights) reads.add(l, "--illuminant");
-            if (std::string clash = reads.clash(json, "--json"); !clash.empty()) throw UsageError(clash);
             if (json.back() == '/' || std::filesystem::is_directory(json))
                 throw UsageError("--json: '" + json + "' is a folder; give a file name");
+            try {
+                check_output_path(json);
+            } catch (const Error& e) {
+                throw UsageError(std::string(e.what()) + " (--json)");
+            }
         }
     } catch (const UsageError& e) {
         return usage_error("verify", e.what());
@@ -342,6 +339,39 @@ int run_verify(const std::vector<std::string>& args) {
     } catch (const Error& e) {
         print_error(e.what());
         return 1;
+    }
+    // The report is never a file this command reads: the files, their sources (given or recorded),
+    // the list, the OCIO configs (given or recorded) and their LUTs, the tables.
+    if (!json.empty() && json != "-") {
+        ReadFiles reads;
+        reads.add_data_dir(s.data_dir);
+        reads.add(from_list, "--from-list");
+        reads.add(s.source, "--source");
+        reads.add(s.observer, "--observer");
+        reads.add(s.illuminant, "--check-illuminant");
+        for (const auto& l : s.other_lights) reads.add(l, "--illuminant");
+        std::vector<std::string> configs = {ocio_config_path(s.data_dir, s.config)};
+        for (const auto& f : files) {
+            reads.add(f, "a file to verify");
+            try {
+                for (const auto& [k, v] : read_spectral_exr_info(f).attributes) {
+                    if (k == "spectex:source" && source_from_header) reads.add(v, "the source " + f + " records");
+                    if (k == "spectex:config" && s.config.empty()) configs.push_back(v);
+                    if (k == "spectex:observer" || k == "spectex:illuminant") reads.add(v, "a table " + f + " records");
+                }
+            } catch (const Error&) {
+                // An unreadable file is reported when it is verified.
+            }
+        }
+        for (const auto& cfg : configs) {
+            try {
+                const auto lut = ocio_config_files(cfg);
+                for (size_t i = 0; i < lut.size(); ++i) reads.add(lut[i], i ? "a LUT file of " + cfg : "an OCIO config");
+            } catch (const Error&) {
+                // A config that cannot be read is reported when it is used.
+            }
+        }
+        if (std::string clash = reads.clash(json, "--json"); !clash.empty()) return usage_error("verify", clash);
     }
 
     struct Outcome {

@@ -93,7 +93,39 @@ void install_signal_cleanup() {
     ::signal(SIGXFSZ, SIG_IGN);
 }
 
+namespace {
+const char* kind_of(mode_t m) {
+    if (S_ISDIR(m)) return "a folder";
+    if (S_ISCHR(m)) return "a character device";
+    if (S_ISBLK(m)) return "a block device";
+    if (S_ISFIFO(m)) return "a FIFO";
+    if (S_ISSOCK(m)) return "a socket";
+    return "not a regular file";
+}
+}  // namespace
+
+void check_output_path(const std::string& path) {
+    const std::string base = path.substr(path.find_last_of('/') + 1);
+    long name_max = ::pathconf(dir_of(path).c_str(), _PC_NAME_MAX);
+    if (name_max <= 0) name_max = NAME_MAX;
+    if (base.size() > static_cast<size_t>(name_max))
+        throw Error(path + ": the file name is " + std::to_string(base.size()) + " bytes, longer than the " +
+                    std::to_string(name_max) + " its folder allows");
+    if (path.size() >= PATH_MAX) throw Error(path + ": the path is longer than " + std::to_string(PATH_MAX - 1) + " bytes");
+    struct stat st;
+    if (::lstat(path.c_str(), &st) != 0) return;  // nothing there yet
+    if (S_ISREG(st.st_mode)) return;
+    if (S_ISLNK(st.st_mode)) {
+        struct stat target;
+        // A link to a regular file (or a dangling one) is replaced by the rename; its target is untouched.
+        if (::stat(path.c_str(), &target) != 0 || S_ISREG(target.st_mode)) return;
+        throw Error(path + ": is a link to " + kind_of(target.st_mode) + "; refusing to replace it with an output");
+    }
+    throw Error(path + ": is " + kind_of(st.st_mode) + ", not a regular file; refusing to replace it with an output");
+}
+
 AtomicFile::AtomicFile(const std::string& final_path) : final_(final_path) {
+    check_output_path(final_path);
     std::string dir = dir_of(final_path);
     std::string base = final_path.substr(final_path.find_last_of('/') + 1);
     // The temporary name adds 19 bytes: shorten the name part so that it fits the folder's name
@@ -129,6 +161,7 @@ void AtomicFile::commit() {
     int fd = fd_;
     fd_ = -1;
     if (::close(fd) != 0) fail("close failed");
+    check_output_path(final_);  // what the constructor saw may have changed meanwhile
     if (::rename(temp_.c_str(), final_.c_str()) != 0) fail("cannot rename the temporary file");
     committed_ = true;
     int dfd = ::open(dir_of(final_).c_str(), O_RDONLY | O_DIRECTORY);

@@ -27,6 +27,12 @@ private:
     bool committed_ = false;
 };
 
+// Throws Error when `path` cannot be an output: its name is longer than the folder allows, or
+// something that is not a regular file is there (a device such as /dev/full, a FIFO, a socket, a
+// folder, or a link to one of these): a rename would replace it, and it is never ours to replace.
+// AtomicFile checks it too; commands call it before any work, so the mistake costs nothing.
+void check_output_path(const std::string& path);
+
 // Installs the handlers that remove live temporary files on every signal whose default action
 // ends the process (SIGINT, SIGTERM, SIGPIPE, SIGUSR1, SIGALRM, SIGXCPU, crashes, ...) and ignores
 // SIGXFSZ, so that a file-size limit gives EFBIG (an error we report) instead of killing us.

@@ -35,6 +35,9 @@ public:
     // Remembers an existing regular file (after links); other paths cannot be overwritten by a
     // rename and are ignored here (their readers refuse them).
     void add(const std::string& path, const std::string& role);
+    // The tables spectex ships (observers, illuminants, bases: <data_dir>/spectral/*) and its OCIO
+    // config: read by name (--observer cie1931-2, --basis mallett2019, ...), never written.
+    void add_data_dir(const std::string& data_dir);
     // "" when `output` is none of them, else a message naming both.
     std::string clash(const std::string& output, const std::string& output_role) const;
 
