@@ -44,7 +44,8 @@ struct BakeCli {
     std::string alpha = "associated", range = "clamp", nan = "replace";
     std::string wavelengths_file;
     std::string method = "basis", vertex_prior = "jakob-hanika";
-    int lattice_size = 9;
+    int lattice_size = 9, jh_resolution = 33;
+    bool jh_given = false;
     bool basis_given = false, objective_given = false, lattice_given = false, wavelengths_given = false;
     FitSpec fit;
     std::string output_dir, from_list, json, shard;
@@ -199,6 +200,13 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
                  c.vertex_prior = v;
                  c.lattice_given = true;
              });
+    p.option("--jh-resolution", "N",
+             "Nodes per axis of the jakob-hanika coefficient table (default 33; pbrt-v4 uses 64, which takes "
+             "about 6 s to build; 3 to 64).",
+             [&](const std::string& v) {
+                 c.jh_resolution = parse_int("--jh-resolution", v, 3, 64);
+                 c.jh_given = true;
+             });
     p.option("--basis", "fit|mallett2019|FILE",
              "fit (default): a basis fitted on the output grid by 'spectex basis' rules, exact on any grid; "
              "mallett2019: the published table (380:780:5 only); or a CSV wavelength,r,g,b on the output grid.",
@@ -275,6 +283,8 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
                              "--method " + c.method);
         if (c.method != "lattice" && c.lattice_given)
             throw UsageError("--lattice-size and --vertex-prior belong to --method lattice");
+        if (c.method != "jakob-hanika" && c.jh_given)
+            throw UsageError("--jh-resolution belongs to --method jakob-hanika");
         if (c.method != "basis" && c.range == "keep")
             throw UsageError("--out-of-range keep needs --method basis: the " + c.method +
                              " method is defined on linear RGB in [0, 1] only");
@@ -335,6 +345,7 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         }
         // No output may be a file this command reads, whatever its spelling or links.
         ReadFiles reads;
+        reads.add_data_dir(c.settings.data_dir);
         for (const auto& in : expanded) reads.add(in, "an input");
         reads.add(c.from_list, "--from-list");
         {
@@ -356,12 +367,22 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         std::vector<OutputTarget> targets;
         for (const auto& [in, out] : plan.files) {
             if (std::string clash = reads.clash(out, "the output of " + in); !clash.empty()) throw UsageError(clash);
+            try {
+                check_output_path(out);
+            } catch (const Error& e) {
+                throw UsageError(e.what());
+            }
             targets.push_back(output_target(out));
         }
         if (!c.json.empty() && c.json != "-") {
             if (std::string clash = reads.clash(c.json, "--json"); !clash.empty()) throw UsageError(clash);
             if (c.json.back() == '/' || is_directory(c.json))
                 throw UsageError("--json: '" + c.json + "' is a folder; give a file name");
+            try {
+                check_output_path(c.json);
+            } catch (const Error& e) {
+                throw UsageError(std::string(e.what()) + " (--json)");
+            }
             const OutputTarget report = output_target(c.json);
             for (size_t i = 0; i < targets.size(); ++i)
                 if (report.same_as(targets[i]))
@@ -391,6 +412,7 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
             spec.fit.data_dir = c.settings.data_dir;
             spec.fit.grid = c.settings.grid;
             spec.lattice_size = c.lattice_size;
+            spec.jh_resolution = c.jh_resolution;
             spec.vertex_prior = c.vertex_prior;
             MethodResult made = make_method(spec);
             c.settings.method = made.method;
