@@ -1,5 +1,8 @@
 // spectex: sRGB textures to spectral reflectance OpenEXR. Subcommand dispatch only.
+#include <cerrno>
+#include <cstring>
 #include <clocale>
+#include <cstdint>
 #include <cstdio>
 #include <iostream>
 #include <string>
@@ -29,17 +32,34 @@ std::string one_line(const std::string& text) {
             while (i < text.size() && (text[i] == ' ' || text[i] == '\t')) ++i;
             continue;
         }
-        // A whole, valid UTF-8 sequence passes (file names in other scripts stay readable).
+        // A whole, valid UTF-8 sequence passes (file names in other scripts stay readable), unless
+        // it is a control (C1) or an invisible format character that reorders or hides text (bidi
+        // overrides, zero-width marks): those are written as \uXXXX. Anything else is \xNN.
         size_t len = c < 0x80 ? 1 : (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xe ? 3 : (c >> 3) == 0x1e ? 4 : 0;
         bool valid = len > 0 && i + len <= text.size();
         for (size_t k = 1; valid && k < len; ++k) valid = (static_cast<unsigned char>(text[i + k]) >> 6) == 0x2;
-        if (len == 2 && valid) valid = c >= 0xc2;
+        uint32_t cp = 0;
+        if (valid && len > 1) {
+            cp = c & (0x7f >> len);
+            for (size_t k = 1; k < len; ++k) cp = (cp << 6) | (static_cast<unsigned char>(text[i + k]) & 0x3f);
+            const uint32_t min_cp[5] = {0, 0, 0x80, 0x800, 0x10000};
+            valid = cp >= min_cp[len] && cp <= 0x10ffff && !(cp >= 0xd800 && cp <= 0xdfff);  // no overlong, no surrogate
+        }
+        const bool hidden = valid && len > 1 &&
+                            ((cp >= 0x80 && cp <= 0x9f) || (cp >= 0x200b && cp <= 0x200f) ||
+                             (cp >= 0x202a && cp <= 0x202e) || (cp >= 0x2060 && cp <= 0x2069) || cp == 0xfeff ||
+                             cp == 0x061c || cp == 0x2028 || cp == 0x2029);
         if (c == '\t') {
             out += ' ';
             ++i;
         } else if (len == 1 && c >= 0x20 && c != 0x7f) {
             out += static_cast<char>(c);
             ++i;
+        } else if (hidden) {
+            char buf[12];
+            std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned>(cp));
+            out += buf;
+            i += len;
         } else if (len > 1 && valid) {
             out.append(text, i, len);
             i += len;
@@ -92,7 +112,24 @@ std::string quote(const std::string& s) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+// What a command printed must have reached standard output: a full disk or a closed pipe behind
+// it (`> /dev/full`) is a failure, never exit 0 with the output lost.
+int finish(int status) {
+    std::cout.flush();
+    errno = 0;
+    if (std::fflush(stdout) != 0 || std::ferror(stdout) || !std::cout) {
+        const int err = errno;
+        spectex::print_error(std::string("standard output: cannot write: ") + (err ? std::strerror(err) : "write error"));
+        return status == 0 ? 1 : status;
+    }
+    return status;
+}
+
+int run(int argc, char** argv);
+
+int main(int argc, char** argv) { return finish(run(argc, argv)); }
+
+int run(int argc, char** argv) {
     // Channel names hold commas and numbers are parsed with strtod: one locale, always.
     std::setlocale(LC_ALL, "C");
     std::locale::global(std::locale::classic());
