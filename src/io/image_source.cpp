@@ -170,24 +170,71 @@ ChannelChoice choose_by_position(const OIIO::ImageSpec& spec) {
     return c;
 }
 
+// The OIIO reader a file's first bytes name (magic numbers of the formats textures come in); ""
+// when they name none (TGA has no signature: its extension decides).
+std::string format_from_signature(const unsigned char* b, size_t n) {
+    auto is = [&](const char* magic, size_t len, size_t at = 0) {
+        return n >= at + len && std::memcmp(b + at, magic, len) == 0;
+    };
+    if (is("\x89PNG\r\n\x1a\n", 8)) return "png";
+    if (is("\xff\xd8\xff", 3)) return "jpeg";
+    if (is("II*\0", 4) || is("MM\0*", 4) || is("II+\0", 4) || is("MM\0+", 4)) return "tiff";
+    if (is("\x76\x2f\x31\x01", 4)) return "openexr";
+    if (is("BM", 2)) return "bmp";
+    if (is("#?RADIANCE", 10) || is("#?RGBE", 6)) return "hdr";
+    if (is("GIF87a", 6) || is("GIF89a", 6)) return "gif";
+    if (is("RIFF", 4) && is("WEBP", 4, 8)) return "webp";
+    if (is("8BPS", 4)) return "psd";
+    if (is("SDPX", 4) || is("XPDS", 4)) return "dpx";
+    if (is("\x80\x2a\x5f\xd7", 4)) return "cineon";
+    if (is("\0\0\0\x0cjP  ", 8) || is("\xff\x4f\xff\x51", 4)) return "jpeg2000";
+    if (is("DDS ", 4)) return "dds";
+    if (is("SIMPLE  =", 9)) return "fits";
+    if (is("\x53\x80\xf6\x34", 4)) return "pic";
+    if (is("ftyp", 4, 4) && (is("heic", 4, 8) || is("heix", 4, 8) || is("mif1", 4, 8) || is("avif", 4, 8))) return "heif";
+    if (n >= 2 && b[0] == 'P' && b[1] >= '1' && b[1] <= '7') return "pnm";
+    return "";
+}
+
 }  // namespace
 
 std::unique_ptr<ImageSource> ImageSource::open(const std::string& path, uint64_t max_pixels) {
     // A regular file, checked before any library opens it: a FIFO, device or folder is refused
     // at once (OIIO would block on a FIFO, or read /dev/zero forever).
+    std::string format;  // the reader chosen by the file's first bytes, "" when they say nothing
     {
         CheckedFile f(path, file_limits::kImage, "an input image");
         if (f.size() == 0) throw Error(path + ": empty file");
-        unsigned char sig[8] = {0};
-        if (::pread(f.fd(), sig, 8, 0) == 8 && std::memcmp(sig, "\x89PNG\r\n\x1a\n", 8) == 0) check_png_chunks(f, path);
+        unsigned char sig[16] = {0};
+        const ssize_t got = ::pread(f.fd(), sig, sizeof sig, 0);
+        if (got == 16 && std::memcmp(sig, "\x89PNG\r\n\x1a\n", 8) == 0) check_png_chunks(f, path);
+        if (got > 0) format = format_from_signature(sig, static_cast<size_t>(got));
     }
 
     // Unassociated alpha as stored: OIIO would otherwise premultiply PNG alpha on gamma-encoded
     // 8-bit values, before we linearise.
     OIIO::ImageSpec config;
     config.attribute("oiio:UnassociatedAlpha", 1);
-    auto in = OIIO::ImageInput::open(path, &config);
+    // One reader only: the one the content names, else the one the extension names. OIIO's own open
+    // tries every reader when the first fails, and some read a whole large file to say no (a
+    // 200 MB file of zeros named .png took 20 s): a file neither names is refused at once.
+    // (By name, with no config: OIIO 2.4's create() given a path or a config opens the file itself
+    // and falls back to every other reader.)
+    if (format.empty()) {
+        const size_t dot = path.find_last_of('.'), slash = path.find_last_of('/');
+        if (dot != std::string::npos && (slash == std::string::npos || dot > slash)) format = lower_ascii(path.substr(dot + 1));
+    }
+    if (format.empty()) throw Error(path + ": cannot read: neither its contents nor its name (no extension) say what image format it is");
+    auto in = OIIO::ImageInput::create(format, false, static_cast<const OIIO::ImageSpec*>(nullptr));
     if (!in) throw Error(path + ": cannot read: " + oiio_error(nullptr));
+    {
+        OIIO::ImageSpec opened;
+        if (!in->open(path, opened, config)) {
+            std::string why = oiio_error(in.get());
+            if (why.empty()) why = "not " + (format.empty() ? std::string("an image its extension names") : "a " + format + " file");
+            throw Error(path + ": cannot read: " + why);
+        }
+    }
     // Some readers report damage found while opening (libjpeg's "Premature end of JPEG file" on a
     // truncated progressive JPEG, whose scans are read at once) as an error but still open.
     if (in->has_error()) throw Error(path + ": cannot read: " + oiio_error(in.get()));

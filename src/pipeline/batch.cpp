@@ -138,7 +138,16 @@ std::vector<std::string> read_list(const std::string& file) {
         if (!line.empty() && line.back() == '\r') line.pop_back();  // CRLF lists
         if (line.find('\r') != std::string::npos) throw control('\r');
         if (line.size() >= PATH_MAX) throw bad("longer than PATH_MAX (" + std::to_string(PATH_MAX) + " bytes): not a path");
-        if (!line.empty() && line[0] != '#') out.push_back(line);
+        // Spaces and tabs around a path are the list's, not the path's (a list written by hand or by
+        // a spreadsheet); a path that really starts or ends with one goes on the command line.
+        const size_t b = line.find_first_not_of(" \t"), e = line.find_last_not_of(" \t");
+        line = b == std::string::npos ? std::string() : line.substr(b, e - b + 1);
+        if (!line.empty() && line[0] != '#') {
+            if (out.size() >= file_limits::kInputListEntries)
+                throw bad("more than " + std::to_string(file_limits::kInputListEntries) +
+                          " paths in one list: split it (or bake it with --shard)");
+            out.push_back(line);
+        }
         line.clear();
         ++lineno;
     };
@@ -271,23 +280,50 @@ bool up_to_date(const std::string& input, const std::string& output, const std::
     }
 }
 
+// JSON strings must be UTF-8. File names need not be: a byte that is not part of a valid UTF-8
+// sequence is written as \udcXX (the lone low surrogate U+DC00 + byte, Python's "surrogateescape"),
+// so the record stays valid JSON and the name is recoverable: os.fsencode(record["input"]).
 std::string json_escape(const std::string& s) {
     std::string o;
-    for (unsigned char c : s) {
+    for (size_t i = 0; i < s.size();) {
+        const unsigned char c = static_cast<unsigned char>(s[i]);
+        char b[8];
         switch (c) {
-            case '"': o += "\\\""; break;
-            case '\\': o += "\\\\"; break;
-            case '\n': o += "\\n"; break;
-            case '\r': o += "\\r"; break;
-            case '\t': o += "\\t"; break;
-            default:
-                if (c < 0x20) {
-                    char b[8];
-                    std::snprintf(b, sizeof b, "\\u%04x", c);
-                    o += b;
-                } else {
-                    o += static_cast<char>(c);
-                }
+            case '"': o += "\\\""; ++i; continue;
+            case '\\': o += "\\\\"; ++i; continue;
+            case '\n': o += "\\n"; ++i; continue;
+            case '\r': o += "\\r"; ++i; continue;
+            case '\t': o += "\\t"; ++i; continue;
+            default: break;
+        }
+        if (c < 0x20 || c == 0x7f) {
+            std::snprintf(b, sizeof b, "\\u%04x", c);
+            o += b;
+            ++i;
+            continue;
+        }
+        if (c < 0x80) {
+            o += static_cast<char>(c);
+            ++i;
+            continue;
+        }
+        const size_t len = (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xe ? 3 : (c >> 3) == 0x1e ? 4 : 0;
+        bool valid = len > 0 && i + len <= s.size();
+        uint32_t cp = len ? c & (0x7f >> len) : 0;
+        for (size_t k = 1; valid && k < len; ++k) {
+            const unsigned char t = static_cast<unsigned char>(s[i + k]);
+            valid = (t >> 6) == 0x2;
+            cp = (cp << 6) | (t & 0x3f);
+        }
+        const uint32_t min_cp[5] = {0, 0, 0x80, 0x800, 0x10000};
+        valid = valid && cp >= min_cp[len] && cp <= 0x10ffff && !(cp >= 0xd800 && cp <= 0xdfff);
+        if (valid) {
+            o.append(s, i, len);
+            i += len;
+        } else {
+            std::snprintf(b, sizeof b, "\\udc%02x", c);
+            o += b;
+            ++i;
         }
     }
     return o;

@@ -25,12 +25,16 @@ constexpr uint64_t kWavelengthFile = uint64_t{16} << 20;
 // --from-list: 100k paths of a few hundred bytes is ~30 MB; 256 MiB allows a million paths of
 // 250 bytes. Each line is also limited to PATH_MAX.
 constexpr uint64_t kInputList = uint64_t{256} << 20;
+// And at most 2^20 paths a list (a 100 MB list of one-letter lines would otherwise hold 50 million
+// strings, 3.7 GB): more in one call than any batch needs; split it, or shard it.
+constexpr size_t kInputListEntries = size_t{1} << 20;
 // OCIO configs: the ACES studio config is ~1 MB; 64 MiB for generated configs with long inline
 // metadata.
 constexpr uint64_t kOcioConfig = uint64_t{64} << 20;
 // LUT files referenced by an OCIO config (FileTransform src): a 65^3 .cube is ~8 MB of text and a
-// 129^3 one ~60 MB; some studio LUTs (CLF with several large 3D LUTs) reach hundreds of MB.
-constexpr uint64_t kLutFile = uint64_t{1} << 30;
+// 129^3 one ~60 MB. OCIO parses some formats slowly (an 80 MB .spi1d took 155 s, 1.5 GB): 128 MiB
+// admits every real LUT and refuses what would take minutes.
+constexpr uint64_t kLutFile = uint64_t{128} << 20;
 // Input images: the decoded size is bounded by --max-pixels (from the header, before any pixel
 // is read); this cap only refuses absurd files (a 16384^2 image of 64 float channels is 64 GiB).
 constexpr uint64_t kImage = uint64_t{64} << 30;
