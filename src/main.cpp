@@ -76,6 +76,7 @@ const char* kUsage =
     "  basis    fit a spectral basis on any wavelength grid, with a certificate\n"
     "  info     describe a spectral OpenEXR\n"
     "  verify   integrate a spectral OpenEXR back to colour and compare with its source\n"
+    "  sample   print the spectra of some pixels, and their colour under lights\n"
     "\n"
     "Options:\n"
     "  -h, --help     show this help; 'spectex <command> --help' for a command's options\n"
@@ -120,6 +121,7 @@ int main(int argc, char** argv) {
     if (cmd == "info") return spectex::run_info(rest);
     if (cmd == "basis") return spectex::run_basis(rest, command_line);
     if (cmd == "verify") return spectex::run_verify(rest);
+    if (cmd == "sample") return spectex::run_sample(rest);
     std::cerr << "spectex: unknown command '" << spectex::one_line(cmd) << "'\n" << kUsage;
     return 2;
 }

@@ -4,6 +4,7 @@
 #include <functional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace spectex {
@@ -49,5 +50,7 @@ private:
 int parse_int(const std::string& option, const std::string& value, int min, int max);
 double parse_number(const std::string& option, const std::string& value);
 uint64_t parse_count(const std::string& option, const std::string& value);
+// "X,Y": two whole numbers (negative allowed: data windows may start below 0).
+std::pair<int, int> parse_pixel(const std::string& option, const std::string& value);
 
 }  // namespace spectex
