@@ -32,10 +32,12 @@ int run_plot(const std::vector<std::string>& args) {
              [&](const std::string& v) { s.light = v; });
     p.option("--observer", "NAME|FILE", "Observer of the line colours: cie1931-2 (default), cie1964-10, or a CSV.",
              [&](const std::string& v) { s.observer = v; });
-    p.option("--size", "WxH", "Size of the SVG in px (default 760x440).", [&](const std::string& v) {
+    p.option("--title", "TEXT", "Title above the plot (default: the file name as given).",
+             [&](const std::string& v) { s.title = v; });
+    p.option("--size", "WxH", "Size of the SVG in px (default 820x440).", [&](const std::string& v) {
         const size_t x = v.find('x');
         if (x == std::string::npos) throw UsageError("--size: '" + v + "' is not WxH");
-        s.width = parse_int("--size", v.substr(0, x), 400, 10000);
+        s.width = parse_int("--size", v.substr(0, x), 500, 10000);
         s.height = parse_int("--size", v.substr(x + 1), 200, 10000);
     });
     p.flag("-q,--quiet", "Print nothing on success.", [&] { quiet = true; });

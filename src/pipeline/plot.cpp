@@ -79,18 +79,19 @@ std::string plot_svg(const std::string& exr_path, const std::vector<std::pair<in
     const double y_step = nice_step(vmax, 5);
     const double y_hi = std::ceil(vmax / y_step - 1e-9) * y_step;
 
-    const double W = s.width, H = s.height, L = 70, R = 230, T = 40, B = 60;
+    const double W = s.width, H = s.height, L = 70, R = 260, T = 40, B = 60;
     const double pw = W - L - R, ph = H - T - B;
     auto X = [&](double l) { return L + (l - x_lo) / (x_hi - x_lo) * pw; };
     auto Y = [&](double r) { return T + ph - std::min(std::max(r, 0.0), y_hi) / y_hi * ph; };
 
+    const std::string title = s.title.empty() ? exr_path : s.title;
     std::ostringstream o;
     o << "<?xml version=\"1.0\" encoding=\"UTF-8\" standalone=\"no\"?>\n"
       << "<svg xmlns=\"http://www.w3.org/2000/svg\" version=\"1.1\" width=\"" << s.width << "\" height=\"" << s.height
       << "\" viewBox=\"0 0 " << s.width << " " << s.height << "\" font-family=\"sans-serif\" font-size=\"12\">\n"
-      << "<title>Spectra of " << xml(exr_path) << "</title>\n"
+      << "<title>Spectra of " << xml(title) << "</title>\n"
       << "<rect x=\"0\" y=\"0\" width=\"" << s.width << "\" height=\"" << s.height << "\" fill=\"#ffffff\"/>\n"
-      << "<text x=\"" << f(L) << "\" y=\"24\" font-size=\"14\">" << xml(exr_path) << "</text>\n";
+      << "<text x=\"" << f(L) << "\" y=\"24\" font-size=\"14\">" << xml(title) << "</text>\n";
 
     // Light spectrum in the background, scaled so that its peak on the plotted range is the top.
     if (!s.light.empty()) {
@@ -161,7 +162,7 @@ std::string plot_svg(const std::string& exr_path, const std::vector<std::pair<in
     // Legend.
     const double lx = L + pw + 20;
     double ly = T + 6;
-    o << "<g class=\"legend\">\n";
+    o << "<g class=\"legend\" font-size=\"11\">\n";
     for (size_t i = 0; i < px.size(); ++i) {
         const PixelColour c = colour_of(v, v.lights[0], px[i].values.data(), divide ? px[i].alpha : 1.0);
         std::string text = "pixel " + std::to_string(px[i].x) + "," + std::to_string(px[i].y);

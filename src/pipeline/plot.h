@@ -13,7 +13,8 @@ struct PlotSettings {
     std::string data_dir;
     std::string observer = "cie1931-2";
     std::string light;                  // "" = none
-    int width = 760, height = 440;      // SVG user units (px)
+    std::string title;                  // "" = the file's name as given
+    int width = 820, height = 440;      // SVG user units (px)
 };
 
 struct PlotReport {
