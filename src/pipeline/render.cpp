@@ -99,6 +99,8 @@ RenderReport render_file(const std::string& exr_path, const std::string& png_pat
     if (!out) throw Error(png_path + ": OpenImageIO has no PNG writer: " + OIIO::geterror());
     OIIO::ImageSpec spec(r.width, r.height, nch, OIIO::TypeDesc::UINT8);
     spec.attribute("oiio:ColorSpace", "sRGB");
+    // Our colour is straight already: without this OIIO's PNG writer would divide it by A again.
+    if (nch == 4) spec.attribute("oiio:UnassociatedAlpha", 1);
     std::string description = "spectex render of " + exr_path + " under";
     for (const auto& l : v.lights) description += " " + l.name;
     description += s.adapt ? " (Bradford-adapted to D65)" : " (not adapted)";

@@ -44,9 +44,12 @@ struct Png {
     const uint8_t* at(int x, int y) const { return &px[(static_cast<size_t>(y) * w + x) * nch]; }
 };
 
+// The stored codes (alpha left unassociated, as bake reads PNG).
 Png read_png(const std::string& path) {
     Png p;
-    auto in = OIIO::ImageInput::open(path);
+    OIIO::ImageSpec config;
+    config.attribute("oiio:UnassociatedAlpha", 1);
+    auto in = OIIO::ImageInput::open(path, &config);
     if (!in) throw std::runtime_error("cannot read " + path + ": " + OIIO::geterror());
     p.w = in->spec().width;
     p.h = in->spec().height;
@@ -505,4 +508,51 @@ TEST(Plot, WritesValidSvgWithOnePathPerPixelAxesAndLegend) {
     EXPECT_EQ(run_spectex({"plot", exr, "--pixel", "1x1", "-o", d / "q.svg"}).status, 2);
     EXPECT_EQ(run_spectex({"plot", exr, "-o", d / "q.svg"}).status, 2);
     EXPECT_EQ(run_spectex({"plot", "--help"}).status, 0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Premultiplied alpha: colours are of the spectrum divided by A, in sample and render.
+
+TEST(Render, PremultipliedSpectraAreDividedByAlphaAndAlphaIsKept) {
+    ScratchDir d;
+    const int w = 17, h = 9;
+    std::mt19937 rng(5);
+    std::vector<uint8_t> px(static_cast<size_t>(w) * h * 4);
+    for (size_t i = 0; i < px.size(); ++i) px[i] = static_cast<uint8_t>(i % 4 == 3 ? 128 + (rng() & 127) : rng() & 255);
+    px[3] = 0;  // pixel 0,0 fully transparent
+    write_image(d / "in.png", w, h, 4, OIIO::TypeDesc::UINT8, px.data());
+    ASSERT_EQ(run_spectex({"bake", d / "in.png", "-o", d / "in.exr", "-q"}).status, 0);  // associated (default)
+    px = read_png(d / "in.png").px;  // the codes as stored (OIIO's writer may have altered them)
+
+    RunResult r = run_spectex({"render", d / "in.exr", "-o", d / "out.png", "-q"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    Png out = read_png(d / "out.png");
+    ASSERT_EQ(out.nch, 4);
+    int worst = 0;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const uint8_t* s = &px[(static_cast<size_t>(y) * w + x) * 4];
+            const uint8_t* o = out.at(x, y);
+            EXPECT_EQ(o[3], s[3]) << x << "," << y;
+            if (s[3] == 0) {
+                EXPECT_EQ(o[0] + o[1] + o[2], 0);
+                continue;
+            }
+            for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(int(o[c]) - int(s[c])));
+        }
+    EXPECT_LE(worst, 1);
+
+    r = run_spectex({"sample", d / "in.exr", "0,0", "5,4"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("# pixel 0,0: A 0: transparent"), std::string::npos) << r.out;
+    EXPECT_EQ(r.out.find("# pixel 0,0 under"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("# pixel 5,4: A "), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("(premultiplied): the colours are of the spectrum divided by A"), std::string::npos);
+    int c[3];
+    ASSERT_EQ(std::sscanf(one_attr_after(r.out, "# pixel 5,4 under D65: ").c_str(), "linear Rec.709 %*f %*f %*f"), 0);
+    ASSERT_EQ(std::sscanf(one_attr_after(r.out.substr(r.out.find("# pixel 5,4 under D65")), "sRGB 8-bit ").c_str(),
+                          "%d %d %d", &c[0], &c[1], &c[2]),
+              3);
+    const uint8_t* s = &px[(static_cast<size_t>(4) * w + 5) * 4];
+    for (int i = 0; i < 3; ++i) EXPECT_NEAR(c[i], s[i], 1);
 }
