@@ -89,7 +89,7 @@ std::string plot_svg(const std::string& exr_path, const std::vector<std::pair<in
     o << "<?xml version=\"1.0\" encoding=\"UTF-8\" standalone=\"no\"?>\n"
       << "<svg xmlns=\"http://www.w3.org/2000/svg\" version=\"1.1\" width=\"" << s.width << "\" height=\"" << s.height
       << "\" viewBox=\"0 0 " << s.width << " " << s.height << "\" font-family=\"sans-serif\" font-size=\"12\">\n"
-      << "<title>Spectra of " << xml(title) << "</title>\n"
+      << "<title>" << (s.title.empty() ? "Spectra of " : "") << xml(title) << "</title>\n"
       << "<rect x=\"0\" y=\"0\" width=\"" << s.width << "\" height=\"" << s.height << "\" fill=\"#ffffff\"/>\n"
       << "<text x=\"" << f(L) << "\" y=\"24\" font-size=\"14\">" << xml(title) << "</text>\n";
 

@@ -27,7 +27,8 @@ struct RenderReport {
     std::vector<std::string> labels;
 };
 
-// Panels of a sheet are `gap` pixels apart; the label strip is kLabelScale-dependent (see .cpp).
+// Sheet layout, with s = clamp(width / 128, 1, 4): panels 4s pixels apart under a label strip 11s
+// pixels high (labels in the 5x7 font scaled by s); one light gives the file's size, no strip.
 // Throws Error("<file>: <cause>") or Error("<output>: <cause>").
 RenderReport render_file(const std::string& exr_path, const std::string& png_path, const RenderSettings& s);
 

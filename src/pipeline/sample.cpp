@@ -13,7 +13,8 @@ SampleReport sample_pixels(const std::string& exr_path, const std::vector<std::p
     r.alpha = reader.alpha();
     r.observer = s.observer;
     std::vector<std::string> lights{"D65"};
-    for (const auto& l : s.illuminants) lights.push_back(l);
+    for (const auto& l : s.illuminants)
+        if (l != "D65" && l != "d65") lights.push_back(l);  // D65 is always shown first
     Viewer v;
     try {
         v = Viewer::make(s.data_dir, s.observer, r.wavelengths, lights);
