@@ -96,6 +96,9 @@ const char* kUsage =
     "  basis    fit a spectral basis on any wavelength grid, with a certificate\n"
     "  info     describe a spectral OpenEXR\n"
     "  verify   integrate a spectral OpenEXR back to colour and compare with its source\n"
+    "  sample   print the spectra of some pixels, and their colour under lights\n"
+    "  render   an sRGB PNG of a spectral OpenEXR as it looks under one or more lights\n"
+    "  plot     an SVG plot of the spectra of some pixels\n"
     "\n"
     "Options:\n"
     "  -h, --help     show this help; 'spectex <command> --help' for a command's options\n"
@@ -157,6 +160,9 @@ int run(int argc, char** argv) {
     if (cmd == "info") return spectex::run_info(rest);
     if (cmd == "basis") return spectex::run_basis(rest, command_line);
     if (cmd == "verify") return spectex::run_verify(rest);
+    if (cmd == "sample") return spectex::run_sample(rest);
+    if (cmd == "render") return spectex::run_render(rest);
+    if (cmd == "plot") return spectex::run_plot(rest);
     std::cerr << "spectex: unknown command '" << spectex::one_line(cmd) << "'\n" << kUsage;
     return 2;
 }

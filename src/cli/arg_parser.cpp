@@ -1,5 +1,6 @@
 #include "cli/arg_parser.h"
 
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdint>
@@ -188,6 +189,25 @@ std::vector<std::string> split_list(const std::string& value, const std::string&
         start = comma + 1;
     }
     return out;
+}
+
+std::pair<int, int> parse_pixel(const std::string& option, const std::string& value) {
+    auto whole = [&](const std::string& part, int* out) {
+        char* end = nullptr;
+        errno = 0;
+        long v = std::strtol(part.c_str(), &end, 10);
+        const bool ok = !part.empty() && (std::isdigit(static_cast<unsigned char>(part[0])) || part[0] == '-') &&
+                        *end == '\0' && errno != ERANGE && v >= -1000000000L && v <= 1000000000L;
+        *out = static_cast<int>(v);
+        return ok;
+    };
+    const size_t comma = value.find(',');
+    std::pair<int, int> p;
+    if (comma == std::string::npos || !whole(value.substr(0, comma), &p.first) ||
+        !whole(value.substr(comma + 1), &p.second))
+        throw UsageError((option.empty() ? "" : option + ": ") + "'" + value +
+                         "' is not a pixel X,Y (two whole numbers)");
+    return p;
 }
 
 }  // namespace spectex

@@ -4,6 +4,7 @@
 #include <functional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace spectex {
@@ -51,5 +52,7 @@ double parse_number(const std::string& option, const std::string& value);
 uint64_t parse_count(const std::string& option, const std::string& value);
 // "A,FL11, LED-B3" -> {"A", "FL11", "LED-B3"}; an empty item is a UsageError naming the option.
 std::vector<std::string> split_list(const std::string& value, const std::string& option = "");
+// "X,Y": two whole numbers (negative allowed: data windows may start below 0).
+std::pair<int, int> parse_pixel(const std::string& option, const std::string& value);
 
 }  // namespace spectex

@@ -251,7 +251,7 @@ int run_verify(const std::vector<std::string>& args) {
     p.section("Colorimetry");
     p.option("--check-illuminant", "NAME|FILE",
              "The light the file is checked under: the file's by default, else D65. " +
-                 shipped_illuminants_list() + " (any case), or a CSV wavelength,value.",
+                 shipped_illuminants_list("D65") + " (any case), or a CSV wavelength,value.",
              [&](const std::string& v) { s.illuminant = v; });
     p.option("--illuminant", "NAME[,NAME...]",
              "Also report each pixel's colour under these lights (Bradford-adapted), next to the check light's;\n"

@@ -12,6 +12,12 @@
 #include <ImfVecAttribute.h>
 #include <ImfBoxAttribute.h>
 #include <ImfCompressionAttribute.h>
+#include <ImfChannelListAttribute.h>
+#include <ImfChromaticitiesAttribute.h>
+#include <ImfDoubleAttribute.h>
+#include <ImfLineOrderAttribute.h>
+#include <ImfMatrixAttribute.h>
+#include <ImfRationalAttribute.h>
 #include <Iex.h>
 #include <sys/stat.h>
 
@@ -68,7 +74,99 @@ std::string attribute_text(const Imf::Attribute& a) {
         for (const auto& s : v->value()) out += (out.empty() ? "" : ", ") + s;
         return out;
     }
+    if (auto d = dynamic_cast<const Imf::DoubleAttribute*>(&a)) {
+        std::snprintf(buf, sizeof buf, "%.17g", d->value());
+        return buf;
+    }
+    if (auto b = dynamic_cast<const Imf::Box2iAttribute*>(&a)) {
+        const auto& v = b->value();
+        return std::to_string(v.min.x) + "," + std::to_string(v.min.y) + " - " + std::to_string(v.max.x) + "," +
+               std::to_string(v.max.y);
+    }
+    if (auto b = dynamic_cast<const Imf::Box2fAttribute*>(&a)) {
+        const auto& v = b->value();
+        std::snprintf(buf, sizeof buf, "%g,%g - %g,%g", double(v.min.x), double(v.min.y), double(v.max.x),
+                      double(v.max.y));
+        return buf;
+    }
+    if (auto v = dynamic_cast<const Imf::V2iAttribute*>(&a))
+        return std::to_string(v->value().x) + "," + std::to_string(v->value().y);
+    if (auto v = dynamic_cast<const Imf::V2fAttribute*>(&a)) {
+        std::snprintf(buf, sizeof buf, "%g,%g", double(v->value().x), double(v->value().y));
+        return buf;
+    }
+    if (auto v = dynamic_cast<const Imf::V3fAttribute*>(&a)) {
+        std::snprintf(buf, sizeof buf, "%g,%g,%g", double(v->value().x), double(v->value().y),
+                      double(v->value().z));
+        return buf;
+    }
+    if (auto r = dynamic_cast<const Imf::RationalAttribute*>(&a))
+        return std::to_string(r->value().n) + "/" + std::to_string(r->value().d);
+    if (auto c = dynamic_cast<const Imf::CompressionAttribute*>(&a)) return compression_name(c->value());
+    if (auto l = dynamic_cast<const Imf::LineOrderAttribute*>(&a)) {
+        switch (l->value()) {
+            case Imf::INCREASING_Y: return "increasing_y";
+            case Imf::DECREASING_Y: return "decreasing_y";
+            case Imf::RANDOM_Y: return "random_y";
+            default: return "unknown";
+        }
+    }
+    if (auto t = dynamic_cast<const Imf::TileDescriptionAttribute*>(&a)) {
+        const auto& v = t->value();
+        return std::to_string(v.xSize) + "x" + std::to_string(v.ySize) + ", " +
+               (v.mode == Imf::ONE_LEVEL ? "one level" : v.mode == Imf::MIPMAP_LEVELS ? "mipmap" : "ripmap") +
+               ", rounding " + (v.roundingMode == Imf::ROUND_UP ? "up" : "down");
+    }
+    if (auto c = dynamic_cast<const Imf::ChannelListAttribute*>(&a)) {
+        std::string out;
+        for (auto it = c->value().begin(); it != c->value().end(); ++it) {
+            out += (out.empty() ? "" : ", ") + std::string(it.name()) + " " + type_name(it.channel().type);
+            if (it.channel().xSampling != 1 || it.channel().ySampling != 1)
+                out += " (sampling " + std::to_string(it.channel().xSampling) + "x" +
+                       std::to_string(it.channel().ySampling) + ")";
+        }
+        return out;
+    }
+    if (auto c = dynamic_cast<const Imf::ChromaticitiesAttribute*>(&a)) {
+        const auto& v = c->value();
+        std::snprintf(buf, sizeof buf, "red %g,%g green %g,%g blue %g,%g white %g,%g", double(v.red.x),
+                      double(v.red.y), double(v.green.x), double(v.green.y), double(v.blue.x), double(v.blue.y),
+                      double(v.white.x), double(v.white.y));
+        return buf;
+    }
+    if (auto m = dynamic_cast<const Imf::M44fAttribute*>(&a)) {
+        std::string out;
+        for (int i = 0; i < 4; ++i)
+            for (int j = 0; j < 4; ++j) {
+                std::snprintf(buf, sizeof buf, "%s%g", out.empty() ? "" : " ", double(m->value()[i][j]));
+                out += buf;
+            }
+        return out;
+    }
+    if (auto v = dynamic_cast<const Imf::FloatVectorAttribute*>(&a)) {
+        std::string out;
+        for (float f : v->value()) {
+            std::snprintf(buf, sizeof buf, "%s%g", out.empty() ? "" : ", ", double(f));
+            out += buf;
+        }
+        return out;
+    }
     return std::string("(") + a.typeName() + ")";
+}
+
+// OpenEXR's level sizes (ImfTiledMisc): floor or ceiling of size / 2^l, at least 1.
+int level_size(int size, int l, bool round_up) {
+    int s = round_up ? static_cast<int>((static_cast<int64_t>(size) + (int64_t(1) << l) - 1) >> l) : size >> l;
+    return std::max(1, s);
+}
+int level_count(int size, bool round_up) {
+    int n = 0;
+    if (round_up) {
+        while ((int64_t(1) << n) < size) ++n;
+    } else {
+        while ((size >> (n + 1)) > 0) ++n;
+    }
+    return n + 1;
 }
 
 bool is_emissive(const std::string& name) {
@@ -114,6 +212,21 @@ SpectralExrInfo read_spectral_exr_info(const std::string& path) {
             info.tiled = true;
             info.tile_width = static_cast<int>(h.tileDescription().xSize);
             info.tile_height = static_cast<int>(h.tileDescription().ySize);
+            const Imf::TileDescription& td = h.tileDescription();
+            const bool up = td.roundingMode == Imf::ROUND_UP;
+            info.level_rounding = up ? "up" : "down";
+            const int w = info.width, ht = info.height;
+            if (w > 0 && ht > 0 && td.mode == Imf::MIPMAP_LEVELS) {
+                info.level_mode = "mipmap";
+                const int n = level_count(std::max(w, ht), up);
+                for (int l = 0; l < n; ++l) info.levels.emplace_back(level_size(w, l, up), level_size(ht, l, up));
+            } else if (w > 0 && ht > 0 && td.mode == Imf::RIPMAP_LEVELS) {
+                info.level_mode = "ripmap";
+                for (int l = 0, n = level_count(w, up); l < n; ++l) info.rip_x.push_back(level_size(w, l, up));
+                for (int l = 0, n = level_count(ht, up); l < n; ++l) info.rip_y.push_back(level_size(ht, l, up));
+            } else {
+                info.levels.emplace_back(w, ht);
+            }
         }
         bool r = false, g = false, b = false;
         for (auto it = h.channels().begin(); it != h.channels().end(); ++it) {
@@ -137,6 +250,7 @@ SpectralExrInfo read_spectral_exr_info(const std::string& path) {
         info.preview = r && g && b;
         for (auto it = h.begin(); it != h.end(); ++it) {
             std::string name = it.name();
+            info.header.push_back({name, it.attribute().typeName(), attribute_text(it.attribute())});
             if (name == "spectralLayoutVersion") {
                 info.layout_version = attribute_text(it.attribute());
                 continue;

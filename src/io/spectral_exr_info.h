@@ -23,12 +23,22 @@ struct SpectralExrInfo {
     std::string compression;
     bool tiled = false;
     int tile_width = 0, tile_height = 0;
+    // Tiled files: "one", "mipmap" or "ripmap", and how level sizes round ("down", "up"). levels
+    // holds each level's size (MIP levels; for RIP maps the x levels' widths with the full height,
+    // then the y levels' heights with the full width are in rip_x / rip_y instead).
+    std::string level_mode = "one", level_rounding = "down";
+    std::vector<std::pair<int, int>> levels;
+    std::vector<int> rip_x, rip_y;
     int parts = 1;
     bool alpha = false;
     std::string alpha_type;
     bool preview = false;                  // R, G, B present
     std::string layout_version;            // spectralLayoutVersion, "" when absent
     std::vector<std::pair<std::string, std::string>> attributes;  // every other attribute, as text
+    struct HeaderAttribute {
+        std::string name, type, value;  // value as text (attribute_text)
+    };
+    std::vector<HeaderAttribute> header;   // every attribute of the first part's header, in order
 };
 
 // Throws Error("<path>: <cause>") for unreadable files and for files with no reflective channels.

@@ -1,11 +1,5 @@
 #include "pipeline/verify.h"
 
-#include <ImfChannelList.h>
-#include <ImfFrameBuffer.h>
-#include <ImfHeader.h>
-#include <ImfInputFile.h>
-#include <ImfTileDescription.h>
-
 #include <algorithm>
 #include <cfloat>
 #include <chrono>
@@ -20,9 +14,10 @@
 #include "pipeline/batch.h"
 #include "io/linearizer.h"
 #include "io/spectral_exr_info.h"
+#include "io/spectral_reader.h"
+#include "spectral/adaptation.h"
 #include "spectral/ciede2000.h"
 #include "spectral/colorimetry.h"
-#include "io/exr_preflight.h"
 #include "spectral/error.h"
 #include "spectral/spectrum.h"
 #include "spectral/text.h"
@@ -79,19 +74,6 @@ double ErrorHistogram::percentile(double p, double max) const {
 
 namespace {
 
-int lines_per_chunk(const Imf::Header& h) {
-    if (h.hasTileDescription()) return std::max(1, static_cast<int>(h.tileDescription().ySize));
-    switch (h.compression()) {
-        case Imf::ZIP_COMPRESSION:
-        case Imf::PXR24_COMPRESSION: return 16;
-        case Imf::PIZ_COMPRESSION:
-        case Imf::B44_COMPRESSION:
-        case Imf::B44A_COMPRESSION:
-        case Imf::DWAA_COMPRESSION: return 32;
-        case Imf::DWAB_COMPRESSION: return 256;
-        default: return 1;
-    }
-}
 
 // One band of rows: the spectral planes (bin-major, as float), alpha, and the source's pixels.
 struct Band {
@@ -309,7 +291,8 @@ void compute_range(const Context& c, const Band& b, size_t begin, size_t end, St
 
 VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
     const auto t0 = std::chrono::steady_clock::now();
-    SpectralExrInfo info = read_spectral_exr_info(exr_path);  // throws "<path>: <cause>"
+    SpectralReader reader(exr_path);  // throws "<path>: <cause>"
+    const SpectralExrInfo& info = reader.info();
 
     VerifyReport r;
     r.file = exr_path;
@@ -345,10 +328,7 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
     r.half_rounding = recorded("spectex:halfRounding");
     r.illuminant = choose(s.illuminant, "spectex:illuminant", "D65", "--check-illuminant");
     r.observer = choose(s.observer, "spectex:observer", "cie1931-2", "--observer");
-    if (info.alpha) {
-        r.alpha = "associated";  // OpenEXR's convention when nothing says otherwise
-        if (recorded("spectex:alpha") == "unassociated") r.alpha = "unassociated";
-    }
+    r.alpha = reader.alpha();  // "associated" is OpenEXR's convention when nothing says otherwise
 
     std::vector<double> lambdas;
     for (const auto& b : info.reflective) lambdas.push_back(b.lambda);
@@ -432,28 +412,17 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
     }
 
     try {
-        exr_preflight(exr_path);
-        Imf::InputFile file(exr_path.c_str());
-        const Imf::Header& h = file.header();
-        const Imath::Box2i dw = h.dataWindow();
         const size_t w = static_cast<size_t>(info.width);
-        const int chunk = lines_per_chunk(h);
-        const size_t row_bytes = w * static_cast<size_t>(r.bins) * sizeof(float);
         // Whole chunks (or tile rows) per band when they fit the budget, so that no chunk is decoded
         // twice; for very wide files a band may be part of a chunk (OpenEXR keeps the decoded chunk).
-        int band_rows = static_cast<int>(std::max<size_t>(1, s.band_bytes / std::max<size_t>(row_bytes, 1)));
-        if (band_rows >= chunk)
-            band_rows = band_rows / chunk * chunk;
-        else if (static_cast<size_t>(chunk) * row_bytes <= 2 * s.band_bytes)
-            band_rows = chunk;
-        band_rows = std::min(band_rows, info.height);
+        const int band_rows = reader.band_rows(s.band_bytes);
         r.band_rows = band_rows;
 
         ctx.w = w;
         ctx.plane = w * static_cast<size_t>(band_rows);
         ctx.bins = r.bins;
-        ctx.x0 = dw.min.x;
-        ctx.y0 = dw.min.y;
+        ctx.x0 = info.data_x0;
+        ctx.y0 = info.data_y0;
         ctx.wrgb = wrgb.data();
         ctx.rgb_to_xyz = col.rgb_to_xyz;
         ctx.xyz_to_rgb = col.xyz_to_rgb;
@@ -477,17 +446,7 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
         auto read_band = [&](Band& b, int y0) {
             b.y0 = y0;
             b.rows = std::min(band_rows, info.height - y0);
-            Imf::FrameBuffer fb;
-            const Imath::V2i origin(dw.min.x, dw.min.y + y0);
-            for (int k = 0; k < r.bins; ++k)
-                fb.insert(info.reflective[static_cast<size_t>(k)].channel,
-                          Imf::Slice::Make(Imf::FLOAT, b.planes.data() + static_cast<size_t>(k) * ctx.plane, origin,
-                                           static_cast<int64_t>(w), b.rows, sizeof(float), sizeof(float) * w));
-            if (info.alpha)
-                fb.insert("A", Imf::Slice::Make(Imf::FLOAT, b.alpha.data(), origin, static_cast<int64_t>(w), b.rows,
-                                                sizeof(float), sizeof(float) * w));
-            file.setFrameBuffer(fb);
-            file.readPixels(dw.min.y + y0, dw.min.y + y0 + b.rows - 1);
+            reader.read_rows(y0, b.rows, b.planes.data(), ctx.plane, info.alpha ? b.alpha.data() : nullptr);
             if (!src) return;
             const size_t n = w * static_cast<size_t>(b.rows);
             src->read_rgba(y0, y0 + b.rows, b.raw.data());

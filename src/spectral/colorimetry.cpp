@@ -98,11 +98,4 @@ Colorimetry Colorimetry::make(const Observer& obs, const Spectrum& illuminant, c
     return c;
 }
 
-Eigen::Matrix3d bradford_adaptation(const Eigen::Vector3d& from_white, const Eigen::Vector3d& to_white) {
-    Eigen::Matrix3d B;
-    B << 0.8951, 0.2664, -0.1614, -0.7502, 1.7135, 0.0367, 0.0389, -0.0685, 1.0296;
-    const Eigen::Vector3d from = B * from_white, to = B * to_white;
-    return B.inverse() * to.cwiseQuotient(from).asDiagonal() * B;
-}
-
 }  // namespace spectex

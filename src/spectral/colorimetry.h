@@ -28,10 +28,6 @@ RgbPrimaries primaries_by_name(const std::string& name);
 Eigen::Matrix3d rgb_to_xyz_matrix(const RgbPrimaries& p, const Eigen::Vector3d& white_xyz);
 Eigen::Vector3d xyz_from_chromaticity(Chromaticity c, double Y = 1.0);
 
-// Bradford chromatic adaptation (CIE 160:2004 / ICC v4 matrix): the 3×3 map of XYZ that takes
-// from_white to to_white, cone responses scaled in the Bradford space.
-Eigen::Matrix3d bradford_adaptation(const Eigen::Vector3d& from_white, const Eigen::Vector3d& to_white);
-
 struct Colorimetry {
     WavelengthGrid grid;
     Eigen::Matrix3Xd W;                 // 3×N: XYZ of a reflectance S is W·S; the perfect reflector has Y = 1

@@ -184,7 +184,7 @@ TEST(CliErrors, UnknownColourSpaceSuggestsClosest) {
     std::string in = d / "in.png", out = d / "out.exr";
     write_png(in);
     RunResult r = run_spectex({"bake", in, "-o", out, "--colorspace", "srgbtx"});
-    EXPECT_EQ(r.status, 1);
+    EXPECT_EQ(r.status, 2);
     EXPECT_EQ(r.err.rfind("spectex: ", 0), 0u) << r.err;
     EXPECT_TRUE(contains(r.err, "unknown colour space 'srgbtx'")) << r.err;
     EXPECT_TRUE(contains(r.err, "srgb_tx")) << r.err;

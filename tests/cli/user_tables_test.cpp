@@ -77,7 +77,7 @@ TEST(UserTables, ObserverAndIlluminantValuesAreChecked) {
     for (const std::string v : {"1e308", "-1", "inf"}) {
         write_table(d / "ill.csv", "wavelength,value", v);
         RunResult r = run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--illuminant", d / "ill.csv"});
-        EXPECT_EQ(r.status, 1) << v << ": " << r.err;
+        EXPECT_EQ(r.status, 2) << v << ": " << r.err;  // a setting of every file: checked once, exit 2
         EXPECT_TRUE(contains(r.err, "ill.csv")) << r.err;
         write_table(d / "obs.csv", "wavelength,x,y,z", v + ",0.5,0.5");
         r = run_spectex({"basis", "-o", d / "b.csv", "--observer", d / "obs.csv"});
@@ -94,7 +94,7 @@ TEST(UserTables, TheInfeasibleGridHintIsTrue) {
     ScratchDir d;
     write_png(d / "in.png");
     RunResult r = run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--wavelengths", "380:780:40"});
-    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_EQ(r.status, 2) << r.err;
     ASSERT_TRUE(contains(r.err, "--allow-infeasible")) << r.err;
     RunResult ok = run_spectex(
         {"bake", d / "in.png", "-o", d / "o.exr", "--wavelengths", "380:780:40", "--allow-infeasible"});

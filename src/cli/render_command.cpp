@@ -1,0 +1,99 @@
+// spectex render: a spectral OpenEXR as an 8-bit sRGB PNG under one or more lights.
+#include <OpenEXR/ImfThreading.h>
+
+#include <algorithm>
+#include <cctype>
+#include <iostream>
+
+#include "cli/arg_parser.h"
+#include "cli/commands.h"
+#include "io/data_dir.h"
+#include "io/file_identity.h"
+#include "pipeline/look.h"
+#include "pipeline/render.h"
+#include "spectral/error.h"
+
+namespace spectex {
+
+namespace {
+
+bool ends_with_png(const std::string& p) {
+    if (p.size() < 4) return false;
+    std::string e = p.substr(p.size() - 4);
+    for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return e == ".png";
+}
+
+}  // namespace
+
+int run_render(const std::vector<std::string>& args) {
+    RenderSettings s;
+    s.illuminants.clear();
+    std::string output;
+    bool quiet = false;
+    ArgParser p("render", "spectex render [options] FILE.exr -o OUT.png",
+                "Renders a spectral OpenEXR as it looks under a light, as an 8-bit sRGB PNG: every pixel is\n"
+                "integrated under the light with the observer on the file's own bins (XYZ with the perfect\n"
+                "reflector at Y = 1), white-balanced by a Bradford adaptation of the light's white to D65's, and\n"
+                "encoded as sRGB through D65's white-consistent matrix (the one verify uses), so that a render\n"
+                "under D65 of a spectex bake gives back the source's 8-bit codes. --no-adapt shows the light's\n"
+                "colour cast instead (XYZ relative to the light, same matrix, no adaptation; clipped). Spectra\n"
+                "premultiplied by A are divided by it; a file with A gives an RGBA PNG (straight colour).\n"
+                "Several lights give a sheet: one panel per light, side by side, each under a strip with the\n"
+                "light's name. The file is read a band of rows at a time; the PNG is written atomically.\n"
+                "Exit status: 0 ok, 1 the work failed, 2 usage error.");
+    p.option("-o,--output", "OUT.png", "The PNG to write (never a file this command reads).",
+             [&](const std::string& v) { output = v; });
+    p.section("Colorimetry");
+    p.option("--illuminant", "NAME[,NAME...]",
+             "Light(s): D65 (default), A, FL11, ... or a CSV wavelength,value; repeatable; several make a sheet.",
+             [&](const std::string& v) {
+                 for (const auto& n : split_list(v, "--illuminant")) {
+                     s.illuminants.push_back(n);
+                 }
+             });
+    p.option("--observer", "NAME|FILE", "Observer: cie1931-2 (default), cie1964-10, or a CSV wavelength,x,y,z.",
+             [&](const std::string& v) { s.observer = v; });
+    p.flag("--no-adapt", "No chromatic adaptation: show the light's colour cast.", [&] { s.adapt = false; });
+    p.section("Resources");
+    p.option("--max-pixels", "N", "Refuse files with more pixels than this (default 268435456 = 16384^2).",
+             [&](const std::string& v) { s.max_pixels = parse_count("--max-pixels", v); });
+    p.option("--threads", "N", "Threads integrating pixels (default: all cores).",
+             [&](const std::string& v) { s.threads = parse_int("--threads", v, 0, 1024); });
+    p.flag("-q,--quiet", "Print nothing on success.", [&] { quiet = true; });
+    std::vector<std::string> files;
+    try {
+        if (p.parse_or_help(args, files)) return 0;
+        if (files.empty()) throw UsageError("no input file");
+        if (files.size() > 1) throw UsageError("one file at a time (got " + std::to_string(files.size()) + ")");
+        if (output.empty()) throw UsageError("no output: give -o OUT.png");
+        if (s.illuminants.empty()) s.illuminants.push_back("D65");
+        ReadFiles reads;
+        reads.add(files[0], "the input");
+        for (const auto& l : s.illuminants) reads.add(l, "--illuminant");
+        reads.add(s.observer, "--observer");
+        if (std::string clash = reads.clash(output, "-o"); !clash.empty()) throw UsageError(clash);
+        if (!ends_with_png(output)) throw UsageError("-o: '" + output + "' does not end in .png (render writes PNG)");
+    } catch (const UsageError& e) {
+        return usage_error("render", e.what());
+    }
+    try {
+        s.data_dir = find_data_dir();
+        RenderReport r = render_file(files[0], output, s);
+        if (!quiet) {
+            std::cout << r.output << ": " << r.width << " x " << r.height << " sRGB" << (r.channels == 4 ? "A" : "")
+                      << " PNG of " << r.file << " under";
+            for (const auto& l : r.labels) std::cout << " " << l;
+            std::cout << (s.adapt ? " (Bradford-adapted to D65)" : " (not adapted)") << "\n";
+        }
+    } catch (const Error& e) {
+        print_error(e.what());
+        return 1;
+    } catch (const std::exception& e) {
+        print_error(files[0] + ": " + e.what());
+        return 1;
+    }
+    return 0;
+}
+
+}  // namespace spectex
