@@ -107,6 +107,8 @@ int run_info(const std::vector<std::string>& args) {
     for (const auto& f : files) {
         try {
             SpectralExrInfo info = read_spectral_exr_info(f);
+            if (!info.complete)
+                throw Error(f + ": incomplete: chunks of the pixel data are missing (a truncated or interrupted file)");
             std::vector<double> l;
             for (const auto& b : info.reflective) l.push_back(b.lambda);
             WavelengthGrid grid = WavelengthGrid::from_list(l);
@@ -114,7 +116,9 @@ int run_info(const std::vector<std::string>& args) {
                 std::cout << info_json(info, grid);
                 continue;
             }
-            std::cout << f << "\n";
+            // Names and attribute values come from the file: one printable line each (a header can
+            // hold escape codes that would rewrite the terminal, or line breaks that forge lines).
+            std::cout << one_line(f) << "\n";
             std::cout << "  size:            " << info.width << " x " << info.height;
             if (info.data_x0 != info.display_x0 || info.data_y0 != info.display_y0 ||
                 info.data_x1 != info.display_x1 || info.data_y1 != info.display_y1)
@@ -140,7 +144,7 @@ int run_info(const std::vector<std::string>& args) {
             for (const auto& [k, v] : info.attributes) {
                 if (k.rfind("spectex:", 0) != 0) continue;
                 if (k == "spectex:wavelengthList") continue;
-                std::cout << "  " << k << " " << v << "\n";
+                std::cout << "  " << one_line(k) << " " << one_line(v) << "\n";
             }
         } catch (const Error& e) {
             print_error(e.what());

@@ -3,6 +3,8 @@
 #include <ImfChannelList.h>
 #include <ImfHeader.h>
 #include <ImfMultiPartInputFile.h>
+#include <openexr.h>
+#include <sys/stat.h>
 #include <ImfStringAttribute.h>
 #include <ImfStringVectorAttribute.h>
 #include <ImfTileDescriptionAttribute.h>
@@ -178,6 +180,67 @@ bool is_emissive(const std::string& name) {
 
 }  // namespace
 
+namespace {
+
+void quiet_exr_errors(exr_const_context_t, exr_result_t, const char*) {}
+
+// Every chunk the offset tables name lies whole within the file. OpenEXR's partComplete() only
+// looks for offsets never written; a file cut short (a copy interrupted, a full disk) keeps its
+// whole table, pointing past its end, and its first level may still decode.
+bool chunks_within_file(const std::string& path) {
+    struct stat st;
+    if (::stat(path.c_str(), &st) != 0) return false;
+    const uint64_t size = static_cast<uint64_t>(st.st_size);
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.error_handler_fn = quiet_exr_errors;
+    exr_context_t ctx = nullptr;
+    if (exr_start_read(&ctx, path.c_str(), &init) != EXR_ERR_SUCCESS) return false;
+    bool ok = true;
+    auto inside = [&](exr_result_t r, const exr_chunk_info_t& c) {
+        return r == EXR_ERR_SUCCESS && c.data_offset + c.packed_size <= size;
+    };
+    int parts = 0;
+    exr_get_count(ctx, &parts);
+    for (int p = 0; p < parts && ok; ++p) {
+        exr_storage_t storage;
+        if (exr_get_storage(ctx, p, &storage) != EXR_ERR_SUCCESS) { ok = false; break; }
+        exr_attr_box2i_t dw;
+        if (exr_get_data_window(ctx, p, &dw) != EXR_ERR_SUCCESS) { ok = false; break; }
+        exr_chunk_info_t ci;
+        if (storage == EXR_STORAGE_SCANLINE) {
+            int32_t lines = 1;
+            exr_get_scanlines_per_chunk(ctx, p, &lines);
+            for (int64_t y = dw.min.y; y <= dw.max.y && ok; y += std::max(1, lines))
+                ok = inside(exr_read_scanline_chunk_info(ctx, p, static_cast<int>(y), &ci), ci);
+        } else if (storage == EXR_STORAGE_TILED) {
+            int32_t lx = 0, ly = 0;
+            uint32_t tx = 0, ty = 0;
+            exr_tile_level_mode_t mode;
+            exr_tile_round_mode_t round;
+            if (exr_get_tile_levels(ctx, p, &lx, &ly) != EXR_ERR_SUCCESS ||
+                exr_get_tile_descriptor(ctx, p, &tx, &ty, &mode, &round) != EXR_ERR_SUCCESS) { ok = false; break; }
+            for (int32_t a = 0; a < lx && ok; ++a)
+                for (int32_t b = 0; b < ly && ok; ++b) {
+                    if (mode == EXR_TILE_MIPMAP_LEVELS && a != b) continue;
+                    int32_t w = 0, h = 0, tw = 0, th = 0;
+                    if (exr_get_level_sizes(ctx, p, a, b, &w, &h) != EXR_ERR_SUCCESS ||
+                        exr_get_tile_sizes(ctx, p, a, b, &tw, &th) != EXR_ERR_SUCCESS || tw <= 0 || th <= 0) {
+                        ok = false;
+                        break;
+                    }
+                    for (int32_t j = 0; j < (h + th - 1) / th && ok; ++j)
+                        for (int32_t i = 0; i < (w + tw - 1) / tw && ok; ++i)
+                            ok = inside(exr_read_tile_chunk_info(ctx, p, i, j, a, b, &ci), ci);
+                }
+        }
+        // Deep parts: spectex never writes them; the readers refuse them.
+    }
+    exr_finish(&ctx);
+    return ok;
+}
+
+}  // namespace
+
 SpectralExrInfo read_spectral_exr_info(const std::string& path) {
     // A regular file (never a FIFO, which would block, or a device), checked before reading.
     check_regular_file(path, file_limits::kImage, "an OpenEXR file");
@@ -194,6 +257,8 @@ SpectralExrInfo read_spectral_exr_info(const std::string& path) {
         exr_preflight(path);
         Imf::MultiPartInputFile file(path.c_str());
         info.parts = file.parts();
+        for (int part = 0; part < file.parts(); ++part) info.complete = info.complete && file.partComplete(part);
+        info.complete = info.complete && chunks_within_file(path);
         const Imf::Header& h = file.header(0);
         const Imath::Box2i& dw = h.dataWindow();
         const Imath::Box2i& disp = h.displayWindow();

@@ -34,6 +34,7 @@ struct SpectralExrInfo {
     std::string alpha_type;
     bool preview = false;                  // R, G, B present
     std::string layout_version;            // spectralLayoutVersion, "" when absent
+    bool complete = true;                  // every chunk of every level and part is in the file
     std::vector<std::pair<std::string, std::string>> attributes;  // every other attribute, as text
     struct HeaderAttribute {
         std::string name, type, value;  // value as text (attribute_text)

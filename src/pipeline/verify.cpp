@@ -293,6 +293,10 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
     const auto t0 = std::chrono::steady_clock::now();
     SpectralReader reader(exr_path);  // throws "<path>: <cause>"
     const SpectralExrInfo& info = reader.info();
+    // A truncated file can still decode its first level (verify reads level 0): its other levels,
+    // or later chunks, are missing.
+    if (!info.complete)
+        throw Error(exr_path + ": incomplete: chunks of the pixel data are missing (a truncated or interrupted file)");
 
     VerifyReport r;
     r.file = exr_path;
