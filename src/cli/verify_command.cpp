@@ -250,12 +250,11 @@ int run_verify(const std::vector<std::string>& args) {
              [&](const std::string& v) { s.config = v; });
     p.section("Colorimetry");
     p.option("--check-illuminant", "NAME|FILE",
-             "The light the file is checked under: the file's by default, else D65. " +
-                 shipped_illuminants_list("D65") + " (any case), or a CSV wavelength,value.",
+             "The light the file is checked under: the file's by default, else D65; the names listed below.",
              [&](const std::string& v) { s.illuminant = v; });
     p.option("--illuminant", "NAME[,NAME...]",
              "Also report each pixel's colour under these lights (Bradford-adapted), next to the check light's;\n"
-             "never gated. Repeatable. Names as for --check-illuminant.",
+             "never gated. Repeatable. Names: " + shipped_illuminants_list("D65") + " (any case), or a CSV wavelength,value.",
              [&](const std::string& v) {
                  for (const auto& n : split_list(v, "--illuminant")) s.other_lights.push_back(n);
              });
