@@ -75,6 +75,7 @@ const char* kUsage =
     "  bake     turn a texture into a spectral OpenEXR (channels T.<wavelength>nm)\n"
     "  basis    fit a spectral basis on any wavelength grid, with a certificate\n"
     "  info     describe a spectral OpenEXR\n"
+    "  plan     choose the wavelength grid for a scene's lights and an error budget\n"
     "  verify   integrate a spectral OpenEXR back to colour and compare with its source\n"
     "\n"
     "Options:\n"
@@ -120,6 +121,7 @@ int main(int argc, char** argv) {
     if (cmd == "info") return spectex::run_info(rest);
     if (cmd == "basis") return spectex::run_basis(rest, command_line);
     if (cmd == "verify") return spectex::run_verify(rest);
+    if (cmd == "plan") return spectex::run_plan(rest);
     std::cerr << "spectex: unknown command '" << spectex::one_line(cmd) << "'\n" << kUsage;
     return 2;
 }

@@ -10,6 +10,7 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
 int run_info(const std::vector<std::string>& args);
 int run_basis(const std::vector<std::string>& args, const std::string& command_line);
 int run_verify(const std::vector<std::string>& args);
+int run_plan(const std::vector<std::string>& args);
 
 // A message as one printable line: line breaks become "; ", control bytes and bytes that are not
 // valid UTF-8 (a binary file's name or contents quoted by a library) become \xNN.
