@@ -12,6 +12,13 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
 int run_verify(const std::vector<std::string>& args);
 int run_plan(const std::vector<std::string>& args);
 
+struct PlanSpec;
+class ArgParser;
+// The options that `plan` and `bake --wavelengths auto` share: --lights, --max-de,
+// --reconstruction, --range, --grids (plan_command.cpp). The flags say whether lights and a budget
+// were given.
+void add_plan_options(ArgParser& p, PlanSpec& spec, bool& lights_given, bool& budget_given);
+
 // A message as one printable line: line breaks become "; ", control bytes and bytes that are not
 // valid UTF-8 (a binary file's name or contents quoted by a library) become \xNN.
 std::string one_line(const std::string& text);

@@ -44,12 +44,25 @@ void add_plan_options(ArgParser& p, PlanSpec& spec, bool& lights_given, bool& bu
                      throw UsageError(std::string("--range: ") + e.what());
                  }
              });
+    p.option("--grids", "LIST",
+             "Candidate grids instead of the default ones (uniform 1, 2, 2.5, 4, 5, 10, 20 nm over 380:780, "
+             "400:700 and --range), e.g. the grids a renderer supports: 380:780:5,400:700:10.",
+             [&](const std::string& v) {
+                 spec.candidates.clear();
+                 for (const auto& g : split_list(v, "--grids")) {
+                     try {
+                         spec.candidates.push_back(WavelengthGrid::parse_exact(g));
+                     } catch (const Error& e) {
+                         throw UsageError("--grids: " + g + ": " + e.what());
+                     }
+                 }
+             });
 }
 
 int run_plan(const std::vector<std::string>& args) {
     PlanSpec spec;
     spec.method.method = "basis";
-    std::string type = "half", json, grids;
+    std::string type = "half", json;
     bool lights_given = false, budget_given = false, lattice_given = false;
     ArgParser p("plan", "spectex plan [options]",
                 "Chooses the wavelength grid for a scene: for candidate grids (uniform steps 1, 2, 2.5, 4, 5, 10\n"
@@ -89,8 +102,6 @@ int run_plan(const std::vector<std::string>& args) {
                  if (v != "half" && v != "float") throw UsageError("--type: '" + v + "' is not one of half, float");
                  type = v;
              });
-    p.option("--grids", "LIST", "Candidate grids instead of the default ones, e.g. 380:780:5,400:700:10.",
-             [&](const std::string& v) { grids = v; });
     p.option("--sample-stride", "N",
              "The dense sample: every N-th 8-bit code and 255 per axis (default 4: 274,625 colours).",
              [&](const std::string& v) { spec.sample_stride = parse_int("--sample-stride", v, 1, 255); });
@@ -114,14 +125,6 @@ int run_plan(const std::vector<std::string>& args) {
         if (lattice_given && spec.method.method != "lattice")
             throw UsageError("--lattice-size and --vertex-prior belong to --method lattice");
         spec.half = type == "half";
-        if (!grids.empty())
-            for (const auto& g : split_list(grids, "--grids")) {
-                try {
-                    spec.candidates.push_back(WavelengthGrid::parse_exact(g));
-                } catch (const Error& e) {
-                    throw UsageError("--grids: " + g + ": " + e.what());
-                }
-            }
     } catch (const UsageError& e) {
         return usage_error("plan", e.what());
     }

@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "cli/cli_util.h"
+#include "cli/exr_read.h"
 
 using namespace spectex_test;
 
@@ -17,6 +18,18 @@ const std::vector<std::string> kThree = {"--lights", "D65", "--grids", "380:780:
 std::vector<std::string> with(std::vector<std::string> a, const std::vector<std::string>& more) {
     a.insert(a.end(), more.begin(), more.end());
     return a;
+}
+
+size_t count(const std::string& text, const std::string& what) {
+    size_t n = 0;
+    for (size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+    return n;
+}
+
+void write_png(const std::string& path) {
+    std::vector<unsigned char> px(8 * 8 * 3);
+    for (size_t i = 0; i < px.size(); ++i) px[i] = static_cast<unsigned char>((i * 37) % 256);
+    write_image(path, 8, 8, 3, OIIO::TypeDesc::UINT8, px.data());
 }
 
 }  // namespace
@@ -73,4 +86,49 @@ TEST(Plan, UsageErrors) {
     EXPECT_EQ(run_spectex({"plan", "--max-de", "-1"}).status, 2);
     EXPECT_EQ(run_spectex({"plan", "--grids", "400:700:7"}).status, 2);
     EXPECT_EQ(run_spectex({"plan", "--lattice-size", "5"}).status, 2);
+}
+
+TEST(Plan, BakeAutoRecordsTheChoiceAndUpdateTreatsItAsSettings) {
+    ScratchDir d;
+    write_png(d / "in.png");
+    const std::vector<std::string> bake = {"bake", d / "in.png", "-o", d / "out.exr", "--wavelengths", "auto",
+                                           "--lights", "D65", "--grids", "380:780:20,380:780:10,380:780:5"};
+    RunResult r = run_spectex(with(bake, {"--max-de", "0.5"}));
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.err.find("--wavelengths auto: 380:780:10 (41 bins)"), std::string::npos) << r.err;
+    ExrImage img = read_exr(d / "out.exr");
+    EXPECT_EQ(img.attr("spectex:wavelengths"), "380:780:10");
+    EXPECT_EQ(img.attr("spectex:planLights"), "D65");
+    EXPECT_EQ(img.attr("spectex:planMaxDe"), "0.5");
+    EXPECT_EQ(img.attr("spectex:planReconstruction"), "linear");
+    EXPECT_EQ(img.attr("spectex:planRange"), "360:830");
+    const double worst = std::atof(img.attr("spectex:planWorstDe").c_str());
+    EXPECT_GT(worst, 0.2);  // 0.29 on the full cube under D65 (README)
+    EXPECT_LT(worst, 0.5);
+
+    // Same settings: skipped. Another budget that picks the same grid: rebuilt (the budget is a setting).
+    r = run_spectex(with(bake, {"--max-de", "0.5", "--update", "--json", "-"}));
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(count(r.out, "\"status\":\"skipped\""), 1u) << r.out;
+    r = run_spectex(with(bake, {"--max-de", "0.45", "--update", "--json", "-"}));
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(count(r.out, "\"status\":\"ok\""), 1u) << r.out;
+    img = read_exr(d / "out.exr");
+    EXPECT_EQ(img.attr("spectex:wavelengths"), "380:780:10");
+    EXPECT_EQ(img.attr("spectex:planMaxDe"), "0.45");
+    // Another reconstruction is another setting too.
+    r = run_spectex(with(bake, {"--max-de", "0.45", "--reconstruction", "box", "--update", "--json", "-"}));
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(count(r.out, "\"status\":\"ok\""), 1u) << r.out;
+    EXPECT_EQ(read_exr(d / "out.exr").attr("spectex:planReconstruction"), "box");
+
+    // A budget no grid meets: exit 1, the best achievable, no file written.
+    r = run_spectex({"bake", d / "in.png", "-o", d / "none.exr", "--wavelengths", "auto", "--lights", "D65",
+                     "--max-de", "0.001", "--grids", "380:780:20,380:780:10"});
+    EXPECT_EQ(r.status, 1);
+    EXPECT_NE(r.err.find("the best achievable is"), std::string::npos) << r.err;
+    EXPECT_FALSE(file_exists(d / "none.exr"));
+    // auto needs its lights and budget; they mean nothing without auto.
+    EXPECT_EQ(run_spectex({"bake", d / "in.png", "-o", d / "x.exr", "--wavelengths", "auto", "--lights", "A"}).status, 2);
+    EXPECT_EQ(run_spectex({"bake", d / "in.png", "-o", d / "x.exr", "--max-de", "0.5"}).status, 2);
 }
