@@ -95,6 +95,7 @@ const char* kUsage =
     "  bake     turn a texture into a spectral OpenEXR (channels T.<wavelength>nm)\n"
     "  basis    fit a spectral basis on any wavelength grid, with a certificate\n"
     "  info     describe a spectral OpenEXR\n"
+    "  plan     choose the wavelength grid for a scene's lights and an error budget\n"
     "  verify   integrate a spectral OpenEXR back to colour and compare with its source\n"
     "  sample   print the spectra of some pixels, and their colour under lights\n"
     "  render   an sRGB PNG of a spectral OpenEXR as it looks under one or more lights\n"
@@ -163,6 +164,7 @@ int run(int argc, char** argv) {
     if (cmd == "sample") return spectex::run_sample(rest);
     if (cmd == "render") return spectex::run_render(rest);
     if (cmd == "plot") return spectex::run_plot(rest);
+    if (cmd == "plan") return spectex::run_plan(rest);
     std::cerr << "spectex: unknown command '" << spectex::one_line(cmd) << "'\n" << kUsage;
     return 2;
 }

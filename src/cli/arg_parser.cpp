@@ -191,6 +191,12 @@ std::vector<std::string> split_list(const std::string& value, const std::string&
     return out;
 }
 
+std::string join_names(const std::vector<std::string>& names) {
+    std::string s;
+    for (size_t i = 0; i < names.size(); ++i) s += (i ? ", " : "") + names[i];
+    return s;
+}
+
 std::pair<int, int> parse_pixel(const std::string& option, const std::string& value) {
     auto whole = [&](const std::string& part, int* out) {
         char* end = nullptr;

@@ -52,6 +52,8 @@ double parse_number(const std::string& option, const std::string& value);
 uint64_t parse_count(const std::string& option, const std::string& value);
 // "A,FL11, LED-B3" -> {"A", "FL11", "LED-B3"}; an empty item is a UsageError naming the option.
 std::vector<std::string> split_list(const std::string& value, const std::string& option = "");
+// {"D65", "A"} -> "D65, A".
+std::string join_names(const std::vector<std::string>& names);
 // "X,Y": two whole numbers (negative allowed: data windows may start below 0).
 std::pair<int, int> parse_pixel(const std::string& option, const std::string& value);
 

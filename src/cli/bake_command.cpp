@@ -25,6 +25,7 @@
 #include "pipeline/basis_cache.h"
 #include "pipeline/method_cache.h"
 #include "pipeline/batch.h"
+#include "pipeline/plan.h"
 #include "cli/batch_runner.h"
 #include "spectral/basis_fit.h"
 #include "spectral/colorimetry.h"
@@ -52,6 +53,8 @@ struct BakeCli {
     int threads = 0, jobs = 1;
     bool quiet = false, verbose = false, progress = false, update = false, force = false, fail_fast = false;
     BakeSettings settings;
+    PlanSpec plan;  // --wavelengths auto
+    bool plan_lights = false, plan_budget = false;
 };
 
 template <typename T>
@@ -169,13 +172,16 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
     p.option("--nan", "replace|error", "NaN and infinite values: replace with 0 (default) or fail.",
              [&](const std::string& v) { c.nan = v; });
     p.section("Spectra");
-    p.option("--wavelengths", "START:END:STEP", "Output wavelength grid in nm (default 380:780:5).",
+    p.option("--wavelengths", "START:END:STEP|auto",
+             "Output wavelength grid in nm (default 380:780:5). auto: the cheapest grid within --max-de under "
+             "every one of --lights, chosen once per batch as 'spectex plan' does (recorded in the header).",
              [&](const std::string& v) {
                  c.wavelengths = v;
                  c.wavelengths_given = true;
              });
     p.option("--wavelengths-file", "FILE", "Output wavelengths, one per line (any strictly increasing list).",
              [&](const std::string& v) { c.wavelengths_file = v; });
+    add_plan_options(p, c.plan, c.plan_lights, c.plan_budget);
     p.option("--method", "basis|lattice|jakob-hanika",
              "How a linear RGB becomes a spectrum. basis: r·S_r + g·S_g + b·S_b with --basis (exact under "
              "the illuminant). lattice: exact vertex spectra on an N^3 lattice over linear RGB, tetrahedral "
@@ -290,7 +296,19 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
                              " method is defined on linear RGB in [0, 1] only");
         if (c.fit.objective != "smooth" && c.fit.objective != "norm")
             throw UsageError("--objective: '" + c.fit.objective + "' is not one of smooth, norm");
-        if (c.wavelengths_file.empty()) {
+        const bool automatic = c.wavelengths == "auto";
+        if (automatic) {
+            if (!c.wavelengths_file.empty())
+                throw UsageError("--wavelengths auto and --wavelengths-file are two grids; give one");
+            if (!c.plan_lights || !c.plan_budget)
+                throw UsageError("--wavelengths auto needs --lights and --max-de (the scene's lights and the error budget)");
+            if (c.method == "basis" && c.basis != "fit")
+                throw UsageError("--wavelengths auto fits the basis on the chosen grid; --basis " + c.basis +
+                                 " has a grid of its own");
+        } else if (c.plan_lights || c.plan_budget || !c.plan.candidates.empty()) {
+            throw UsageError("--lights, --max-de and --grids choose the grid of --wavelengths auto");
+        }
+        if (c.wavelengths_file.empty() && !automatic) {
             try {
                 c.settings.grid = WavelengthGrid::parse_exact(c.wavelengths);
             } catch (const Error& e) {
@@ -364,6 +382,8 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         reads.add(c.fit.observer, "--observer");
         reads.add(c.fit.illuminant, "--illuminant");
         reads.add(c.wavelengths_file, "--wavelengths-file");
+        if (c.wavelengths == "auto")
+            for (const auto& l : c.plan.lights) reads.add(l, "--lights");
         std::vector<OutputTarget> targets;
         for (const auto& [in, out] : plan.files) {
             if (std::string clash = reads.clash(out, "the output of " + in); !clash.empty()) throw UsageError(clash);
@@ -399,6 +419,35 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
     // illuminant, basis, method) are checked once, before any input is read: one message, exit 2.
     try {
         if (!c.wavelengths_file.empty()) c.settings.grid = WavelengthGrid::from_file(c.wavelengths_file);
+        if (c.wavelengths == "auto") {
+            // Once per batch: every file of it gets the same grid.
+            c.plan.method.method = c.method;
+            c.plan.method.fit = c.fit;
+            c.plan.method.fit.data_dir = c.settings.data_dir;
+            c.plan.method.lattice_size = c.lattice_size;
+            c.plan.method.vertex_prior = c.vertex_prior;
+            c.plan.half = c.settings.type == SampleType::Half;
+            c.plan.threads = c.threads;
+            const PlanResult pr = plan_grids(c.plan);
+            if (c.verbose) std::cerr << plan_table(c.plan, pr);
+            if (pr.chosen < 0) throw Error(plan_failure(c.plan, pr));
+            const GridRow& row = pr.rows[static_cast<size_t>(pr.chosen)];
+            c.settings.grid = row.grid;
+            char num[64];
+            auto& rec = c.settings.plan;
+            for (const auto& l : c.plan.lights) rec.lights += (rec.lights.empty() ? "" : ",") + l;
+            std::snprintf(num, sizeof num, "%g", c.plan.max_de);
+            rec.max_de = num;
+            rec.reconstruction = to_string(c.plan.reconstruction);
+            std::snprintf(num, sizeof num, "%g:%g", c.plan.range_start, c.plan.range_end);
+            rec.range = num;
+            std::snprintf(num, sizeof num, "%.4g", row.worst);
+            rec.worst_de = num;
+            if (!c.quiet)
+                std::cerr << "spectex: --wavelengths auto: " << row.grid.describe() << " (" << row.bins
+                          << " bins), worst " << rec.worst_de << " ΔE00 under " << row.worst_light << ", within "
+                          << rec.max_de << " under " << join_names(c.plan.lights) << " (" << pr.seconds << " s)\n";
+        }
         c.settings.observer = c.fit.observer;
         c.settings.illuminant = c.fit.illuminant;
         (void)load_observer(c.settings.data_dir, c.fit.observer);

@@ -13,6 +13,14 @@ int run_verify(const std::vector<std::string>& args);
 int run_sample(const std::vector<std::string>& args);
 int run_render(const std::vector<std::string>& args);
 int run_plot(const std::vector<std::string>& args);
+int run_plan(const std::vector<std::string>& args);
+
+struct PlanSpec;
+class ArgParser;
+// The options that `plan` and `bake --wavelengths auto` share: --lights, --max-de,
+// --reconstruction, --range, --grids (plan_command.cpp). The flags say whether lights and a budget
+// were given.
+void add_plan_options(ArgParser& p, PlanSpec& spec, bool& lights_given, bool& budget_given);
 
 // A message as one printable line: line breaks become "; ", control bytes and bytes that are not
 // valid UTF-8 (a binary file's name or contents quoted by a library) become \xNN.

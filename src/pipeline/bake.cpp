@@ -164,6 +164,13 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
         {"spectex:halfRounding", s.type == SampleType::Half ? (s.colour_rounding ? "colour" : "nearest") : "n/a"},
         {"spectex:settingsHash", s.settings_hash},
     };
+    if (!s.plan.lights.empty()) {
+        layout.attributes.push_back({"spectex:planLights", s.plan.lights});
+        layout.attributes.push_back({"spectex:planMaxDe", s.plan.max_de});
+        layout.attributes.push_back({"spectex:planReconstruction", s.plan.reconstruction});
+        layout.attributes.push_back({"spectex:planRange", s.plan.range});
+        layout.attributes.push_back({"spectex:planWorstDe", s.plan.worst_de});
+    }
     {
         // The method's own attributes where the basis' always stood (the order is part of the bytes).
         auto at = layout.attributes.begin() + 3;

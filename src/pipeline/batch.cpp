@@ -247,6 +247,10 @@ std::string settings_hash(const BakeSettings& s) {
     fnv(h, s.colorspace);
     fnv(h, s.colour_rounding ? "colour-rounding" : "nearest");
     fnv(h, std::to_string(s.tile_width) + "x" + std::to_string(s.tile_height) + (s.mipmap ? "mip" : ""));
+    // --wavelengths auto: the choice's settings (the chosen grid is hashed above); nothing when the
+    // grid was given, so those hashes stay as they were.
+    if (!s.plan.lights.empty())
+        fnv(h, "plan " + s.plan.lights + "|" + s.plan.max_de + "|" + s.plan.reconstruction + "|" + s.plan.range);
     // The colour config decides the linearisation: its path and its contents.
     const std::string config = ocio_config_path(s.data_dir, s.config);
     fnv(h, config);

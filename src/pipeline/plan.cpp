@@ -1,0 +1,423 @@
+#include "pipeline/plan.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <sstream>
+#include <thread>
+
+#include "pipeline/basis_cache.h"
+#include "pipeline/batch.h"
+#include "spectral/colorimetry.h"
+#include "spectral/error.h"
+#include "spectral/spectrum.h"
+
+namespace spectex {
+
+namespace {
+
+std::string fmt(double v, const char* f = "%.3g") {
+    char buf[48];
+    std::snprintf(buf, sizeof buf, f, v);
+    return buf;
+}
+
+std::string thousands(uint64_t v) {
+    std::string s = std::to_string(v), o;
+    for (size_t i = 0; i < s.size(); ++i) {
+        if (i && (s.size() - i) % 3 == 0) o += ',';
+        o += s[i];
+    }
+    return o;
+}
+
+std::shared_ptr<const SpectralMethod> build_method(const PlanSpec& s, const WavelengthGrid& g) {
+    if (s.method.method == "basis") {
+        FitSpec f = s.method.fit;
+        f.grid = g;
+        FitResult fit = fit_basis_for(f);
+        return std::make_shared<BasisMethod>(fit.basis, "fitted by spectex: " + f.describe());
+    }
+    MethodSpec m = s.method;
+    m.fit.grid = g;
+    return make_method(m).method;
+}
+
+Eigen::MatrixXd basis_matrix(const SpectralMethod& m) {
+    const Basis& b = dynamic_cast<const BasisMethod&>(m).basis();
+    Eigen::MatrixXd B(static_cast<Eigen::Index>(b.size()), 3);
+    for (size_t k = 0; k < b.size(); ++k) B.row(static_cast<Eigen::Index>(k)) << b.r[k], b.g[k], b.b[k];
+    return B;
+}
+
+}  // namespace
+
+std::vector<WavelengthGrid> default_candidates(double range_start, double range_end) {
+    std::vector<std::pair<double, double>> ranges = {{range_start, range_end}};
+    for (auto r : {std::make_pair(380.0, 780.0), std::make_pair(400.0, 700.0)})
+        if (r != ranges.front()) ranges.push_back(r);
+    std::vector<WavelengthGrid> out;
+    for (const auto& [lo, hi] : ranges)
+        for (double step : {1.0, 2.0, 2.5, 4.0, 5.0, 10.0, 20.0}) {
+            const double last = lo + std::floor((hi - lo) / step + 1e-9) * step;
+            out.push_back(WavelengthGrid::uniform_grid(lo, last, step));
+        }
+    return out;
+}
+
+double relative_bake_time(int bins) { return 0.24 + 0.76 * bins / 81.0; }
+
+PlanResult plan_grids(const PlanSpec& spec) {
+    const auto t0 = std::chrono::steady_clock::now();
+    if (spec.lights.empty()) throw Error("no lights to plan for");
+    if (!(spec.max_de > 0)) throw Error("the budget must be a positive ΔE00");
+    const std::string& dir = spec.method.fit.data_dir;
+    const WavelengthGrid fine = renderer_grid(spec.range_start, spec.range_end);
+    const Observer obs = load_observer(dir, spec.method.fit.observer);
+    std::vector<LightWeights> lights;
+    for (const auto& name : spec.lights) lights.push_back(light_weights(obs, load_illuminant(dir, name), fine));
+    for (size_t j = 0; j < lights.size(); ++j) lights[j].name = spec.lights[j];
+    const int threads =
+        spec.threads > 0 ? spec.threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+
+    std::shared_ptr<const SpectralMethod> ref;
+    try {
+        ref = build_method(spec, fine);
+    } catch (const Error& e) {
+        throw Error("the reference (the method on " + fine.describe() + ", the renderer's range at 1 nm): " + e.what());
+    }
+    const bool linear = spec.method.method == "basis";
+
+    PlanResult res;
+    res.method = spec.method.method == "basis" ? "basis (fitted, " + spec.method.fit.objective + ")"
+                                               : spec.method.describe();
+    if (spec.method.method != "basis") {
+        // describe() names the grid of the template spec: drop it, the grid is the row's.
+        const size_t cut = res.method.rfind(", ");
+        if (cut != std::string::npos) res.method = res.method.substr(0, cut);
+    } else {
+        res.method += ", " + spec.method.fit.primaries + " primaries, " + spec.method.fit.observer + ", exact under " +
+                      spec.method.fit.illuminant;
+    }
+
+    std::vector<WavelengthGrid> grids = spec.candidates.empty() ? default_candidates(spec.range_start, spec.range_end)
+                                                                : spec.candidates;
+    std::sort(grids.begin(), grids.end(), [](const WavelengthGrid& a, const WavelengthGrid& b) {
+        return a.size() != b.size() ? a.size() < b.size() : a.lambda.front() < b.lambda.front();
+    });
+    std::vector<std::shared_ptr<const SpectralMethod>> methods(grids.size());
+    for (size_t i = 0; i < grids.size(); ++i) {
+        GridRow row;
+        row.grid = grids[i];
+        row.bins = static_cast<int>(grids[i].size());
+        row.bytes_per_pixel = row.bins * (spec.half ? 2 : 4);
+        row.relative_time = relative_bake_time(row.bins);
+        try {
+            methods[i] = build_method(spec, grids[i]);
+        } catch (const Error& e) {
+            row.ok = false;
+            row.why = std::string("cannot build the method on this grid: ") + e.what();
+        }
+        res.rows.push_back(row);
+    }
+
+    // The dense sample: linear RGB of its codes.
+    const auto codes = code_sample(spec.sample_stride);
+    std::vector<float> sr, sg, sb;
+    Eigen::Matrix3Xd srgb(3, static_cast<Eigen::Index>(codes.size()));
+    for (size_t i = 0; i < codes.size(); ++i) {
+        const auto& t = srgb_code_table();
+        sr.push_back(static_cast<float>(t[codes[i][0]]));
+        sg.push_back(static_cast<float>(t[codes[i][1]]));
+        sb.push_back(static_cast<float>(t[codes[i][2]]));
+        srgb.col(static_cast<Eigen::Index>(i)) << sr.back(), sg.back(), sb.back();
+    }
+    // Half rounding as a bake does it: colour-aware, under the conditions the method is exact for.
+    auto rgb_weight_for = [&](const WavelengthGrid& g) {
+        const Colorimetry c = Colorimetry::make(obs, load_illuminant(dir, spec.method.fit.illuminant), g,
+                                                primaries_by_name(spec.method.fit.primaries));
+        const Eigen::Matrix3Xd R = c.rgb_weights();
+        std::vector<float> w(3 * g.size());
+        for (size_t k = 0; k < g.size(); ++k)
+            for (int ch = 0; ch < 3; ++ch) w[3 * k + static_cast<size_t>(ch)] = static_cast<float>(R(ch, static_cast<Eigen::Index>(k)));
+        return w;
+    };
+    for (auto& row : res.rows) row.lights.resize(lights.size());
+
+    // A row's verdict from its figures.
+    auto judge = [&](GridRow& row) {
+        row.worst = 0;
+        row.worst_light.clear();
+        std::string over;
+        for (const auto& le : row.lights) {
+            if (le.worst >= row.worst) {
+                row.worst = le.worst;
+                row.worst_light = le.light;
+            }
+            if (le.worst > spec.max_de) over += (over.empty() ? "" : ", ") + le.light + " " + fmt(le.worst);
+        }
+        row.passes = over.empty();
+        row.why = row.passes ? "" : "fails: " + over + " > " + fmt(spec.max_de);
+        if (row.passes || row.colours != "cube") return;
+        row.why += " on the full cube";
+    };
+    const std::string sample_text = thousands(codes.size()) + " colours (every " + std::to_string(spec.sample_stride) +
+                                    "th 8-bit sRGB code and 255 per axis, the cube's faces included)";
+
+    std::vector<std::vector<Eigen::Matrix3Xd>> recon(res.rows.size());  // per row, per light: W_L·R_G
+    for (size_t i = 0; i < res.rows.size(); ++i) {
+        if (!methods[i]) continue;
+        const Eigen::MatrixXd R = reconstruction_matrix(grids[i].lambda, fine.lambda, spec.reconstruction);
+        for (const auto& lw : lights) recon[i].push_back(lw.W * R);
+        for (size_t j = 0; j < lights.size(); ++j) res.rows[i].lights[j].light = lights[j].name;
+    }
+
+    if (linear) {
+        // Colour is a 3×3 map of linear RGB: M_G = W_L·R_G·B_G for the candidate, W_L·B_1nm for the
+        // reference. The sample gives every row's figures (with the real half rounding); the full cube
+        // (float maps, plus the largest change half rounding made to any sample colour's error) is
+        // computed for every row with "cube", for the chosen row with "auto".
+        const Eigen::MatrixXd Bref = basis_matrix(*ref);
+        std::vector<Eigen::Matrix3d> Mref;
+        std::vector<std::vector<Eigen::Matrix3d>> M(res.rows.size());
+        for (const auto& lw : lights) Mref.push_back(lw.W * Bref);
+        for (size_t i = 0; i < res.rows.size(); ++i) {
+            if (!methods[i]) continue;
+            const Eigen::MatrixXd B = basis_matrix(*methods[i]);
+            for (size_t j = 0; j < lights.size(); ++j) M[i].push_back(recon[i][j] * B);
+            std::vector<Eigen::Matrix3Xd> half_xyz;
+            if (spec.half) {
+                const std::vector<float> w = rgb_weight_for(grids[i]);
+                half_xyz = method_xyz(*methods[i], recon[i], sr, sg, sb, true, &w);
+            }
+            for (size_t j = 0; j < lights.size(); ++j) {
+                const Eigen::Matrix3Xd ref_xyz = Mref[j] * srgb;
+                std::vector<double> de_float, de_half;
+                const DeltaEHistogram hf = xyz_error(M[i][j] * srgb, ref_xyz, lights[j].white, &de_float);
+                LightError& le = res.rows[i].lights[j];
+                ErrorStats st = stats_of(hf, &codes);
+                if (spec.half) {
+                    st = stats_of(xyz_error(half_xyz[j], ref_xyz, lights[j].white, &de_half), &codes);
+                    for (size_t k = 0; k < de_half.size(); ++k)
+                        le.half_shift = std::max(le.half_shift, std::fabs(de_half[k] - de_float[k]));
+                }
+                le.worst = st.worst;
+                le.p99 = st.p99;
+                le.worst_code = st.worst_code;
+            }
+            res.rows[i].colours = "sample";
+        }
+        auto on_cube = [&](const std::vector<size_t>& rows) {
+            for (size_t j = 0; j < lights.size(); ++j) {
+                std::vector<Eigen::Matrix3d> cand;
+                for (size_t i : rows) cand.push_back(M[i][j]);
+                const auto stats = cube_error_linear(cand, Mref[j], lights[j].white, threads);
+                for (size_t c = 0; c < rows.size(); ++c) {
+                    LightError& le = res.rows[rows[c]].lights[j];
+                    le.worst = stats[c].worst + le.half_shift;
+                    le.p99 = stats[c].p99 + le.half_shift;
+                    le.worst_code = stats[c].worst_code;
+                }
+            }
+            for (size_t i : rows) res.rows[i].colours = "cube";
+        };
+        if (spec.colours == "cube") {
+            std::vector<size_t> all;
+            for (size_t i = 0; i < res.rows.size(); ++i)
+                if (methods[i]) all.push_back(i);
+            on_cube(all);
+        }
+        res.colours = spec.colours == "sample" ? sample_text
+                                               : "all " + thousands(16777216) + " 8-bit sRGB colours" +
+                                                     std::string(spec.colours == "auto" ? " for the chosen grid, " : " for every grid") +
+                                                     (spec.colours == "auto" ? sample_text + " for the others" : "");
+        if (spec.half && spec.colours != "sample")
+            res.colours += "; on the cube, half rounding's largest change of a sample colour's error is added";
+        for (auto& row : res.rows)
+            if (row.ok) judge(row);
+        if (spec.colours == "auto") {
+            // The cheapest row that passes on the sample is checked on the cube, until one holds.
+            while (true) {
+                int pick = -1;
+                for (size_t i = 0; i < res.rows.size(); ++i) {
+                    const GridRow& row = res.rows[i];
+                    if (!row.passes || row.colours == "cube") continue;
+                    if (pick < 0 || row.bins < res.rows[static_cast<size_t>(pick)].bins ||
+                        (row.bins == res.rows[static_cast<size_t>(pick)].bins &&
+                         row.worst < res.rows[static_cast<size_t>(pick)].worst))
+                        pick = static_cast<int>(i);
+                }
+                bool verified = false;
+                for (const auto& row : res.rows)
+                    if (row.passes && row.colours == "cube" && (pick < 0 || row.bins <= res.rows[static_cast<size_t>(pick)].bins))
+                        verified = true;
+                if (pick < 0 || verified) break;
+                on_cube({static_cast<size_t>(pick)});
+                judge(res.rows[static_cast<size_t>(pick)]);
+            }
+        }
+    } else {
+        std::vector<Eigen::Matrix3Xd> ref_w;
+        for (const auto& lw : lights) ref_w.push_back(lw.W);
+        const auto ref_xyz = method_xyz(*ref, ref_w, sr, sg, sb, false, nullptr);
+        for (size_t i = 0; i < res.rows.size(); ++i) {
+            if (!methods[i]) continue;
+            std::vector<float> w;
+            if (spec.half) w = rgb_weight_for(grids[i]);
+            const auto xyz = method_xyz(*methods[i], recon[i], sr, sg, sb, spec.half, spec.half ? &w : nullptr);
+            for (size_t j = 0; j < lights.size(); ++j) {
+                const ErrorStats st = stats_of(xyz_error(xyz[j], ref_xyz[j], lights[j].white), &codes);
+                LightError& le = res.rows[i].lights[j];
+                le.worst = st.worst;
+                le.p99 = st.p99;
+                le.worst_code = st.worst_code;
+            }
+            res.rows[i].colours = "sample";
+            judge(res.rows[i]);
+        }
+        res.colours = sample_text + " (the method is not linear in RGB: no 3x3 map of the cube)";
+    }
+
+    for (size_t i = 0; i < res.rows.size(); ++i)
+        if (res.rows[i].ok && (res.best < 0 || res.rows[i].worst < res.rows[static_cast<size_t>(res.best)].worst))
+            res.best = static_cast<int>(i);
+    // Rows are sorted by bins (bytes and time grow with them): the first that passes, and among equal
+    // bins the smaller error; with "auto", only a row checked on the full cube.
+    for (size_t i = 0; i < res.rows.size(); ++i) {
+        const GridRow& row = res.rows[i];
+        if (!row.passes || (linear && spec.colours == "auto" && row.colours != "cube")) continue;
+        if (res.chosen < 0) {
+            res.chosen = static_cast<int>(i);
+        } else {
+            const GridRow& c = res.rows[static_cast<size_t>(res.chosen)];
+            if (row.bins == c.bins && row.worst < c.worst) res.chosen = static_cast<int>(i);
+        }
+    }
+    for (size_t i = 0; i < res.rows.size(); ++i) {
+        GridRow& row = res.rows[i];
+        if (static_cast<int>(i) == res.chosen)
+            row.why = "chosen: the fewest bins within " + fmt(spec.max_de) + " under every light";
+        else if (row.passes && res.chosen >= 0)
+            row.why = "meets the budget, but " +
+                      (row.bins > res.rows[static_cast<size_t>(res.chosen)].bins ? std::string("more bins")
+                                                                                 : std::string("a larger error")) +
+                      " than " + res.rows[static_cast<size_t>(res.chosen)].grid.describe();
+    }
+    res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return res;
+}
+
+std::string plan_table(const PlanSpec& spec, const PlanResult& r) {
+    std::ostringstream o;
+    std::string lights;
+    for (const auto& l : spec.lights) lights += (lights.empty() ? "" : ", ") + l;
+    o << "spectex plan: budget " << fmt(spec.max_de) << " ΔE00 (worst colour) under " << lights << "\n";
+    o << "  renderer: " << to_string(spec.reconstruction) << " reconstruction, held past the ends, "
+      << fmt(spec.range_start, "%g") << "-" << fmt(spec.range_end, "%g") << " nm at 1 nm\n";
+    o << "  method:   " << r.method << ", " << (spec.half ? "half" : "float") << "\n";
+    o << "  colours:  " << r.colours << "\n";
+    o << "  time:     relative to 81 bins, modelled as 0.24 + 0.76 * bins / 81; bytes: spectral channels only\n\n";
+    char buf[256];
+    std::snprintf(buf, sizeof buf, "  %-15s %5s %6s %5s %-6s", "grid", "bins", "B/px", "time", "over");
+    o << buf;
+    for (const auto& l : spec.lights) {
+        std::snprintf(buf, sizeof buf, "  %15s", (l + " worst/p99").c_str());
+        o << buf;
+    }
+    o << "  verdict\n";
+    for (size_t i = 0; i < r.rows.size(); ++i) {
+        const GridRow& row = r.rows[i];
+        std::snprintf(buf, sizeof buf, "%s %-15s %5d %6d %5.2f %-6s", static_cast<int>(i) == r.chosen ? "*" : " ",
+                      row.grid.describe().c_str(), row.bins, row.bytes_per_pixel, row.relative_time,
+                      row.colours.c_str());
+        o << buf;
+        for (const auto& le : row.lights) {
+            std::string cell = row.ok ? fmt(le.worst) + " / " + fmt(le.p99) : "-";
+            std::snprintf(buf, sizeof buf, "  %15s", cell.c_str());
+            o << buf;
+        }
+        o << "  " << row.why << "\n";
+    }
+    o << "\n";
+    if (r.chosen >= 0)
+        o << "* " << r.rows[static_cast<size_t>(r.chosen)].grid.describe() << ": the cheapest grid within "
+          << fmt(spec.max_de) << " ΔE00 under every light (worst " << fmt(r.rows[static_cast<size_t>(r.chosen)].worst)
+          << " under " << r.rows[static_cast<size_t>(r.chosen)].worst_light << ")\n";
+    else
+        o << plan_failure(spec, r) << "\n";
+    o << "  (" << fmt(r.seconds, "%.1f") << " s)\n";
+    return o.str();
+}
+
+std::string plan_failure(const PlanSpec& spec, const PlanResult& r) {
+    std::string s = "no candidate grid meets " + fmt(spec.max_de) + " ΔE00 under every light";
+    if (r.best >= 0) {
+        const GridRow& b = r.rows[static_cast<size_t>(r.best)];
+        s += ": the best achievable is " + fmt(b.worst) + " (" + b.grid.describe() + ", under " + b.worst_light + ")";
+    } else {
+        s += ": the method could not be built on any of them";
+    }
+    return s;
+}
+
+std::string plan_json(const PlanSpec& spec, const PlanResult& r) {
+    std::ostringstream o;
+    auto num = [](double v) { return std::isfinite(v) ? fmt(v, "%.6g") : std::string("null"); };
+    o << "{\"schema_version\":1,\"lights\":[";
+    for (size_t j = 0; j < spec.lights.size(); ++j) o << (j ? "," : "") << "\"" << json_escape(spec.lights[j]) << "\"";
+    o << "],\"max_de\":" << num(spec.max_de) << ",\"reconstruction\":\"" << to_string(spec.reconstruction)
+      << "\",\"range\":[" << num(spec.range_start) << "," << num(spec.range_end) << "],\"method\":\""
+      << json_escape(r.method) << "\",\"type\":\"" << (spec.half ? "half" : "float") << "\",\"colours\":\""
+      << json_escape(r.colours) << "\",\"seconds\":" << num(r.seconds) << ",\"chosen\":";
+    if (r.chosen >= 0)
+        o << "\"" << r.rows[static_cast<size_t>(r.chosen)].grid.describe() << "\"";
+    else
+        o << "null";
+    o << ",\"best\":";
+    if (r.best >= 0)
+        o << "{\"grid\":\"" << r.rows[static_cast<size_t>(r.best)].grid.describe()
+          << "\",\"worst\":" << num(r.rows[static_cast<size_t>(r.best)].worst) << "}";
+    else
+        o << "null";
+    o << ",\"grids\":[";
+    for (size_t i = 0; i < r.rows.size(); ++i) {
+        const GridRow& row = r.rows[i];
+        o << (i ? "," : "") << "{\"grid\":\"" << row.grid.describe() << "\",\"start\":" << num(row.grid.lambda.front())
+          << ",\"end\":" << num(row.grid.lambda.back()) << ",\"step\":" << num(row.grid.step) << ",\"bins\":" << row.bins
+          << ",\"bytes_per_pixel\":" << row.bytes_per_pixel << ",\"relative_time\":" << num(row.relative_time)
+          << ",\"colours\":\"" << row.colours << "\",\"built\":" << (row.ok ? "true" : "false") << ",\"passes\":" << (row.passes ? "true" : "false")
+          << ",\"chosen\":" << (static_cast<int>(i) == r.chosen ? "true" : "false") << ",\"why\":\""
+          << json_escape(row.why) << "\",\"worst\":" << (row.ok ? num(row.worst) : "null") << ",\"worst_light\":\""
+          << json_escape(row.worst_light) << "\",\"lights\":[";
+        for (size_t j = 0; row.ok && j < row.lights.size(); ++j) {
+            const LightError& le = row.lights[j];
+            o << (j ? "," : "") << "{\"light\":\"" << json_escape(le.light) << "\",\"worst\":" << num(le.worst)
+              << ",\"p99\":" << num(le.p99) << ",\"half_shift\":" << num(le.half_shift) << ",\"worst_code\":["
+              << le.worst_code[0] << "," << le.worst_code[1] << "," << le.worst_code[2] << "]}";
+        }
+        o << "]}";
+    }
+    o << "]}\n";
+    return o.str();
+}
+
+}  // namespace spectex
+
+namespace spectex {
+
+std::pair<double, double> parse_plan_range(const std::string& spec) {
+    const size_t colon = spec.find(':');
+    if (colon == std::string::npos || spec.find(':', colon + 1) != std::string::npos)
+        throw Error("'" + spec + "' is not START:END in nm");
+    const std::string a = spec.substr(0, colon), b = spec.substr(colon + 1);
+    char *ea = nullptr, *eb = nullptr;
+    const double lo = std::strtod(a.c_str(), &ea), hi = std::strtod(b.c_str(), &eb);
+    if (a.empty() || b.empty() || *ea || *eb) throw Error("'" + spec + "' is not START:END in nm");
+    renderer_grid(lo, hi);  // whole nm, START < END
+    return {lo, hi};
+}
+
+}  // namespace spectex

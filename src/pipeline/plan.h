@@ -1,0 +1,88 @@
+#pragma once
+// "How many bins does my scene need?" (issue 13): the error of candidate wavelength grids under
+// the scene's lights as a renderer sees them (spectral/grid_error.h), and the cheapest grid that
+// meets an error budget under every light.
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "pipeline/method_cache.h"
+#include "spectral/grid_error.h"
+
+namespace spectex {
+
+struct PlanSpec {
+    std::vector<std::string> lights = {"D65", "A", "FL11"};
+    double max_de = 0.5;                    // budget on the worst ΔE00 under every light
+    Reconstruction reconstruction = Reconstruction::Linear;
+    double range_start = 360, range_end = 830;  // the renderer's range, nm
+    // method.method: basis | lattice | jakob-hanika; method.fit: data dir, observer, the illuminant
+    // the method is exact for, primaries, objective (its grid is set per candidate).
+    MethodSpec method;
+    bool half = true;
+    std::vector<WavelengthGrid> candidates;  // empty: default_candidates()
+    int threads = 0;                         // 0: hardware concurrency
+    int sample_stride = 4;                   // the dense sample (code_sample)
+    // Which colours decide (the basis only; other methods always use the sample): "auto" every row on
+    // the sample and the chosen one on all 16,777,216 codes, "cube" every row on the cube, "sample".
+    std::string colours = "auto";
+};
+
+// Uniform steps 1, 2, 2.5, 4, 5, 10, 20 nm over 380:780, 400:700 and the renderer's range (a step
+// that does not divide a range ends at the last bin inside it), the renderer's range first.
+std::vector<WavelengthGrid> default_candidates(double range_start, double range_end);
+
+// Bake time relative to the default 81 bins, modelled as a fixed part and a part proportional to
+// the bins: 0.24 + 0.76 · bins / 81 (fitted to the 4K bakes at 81 and 401 bins in the README).
+double relative_bake_time(int bins);
+
+struct LightError {
+    std::string light;
+    double worst = 0, p99 = 0;  // the figures the choice uses
+    // Full cube (linear methods) or the sample; for half and a linear method, the cube's float
+    // figures plus half_shift, the largest change of any sample colour's ΔE00 under half rounding.
+    double half_shift = 0;
+    std::array<int, 3> worst_code{{0, 0, 0}};
+};
+
+struct GridRow {
+    WavelengthGrid grid;
+    int bins = 0;
+    int bytes_per_pixel = 0;  // spectral channels only (alpha not counted)
+    double relative_time = 0;
+    std::vector<LightError> lights;
+    double worst = 0;         // over the lights
+    std::string worst_light;
+    bool ok = true;           // the method could be built on the grid
+    bool passes = false;
+    std::string colours;      // "cube" (all 8-bit codes) or "sample": what the figures are over
+    std::string why;          // why it fails (or the note for the chosen grid)
+};
+
+struct PlanResult {
+    std::vector<GridRow> rows;
+    int chosen = -1;          // cheapest passing row, -1 when none
+    int best = -1;            // lowest worst error
+    std::string colours;      // how the colours were taken, for the report
+    std::string method;       // the method and conditions
+    double seconds = 0;
+};
+
+// Throws Error when the lights, observer or range cannot be used, or the reference method cannot be
+// built on the 1 nm range. A candidate grid the method cannot be built on is a failing row.
+PlanResult plan_grids(const PlanSpec& spec);
+
+// The text table and the JSON document of a plan.
+std::string plan_table(const PlanSpec& spec, const PlanResult& r);
+std::string plan_json(const PlanSpec& spec, const PlanResult& r);
+// "no candidate grid meets 0.5 ΔE00 under every light: the best is 380:780:1, 0.73 under FL11"
+std::string plan_failure(const PlanSpec& spec, const PlanResult& r);
+
+}  // namespace spectex
+
+namespace spectex {
+
+// "360:830" -> {360, 830}; whole nm, START < END. Throws Error.
+std::pair<double, double> parse_plan_range(const std::string& spec);
+
+}  // namespace spectex

@@ -1,0 +1,134 @@
+// spectex plan (issue 13): a budget picks a known grid, an impossible one is exit 1 with the best
+// achievable figure, --json is JSON, and the usage errors are exit 2.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <fstream>
+
+#include "cli/cli_util.h"
+#include "cli/exr_read.h"
+
+using namespace spectex_test;
+
+namespace {
+
+// Three grids under D65 alone (about 1.2, 0.27 and 0.07 ΔE00 worst, README table): fast enough.
+const std::vector<std::string> kThree = {"--lights", "D65", "--grids", "380:780:20,380:780:10,380:780:5"};
+
+std::vector<std::string> with(std::vector<std::string> a, const std::vector<std::string>& more) {
+    a.insert(a.end(), more.begin(), more.end());
+    return a;
+}
+
+size_t count(const std::string& text, const std::string& what) {
+    size_t n = 0;
+    for (size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+    return n;
+}
+
+void write_png(const std::string& path) {
+    std::vector<unsigned char> px(8 * 8 * 3);
+    for (size_t i = 0; i < px.size(); ++i) px[i] = static_cast<unsigned char>((i * 37) % 256);
+    write_image(path, 8, 8, 3, OIIO::TypeDesc::UINT8, px.data());
+}
+
+}  // namespace
+
+TEST(Plan, BudgetPicksTheCheapestGridThatMeetsIt) {
+    RunResult r = run_spectex(with(with({"plan"}, kThree), {"--max-de", "0.5"}));
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("* 380:780:10 "), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("fails: D65 "), std::string::npos) << r.out;  // 380:780:20 and why
+    EXPECT_NE(r.out.find("more bins than 380:780:10"), std::string::npos) << r.out;
+    // The chosen grid is checked on all 8-bit colours; the others are on the sample.
+    EXPECT_NE(r.out.find("380:780:10         41     82  0.62 cube"), std::string::npos) << r.out;
+
+    RunResult tight = run_spectex(with(with({"plan"}, kThree), {"--max-de", "0.15", "--colours", "sample"}));
+    ASSERT_EQ(tight.status, 0) << tight.err;
+    EXPECT_NE(tight.out.find("* 380:780:5 "), std::string::npos) << tight.out;
+}
+
+TEST(Plan, ImpossibleBudgetIsAnErrorWithTheBestAchievable) {
+    RunResult r = run_spectex(with(with({"plan"}, kThree), {"--max-de", "0.001", "--colours", "sample"}));
+    EXPECT_EQ(r.status, 1);
+    EXPECT_NE(r.err.find("spectex: no candidate grid meets 0.001"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("the best achievable is 0.0"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("(380:780:5, under D65)"), std::string::npos) << r.err;
+    // A range the observer does not cover is a clear error too.
+    RunResult range = run_spectex(with(with({"plan"}, kThree), {"--range", "300:900"}));
+    EXPECT_EQ(range.status, 1);
+    EXPECT_NE(range.err.find("observer cie1931-2 covers 360 to 830 nm"), std::string::npos) << range.err;
+}
+
+TEST(Plan, JsonParses) {
+    ScratchDir d;
+    RunResult r = run_spectex(with(with({"plan"}, kThree), {"--colours", "sample", "--json", d / "plan.json"}));
+    ASSERT_EQ(r.status, 0) << r.err;
+    const std::string json = read_file(d / "plan.json");
+    EXPECT_NE(json.find("\"chosen\":\"380:780:10\""), std::string::npos) << json;
+    EXPECT_NE(json.find("\"bytes_per_pixel\":82"), std::string::npos) << json;
+    // An independent parser when there is one (python3 is on every Debian).
+    if (std::system("python3 -c '' 2>/dev/null") == 0) {
+        const std::string check = "python3 -c 'import json,sys; d=json.load(open(sys.argv[1])); "
+                                  "assert d[\"chosen\"]==\"380:780:10\" and len(d[\"grids\"])==3 and "
+                                  "all(len(g[\"lights\"])==1 for g in d[\"grids\"])' '" + d / "plan.json" + "'";
+        EXPECT_EQ(std::system(check.c_str()), 0) << json;
+    }
+    RunResult out = run_spectex(with(with({"plan"}, kThree), {"--colours", "sample", "--json", "-"}));
+    ASSERT_EQ(out.status, 0) << out.err;
+    EXPECT_EQ(out.out.rfind("{\"schema_version\":1,", 0), 0u) << out.out;
+}
+
+TEST(Plan, UsageErrors) {
+    EXPECT_EQ(run_spectex({"plan", "--help"}).status, 0);
+    EXPECT_EQ(run_spectex({"plan", "--reconstruction", "cubic"}).status, 2);
+    EXPECT_EQ(run_spectex({"plan", "--range", "400.5:700"}).status, 2);
+    EXPECT_EQ(run_spectex({"plan", "--max-de", "-1"}).status, 2);
+    EXPECT_EQ(run_spectex({"plan", "--grids", "400:700:7"}).status, 2);
+    EXPECT_EQ(run_spectex({"plan", "--lattice-size", "5"}).status, 2);
+}
+
+TEST(Plan, BakeAutoRecordsTheChoiceAndUpdateTreatsItAsSettings) {
+    ScratchDir d;
+    write_png(d / "in.png");
+    const std::vector<std::string> bake = {"bake", d / "in.png", "-o", d / "out.exr", "--wavelengths", "auto",
+                                           "--lights", "D65", "--grids", "380:780:20,380:780:10,380:780:5"};
+    RunResult r = run_spectex(with(bake, {"--max-de", "0.5"}));
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.err.find("--wavelengths auto: 380:780:10 (41 bins)"), std::string::npos) << r.err;
+    ExrImage img = read_exr(d / "out.exr");
+    EXPECT_EQ(img.attr("spectex:wavelengths"), "380:780:10");
+    EXPECT_EQ(img.attr("spectex:planLights"), "D65");
+    EXPECT_EQ(img.attr("spectex:planMaxDe"), "0.5");
+    EXPECT_EQ(img.attr("spectex:planReconstruction"), "linear");
+    EXPECT_EQ(img.attr("spectex:planRange"), "360:830");
+    const double worst = std::atof(img.attr("spectex:planWorstDe").c_str());
+    EXPECT_GT(worst, 0.2);  // 0.29 on the full cube under D65 (README)
+    EXPECT_LT(worst, 0.5);
+
+    // Same settings: skipped. Another budget that picks the same grid: rebuilt (the budget is a setting).
+    r = run_spectex(with(bake, {"--max-de", "0.5", "--update", "--json", "-"}));
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(count(r.out, "\"status\":\"skipped\""), 1u) << r.out;
+    r = run_spectex(with(bake, {"--max-de", "0.45", "--update", "--json", "-"}));
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(count(r.out, "\"status\":\"ok\""), 1u) << r.out;
+    img = read_exr(d / "out.exr");
+    EXPECT_EQ(img.attr("spectex:wavelengths"), "380:780:10");
+    EXPECT_EQ(img.attr("spectex:planMaxDe"), "0.45");
+    // Another reconstruction is another setting too.
+    r = run_spectex(with(bake, {"--max-de", "0.45", "--reconstruction", "box", "--update", "--json", "-"}));
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(count(r.out, "\"status\":\"ok\""), 1u) << r.out;
+    EXPECT_EQ(read_exr(d / "out.exr").attr("spectex:planReconstruction"), "box");
+
+    // A budget no grid meets: exit 1, the best achievable, no file written.
+    r = run_spectex({"bake", d / "in.png", "-o", d / "none.exr", "--wavelengths", "auto", "--lights", "D65",
+                     "--max-de", "0.001", "--grids", "380:780:20,380:780:10"});
+    EXPECT_EQ(r.status, 1);
+    EXPECT_NE(r.err.find("the best achievable is"), std::string::npos) << r.err;
+    EXPECT_FALSE(file_exists(d / "none.exr"));
+    // auto needs its lights and budget; they mean nothing without auto.
+    EXPECT_EQ(run_spectex({"bake", d / "in.png", "-o", d / "x.exr", "--wavelengths", "auto", "--lights", "A"}).status, 2);
+    EXPECT_EQ(run_spectex({"bake", d / "in.png", "-o", d / "x.exr", "--max-de", "0.5"}).status, 2);
+}
