@@ -327,7 +327,7 @@ TEST(CliErrors, BakeWithoutInputIsUsageError) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Spectral settings that cannot be honoured (exit 1)
+// Spectral settings that cannot be honoured (exit 2: checked once, before any input)
 
 TEST(CliErrors, WavelengthsNotOnTheBasisGrid) {
     ScratchDir d;
@@ -335,7 +335,7 @@ TEST(CliErrors, WavelengthsNotOnTheBasisGrid) {
     write_png(in);
     // The published table exists on 380:780:5 only; the default fitted basis works on any grid.
     RunResult r = run_spectex({"bake", in, "-o", out, "--wavelengths", "400:700:10", "--basis", "mallett2019"});
-    EXPECT_EQ(r.status, 1);
+    EXPECT_EQ(r.status, 2);
     EXPECT_EQ(r.err.rfind("spectex: ", 0), 0u) << r.err;
     EXPECT_TRUE(contains(r.err, "400:700:10")) << r.err;
     EXPECT_TRUE(contains(r.err, "not on the output grid")) << r.err;
@@ -347,7 +347,7 @@ TEST(CliErrors, BasisFileMissing) {
     std::string in = d / "in.png", out = d / "out.exr", basis = d / "missing.csv";
     write_png(in);
     RunResult r = run_spectex({"bake", in, "-o", out, "--basis", basis});
-    EXPECT_EQ(r.status, 1);
+    EXPECT_EQ(r.status, 2);
     EXPECT_EQ(r.err.rfind("spectex: ", 0), 0u) << r.err;
     EXPECT_TRUE(contains(r.err, basis)) << r.err;
     expect_no_output(out);

@@ -472,7 +472,7 @@ TEST(HardInputs, MisspeltColourSpaceSuggests) {
     const std::string in = d / "in.png", out = d / "out.exr";
     write_rgb8(in, 4, 4);
     RunResult r = run_spectex({"bake", in, "-o", out, "--colorspace", "srgbtx"});
-    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_EQ(r.status, 2) << r.err;
     EXPECT_EQ(r.err.rfind("spectex: ", 0), 0u) << r.err;
     EXPECT_TRUE(contains(r.err, "srgbtx")) << r.err;
     EXPECT_TRUE(contains(r.err, "srgb_tx")) << r.err;

@@ -269,7 +269,11 @@ void refuse_in_every_slot(const std::string& label, const std::function<std::str
         auto args = s.args(file, d);
         Limited r = run_limited(args, s.env ? std::vector<std::string>{"OCIO=" + file} : std::vector<std::string>{});
         const std::string out = std::string(s.name).rfind("basis", 0) == 0 ? d / "basis.csv" : d / "out.exr";
-        expect_refused(std::string(s.name) + " " + label, r, file, out, cause);
+        // bake's settings the same for every file (config, grid, tables) are checked once, before
+        // any input: a usage error, exit 2; an input, a list, a source or an EXR is work: exit 1.
+        const std::string n = s.name;
+        const bool setting = n.rfind("bake", 0) == 0 && n != "bake INPUT" && n != "bake --from-list";
+        expect_refused(n + " " + label, r, file, out, cause, setting ? 2 : 1);
     }
 }
 
@@ -340,10 +344,10 @@ TEST(HostileReads, OcioLutFileMustBeRegular) {
         const std::string lut = c.resolved.empty() ? d / src : c.resolved;
         write_rgb_exr(d / "in.exr");
         Limited r = run_limited({"bake", d / "in.exr", "-o", d / "out.exr", "--config", cfg, "--colorspace", "lut_space"});
-        expect_refused(std::string(c.name) + " via --config", r, lut, d / "out.exr", "LUT file");
+        expect_refused(std::string(c.name) + " via --config", r, lut, d / "out.exr", "LUT file", 2);
         // The same config through $OCIO, run from another folder: the search path is the config's.
         r = run_limited({"bake", d / "in.exr", "-o", d / "out.exr", "--colorspace", "lut_space"}, {"OCIO=" + cfg});
-        expect_refused(std::string(c.name) + " via OCIO=", r, lut, d / "out.exr", "LUT file");
+        expect_refused(std::string(c.name) + " via OCIO=", r, lut, d / "out.exr", "LUT file", 2);
     }
     // Control: the same config with a real LUT bakes (relative src resolved from the config's folder).
     ScratchDir d;
@@ -385,7 +389,7 @@ TEST(HostileReads, OversizedFilesAreRefusedBeforeReading) {
         ASSERT_EQ(::ftruncate(fd, c.size), 0);
         ::close(fd);
         Limited r = run_limited(c.args(f, d));
-        expect_refused(c.name, r, f, d / "out.exr", "limit");
+        expect_refused(c.name, r, f, d / "out.exr", "limit", std::string(c.name).rfind("input list", 0) == 0 ? 1 : 2);
         EXPECT_LT(r.seconds, 5.0);
     }
 }

@@ -193,9 +193,9 @@ TEST(OutputIdentity, LongOutputNamesKeepTheirTemporaryWithinTheNameLimit) {
         EXPECT_TRUE(file_exists(d / name)) << len;
     }
     EXPECT_TRUE(temp_files_in(d.path()).empty());
-    // One byte over the limit is the system's error, about the output, and nothing is left.
+    // One byte over the limit is refused before any work (exit 2), and nothing is left.
     RunResult r = run_spectex({"bake", d / "in.png", "-o", d / (std::string(252, 'n') + ".exr")});
-    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_EQ(r.status, 2) << r.err;
     EXPECT_TRUE(temp_files_in(d.path()).empty());
 }
 

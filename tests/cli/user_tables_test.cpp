@@ -42,7 +42,7 @@ TEST(UserTables, BasisValuesOutsideZeroOneAreRefused) {
         const std::string row = row_text;  // a lambda may not capture a structured binding in C++17 (clang refuses)
         write_basis(d / "b.csv", [&](int) { return row; });
         RunResult r = run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--basis", d / "b.csv"});
-        EXPECT_EQ(r.status, 1) << what << ": " << r.err;
+        EXPECT_EQ(r.status, 2) << what << ": " << r.err;
         EXPECT_TRUE(contains(r.err, "b.csv")) << r.err;
         EXPECT_TRUE(contains(r.err, "[0, 1]")) << r.err;
         EXPECT_FALSE(file_exists(d / "o.exr")) << what;
