@@ -1,5 +1,7 @@
 #include "cli/arg_parser.h"
 
+#include "io/linearizer.h"
+
 #include <cctype>
 #include <cerrno>
 #include <cmath>
@@ -75,6 +77,7 @@ std::vector<std::string> ArgParser::parse(const std::vector<std::string>& args) 
             pos.insert(pos.end(), args.begin() + static_cast<long>(i) + 1, args.end());
             break;
         }
+        if (a.empty()) throw UsageError("an empty argument ('') names no file (an unset shell variable?)");
         if (a.size() < 2 || a[0] != '-' || a == "-") {
             pos.push_back(a);
             continue;
@@ -90,7 +93,14 @@ std::vector<std::string> ArgParser::parse(const std::vector<std::string>& args) 
             }
         }
         const Entry* e = find(name);
-        if (!e) throw UsageError("unknown option '" + name + "'");
+        if (!e) {
+            std::vector<std::string> known;
+            for (const auto& en : entries_)
+                for (const auto& n : en.names)
+                    if (n.size() > 2) known.push_back(n);
+            const auto close = close_colour_space_names(known, name, 1);  // closest names, any kind
+            throw UsageError("unknown option '" + name + "'" + (close.empty() ? "" : " (did you mean " + close[0] + "?)"));
+        }
         if (e->on_flag) {
             if (inline_value) throw UsageError("option '" + name + "' takes no value");
             e->on_flag();

@@ -106,6 +106,10 @@ ChannelChoice choose_by_name(const std::vector<std::string>& names, const std::s
         return c;
     }
     if (int y = find("Y"); y >= 0) {
+        // Y with RY and BY is OpenEXR's luminance/chroma encoding, not grey: baking Y alone would drop
+        // the colour without a word.
+        if (find("RY") >= 0 || find("BY") >= 0)
+            throw Error(path + ": luminance/chroma channels (Y, RY, BY) are not supported: write the file with R, G, B");
         c.colour[0] = c.colour[1] = c.colour[2] = y;
         c.alpha = find_alpha("");
         return c;

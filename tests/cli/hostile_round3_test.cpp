@@ -4,6 +4,8 @@
 // not ours to replace (devices, FIFOs), output lost on a full standard output with exit 0, names
 // too long found only after the work, invisible characters and invalid UTF-8 reaching the terminal
 // and the JSON, truncated MIP-mapped files passing verify, and inputs that took minutes.
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
 #include <ImfOutputFile.h>
 #include <ImfStringAttribute.h>
@@ -288,4 +290,44 @@ TEST(HostileRound3, AFileOfZerosNamedPngFailsAtOnce) {
     const std::string png = make_png(d, "in.png");
     ASSERT_EQ(std::rename(png.c_str(), (d / "really_png.jpg").c_str()), 0);
     EXPECT_EQ(run_spectex({"bake", d / "really_png.jpg", "-o", d / "j.exr", "-q"}).status, 0);
+}
+
+// Luminance/chroma EXRs (Y, RY, BY) were baked as grey from Y alone: the colour was dropped.
+TEST(HostileRound3, LuminanceChromaIsRefusedNotBakedGrey) {
+    ScratchDir d;
+    const std::string in = d / "yc.exr";
+    std::vector<float> px(8 * 8 * 3, 0.25f);
+    write_image(in, 8, 8, 3, OIIO::TypeDesc::FLOAT, px.data(), {}, 0);
+    // Rename the channels to Y, RY, BY.
+    ExrImage img = read_exr(in);
+    Imf::Header h(img.header.displayWindow(), img.header.dataWindow());
+    for (const char* n : {"Y", "RY", "BY"}) h.channels().insert(n, Imf::Channel(Imf::FLOAT));
+    {
+        Imf::OutputFile out(in.c_str(), h);
+        Imf::FrameBuffer fb;
+        const char* src[3] = {"R", "G", "B"};
+        const char* dst[3] = {"Y", "RY", "BY"};
+        for (int c = 0; c < 3; ++c) fb.insert(dst[c], Imf::Slice::Make(Imf::FLOAT, img.pixels[src[c]].data(), img.data_window));
+        out.setFrameBuffer(fb);
+        out.writePixels(img.height);
+    }
+    RunResult r = run_spectex({"bake", in, "-o", d / "o.exr"});
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_TRUE(has(r.err, "luminance/chroma channels (Y, RY, BY) are not supported")) << r.err;
+    EXPECT_FALSE(file_exists(d / "o.exr"));
+}
+
+// A mistyped option names the closest one; an empty argument is a usage error, not a missing file.
+TEST(HostileRound3, MistypedOptionsAndEmptyArguments) {
+    RunResult r = run_spectex({"bake", "x.png", "-o", "y.exr", "--wavelenghts", "400:700:5"});
+    EXPECT_EQ(r.status, 2);
+    EXPECT_TRUE(has(r.err, "unknown option '--wavelenghts' (did you mean --wavelengths?)")) << r.err;
+    RunResult v = run_spectex({"verify", "--sorce", "a.png", "a.exr"});
+    EXPECT_EQ(v.status, 2);
+    EXPECT_TRUE(has(v.err, "(did you mean --source?)")) << v.err;
+    for (const char* cmd : {"bake", "verify", "info"}) {
+        RunResult e = run_spectex({cmd, ""});
+        EXPECT_EQ(e.status, 2) << cmd << ": " << e.err;
+        EXPECT_TRUE(has(e.err, "an empty argument")) << e.err;
+    }
 }
