@@ -31,20 +31,8 @@ int run_verify(const std::vector<std::string>& args);
 
 namespace {
 
-std::string num(double v, const char* fmt = "%.6g") {
-    char buf[64];
-    std::snprintf(buf, sizeof buf, fmt, v);
-    return buf;
-}
-
-// Share as a percentage with enough digits to show a single sample in a large image.
-std::string percent(uint64_t count, uint64_t total) {
-    if (total == 0) return "0%";
-    double p = 100.0 * static_cast<double>(count) / static_cast<double>(total);
-    if (count == 0) return "0%";
-    if (count == total) return "100%";
-    return num(p, "%.6g") + "%";
-}
+std::string num(double v, const char* fmt = "%.6g") { return number_text(v, fmt); }
+std::string percent(uint64_t count, uint64_t total) { return share_text(count, total); }
 
 std::string json_string(const std::string& s) { return "\"" + json_escape(s) + "\""; }
 

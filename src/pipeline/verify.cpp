@@ -615,17 +615,22 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
 // ---------------------------------------------------------------------------------------------
 // Gates
 
-namespace {
-
-std::string fmt(double v, const char* f = "%.6g") {
+std::string number_text(double v, const char* format) {
     char buf[64];
-    std::snprintf(buf, sizeof buf, f, v);
+    std::snprintf(buf, sizeof buf, format, v);
     return buf;
 }
 
-std::string pct(uint64_t n, uint64_t total) {
-    return total ? fmt(100.0 * static_cast<double>(n) / static_cast<double>(total), "%.6g") + "%" : std::string("0%");
+std::string share_text(uint64_t count, uint64_t total) {
+    if (total == 0 || count == 0) return "0%";
+    if (count == total) return "100%";
+    return number_text(100.0 * static_cast<double>(count) / static_cast<double>(total)) + "%";
 }
+
+namespace {
+
+std::string fmt(double v, const char* f = "%.6g") { return number_text(v, f); }
+std::string pct(uint64_t n, uint64_t total) { return share_text(n, total); }
 
 struct Gate {
     std::string what;   // "non-finite samples", ...

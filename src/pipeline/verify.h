@@ -132,6 +132,10 @@ struct VerifyGates {
 constexpr double kDefaultMaxDe = 0.5;
 // One line per failed gate, naming it and by how much it failed; empty when all pass.
 std::vector<std::string> gate_failures(const VerifyReport& r, const VerifyGates& g);
+// Report text: a number ("%.6g" unless told), and a share as a percentage with enough digits to
+// show one sample of a large image ("0%" and "100%" exactly when none or all).
+std::string number_text(double v, const char* format = "%.6g");
+std::string share_text(uint64_t count, uint64_t total);
 // The gates that were applied, as text ("non-finite samples: none", ...), for the report.
 std::vector<std::string> gates_applied(const VerifyReport& r, const VerifyGates& g);
 

@@ -87,11 +87,12 @@ def main():
     try:
         src = Path(a.input) if a.input else work / f"photo{a.size}.png"
         if not a.input:
-            sys.path.insert(0, str(HERE))
-            from speed_vs_error import photographic_png
-
             log(f"making {src} ({a.size}²)")
-            photographic_png(src, a.size)
+            # In a child process: a forked child starts with this process's resident pages, so a
+            # parent that held the generated image would inflate every measured peak RSS after it.
+            subprocess.run([sys.executable, "-c", "import sys; sys.path.insert(0, sys.argv[1]); "
+                            "from speed_vs_error import photographic_png; photographic_png(sys.argv[2], int(sys.argv[3]))",
+                            str(HERE), str(src), str(a.size)], check=True)
         w, h = image_size(src)
         budget81 = 2 * w * h * 3 * 4 + 64 * MIB
         T = a.threads

@@ -52,46 +52,20 @@ inline std::vector<std::string> environment_with(const std::vector<std::string>&
     return v;
 }
 
-// Runs SPECTEX_BINARY with args; extra_env entries "NAME=value" are added to the environment.
-inline RunResult run_spectex(const std::vector<std::string>& args, const std::vector<std::string>& extra_env = {}) {
-    char tmpl[] = "/tmp/spectex-run-XXXXXX";
-    std::string dir = mkdtemp(tmpl);
-    std::string out = dir + "/out", err = dir + "/err";
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_addopen(&fa, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    std::vector<std::string> argv_s = spectex_argv(args), env_s = environment_with(extra_env);
-    std::vector<char*> argv = c_array(argv_s), envp = c_array(env_s);
-    pid_t pid;
-    RunResult r;
-    if (posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), envp.data()) == 0) {
-        int st = 0;
-        waitpid(pid, &st, 0);
-        r.status = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-    }
-    posix_spawn_file_actions_destroy(&fa);
-    r.out = read_file(out);
-    r.err = read_file(err);
-    unlink(out.c_str());
-    unlink(err.c_str());
-    rmdir(dir.c_str());
-    return r;
-}
-
-// As run_spectex, with standard input read from `stdin_path` and, when `stdout_path` is given,
-// standard output written there instead of captured (e.g. /dev/full).
+// Runs SPECTEX_BINARY with args; extra_env entries "NAME=value" are added to the environment;
+// standard input from `stdin_path` ("" = this process's) and, when `stdout_path` is given, standard
+// output written there instead of captured (e.g. /dev/full).
 inline RunResult run_spectex_io(const std::vector<std::string>& args, const std::string& stdin_path,
-                                const std::string& stdout_path = "") {
+                                const std::string& stdout_path = "", const std::vector<std::string>& extra_env = {}) {
     char tmpl[] = "/tmp/spectex-run-XXXXXX";
     std::string dir = mkdtemp(tmpl);
     std::string out = stdout_path.empty() ? dir + "/out" : stdout_path, err = dir + "/err";
     posix_spawn_file_actions_t fa;
     posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, 0, stdin_path.c_str(), O_RDONLY, 0);
+    if (!stdin_path.empty()) posix_spawn_file_actions_addopen(&fa, 0, stdin_path.c_str(), O_RDONLY, 0);
     posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | (stdout_path.empty() ? O_TRUNC : 0), 0644);
     posix_spawn_file_actions_addopen(&fa, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    std::vector<std::string> argv_s = spectex_argv(args), env_s = environment_with({});
+    std::vector<std::string> argv_s = spectex_argv(args), env_s = environment_with(extra_env);
     std::vector<char*> argv = c_array(argv_s), envp = c_array(env_s);
     pid_t pid;
     RunResult r;
@@ -109,6 +83,10 @@ inline RunResult run_spectex_io(const std::vector<std::string>& args, const std:
     unlink(err.c_str());
     rmdir(dir.c_str());
     return r;
+}
+
+inline RunResult run_spectex(const std::vector<std::string>& args, const std::vector<std::string>& extra_env = {}) {
+    return run_spectex_io(args, "", "", extra_env);
 }
 
 // A scratch folder removed (with its files) at the end of the test.
