@@ -12,6 +12,7 @@
 #include <mutex>
 #include <vector>
 
+#include "spectral/bounded_read.h"
 #include "spectral/error.h"
 
 namespace spectex {
@@ -93,17 +94,6 @@ void install_signal_cleanup() {
     ::signal(SIGXFSZ, SIG_IGN);
 }
 
-namespace {
-const char* kind_of(mode_t m) {
-    if (S_ISDIR(m)) return "a folder";
-    if (S_ISCHR(m)) return "a character device";
-    if (S_ISBLK(m)) return "a block device";
-    if (S_ISFIFO(m)) return "a FIFO";
-    if (S_ISSOCK(m)) return "a socket";
-    return "not a regular file";
-}
-}  // namespace
-
 void check_output_path(const std::string& path) {
     const std::string base = path.substr(path.find_last_of('/') + 1);
     long name_max = ::pathconf(dir_of(path).c_str(), _PC_NAME_MAX);
@@ -119,9 +109,9 @@ void check_output_path(const std::string& path) {
         struct stat target;
         // A link to a regular file (or a dangling one) is replaced by the rename; its target is untouched.
         if (::stat(path.c_str(), &target) != 0 || S_ISREG(target.st_mode)) return;
-        throw Error(path + ": is a link to " + kind_of(target.st_mode) + "; refusing to replace it with an output");
+        throw Error(path + ": is a link to " + file_kind(target.st_mode) + "; refusing to replace it with an output");
     }
-    throw Error(path + ": is " + kind_of(st.st_mode) + ", not a regular file; refusing to replace it with an output");
+    throw Error(path + ": is " + file_kind(st.st_mode) + ", not a regular file; refusing to replace it with an output");
 }
 
 AtomicFile::AtomicFile(const std::string& final_path) : final_(final_path) {

@@ -12,9 +12,7 @@
 
 namespace spectex {
 
-namespace {
-
-const char* kind_of(mode_t m) {
+const char* file_kind(mode_t m) {
     if (S_ISDIR(m)) return "a directory";
     if (S_ISCHR(m)) return "a character device";
     if (S_ISBLK(m)) return "a block device";
@@ -24,10 +22,12 @@ const char* kind_of(mode_t m) {
     return "not a regular file";
 }
 
+namespace {
+
 void check_stat(const struct stat& st, const std::string& path, uint64_t max_bytes, const std::string& what) {
     if (S_ISDIR(st.st_mode)) throw Error(path + ": is a directory, not " + what);
     if (!S_ISREG(st.st_mode))
-        throw Error(path + ": " + what + " must be a regular file, not " + kind_of(st.st_mode));
+        throw Error(path + ": " + what + " must be a regular file, not " + file_kind(st.st_mode));
     if (st.st_size < 0 || static_cast<uint64_t>(st.st_size) > max_bytes)
         throw Error(path + ": " + format_bytes(static_cast<uint64_t>(st.st_size)) + " is over the " +
                     format_bytes(max_bytes) + " limit for " + what);

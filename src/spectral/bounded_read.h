@@ -9,12 +9,17 @@
 // the descriptor must be the file that was stat'ed (same device and inode): a path swapped for a
 // FIFO or a device between the two steps is refused too. Plain POSIX: no image-library headers
 // (spectral/ stays pure).
+#include <sys/types.h>
+
 #include <cstdint>
 #include <string>
 
 namespace spectex {
 
 // Size limits, in bytes, of the files spectex reads.
+// "a directory", "a character device", "a FIFO (named pipe)", ... for messages (st_mode of a stat).
+const char* file_kind(mode_t st_mode);
+
 namespace file_limits {
 // Spectral tables (--basis, --observer, --illuminant CSV): kilobytes in practice (a 1 nm table of
 // 4 columns is ~40 kB); 64 MiB leaves room for absurdly fine grids and long provenance comments.
