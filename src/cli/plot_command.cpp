@@ -4,6 +4,8 @@
 
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
+#include "spectral/spectrum.h"
+#include "io/atomic_file.h"
 #include "io/data_dir.h"
 #include "io/file_identity.h"
 #include "pipeline/plot.h"
@@ -28,7 +30,9 @@ int run_plot(const std::vector<std::string>& args) {
              [&](const std::string& v) { xy.push_back(parse_pixel("--pixel", v)); });
     p.option("-o,--output", "OUT.svg", "The SVG to write (never a file this command reads).",
              [&](const std::string& v) { output = v; });
-    p.option("--light", "NAME|FILE", "Draw this light's spectrum (A, D65, FL11, ... or a CSV) behind the spectra.",
+    p.option("--light", "NAME|FILE",
+             "Draw this light's spectrum behind the spectra: " + shipped_illuminants_list() +
+                 " (any case), or a CSV wavelength,value.",
              [&](const std::string& v) { s.light = v; });
     p.option("--observer", "NAME|FILE", "Observer of the line colours: cie1931-2 (default), cie1964-10, or a CSV.",
              [&](const std::string& v) { s.observer = v; });
@@ -49,10 +53,20 @@ int run_plot(const std::vector<std::string>& args) {
         if (xy.empty()) throw UsageError("no --pixel X,Y given");
         if (output.empty()) throw UsageError("no output: give -o OUT.svg");
         ReadFiles reads;
+        try {
+            reads.add_data_dir(find_data_dir());  // the shipped tables are read by name
+        } catch (const Error&) {
+            // No data folder: the command reports it below.
+        }
         reads.add(files[0], "the input");
         reads.add(s.light, "--light");
         reads.add(s.observer, "--observer");
         if (std::string clash = reads.clash(output, "-o"); !clash.empty()) throw UsageError(clash);
+        try {
+            check_output_path(output);  // never a device, FIFO or socket; a name that fits its folder
+        } catch (const Error& e) {
+            throw UsageError(e.what());
+        }
     } catch (const UsageError& e) {
         return usage_error("plot", e.what());
     }

@@ -7,6 +7,8 @@
 
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
+#include "spectral/spectrum.h"
+#include "io/atomic_file.h"
 #include "io/data_dir.h"
 #include "io/file_identity.h"
 #include "pipeline/look.h"
@@ -46,7 +48,8 @@ int run_render(const std::vector<std::string>& args) {
              [&](const std::string& v) { output = v; });
     p.section("Colorimetry");
     p.option("--illuminant", "NAME[,NAME...]",
-             "Light(s): D65 (default), A, FL11, ... or a CSV wavelength,value; repeatable; several make a sheet.",
+             "Light(s): " + shipped_illuminants_list("D65") +
+                 " (any case), or a CSV wavelength,value; repeatable; several make a sheet.",
              [&](const std::string& v) {
                  for (const auto& n : split_list(v, "--illuminant")) {
                      s.illuminants.push_back(n);
@@ -69,10 +72,20 @@ int run_render(const std::vector<std::string>& args) {
         if (output.empty()) throw UsageError("no output: give -o OUT.png");
         if (s.illuminants.empty()) s.illuminants.push_back("D65");
         ReadFiles reads;
+        try {
+            reads.add_data_dir(find_data_dir());  // the shipped tables are read by name
+        } catch (const Error&) {
+            // No data folder: the command reports it below.
+        }
         reads.add(files[0], "the input");
         for (const auto& l : s.illuminants) reads.add(l, "--illuminant");
         reads.add(s.observer, "--observer");
         if (std::string clash = reads.clash(output, "-o"); !clash.empty()) throw UsageError(clash);
+        try {
+            check_output_path(output);  // never a device, FIFO or socket; a name that fits its folder
+        } catch (const Error& e) {
+            throw UsageError(e.what());
+        }
         if (!ends_with_png(output)) throw UsageError("-o: '" + output + "' does not end in .png (render writes PNG)");
     } catch (const UsageError& e) {
         return usage_error("render", e.what());

@@ -6,6 +6,7 @@
 
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
+#include "spectral/spectrum.h"
 #include "io/data_dir.h"
 #include "pipeline/batch.h"
 #include "pipeline/sample.h"
@@ -116,7 +117,8 @@ int run_sample(const std::vector<std::string>& args) {
                 "Exit status: 0 ok, 1 unreadable or non-spectral file or a pixel outside the data window, 2 usage.");
     p.section("Colorimetry");
     p.option("--illuminant", "NAME[,NAME...]",
-             "Also show the colour under these lights (repeatable): A, FL11, D65, ... or a CSV wavelength,value.",
+             "Also show the colour under these lights (repeatable): " + shipped_illuminants_list() +
+                 " (any case), or a CSV wavelength,value.",
              [&](const std::string& v) {
                  for (const auto& n : split_list(v, "--illuminant")) {
                      s.illuminants.push_back(n);

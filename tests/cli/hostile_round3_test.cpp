@@ -68,6 +68,8 @@ TEST(HostileRound3, TheShippedTablesAreNeverOutputs) {
     ASSERT_EQ(run_spectex({"bake", png, "-o", d / "z.exr", "-q"}, env).status, 0);
     RunResult v = run_spectex({"verify", d / "z.exr", "--json", d65}, env);
     EXPECT_EQ(v.status, 2) << v.err;
+    RunResult pl = run_spectex({"plot", d / "z.exr", "--pixel", "0,0", "-o", obs}, env);
+    EXPECT_EQ(pl.status, 2) << pl.err;
     expect_unchanged(obs, before_obs);
     expect_unchanged(d65, before_d65);
     expect_unchanged(mal, before_mal);
@@ -143,6 +145,20 @@ TEST(HostileRound3, DevicesFifosAndLinksToThemAreNeverReplaced) {
         EXPECT_FALSE(S_ISREG(st.st_mode)) << t << " was replaced by a regular file";
     }
     EXPECT_TRUE(temp_files_in(d.path()).empty());
+    // render and plot write outputs too.
+    const std::string exr = d / "a.exr", png_fifo = d / "fifo.png", svg_link = d / "link.svg";
+    ASSERT_EQ(run_spectex({"bake", png, "-o", exr, "-q"}).status, 0);
+    ASSERT_EQ(::mkfifo(png_fifo.c_str(), 0644), 0);
+    ASSERT_EQ(::symlink("/dev/null", svg_link.c_str()), 0);
+    RunResult r = run_spectex({"render", exr, "-o", png_fifo});
+    EXPECT_EQ(r.status, 2) << r.err;
+    RunResult p = run_spectex({"plot", exr, "--pixel", "0,0", "-o", svg_link});
+    EXPECT_EQ(p.status, 2) << p.err;
+    struct stat st;
+    ASSERT_EQ(::lstat(png_fifo.c_str(), &st), 0);
+    EXPECT_TRUE(S_ISFIFO(st.st_mode));
+    ASSERT_EQ(::lstat(svg_link.c_str(), &st), 0);
+    EXPECT_TRUE(S_ISLNK(st.st_mode));
 }
 
 TEST(HostileRound3, OutputThatNeverReachedStandardOutputIsAFailure) {
