@@ -13,7 +13,6 @@ namespace spectex {
 
 namespace {
 
-std::string json_string(const std::string& s) { return "\"" + json_escape(s) + "\""; }
 
 std::string levels_text(const SpectralExrInfo& info) {
     std::string out;

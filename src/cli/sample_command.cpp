@@ -28,7 +28,6 @@ std::string triple(double a, double b, double c, const char* sep, const char* fm
     return num(a, fmt) + sep + num(b, fmt) + sep + num(c, fmt);
 }
 
-std::string json_string(const std::string& s) { return "\"" + json_escape(s) + "\""; }
 
 std::string json_vec(const Eigen::Vector3d& v) { return "[" + triple(v(0), v(1), v(2), ",", "%.9g") + "]"; }
 std::string json_codes(const int* c) {

@@ -34,7 +34,6 @@ namespace {
 std::string num(double v, const char* fmt = "%.6g") { return number_text(v, fmt); }
 std::string percent(uint64_t count, uint64_t total) { return share_text(count, total); }
 
-std::string json_string(const std::string& s) { return "\"" + json_escape(s) + "\""; }
 
 // JSON has no Inf/NaN: those are written as null.
 std::string json_number(double v) { return std::isfinite(v) ? num(v, "%.9g") : std::string("null"); }

@@ -52,5 +52,7 @@ struct FileRecord {
 constexpr int kJsonSchemaVersion = 1;
 std::string json_record(const FileRecord& r);
 std::string json_escape(const std::string& s);
+// json_escape in quotes: a JSON string value.
+inline std::string json_string(const std::string& s) { return "\"" + json_escape(s) + "\""; }
 
 }  // namespace spectex
