@@ -344,6 +344,8 @@ std::string json_record(const FileRecord& r) {
       << ",\"clamped_pixels\":" << r.result.clamped_pixels << ",\"replaced_pixels\":" << r.result.replaced_pixels
       << ",\"colorspace\":\"" << json_escape(r.result.colorspace) << "\",\"settings_hash\":\""
       << json_escape(r.settings_hash) << "\"";
+    if (r.status == "skipped")  // why nothing was done, for a script reading the report
+        o << ",\"reason\":\"up to date: the output is newer than the input and records the same settings hash\"";
     if (r.status == "ok") {
         const auto& st = r.result.stages;
         char buf[512];

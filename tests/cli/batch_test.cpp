@@ -122,6 +122,8 @@ TEST(Batch, UpdateSkipsOnlyWhatIsCurrent) {
     auto r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update", "--json", "-"});
     EXPECT_EQ(r.status, 0);
     EXPECT_EQ(count_lines(r.out, "\"status\":\"skipped\""), 2u) << r.out;
+    // A skipped record says why (issue 14, item 9).
+    EXPECT_EQ(count_lines(r.out, "\"reason\":\"up to date: the output is newer than the input"), 2u) << r.out;
     // Threads and jobs do not change pixels: still up to date.
     r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update", "--jobs", "2", "--threads",
                      "1", "--json", "-"});
