@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "cli/commands.h"
+#include "spectral/error.h"
 #include "io/atomic_file.h"
 #include "io/library_stderr.h"
 #include "spectex/version.h"
@@ -74,6 +75,18 @@ std::string one_line(const std::string& text) {
 }
 
 void print_error(const std::string& message) { std::cerr << "spectex: " << one_line(message) << std::endl; }
+
+int run_reporting(const std::string& file, const std::function<void()>& work) {
+    try {
+        work();
+        return 0;
+    } catch (const Error& e) {
+        print_error(e.what());
+    } catch (const std::exception& e) {
+        print_error(file + ": " + e.what());
+    }
+    return 1;
+}
 
 int usage_error(const std::string& command, const std::string& message) {
     std::cerr << "spectex " << command << ": " << one_line(message) << "\n"

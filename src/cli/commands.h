@@ -1,6 +1,7 @@
 #pragma once
 // One function per subcommand: parse options, call the library, report. Return the exit status
 // (0 ok, 1 failed work, 2 usage error).
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,9 @@ void add_plan_options(ArgParser& p, PlanSpec& spec, bool& lights_given, bool& bu
 std::string one_line(const std::string& text);
 // Prints "spectex: <message>" to stderr, as one_line().
 void print_error(const std::string& message);
+// Runs a command's work on `file`: 0 when it returns, else the error printed as
+// "spectex: <cause>" (an Error names its file) or "spectex: <file>: <cause>", and 1.
+int run_reporting(const std::string& file, const std::function<void()>& work);
 // Prints "spectex <command>: <message>" and a hint to run --help; returns 2.
 int usage_error(const std::string& command, const std::string& message);
 

@@ -4,6 +4,7 @@
 
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
+#include "cli/output_check.h"
 #include "spectral/spectrum.h"
 #include "io/atomic_file.h"
 #include "io/data_dir.h"
@@ -52,36 +53,15 @@ int run_plot(const std::vector<std::string>& args) {
         if (files.size() > 1) throw UsageError("one file at a time (got " + std::to_string(files.size()) + ")");
         if (xy.empty()) throw UsageError("no --pixel X,Y given");
         if (output.empty()) throw UsageError("no output: give -o OUT.svg");
-        ReadFiles reads;
-        try {
-            reads.add_data_dir(find_data_dir());  // the shipped tables are read by name
-        } catch (const Error&) {
-            // No data folder: the command reports it below.
-        }
-        reads.add(files[0], "the input");
-        reads.add(s.light, "--light");
-        reads.add(s.observer, "--observer");
-        if (std::string clash = reads.clash(output, "-o"); !clash.empty()) throw UsageError(clash);
-        try {
-            check_output_path(output);  // never a device, FIFO or socket; a name that fits its folder
-        } catch (const Error& e) {
-            throw UsageError(e.what());
-        }
+        check_output_against(output, "-o", {{files[0], "the input"}, {s.light, "--light"}, {s.observer, "--observer"}});
     } catch (const UsageError& e) {
         return usage_error("plot", e.what());
     }
-    try {
+    return run_reporting(files[0], [&] {
         s.data_dir = find_data_dir();
         PlotReport r = plot_file(files[0], output, xy, s);
         if (!quiet) std::cout << r.output << ": SVG plot of " << r.curves << " spectra of " << r.file << "\n";
-    } catch (const Error& e) {
-        print_error(e.what());
-        return 1;
-    } catch (const std::exception& e) {
-        print_error(files[0] + ": " + e.what());
-        return 1;
-    }
-    return 0;
+    });
 }
 
 }  // namespace spectex

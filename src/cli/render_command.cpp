@@ -7,6 +7,7 @@
 
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
+#include "cli/output_check.h"
 #include "spectral/spectrum.h"
 #include "io/atomic_file.h"
 #include "io/data_dir.h"
@@ -71,26 +72,14 @@ int run_render(const std::vector<std::string>& args) {
         if (files.size() > 1) throw UsageError("one file at a time (got " + std::to_string(files.size()) + ")");
         if (output.empty()) throw UsageError("no output: give -o OUT.png");
         if (s.illuminants.empty()) s.illuminants.push_back("D65");
-        ReadFiles reads;
-        try {
-            reads.add_data_dir(find_data_dir());  // the shipped tables are read by name
-        } catch (const Error&) {
-            // No data folder: the command reports it below.
-        }
-        reads.add(files[0], "the input");
-        for (const auto& l : s.illuminants) reads.add(l, "--illuminant");
-        reads.add(s.observer, "--observer");
-        if (std::string clash = reads.clash(output, "-o"); !clash.empty()) throw UsageError(clash);
-        try {
-            check_output_path(output);  // never a device, FIFO or socket; a name that fits its folder
-        } catch (const Error& e) {
-            throw UsageError(e.what());
-        }
+        std::vector<std::pair<std::string, std::string>> reads = {{files[0], "the input"}, {s.observer, "--observer"}};
+        for (const auto& l : s.illuminants) reads.push_back({l, "--illuminant"});
+        check_output_against(output, "-o", reads);
         if (!ends_with_png(output)) throw UsageError("-o: '" + output + "' does not end in .png (render writes PNG)");
     } catch (const UsageError& e) {
         return usage_error("render", e.what());
     }
-    try {
+    return run_reporting(files[0], [&] {
         s.data_dir = find_data_dir();
         RenderReport r = render_file(files[0], output, s);
         if (!quiet) {
@@ -99,14 +88,7 @@ int run_render(const std::vector<std::string>& args) {
             for (const auto& l : r.labels) std::cout << " " << l;
             std::cout << (s.adapt ? " (Bradford-adapted to D65)" : " (not adapted)") << "\n";
         }
-    } catch (const Error& e) {
-        print_error(e.what());
-        return 1;
-    } catch (const std::exception& e) {
-        print_error(files[0] + ": " + e.what());
-        return 1;
-    }
-    return 0;
+    });
 }
 
 }  // namespace spectex

@@ -137,21 +137,14 @@ int run_sample(const std::vector<std::string>& args) {
     } catch (const UsageError& e) {
         return usage_error("sample", e.what());
     }
-    try {
+    return run_reporting(pos[0], [&] {
         s.data_dir = find_data_dir();
         SampleReport r = sample_pixels(pos[0], xy, s);
         if (json)
             print_json(r);
         else
             print_csv(r);
-    } catch (const Error& e) {
-        print_error(e.what());
-        return 1;
-    } catch (const std::exception& e) {
-        print_error(pos[0] + ": " + e.what());
-        return 1;
-    }
-    return 0;
+    });
 }
 
 }  // namespace spectex

@@ -1,0 +1,16 @@
+#pragma once
+// The one check every command makes of an output before any work (a usage error, exit 2): it is
+// none of the files the command reads, compared by identity (those given, plus the tables and config
+// spectex ships), and it can be an output at all (io/atomic_file.h check_output_path: not a device,
+// FIFO, socket or a link to one; a name that fits its folder).
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace spectex {
+
+// reads: (path, role) of every file the command reads besides the shipped data. Throws UsageError.
+void check_output_against(const std::string& output, const std::string& role,
+                          const std::vector<std::pair<std::string, std::string>>& reads);
+
+}  // namespace spectex
