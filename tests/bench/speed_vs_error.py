@@ -12,6 +12,13 @@ basis): grids 380:780:10, 380:780:20, 400:700:10, 380:780:1; float; compressions
 piz, dwaa; objective norm; the published mallett2019 table (380:780:5 only); the methods
 (--method lattice at sizes 5, 9, 17; --method jakob-hanika).
 
+Per scene (also alone with --scenes-only; --no-scenes skips it): for daylight (D65, D50),
+tungsten (A) and mixed fluorescent and LED (FL2, FL11, LED-B3) at budgets 0.25, 0.5 and 1.0 ΔE00,
+the grid `spectex plan` chooses, its bake time and bytes on the --size² input against the default
+380:780:5, and grid_check.py's worst ΔE00 per light on plan's dense sample against a 1 nm float
+bake, marked where it differs from plan's figure by more than grid_check.TOLERANCE. Written to
+OUT/scenes.md, scenes.csv, scenes.json (and appended to report.md in a full run).
+
 With --method-size S (e.g. 4096) it also times a S² bake of --method lattice against --method
 basis, alternating, in the same run, with zip and with no compression (the kernel's share).
 """
@@ -274,6 +281,211 @@ def svg_plot(rows, path):
     Path(path).write_text("\n".join(o) + "\n")
 
 
+# ---------------------------------------------------------------- per scene
+
+SCENES = [("daylight", ["D65", "D50"]), ("tungsten", ["A"]), ("mixed fluorescent and LED", ["FL2", "FL11", "LED-B3"])]
+BUDGETS = [0.25, 0.5, 1.0]
+DEFAULT_GRID = DEFAULT["grid"]
+REFERENCE_GRID = "360:830:1"  # plan's default --range at 1 nm
+
+
+def grid_check_module():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("grid_check", HERE / "grid_check.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def dense_sample_png(path, stride=4):
+    """plan's dense sample, one colour per pixel in plan's order: codes 0, stride, … and 255 per
+    axis (65³ = 274,625 colours at stride 4), 65²×65."""
+    axis = np.array(list(range(0, 255, stride)) + [255], np.uint8)
+    r, g, b = np.meshgrid(axis, axis, axis, indexing="ij")
+    write_png(path, np.stack([r, g, b], -1).reshape(len(axis), len(axis) ** 2, 3))
+
+
+def plan_json(a, *args):
+    """`spectex plan ... --json -` (exit 1, no grid within the budget, still prints the JSON)."""
+    t0 = time.time()
+    p = subprocess.run([str(x) for x in [a.spectex, "plan", *args, "--json", "-", "--threads", a.threads]],
+                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    if p.returncode not in (0, 1) or not p.stdout.strip():
+        raise RuntimeError(f"plan {' '.join(map(str, args))} failed ({p.returncode}): {p.stderr[-2000:]}")
+    return json.loads(p.stdout), time.time() - t0
+
+
+def scenes(a, work, photo=None):
+    """The per-scene section: plan's choice for each scene and budget, its bake time and bytes on
+    the photograph-like input against the default grid, and the checker's figures."""
+    gc = grid_check_module()
+    lights_all = list(dict.fromkeys(["D65"] + [l for _, ls in SCENES for l in ls]))
+    res = dict(size=a.size, repeat=a.repeat, threads=a.threads, tolerance=gc.TOLERANCE, budgets=BUDGETS,
+               scenes=[dict(name=n, lights=ls) for n, ls in SCENES], plans=[], grids={})
+    # 1. plan's choice per scene and budget (default --colours auto, linear, 360:830).
+    for name, lights in SCENES:
+        for budget in BUDGETS:
+            log(f"plan: {name} ({','.join(lights)}), --max-de {budget}")
+            p, secs = plan_json(a, "--lights", ",".join(lights), "--max-de", budget)
+            row = next((g for g in p["grids"] if g["chosen"]), None)
+            res["plans"].append(dict(
+                scene=name, lights=lights, budget=budget, seconds=secs, chosen=p["chosen"],
+                best=p["best"], colours=row["colours"] if row else None, worst=row["worst"] if row else None,
+                plan_lights={l["light"]: l["worst"] for l in row["lights"]} if row else {},
+                half_shift={l["light"]: l["half_shift"] for l in row["lights"]} if row else {}))
+            log(f"  {p['chosen']} ({secs:.0f} s)")
+    grids = list(dict.fromkeys([r["chosen"] for r in res["plans"] if r["chosen"]] + [DEFAULT_GRID]))
+    # 2. Bake time and bytes on the photograph-like input: every grid and the default, alternating.
+    if photo is None:
+        photo = work / "scene_photo.png"
+        photographic_png(photo, a.size)
+    exr = work / "scene.exr"
+    for rep in range(a.repeat):
+        for g in grids:
+            jsonl = work / "scene.jsonl"
+            jsonl.unlink(missing_ok=True)
+            wall, mb, rec = bake(a, dict(DEFAULT, grid=g), photo, exr, jsonl)
+            exr.unlink(missing_ok=True)
+            gr = res["grids"].setdefault(g, dict(grid=g, walls=[]))
+            gr["walls"].append(wall)
+            if wall == min(gr["walls"]):
+                gr.update(wall_s=wall, peak_mb=mb, bytes=rec["bytes"], bins=rec["bins"])
+            log(f"  bake {g}: {wall:.2f} s")
+    for gr in res["grids"].values():
+        gr["ratio_default"] = gr["wall_s"] / res["grids"][DEFAULT_GRID]["wall_s"]
+        gr["bytes_per_pixel"] = gr["bins"] * 2
+    # 3. The checker: plan's dense sample baked in half on each grid, against its 1 nm float bake.
+    sample, ref = work / "scene_sample.png", work / "scene_ref.exr"
+    dense_sample_png(sample)
+    log(f"checker: reference bake of the dense sample on {REFERENCE_GRID}, float")
+    bake(a, dict(DEFAULT, grid=REFERENCE_GRID, type="float"), sample, ref, work / "scene_ref.jsonl")
+    integ = gc.Integrator(lights_all, (360, 830))
+    ref_xyz, rf = integ.xyz_of_file(ref)
+    ref.unlink(missing_ok=True)
+    codes = gc.read_codes(sample)
+    res["light_sources"] = dict(integ.sources)
+    for g in grids:
+        cand = work / "scene_sample.exr"
+        bake(a, dict(DEFAULT, grid=g), sample, cand, work / "scene_sample.jsonl")
+        cx, f = integ.xyz_of_file(cand, "linear")
+        cand.unlink(missing_ok=True)
+        chk = {l["light"]: l for l in gc.compare(integ, ref_xyz, cx, f.width, codes)}
+        p, _ = plan_json(a, "--colours", "sample", "--grids", g, "--lights", ",".join(lights_all), "--max-de", 100)
+        prow = p["grids"][0]
+        res["grids"][g].update(
+            checker={l: dict(worst=chk[l]["worst"], p99=chk[l]["p99"], mean=chk[l]["mean"],
+                             worst_code=chk[l]["worst_code"]) for l in lights_all},
+            plan_sample={l["light"]: dict(worst=l["worst"], p99=l["p99"], worst_code=l["worst_code"])
+                         for l in prow["lights"]})
+        log(f"  {g}: " + ", ".join(f"{l} {chk[l]['worst']:.4g} (plan {res['grids'][g]['plan_sample'][l]['worst']:.4g})"
+                                   for l in lights_all))
+    # 4. Rows.
+    tol = gc.TOLERANCE
+    rows = []
+
+    def verdict(g, lights, cube=None):
+        gr = res["grids"][g]
+        bad = []
+        for l in lights:
+            d = gr["checker"][l]["worst"] - gr["plan_sample"][l]["worst"]
+            if abs(d) > tol:
+                bad.append(f"{l} {d:+.3g} vs plan's sample")
+            if cube and gr["checker"][l]["worst"] > cube[l] + tol:
+                bad.append(f"{l} above plan's cube figure by {gr['checker'][l]['worst'] - cube[l]:.3g}")
+        dmax = max(abs(gr["checker"][l]["worst"] - gr["plan_sample"][l]["worst"]) for l in lights)
+        return (not bad), bad, dmax
+
+    for name, lights in SCENES:
+        for r in [r for r in res["plans"] if r["scene"] == name]:
+            row = dict(scene=name, lights=",".join(lights), budget=r["budget"], grid=r["chosen"], plan_seconds=r["seconds"])
+            if r["chosen"]:
+                gr = res["grids"][r["chosen"]]
+                ok, bad, dmax = verdict(r["chosen"], lights, r["plan_lights"])
+                row.update(bins=gr["bins"], bytes_per_pixel=gr["bytes_per_pixel"], bytes=gr["bytes"],
+                           wall_s=gr["wall_s"], ratio_default=gr["ratio_default"], plan_worst=r["worst"],
+                           plan_colours=r["colours"], agree=ok, disagreements="; ".join(bad), max_abs_diff=dmax,
+                           **{f"plan_{l}": r["plan_lights"][l] for l in lights},
+                           **{f"plan_sample_{l}": gr["plan_sample"][l]["worst"] for l in lights},
+                           **{f"checker_{l}": gr["checker"][l]["worst"] for l in lights})
+            else:
+                row.update(plan_worst=r["best"]["worst"] if r["best"] else None, plan_colours="none within budget")
+            rows.append(row)
+        dl = list(dict.fromkeys(["D65"] + lights))
+        gr = res["grids"][DEFAULT_GRID]
+        ok, bad, dmax = verdict(DEFAULT_GRID, dl)
+        rows.append(dict(scene=name, lights=",".join(lights), budget=None, grid=DEFAULT_GRID + " (default)",
+                         bins=gr["bins"], bytes_per_pixel=gr["bytes_per_pixel"], bytes=gr["bytes"], wall_s=gr["wall_s"],
+                         ratio_default=1.0, plan_worst=max(gr["plan_sample"][l]["worst"] for l in dl),
+                         plan_colours="sample", agree=ok, disagreements="; ".join(bad), max_abs_diff=dmax,
+                         **{f"plan_{l}": gr["plan_sample"][l]["worst"] for l in dl},
+                         **{f"plan_sample_{l}": gr["plan_sample"][l]["worst"] for l in dl},
+                         **{f"checker_{l}": gr["checker"][l]["worst"] for l in dl}))
+    res["rows"] = rows
+    return res
+
+
+def scenes_markdown(res):
+    def g3(v):
+        return "–" if v is None else f"{v:.3g}"
+
+    L = ["## Per scene\n",
+         f"Which grid `spectex plan --lights L --max-de B` chooses for three scenes (default `--colours auto`: every "
+         "candidate on plan's 274,625-colour sample, the chosen one on all 16,777,216 8-bit codes plus half "
+         "rounding's largest shift; linear reconstruction over 360:830 at 1 nm), and what it costs: the "
+         f"{res['size']}×{res['size']} photograph-like PNG baked on that grid and on the default {DEFAULT_GRID} "
+         f"(half, zip, {res['threads']} threads), runs alternating over all the grids, best of {res['repeat']}; "
+         "`× 81 bins` is the bake's wall time over the default bake's; bytes/px counts the spectral channels. "
+         "**plan** is the worst ΔE00 per light: the chosen row's on the cube (what plan decides on) / "
+         "`plan --colours sample --grids G` on the sample (the checker's colours). **checker** is `grid_check.py`: "
+         f"plan's dense sample baked in half on the grid, against the same texture baked on {REFERENCE_GRID} in "
+         "float, linear reconstruction at 1 nm, colour-science's tables; worst ΔE00 per light over the sample. "
+         f"**agree**: the checker within {res['tolerance']} of `plan --colours sample` on the same grid (same "
+         "colours) under every light, and not above plan's cube figure by more than that; a row that does not "
+         "is marked **no**. The default row gives the default grid's error under D65 and the scene's lights "
+         "with the renderer's continuous integration (plan's figure there is the sample's).\n",
+         "| scene (`--lights`) | budget | grid | bins | bytes/px | file bytes | bake s | × 81 bins | plan worst (cube / sample) | "
+         "checker worst | agree (max \\|Δ\\|) |",
+         "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in res["rows"]:
+        lights = [k[len("checker_"):] for k in r if k.startswith("checker_")]
+        if r.get("grid") is None:
+            L.append(f"| {r['scene']} ({r['lights']}) | {r['budget']} | none (best {g3(r['plan_worst'])}) "
+                     "| | | | | | | | |")
+            continue
+        if r["budget"] is None:
+            plan = ", ".join(f"{l} – / {g3(r['plan_sample_' + l])}" for l in lights)
+        else:
+            plan = ", ".join(f"{l} {g3(r['plan_' + l])} / {g3(r['plan_sample_' + l])}" for l in lights)
+        chk = ", ".join(f"{l} {g3(r['checker_' + l])}" for l in lights)
+        agree = (f"yes ({r['max_abs_diff']:.1g})" if r["agree"] else f"**no**: {r['disagreements']}")
+        budget = "–" if r["budget"] is None else f"{r['budget']:g}"
+        grid = r["grid"] if r["budget"] is None else f"**{r['grid']}**"
+        L.append(f"| {r['scene']} ({r['lights']}) | {budget} | {grid} | {r['bins']} | {r['bytes_per_pixel']} | "
+                 f"{r['bytes']:,} | {r['wall_s']:.2f} | {r['ratio_default']:.2f} | {plan} | {chk} | {agree} |")
+    srcs = "; ".join(f"{l}: {s}" for l, s in res.get("light_sources", {}).items())
+    L.append(f"\nPlan's own run time per scene and budget: "
+             + ", ".join(f"{p['scene'].split()[0]} {p['budget']:g}: {p['seconds']:.0f} s" for p in res["plans"])
+             + f". Checker's lights: {srcs}.")
+    return "\n".join(L) + "\n"
+
+
+def write_scenes(out, res, report=None):
+    text = scenes_markdown(res)
+    (out / "scenes.json").write_text(json.dumps(res, indent=1))
+    (out / "scenes.md").write_text(text)
+    keys = list(dict.fromkeys(k for r in res["rows"] for k in r))
+    with open(out / "scenes.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=keys)
+        w.writeheader()
+        for r in res["rows"]:
+            w.writerow(r)
+    if report is not None and report.exists():
+        with open(report, "a") as f:
+            f.write("\n" + text)
+    print(text)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--spectex", default=str(ROOT / "build/src/spectex"))
@@ -292,6 +504,9 @@ def main():
                     help="also time a SIZE² bake of --method lattice against --method basis (e.g. 4096)")
     ap.add_argument("--only-methods", action="store_true",
                     help="only the --method-size comparison (no rows, no peers)")
+    ap.add_argument("--no-scenes", action="store_true", help="skip the per-scene section")
+    ap.add_argument("--scenes-only", action="store_true",
+                    help="only the per-scene section (scenes.md, scenes.csv, scenes.json)")
     a = ap.parse_args()
     a.repeat = a.repeat or (1 if a.quick else 3)
     a.peer_size = a.peer_size or (a.size if a.quick else 1024)
@@ -304,11 +519,15 @@ def main():
             if not a.method_size:
                 ap.error("--only-methods needs --method-size")
             write_method_speed(out, method_speed(a, work))
+        elif a.scenes_only:
+            write_scenes(out, scenes(a, work))
         else:
             run(a, out, work)
     finally:
         shutil.rmtree(work, ignore_errors=True)
-    log(f"done in {time.time() - t_start:.0f} s: {out}/report.md, report.csv, report.svg")
+    done = ("methods.md, methods.json" if a.only_methods else "scenes.md, scenes.csv, scenes.json" if a.scenes_only
+            else "report.md, report.csv, report.svg" + ("" if a.no_scenes else ", scenes.md, scenes.csv, scenes.json"))
+    log(f"done in {time.time() - t_start:.0f} s: {out}/ {done}")
 
 
 def run(a, out, work):
@@ -365,6 +584,8 @@ def run(a, out, work):
     kernel = expand_kernel(a)
     peers = [] if a.no_peers else run_peers(a, work)
     write_report(a, out, rows, peers, kernel)
+    if not a.no_scenes:
+        write_scenes(out, scenes(a, work, speed_png), out / "report.md")
     if a.method_size:
         write_method_speed(out, method_speed(a, work))
 
