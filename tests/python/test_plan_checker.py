@@ -12,11 +12,12 @@ round a percentile up.
 
 The tolerance (0.002 ΔE00) and why it is not zero (measured on 6 grids × 3 rules, see
 tests/bench/README.md): colour-science's D50/D55/D65/D75 tables stop at 780 nm where the shipped
-CSVs go on to 830 nm by the daylight formula (≤ 6e-6 on the worst); the reference is float32
-(≤ 1e-6: float bakes agree with `plan --type float` to that); and the bake decodes codes 1–10 with
-OCIO's sRGB (linear slope 12.9232, continuous) while plan's sample uses the IEC formula's 12.92, so
-plan's model rounds a few dark-channel colours to half differently from the bake: up to 4.1e-4 on
-a worst (380:780:10, box, D65). 0.002 is about 5× the largest difference seen and 9× below the
+CSVs go on to 830 nm by the daylight formula (≤ 2.5e-6 on a worst); the reference is float32 (float
+bakes agree with `plan --type float` to 1.1e-6); and the bake decodes 8-bit codes with OCIO's sRGB
+(continuous linear segment, slope 12.9232, in float) while plan's sample uses the IEC formula
+(12.92) in double: codes 1–10 differ by 0.025 %, so plan's model rounds some colours to half
+differently from the bake, up to 4.1e-4 on a worst (380:780:10, box, D65). A bake of plan's own
+linear values agrees within 5.3e-6. 0.002 is about 5× the largest difference seen and 9× below the
 smallest difference between two rules on the 10 and 20 nm grids measured (0.018: FL11 on
 380:780:10, linear against box); the last tests check that a wrong rule fails.
 """
