@@ -305,8 +305,10 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
             if (c.method == "basis" && c.basis != "fit")
                 throw UsageError("--wavelengths auto fits the basis on the chosen grid; --basis " + c.basis +
                                  " has a grid of its own");
-        } else if (c.plan_lights || c.plan_budget || !c.plan.candidates.empty()) {
-            throw UsageError("--lights, --max-de and --grids choose the grid of --wavelengths auto");
+            if (c.plan.nonuniform && c.method != "basis")
+                throw UsageError("--nonuniform searches with the basis' 3x3 maps: it needs --method basis");
+        } else if (c.plan_lights || c.plan_budget || !c.plan.candidates.empty() || c.plan.nonuniform) {
+            throw UsageError("--lights, --max-de, --grids and --nonuniform choose the grid of --wavelengths auto");
         }
         if (c.wavelengths_file.empty() && !automatic) {
             try {
@@ -443,8 +445,9 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
             rec.range = num;
             std::snprintf(num, sizeof num, "%.4g", row.worst);
             rec.worst_de = num;
+            rec.nonuniform = c.plan.nonuniform;
             if (!c.quiet)
-                std::cerr << "spectex: --wavelengths auto: " << row.grid.describe() << " (" << row.bins
+                std::cerr << "spectex: --wavelengths auto: " << grid_label(row.grid) << " (" << row.bins
                           << " bins), worst " << rec.worst_de << " ΔE00 under " << row.worst_light << ", within "
                           << rec.max_de << " under " << join_names(c.plan.lights) << " (" << pr.seconds << " s)\n";
         }

@@ -3,6 +3,7 @@
 
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
+#include "cli/output_check.h"
 #include "io/atomic_file.h"
 #include "io/data_dir.h"
 #include "pipeline/plan.h"
@@ -44,6 +45,10 @@ void add_plan_options(ArgParser& p, PlanSpec& spec, bool& lights_given, bool& bu
                      throw UsageError(std::string("--range: ") + e.what());
                  }
              });
+    p.flag("--nonuniform",
+           "Also search non-uniform grids (basis only): greedy insertion of bins where the lights need them, "
+           "offered when it needs fewer bins than every uniform candidate.",
+           [&] { spec.nonuniform = true; });
     p.option("--grids", "LIST",
              "Candidate grids instead of the default ones (uniform 1, 2, 2.5, 4, 5, 10, 20 nm over 380:780, "
              "400:700 and --range), e.g. the grids a renderer supports: 380:780:5,400:700:10.",
@@ -62,7 +67,7 @@ void add_plan_options(ArgParser& p, PlanSpec& spec, bool& lights_given, bool& bu
 int run_plan(const std::vector<std::string>& args) {
     PlanSpec spec;
     spec.method.method = "basis";
-    std::string type = "half", json;
+    std::string type = "half", json, grid_file;
     bool lights_given = false, budget_given = false, lattice_given = false;
     ArgParser p("plan", "spectex plan [options]",
                 "Chooses the wavelength grid for a scene: for candidate grids (uniform steps 1, 2, 2.5, 4, 5, 10\n"
@@ -114,6 +119,10 @@ int run_plan(const std::vector<std::string>& args) {
                      throw UsageError("--colours: '" + v + "' is not one of auto, cube, sample");
                  spec.colours = v;
              });
+    p.option("--grid-file", "FILE",
+             "Write the chosen grid's wavelengths, one per line, for bake --wavelengths-file (any grid, "
+             "non-uniform ones included).",
+             [&](const std::string& v) { grid_file = v; });
     p.option("--threads", "N", "Threads (default: all cores).",
              [&](const std::string& v) { spec.threads = parse_int("--threads", v, 0, 1024); });
     p.option("--json", "FILE", "Also write the table as JSON ('-' = stdout, instead of the text table).",
@@ -124,7 +133,18 @@ int run_plan(const std::vector<std::string>& args) {
         if (!pos.empty()) throw UsageError("unexpected argument '" + pos[0] + "'");
         if (lattice_given && spec.method.method != "lattice")
             throw UsageError("--lattice-size and --vertex-prior belong to --method lattice");
+        if (spec.nonuniform && spec.method.method != "basis")
+            throw UsageError("--nonuniform searches with the basis' 3x3 maps: it needs --method basis");
         spec.half = type == "half";
+        // Outputs are none of the files plan reads (tables given as files).
+        std::vector<std::pair<std::string, std::string>> reads = {{spec.method.fit.observer, "--observer"},
+                                                                  {spec.method.fit.illuminant, "--illuminant"}};
+        for (const auto& l : spec.lights) reads.push_back({l, "--lights"});
+        if (!json.empty() && json != "-") check_output_against(json, "--json", reads);
+        if (!grid_file.empty()) {
+            check_output_against(grid_file, "--grid-file", reads);
+            if (grid_file == json) throw UsageError("--grid-file and --json name the same file");
+        }
     } catch (const UsageError& e) {
         return usage_error("plan", e.what());
     }
@@ -141,6 +161,11 @@ int run_plan(const std::vector<std::string>& args) {
         if (r.chosen < 0) {
             print_error(plan_failure(spec, r));
             return 1;
+        }
+        if (!grid_file.empty()) {
+            std::string text = "# spectex plan: " + grid_label(r.rows[static_cast<size_t>(r.chosen)].grid) + "\n";
+            for (double l : r.rows[static_cast<size_t>(r.chosen)].grid.lambda) text += format_wavelength(l) + "\n";
+            write_text_atomically(grid_file, text);
         }
     } catch (const Error& e) {
         print_error(e.what());

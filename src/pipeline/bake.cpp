@@ -170,6 +170,7 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
         layout.attributes.push_back({"spectex:planReconstruction", s.plan.reconstruction});
         layout.attributes.push_back({"spectex:planRange", s.plan.range});
         layout.attributes.push_back({"spectex:planWorstDe", s.plan.worst_de});
+        if (s.plan.nonuniform) layout.attributes.push_back({"spectex:planGrids", "uniform and non-uniform"});
     }
     {
         // The method's own attributes where the basis' always stood (the order is part of the bytes).

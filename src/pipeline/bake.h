@@ -41,6 +41,7 @@ struct BakeSettings {
     // --wavelengths auto (issue 13): what chose the grid, recorded as spectex:plan* and hashed.
     struct Plan {
         std::string lights, max_de, reconstruction, range, worst_de;  // empty: the grid was given
+        bool nonuniform = false;  // --nonuniform: non-uniform grids were candidates too
     } plan;
 };
 

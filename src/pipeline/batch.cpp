@@ -250,7 +250,8 @@ std::string settings_hash(const BakeSettings& s) {
     // --wavelengths auto: the choice's settings (the chosen grid is hashed above); nothing when the
     // grid was given, so those hashes stay as they were.
     if (!s.plan.lights.empty())
-        fnv(h, "plan " + s.plan.lights + "|" + s.plan.max_de + "|" + s.plan.reconstruction + "|" + s.plan.range);
+        fnv(h, "plan " + s.plan.lights + "|" + s.plan.max_de + "|" + s.plan.reconstruction + "|" + s.plan.range +
+                   (s.plan.nonuniform ? "|nonuniform" : ""));
     // The colour config decides the linearisation: its path and its contents.
     const std::string config = ocio_config_path(s.data_dir, s.config);
     fnv(h, config);

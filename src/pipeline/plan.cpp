@@ -11,6 +11,7 @@
 
 #include "pipeline/basis_cache.h"
 #include "pipeline/batch.h"
+#include "pipeline/plan_search.h"
 #include "spectral/colorimetry.h"
 #include "spectral/error.h"
 #include "spectral/spectrum.h"
@@ -53,7 +54,18 @@ Eigen::MatrixXd basis_matrix(const SpectralMethod& m) {
     return B;
 }
 
+// "400,412.5,425": the wavelengths, shortest decimals.
+std::string wavelength_list(const WavelengthGrid& g) {
+    std::string out;
+    for (double l : g.lambda) out += (out.empty() ? "" : ",") + format_wavelength(l);
+    return out;
+}
+
 }  // namespace
+
+std::string grid_label(const WavelengthGrid& g) {
+    return g.uniform ? g.describe() : "non-uniform " + std::to_string(g.size());
+}
 
 std::vector<WavelengthGrid> default_candidates(double range_start, double range_end) {
     std::vector<std::pair<double, double>> ranges = {{range_start, range_end}};
@@ -105,6 +117,17 @@ PlanResult plan_grids(const PlanSpec& spec) {
 
     std::vector<WavelengthGrid> grids = spec.candidates.empty() ? default_candidates(spec.range_start, spec.range_end)
                                                                 : spec.candidates;
+    if (spec.nonuniform) {
+        if (!linear) throw Error("--nonuniform searches with the basis' 3x3 maps: it needs --method basis");
+        const NonuniformSearch found =
+            search_nonuniform(spec, obs, load_illuminant(dir, spec.method.fit.illuminant), fine, lights,
+                              basis_matrix(*ref), grids, threads);
+        for (const auto& g : found.grids)
+            if (std::none_of(grids.begin(), grids.end(),
+                             [&](const WavelengthGrid& u) { return same_wavelengths(u.lambda, g.lambda); }))
+                grids.push_back(g);
+        res.search = found.note;
+    }
     std::sort(grids.begin(), grids.end(), [](const WavelengthGrid& a, const WavelengthGrid& b) {
         return a.size() != b.size() ? a.size() < b.size() : a.lambda.front() < b.lambda.front();
     });
@@ -304,7 +327,7 @@ PlanResult plan_grids(const PlanSpec& spec) {
             row.why = "meets the budget, but " +
                       (row.bins > res.rows[static_cast<size_t>(res.chosen)].bins ? std::string("more bins")
                                                                                  : std::string("a larger error")) +
-                      " than " + res.rows[static_cast<size_t>(res.chosen)].grid.describe();
+                      " than " + grid_label(res.rows[static_cast<size_t>(res.chosen)].grid);
     }
     res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return res;
@@ -331,7 +354,7 @@ std::string plan_table(const PlanSpec& spec, const PlanResult& r) {
     for (size_t i = 0; i < r.rows.size(); ++i) {
         const GridRow& row = r.rows[i];
         std::snprintf(buf, sizeof buf, "%s %-15s %5d %6d %5.2f %-6s", static_cast<int>(i) == r.chosen ? "*" : " ",
-                      row.grid.describe().c_str(), row.bins, row.bytes_per_pixel, row.relative_time,
+                      grid_label(row.grid).c_str(), row.bins, row.bytes_per_pixel, row.relative_time,
                       row.colours.c_str());
         o << buf;
         for (const auto& le : row.lights) {
@@ -342,8 +365,11 @@ std::string plan_table(const PlanSpec& spec, const PlanResult& r) {
         o << "  " << row.why << "\n";
     }
     o << "\n";
+    for (const auto& row : r.rows)
+        if (!row.grid.uniform) o << "  " << grid_label(row.grid) << ": " << wavelength_list(row.grid) << " nm\n";
+    if (!r.search.empty()) o << "  " << r.search << "\n\n";
     if (r.chosen >= 0)
-        o << "* " << r.rows[static_cast<size_t>(r.chosen)].grid.describe() << ": the cheapest grid within "
+        o << "* " << grid_label(r.rows[static_cast<size_t>(r.chosen)].grid) << ": the cheapest grid within "
           << fmt(spec.max_de) << " ΔE00 under every light (worst " << fmt(r.rows[static_cast<size_t>(r.chosen)].worst)
           << " under " << r.rows[static_cast<size_t>(r.chosen)].worst_light << ")\n";
     else
@@ -356,7 +382,7 @@ std::string plan_failure(const PlanSpec& spec, const PlanResult& r) {
     std::string s = "no candidate grid meets " + fmt(spec.max_de) + " ΔE00 under every light";
     if (r.best >= 0) {
         const GridRow& b = r.rows[static_cast<size_t>(r.best)];
-        s += ": the best achievable is " + fmt(b.worst) + " (" + b.grid.describe() + ", under " + b.worst_light + ")";
+        s += ": the best achievable is " + fmt(b.worst) + " (" + grid_label(b.grid) + ", under " + b.worst_light + ")";
     } else {
         s += ": the method could not be built on any of them";
     }
@@ -371,22 +397,25 @@ std::string plan_json(const PlanSpec& spec, const PlanResult& r) {
     o << "],\"max_de\":" << num(spec.max_de) << ",\"reconstruction\":\"" << to_string(spec.reconstruction)
       << "\",\"range\":[" << num(spec.range_start) << "," << num(spec.range_end) << "],\"method\":\""
       << json_escape(r.method) << "\",\"type\":\"" << (spec.half ? "half" : "float") << "\",\"colours\":\""
-      << json_escape(r.colours) << "\",\"seconds\":" << num(r.seconds) << ",\"chosen\":";
+      << json_escape(r.colours) << "\",\"nonuniform\":" << (spec.nonuniform ? "true" : "false")
+      << ",\"search\":\"" << json_escape(r.search) << "\",\"seconds\":" << num(r.seconds) << ",\"chosen\":";
     if (r.chosen >= 0)
-        o << "\"" << r.rows[static_cast<size_t>(r.chosen)].grid.describe() << "\"";
+        o << "\"" << grid_label(r.rows[static_cast<size_t>(r.chosen)].grid) << "\"";
     else
         o << "null";
     o << ",\"best\":";
     if (r.best >= 0)
-        o << "{\"grid\":\"" << r.rows[static_cast<size_t>(r.best)].grid.describe()
+        o << "{\"grid\":\"" << grid_label(r.rows[static_cast<size_t>(r.best)].grid)
           << "\",\"worst\":" << num(r.rows[static_cast<size_t>(r.best)].worst) << "}";
     else
         o << "null";
     o << ",\"grids\":[";
     for (size_t i = 0; i < r.rows.size(); ++i) {
         const GridRow& row = r.rows[i];
-        o << (i ? "," : "") << "{\"grid\":\"" << row.grid.describe() << "\",\"start\":" << num(row.grid.lambda.front())
-          << ",\"end\":" << num(row.grid.lambda.back()) << ",\"step\":" << num(row.grid.step) << ",\"bins\":" << row.bins
+        o << (i ? "," : "") << "{\"grid\":\"" << grid_label(row.grid) << "\",\"start\":" << num(row.grid.lambda.front())
+          << ",\"end\":" << num(row.grid.lambda.back()) << ",\"step\":" << (row.grid.uniform ? num(row.grid.step) : "null")
+          << ",\"uniform\":" << (row.grid.uniform ? "true" : "false") << ",\"wavelengths\":[" << wavelength_list(row.grid)
+          << "],\"bins\":" << row.bins
           << ",\"bytes_per_pixel\":" << row.bytes_per_pixel << ",\"relative_time\":" << num(row.relative_time)
           << ",\"colours\":\"" << row.colours << "\",\"built\":" << (row.ok ? "true" : "false") << ",\"passes\":" << (row.passes ? "true" : "false")
           << ",\"chosen\":" << (static_cast<int>(i) == r.chosen ? "true" : "false") << ",\"why\":\""

@@ -26,6 +26,9 @@ struct PlanSpec {
     // Which colours decide (the basis only; other methods always use the sample): "auto" every row on
     // the sample and the chosen one on all 16,777,216 codes, "cube" every row on the cube, "sample".
     std::string colours = "auto";
+    // Also search non-uniform grids (plan_search.h; the basis only) and offer those that need fewer
+    // bins than every uniform candidate.
+    bool nonuniform = false;
 };
 
 // Uniform steps 1, 2, 2.5, 4, 5, 10, 20 nm over 380:780, 400:700 and the renderer's range (a step
@@ -65,8 +68,13 @@ struct PlanResult {
     int best = -1;            // lowest worst error
     std::string colours;      // how the colours were taken, for the report
     std::string method;       // the method and conditions
+    std::string search;       // with --nonuniform: what the search found (plan_search.h)
     double seconds = 0;
 };
+
+// A grid's name in the table: START:END:STEP, or "non-uniform N" (its wavelengths are listed
+// under the table and in the JSON).
+std::string grid_label(const WavelengthGrid& g);
 
 // Throws Error when the lights, observer or range cannot be used, or the reference method cannot be
 // built on the 1 nm range. A candidate grid the method cannot be built on is a failing row.

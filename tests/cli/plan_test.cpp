@@ -132,3 +132,73 @@ TEST(Plan, BakeAutoRecordsTheChoiceAndUpdateTreatsItAsSettings) {
     EXPECT_EQ(run_spectex({"bake", d / "in.png", "-o", d / "x.exr", "--wavelengths", "auto", "--lights", "A"}).status, 2);
     EXPECT_EQ(run_spectex({"bake", d / "in.png", "-o", d / "x.exr", "--max-de", "0.5"}).status, 2);
 }
+
+// --nonuniform (issue 13, item 3): under D65 and FL11 at 0.5 the search finds a grid with fewer bins
+// than the uniform candidates (20 against 31 when this was written), the plan's own evaluation on the
+// dense sample confirms it, --grid-file writes it for bake --wavelengths-file, and bake --wavelengths
+// auto --nonuniform records it and treats --nonuniform as a setting. Slow: about 30 CPU-s.
+TEST(PlanSlow, NonuniformGridNeedsFewerBinsAndBakes) {
+    ScratchDir d;
+    const std::vector<std::string> scene = {"--lights", "D65,FL11", "--max-de", "0.5", "--grids",
+                                            "400:700:10,380:780:10,400:700:20"};
+    RunResult r = run_spectex(with(with({"plan", "--nonuniform", "--colours", "sample"}, scene),
+                                   {"--json", d / "plan.json", "--grid-file", d / "grid.txt"}));
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("non-uniform search: "), std::string::npos) << r.out;
+    // The chosen row is non-uniform, has fewer bins than every uniform row that passes, meets the
+    // budget under each light, and the grid file holds exactly its wavelengths.
+    const std::string check =
+        "python3 -c 'import json,sys; d=json.load(open(sys.argv[1])); g=[r for r in d[\"grids\"] if r[\"chosen\"]][0]; "
+        "u=[r[\"bins\"] for r in d[\"grids\"] if r[\"uniform\"] and r[\"passes\"]]; "
+        "assert d[\"nonuniform\"] and not g[\"uniform\"] and g[\"step\"] is None, g; "
+        "assert u and g[\"bins\"] < min(u), (g[\"bins\"], u); "
+        "assert all(l[\"worst\"] <= 0.5 for l in g[\"lights\"]) and g[\"bins\"] == len(g[\"wavelengths\"]), g; "
+        "w=[float(x) for x in open(sys.argv[2]) if not x.startswith(\"#\")]; "
+        "assert w == [float(x) for x in g[\"wavelengths\"]], (w, g[\"wavelengths\"]); print(g[\"bins\"])' '" +
+        d / "plan.json" + "' '" + d / "grid.txt" + "'";
+    ASSERT_EQ(std::system(check.c_str()), 0) << read_file(d / "plan.json");
+
+    write_png(d / "in.png");
+    r = run_spectex({"bake", d / "in.png", "-o", d / "listed.exr", "--wavelengths-file", d / "grid.txt"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto listed = spectral_channels(read_exr(d / "listed.exr"));
+    std::ifstream grid(d / "grid.txt");
+    std::vector<double> want;
+    for (std::string line; std::getline(grid, line);)
+        if (!line.empty() && line[0] != '#') want.push_back(std::stod(line));
+    ASSERT_EQ(listed.size(), want.size());
+    for (size_t k = 0; k < want.size(); ++k) EXPECT_NEAR(listed[k].first, want[k], 1e-9);
+
+    // bake --wavelengths auto --nonuniform: the same choice, recorded; --nonuniform is a setting.
+    std::vector<std::string> a = with({"bake", d / "in.png", "-o", d / "auto.exr", "--wavelengths", "auto"}, scene);
+    r = run_spectex(with(a, {"--nonuniform"}));
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.err.find("--wavelengths auto: non-uniform "), std::string::npos) << r.err;
+    ExrImage img = read_exr(d / "auto.exr");
+    EXPECT_EQ(img.attr("spectex:planGrids"), "uniform and non-uniform");
+    const auto chosen = spectral_channels(img);
+    EXPECT_LT(chosen.size(), 31u);
+    r = run_spectex(with(a, {"--nonuniform", "--update", "--json", "-"}));
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(count(r.out, "\"status\":\"skipped\""), 1u) << r.out;
+    r = run_spectex(with(a, {"--update", "--json", "-"}));
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(count(r.out, "\"status\":\"ok\""), 1u) << r.out;
+    EXPECT_EQ(read_exr(d / "auto.exr").attr("spectex:planGrids"), "");
+}
+
+TEST(Plan, NonuniformUsageErrors) {
+    ScratchDir d;
+    write_png(d / "in.png");
+    EXPECT_EQ(run_spectex({"plan", "--nonuniform", "--method", "lattice"}).status, 2);
+    EXPECT_EQ(run_spectex({"bake", d / "in.png", "-o", d / "x.exr", "--nonuniform"}).status, 2);
+    EXPECT_EQ(run_spectex({"bake", d / "in.png", "-o", d / "x.exr", "--wavelengths", "auto", "--lights", "A",
+                           "--max-de", "0.5", "--nonuniform", "--method", "jakob-hanika"})
+                  .status,
+              2);
+    // plan's outputs are never a file it reads: a light table given as a file.
+    std::ofstream(d / "light.csv") << "wavelength,value\n360,1\n830,1\n";
+    EXPECT_EQ(run_spectex({"plan", "--lights", d / "light.csv", "--json", d / "light.csv"}).status, 2);
+    EXPECT_EQ(run_spectex({"plan", "--lights", d / "light.csv", "--grid-file", d / "light.csv"}).status, 2);
+    EXPECT_EQ(read_file(d / "light.csv"), "wavelength,value\n360,1\n830,1\n");
+}
