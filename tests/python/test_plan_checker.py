@@ -10,6 +10,12 @@ of the bake (`plan --colours sample --grids G --reconstruction R`). The worst Δ
 agree within grid_check.TOLERANCE; p99 as well, plus the 0.24 % by which plan's histogram may
 round a percentile up.
 
+A non-uniform grid as well: `plan --nonuniform --grid-file G` chooses one (linear, and separately
+box, whose choice has 5 nm gaps beside 25 nm ones, so box edges fall on half nanometres), the
+sample is baked with `--wavelengths-file G`, and the checker reads the file's channels (the
+wavelengths as they are, no step assumed) and must agree with plan's row in the same way. These two
+cases cost about 17 s each, nearly all of it plan's search and evaluation of its candidates.
+
 The tolerance (0.002 ΔE00) and why it is not zero (measured on 6 grids × 3 rules, see
 tests/bench/README.md): colour-science's D50/D55/D65/D75 tables stop at 780 nm where the shipped
 CSVs go on to 830 nm by the daylight formula (≤ 2.5e-6 on a worst); the reference is float32 (float
@@ -189,6 +195,70 @@ def test_checker_cli_reads_both_files_in_step(env):
         assert l["worst_code"] == c[l["light"]]["worst_code"]
         assert l["source"].startswith("colour.SDS_ILLUMINANTS")
     assert "D65" in r.stdout and "worst" in r.stdout
+
+
+# A non-uniform grid: `plan --nonuniform` searches its own grids (greedy removal of bins, whole nm)
+# and writes the chosen one with --grid-file; the bake reads it with --wavelengths-file. The two
+# uniform candidates make the search short: 400:700:10 passes the budget (31 bins to beat),
+# 400:700:20 does not. Box is searched separately (its own choice, with gaps of 5 and 25 nm, so
+# box edges fall on half nanometres).
+NONUNIFORM_LIGHTS = ["D65", "FL11"]
+NONUNIFORM_ARGS = ["--nonuniform", "--colours", "sample", "--lights", ",".join(NONUNIFORM_LIGHTS), "--max-de", "0.5",
+                   "--grids", "400:700:10,400:700:20"]
+
+
+def read_grid_file(path):
+    lines = open(path).read().splitlines()
+    assert lines[0].startswith("# "), lines[:2]
+    return [float(l) for l in lines[1:] if l.strip()]
+
+
+@pytest.mark.parametrize("rule", ["linear", "box"])
+def test_plan_agrees_with_the_checker_on_a_nonuniform_grid(env, rule):
+    """plan's chosen non-uniform grid, written by --grid-file and baked with --wavelengths-file
+    (half), measured by the checker: plan's worst ΔE00 per light for that row within TOL, and the
+    file's channels are exactly the row's wavelengths."""
+    t0 = time.time()
+    gfile = os.path.join(env.dir, f"nonuniform_{rule}.txt")
+    r = run(SPECTEX, "plan", *NONUNIFORM_ARGS, "--reconstruction", rule, "--grid-file", gfile, "--json", "-",
+            "--threads", "2")
+    assert r.returncode == 0, r.stderr
+    p = json.loads(r.stdout)
+    t_plan = time.time() - t0
+    assert p["nonuniform"] is True and p["reconstruction"] == rule and p["type"] == "half"
+    (row,) = [g for g in p["grids"] if g["chosen"]]
+    assert p["chosen"] == row["grid"] and row["uniform"] is False and row["colours"] == "sample", row["grid"]
+    wl = row["wavelengths"]
+    assert row["grid"] == f"non-uniform {len(wl)}" and row["bins"] == len(wl)
+    steps = np.diff(wl)
+    assert np.all(steps > 0) and not np.allclose(steps, steps[0]), wl
+    uniform = [g for g in p["grids"] if g["uniform"] and g["passes"]]
+    assert uniform and all(len(wl) < g["bins"] for g in uniform), "offered only when it needs fewer bins"
+    assert read_grid_file(gfile) == wl
+    out = os.path.join(env.dir, f"nonuniform_{rule}.exr")
+    r = run(SPECTEX, "bake", env.png, "-o", out, "--wavelengths-file", gfile, "-q", "--threads", "2")
+    assert r.returncode == 0, r.stderr
+    cx, f = env.integ.xyz_of_file(out, rule)
+    assert f.wavelengths.tolist() == wl and f.format == "half"
+    c = {l["light"]: l for l in gc.compare(env.integ, env.ref_xyz, cx, f.width, env.codes)}
+    pl = {l["light"]: l for l in row["lights"]}
+    assert sorted(pl) == sorted(NONUNIFORM_LIGHTS)
+    msg = (f"{row['grid']} {rule} ({', '.join(f'{w:g}' for w in wl)}):\n  "
+           + "\n  ".join(f"{l}: plan {pl[l]['worst']:.6g} at {pl[l]['worst_code']}, checker {c[l]['worst']:.6g} at "
+                         f"{c[l]['worst_code']}, difference {c[l]['worst'] - pl[l]['worst']:+.2e}; p99 plan "
+                         f"{pl[l]['p99']:.5g}, checker {c[l]['p99']:.5g}" for l in NONUNIFORM_LIGHTS))
+    print(msg, f"\n  (plan {t_plan:.1f} s, all {time.time() - t0:.1f} s)")
+    for light in NONUNIFORM_LIGHTS:
+        assert abs(c[light]["worst"] - pl[light]["worst"]) <= TOL, msg
+        assert abs(c[light]["p99"] - pl[light]["p99"]) <= TOL + 0.0025 * c[light]["p99"], msg
+        assert pl[light]["worst"] <= 0.5
+    # The same file read by a wrong rule disagrees with plan by more than the tolerance under
+    # some light: the agreement on this grid is not a tolerance that passes anything.
+    wrong = "nearest"
+    wx, _ = env.integ.xyz_of_file(out, wrong)
+    w = {l["light"]: l for l in gc.compare(env.integ, env.ref_xyz, wx, f.width, env.codes)}
+    print(f"  checker told {wrong}: " + ", ".join(f"{l} {w[l]['worst']:.4g}" for l in NONUNIFORM_LIGHTS))
+    assert max(abs(w[l]["worst"] - pl[l]["worst"]) for l in NONUNIFORM_LIGHTS) > 10 * TOL
 
 
 @pytest.mark.parametrize("grid,plan_rule,checker_rule", [
