@@ -17,6 +17,7 @@
 #include "io/image_source.h"
 #include "io/linearizer.h"
 #include "pipeline/batch.h"
+#include "pipeline/pixel_policy.h"
 #include "spectex/version.h"
 #include "spectral/error.h"
 #include "spectral/colorimetry.h"
@@ -207,7 +208,7 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     size_t row_bytes = w * bins * es;
     const int strip = strip_rows(row_bytes, chunk, tiled || std::string(writer.writer_name()) != "core", info.height);
 
-    const bool straighten = info.alpha == AlphaKind::Associated;
+    const PixelPolicy policy{info.alpha == AlphaKind::Associated, s.nan, s.range};
     const bool premultiply = has_alpha && s.alpha == AlphaMode::Associated;
     std::vector<float> rgba;
     // Reads rows [y0, y1) and leaves linear, policed, (premultiplied) planes in r, g, b, a.
@@ -218,40 +219,11 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
         src->read_rgba(y0, y1, rgba.data());
         res.stages.read += since(t_read);
         auto t_colour = Clock::now();
-        if (straighten) {
-            for (size_t i = 0; i < n; ++i) {
-                float al = rgba[4 * i + 3];
-                if (al > 0 && al != 1)
-                    for (int c = 0; c < 3; ++c) rgba[4 * i + c] /= al;
-            }
-        }
-        lin.apply_rgba(rgba.data(), static_cast<long>(n));
+        const PolicedCounts counts = police_rgba(rgba.data(), n, lin, policy, input, w, y0);
+        res.replaced_pixels += counts.replaced;
+        res.clamped_pixels += counts.clamped;
         for (size_t i = 0; i < n; ++i) {
-            float* p = &rgba[4 * i];
-            bool bad = false, out_of_range = false;
-            for (int c = 0; c < 4; ++c) {
-                if (!std::isfinite(p[c])) {
-                    if (s.nan == NanPolicy::Error)
-                        throw Error(input + ": non-finite value at pixel (" + std::to_string(i % w) + ", " +
-                                    std::to_string(y0 + static_cast<int>(i / w)) + ") (--nan error)");
-                    p[c] = 0.0f;
-                    bad = true;
-                }
-            }
-            for (int c = 0; c < 3; ++c) {
-                if (p[c] < 0.0f || p[c] > 1.0f) {
-                    if (s.range == RangePolicy::Error)
-                        throw Error(input + ": linear value " + std::to_string(p[c]) + " outside [0, 1] at pixel (" +
-                                    std::to_string(i % w) + ", " + std::to_string(y0 + static_cast<int>(i / w)) +
-                                    ") (--out-of-range error)");
-                    if (s.range == RangePolicy::Clamp) {
-                        p[c] = std::min(1.0f, std::max(0.0f, p[c]));
-                        out_of_range = true;
-                    }
-                }
-            }
-            res.replaced_pixels += bad;
-            res.clamped_pixels += out_of_range;
+            const float* p = &rgba[4 * i];
             float al = p[3];
             float k = premultiply ? al : 1.0f;
             r[i] = p[0] * k;

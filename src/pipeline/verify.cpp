@@ -12,6 +12,7 @@
 #include "io/file_identity.h"
 #include "io/image_source.h"
 #include "pipeline/batch.h"
+#include "pipeline/pixel_policy.h"
 #include "io/linearizer.h"
 #include "io/spectral_exr_info.h"
 #include "io/spectral_reader.h"
@@ -444,8 +445,8 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
                 b.changed.resize(ctx.plane);
             }
         }
-        const bool straighten = src && src->info().alpha == AlphaKind::Associated;
-        const bool clamp = r.out_of_range != "keep";
+        const PixelPolicy policy{src && src->info().alpha == AlphaKind::Associated, NanPolicy::Replace,
+                                 r.out_of_range == "keep" ? RangePolicy::Keep : RangePolicy::Clamp};
 
         auto read_band = [&](Band& b, int y0) {
             b.y0 = y0;
@@ -455,29 +456,11 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
             const size_t n = w * static_cast<size_t>(b.rows);
             src->read_rgba(y0, y0 + b.rows, b.raw.data());
             std::copy(b.raw.begin(), b.raw.begin() + static_cast<std::ptrdiff_t>(4 * n), b.lin.begin());
-            float* p = b.lin.data();
-            if (straighten)
-                for (size_t i = 0; i < n; ++i) {
-                    const float al = p[4 * i + 3];
-                    if (al > 0 && al != 1)
-                        for (int c = 0; c < 3; ++c) p[4 * i + c] /= al;
-                }
-            lin.apply_rgba(p, static_cast<long>(n));
             // The bake's policies, as the file records them: NaN/Inf -> 0 (a bake with --nan error had
             // none), values outside [0, 1] clamped unless --out-of-range keep.
-            b.clamped = b.replaced = 0;
-            for (size_t i = 0; i < n; ++i) {
-                float* q = p + 4 * i;
-                bool bad = false, out = false;
-                for (int c = 0; c < 4; ++c)
-                    if (!std::isfinite(q[c])) q[c] = 0.0f, bad = true;
-                if (clamp)
-                    for (int c = 0; c < 3; ++c)
-                        if (q[c] < 0.0f || q[c] > 1.0f) q[c] = std::min(1.0f, std::max(0.0f, q[c])), out = true;
-                b.replaced += bad;
-                b.clamped += out;
-                b.changed[i] = bad || out;
-            }
+            const PolicedCounts counts = police_rgba(b.lin.data(), n, lin, policy, r.source, w, y0, b.changed.data());
+            b.replaced = counts.replaced;
+            b.clamped = counts.clamped;
         };
 
         unsigned hw = std::max(1u, std::thread::hardware_concurrency());

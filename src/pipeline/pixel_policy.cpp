@@ -1,0 +1,52 @@
+#include "pipeline/pixel_policy.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "spectral/error.h"
+
+namespace spectex {
+
+PolicedCounts police_rgba(float* rgba, size_t n, const Linearizer& lin, const PixelPolicy& policy,
+                          const std::string& input, size_t width, int y0, uint8_t* changed) {
+    auto where = [&](size_t i) {
+        return "at pixel (" + std::to_string(i % width) + ", " + std::to_string(y0 + static_cast<int>(i / width)) + ")";
+    };
+    if (policy.straighten) {
+        for (size_t i = 0; i < n; ++i) {
+            const float al = rgba[4 * i + 3];
+            if (al > 0 && al != 1)
+                for (int c = 0; c < 3; ++c) rgba[4 * i + c] /= al;
+        }
+    }
+    lin.apply_rgba(rgba, static_cast<long>(n));
+    PolicedCounts counts;
+    for (size_t i = 0; i < n; ++i) {
+        float* p = &rgba[4 * i];
+        bool bad = false, out_of_range = false;
+        for (int c = 0; c < 4; ++c) {
+            if (!std::isfinite(p[c])) {
+                if (policy.nan == NanPolicy::Error) throw Error(input + ": non-finite value " + where(i) + " (--nan error)");
+                p[c] = 0.0f;
+                bad = true;
+            }
+        }
+        for (int c = 0; c < 3; ++c) {
+            if (p[c] < 0.0f || p[c] > 1.0f) {
+                if (policy.range == RangePolicy::Error)
+                    throw Error(input + ": linear value " + std::to_string(p[c]) + " outside [0, 1] " + where(i) +
+                                " (--out-of-range error)");
+                if (policy.range == RangePolicy::Clamp) {
+                    p[c] = std::min(1.0f, std::max(0.0f, p[c]));
+                    out_of_range = true;
+                }
+            }
+        }
+        counts.replaced += bad;
+        counts.clamped += out_of_range;
+        if (changed) changed[i] = bad || out_of_range;
+    }
+    return counts;
+}
+
+}  // namespace spectex

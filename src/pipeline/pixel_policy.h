@@ -1,0 +1,34 @@
+#pragma once
+// What happens to a source pixel before it becomes a spectrum, in one place: bake applies it,
+// verify re-applies it to compare, plan --texture applies it to take a texture's colours.
+//   1. straighten: colour divided by alpha when the file's alpha is associated (0 < A != 1);
+//   2. linearise with the colour config (io/linearizer.h);
+//   3. NaN/Inf in any channel become 0 (--nan replace) or are an error naming the pixel (--nan error);
+//   4. linear colour outside [0, 1] is clamped per channel (--out-of-range clamp), kept, or an error.
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include "io/linearizer.h"
+#include "pipeline/bake.h"
+
+namespace spectex {
+
+struct PixelPolicy {
+    bool straighten = false;  // the file's alpha is associated
+    NanPolicy nan = NanPolicy::Replace;
+    RangePolicy range = RangePolicy::Clamp;
+};
+
+struct PolicedCounts {
+    uint64_t replaced = 0;  // pixels with a non-finite channel
+    uint64_t clamped = 0;   // pixels with a colour channel clamped into [0, 1]
+};
+
+// In place on n packed RGBA pixels, rows of `width` pixels starting at row y0 of `input` (for the
+// messages). changed (n bytes, optional): 1 where a pixel was replaced or clamped. Throws Error under
+// --nan error / --out-of-range error.
+PolicedCounts police_rgba(float* rgba, size_t n, const Linearizer& lin, const PixelPolicy& policy,
+                          const std::string& input, size_t width, int y0, uint8_t* changed = nullptr);
+
+}  // namespace spectex
