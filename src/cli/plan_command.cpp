@@ -123,6 +123,14 @@ int run_plan(const std::vector<std::string>& args) {
              "Write the chosen grid's wavelengths, one per line, for bake --wavelengths-file (any grid, "
              "non-uniform ones included).",
              [&](const std::string& v) { grid_file = v; });
+    p.option("--texture", "FILE",
+             "Measure over this texture's colours (read and linearised as bake reads it; at most 1,048,576 "
+             "distinct colours, an even subset above that; pixels with alpha 0 left out) instead of the 8-bit cube.",
+             [&](const std::string& v) { spec.texture = v; });
+    p.option("--colorspace", "NAME", "With --texture: the texture's colour space, as in bake.",
+             [&](const std::string& v) { spec.colorspace = v; });
+    p.option("--config", "FILE", "With --texture: the OCIO config, as in bake (default $OCIO, else the shipped one).",
+             [&](const std::string& v) { spec.config = v; });
     p.option("--threads", "N", "Threads (default: all cores).",
              [&](const std::string& v) { spec.threads = parse_int("--threads", v, 0, 1024); });
     p.option("--json", "FILE", "Also write the table as JSON ('-' = stdout, instead of the text table).",
@@ -140,6 +148,10 @@ int run_plan(const std::vector<std::string>& args) {
         std::vector<std::pair<std::string, std::string>> reads = {{spec.method.fit.observer, "--observer"},
                                                                   {spec.method.fit.illuminant, "--illuminant"}};
         for (const auto& l : spec.lights) reads.push_back({l, "--lights"});
+        if (!spec.texture.empty()) reads.push_back({spec.texture, "--texture"});
+        if (!spec.config.empty()) reads.push_back({spec.config, "--config"});
+        if ((!spec.colorspace.empty() || !spec.config.empty()) && spec.texture.empty())
+            throw UsageError("--colorspace and --config read the colours of --texture");
         if (!json.empty() && json != "-") check_output_against(json, "--json", reads);
         if (!grid_file.empty()) {
             check_output_against(grid_file, "--grid-file", reads);

@@ -12,9 +12,11 @@
 #include "pipeline/basis_cache.h"
 #include "pipeline/batch.h"
 #include "pipeline/plan_search.h"
+#include "pipeline/plan_texture.h"
 #include "spectral/colorimetry.h"
 #include "spectral/error.h"
 #include "spectral/spectrum.h"
+#include "spectral/srgb_axis.h"
 
 namespace spectex {
 
@@ -92,6 +94,44 @@ PlanResult plan_grids(const PlanSpec& spec) {
     std::vector<LightWeights> lights;
     for (const auto& name : spec.lights) lights.push_back(light_weights(obs, load_illuminant(dir, name), fine));
     for (size_t j = 0; j < lights.size(); ++j) lights[j].name = spec.lights[j];
+    // The colours: the dense sample of the 8-bit cube, or the texture's own (every row on them).
+    std::vector<std::array<uint8_t, 3>> codes;  // 8-bit sRGB code of each colour (for the worst colour)
+    std::vector<float> sr, sg, sb;
+    std::string sample_text;
+    if (spec.texture.empty()) {
+        codes = code_sample(spec.sample_stride);
+        const auto& t = srgb_code_table();
+        for (const auto& c : codes) {
+            sr.push_back(static_cast<float>(t[c[0]]));
+            sg.push_back(static_cast<float>(t[c[1]]));
+            sb.push_back(static_cast<float>(t[c[2]]));
+        }
+        sample_text = thousands(codes.size()) + " colours (every " + std::to_string(spec.sample_stride) +
+                      "th 8-bit sRGB code and 255 per axis, the cube's faces included)";
+    } else {
+        const TextureColours tc = texture_colours(spec.texture, dir, spec.config, spec.colorspace, spec.max_pixels,
+                                                  spec.texture_cap);
+        if (tc.rgb.empty()) throw Error(spec.texture + ": no pixel with alpha above 0: no colour to plan for");
+        for (const auto& c : tc.rgb) {
+            sr.push_back(c[0]);
+            sg.push_back(c[1]);
+            sb.push_back(c[2]);
+            auto code = [](float v) { return static_cast<uint8_t>(std::lround(255.0 * srgb_encode(v))); };
+            codes.push_back({{code(c[0]), code(c[1]), code(c[2])}});
+        }
+        sample_text = thousands(tc.rgb.size()) + " colours of " + spec.texture + " (" +
+                      (tc.rgb.size() < tc.distinct ? "an even subset of its " + thousands(tc.distinct) + " distinct ones, "
+                                                   : std::string("every distinct one, ")) +
+                      thousands(tc.pixels) + " pixels" +
+                      (tc.transparent ? ", " + thousands(tc.transparent) + " with alpha 0 left out" : std::string()) +
+                      "; " + tc.colorspace + ")";
+    }
+    Eigen::Matrix3Xd srgb(3, static_cast<Eigen::Index>(sr.size()));
+    for (size_t i = 0; i < sr.size(); ++i) srgb.col(static_cast<Eigen::Index>(i)) << sr[i], sg[i], sb[i];
+    // A texture's colours are all there is: no cube.
+    const std::string mode = spec.texture.empty() ? spec.colours : "sample";
+    const char* row_colours = spec.texture.empty() ? "sample" : "texture";
+
     const int threads =
         spec.threads > 0 ? spec.threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
 
@@ -147,17 +187,6 @@ PlanResult plan_grids(const PlanSpec& spec) {
         res.rows.push_back(row);
     }
 
-    // The dense sample: linear RGB of its codes.
-    const auto codes = code_sample(spec.sample_stride);
-    std::vector<float> sr, sg, sb;
-    Eigen::Matrix3Xd srgb(3, static_cast<Eigen::Index>(codes.size()));
-    for (size_t i = 0; i < codes.size(); ++i) {
-        const auto& t = srgb_code_table();
-        sr.push_back(static_cast<float>(t[codes[i][0]]));
-        sg.push_back(static_cast<float>(t[codes[i][1]]));
-        sb.push_back(static_cast<float>(t[codes[i][2]]));
-        srgb.col(static_cast<Eigen::Index>(i)) << sr.back(), sg.back(), sb.back();
-    }
     // Half rounding as a bake does it: colour-aware, under the conditions the method is exact for.
     auto rgb_weight_for = [&](const WavelengthGrid& g) {
         const Colorimetry c = Colorimetry::make(obs, load_illuminant(dir, spec.method.fit.illuminant), g,
@@ -187,8 +216,6 @@ PlanResult plan_grids(const PlanSpec& spec) {
         if (row.passes || row.colours != "cube") return;
         row.why += " on the full cube";
     };
-    const std::string sample_text = thousands(codes.size()) + " colours (every " + std::to_string(spec.sample_stride) +
-                                    "th 8-bit sRGB code and 255 per axis, the cube's faces included)";
 
     std::vector<std::vector<Eigen::Matrix3Xd>> recon(res.rows.size());  // per row, per light: W_L·R_G
     for (size_t i = 0; i < res.rows.size(); ++i) {
@@ -231,7 +258,7 @@ PlanResult plan_grids(const PlanSpec& spec) {
                 le.p99 = st.p99;
                 le.worst_code = st.worst_code;
             }
-            res.rows[i].colours = "sample";
+            res.rows[i].colours = row_colours;
         }
         auto on_cube = [&](const std::vector<size_t>& rows) {
             for (size_t j = 0; j < lights.size(); ++j) {
@@ -247,21 +274,21 @@ PlanResult plan_grids(const PlanSpec& spec) {
             }
             for (size_t i : rows) res.rows[i].colours = "cube";
         };
-        if (spec.colours == "cube") {
+        if (mode == "cube") {
             std::vector<size_t> all;
             for (size_t i = 0; i < res.rows.size(); ++i)
                 if (methods[i]) all.push_back(i);
             on_cube(all);
         }
-        res.colours = spec.colours == "sample" ? sample_text
+        res.colours = mode == "sample" ? sample_text
                                                : "all " + thousands(16777216) + " 8-bit sRGB colours" +
-                                                     std::string(spec.colours == "auto" ? " for the chosen grid, " : " for every grid") +
-                                                     (spec.colours == "auto" ? sample_text + " for the others" : "");
-        if (spec.half && spec.colours != "sample")
+                                                     std::string(mode == "auto" ? " for the chosen grid, " : " for every grid") +
+                                                     (mode == "auto" ? sample_text + " for the others" : "");
+        if (spec.half && mode != "sample")
             res.colours += "; on the cube, half rounding's largest change of a sample colour's error is added";
         for (auto& row : res.rows)
             if (row.ok) judge(row);
-        if (spec.colours == "auto") {
+        if (mode == "auto") {
             // The cheapest row that passes on the sample is checked on the cube, until one holds.
             while (true) {
                 int pick = -1;
@@ -298,7 +325,7 @@ PlanResult plan_grids(const PlanSpec& spec) {
                 le.p99 = st.p99;
                 le.worst_code = st.worst_code;
             }
-            res.rows[i].colours = "sample";
+            res.rows[i].colours = row_colours;
             judge(res.rows[i]);
         }
         res.colours = sample_text + " (the method is not linear in RGB: no 3x3 map of the cube)";
@@ -311,7 +338,7 @@ PlanResult plan_grids(const PlanSpec& spec) {
     // bins the smaller error; with "auto", only a row checked on the full cube.
     for (size_t i = 0; i < res.rows.size(); ++i) {
         const GridRow& row = res.rows[i];
-        if (!row.passes || (linear && spec.colours == "auto" && row.colours != "cube")) continue;
+        if (!row.passes || (linear && mode == "auto" && row.colours != "cube")) continue;
         if (res.chosen < 0) {
             res.chosen = static_cast<int>(i);
         } else {

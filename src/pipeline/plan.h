@@ -2,6 +2,8 @@
 // "How many bins does my scene need?" (issue 13): the error of candidate wavelength grids under
 // the scene's lights as a renderer sees them (spectral/grid_error.h), and the cheapest grid that
 // meets an error budget under every light.
+#include <cstddef>
+#include <cstdint>
 #include <string>
 #include <utility>
 #include <vector>
@@ -29,6 +31,11 @@ struct PlanSpec {
     // Also search non-uniform grids (plan_search.h; the basis only) and offer those that need fewer
     // bins than every uniform candidate.
     bool nonuniform = false;
+    // --texture: the grid's error over this texture's colours (read and linearised as a bake does,
+    // with --config and --colorspace) instead of the cube; at most texture_cap distinct colours.
+    std::string texture, config, colorspace;
+    uint64_t max_pixels = 268435456;
+    size_t texture_cap = size_t(1) << 20;
 };
 
 // Uniform steps 1, 2, 2.5, 4, 5, 10, 20 nm over 380:780, 400:700 and the renderer's range (a step

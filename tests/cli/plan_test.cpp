@@ -202,3 +202,42 @@ TEST(Plan, NonuniformUsageErrors) {
     EXPECT_EQ(run_spectex({"plan", "--lights", d / "light.csv", "--grid-file", d / "light.csv"}).status, 2);
     EXPECT_EQ(read_file(d / "light.csv"), "wavelength,value\n360,1\n830,1\n");
 }
+
+// --texture (issue 13, item 1): the texture's own colours decide. Greys are flat spectra under the
+// basis (S_r + S_g + S_b = 1), which every reconstruction holds exactly, so a grey texture meets a
+// budget of 0.05 on the coarsest candidate (only half rounding is left), where the cube needs 5 nm;
+// pixels with alpha 0 (here saturated blue, the cube's worst colour) are left out.
+TEST(Plan, TextureColoursDecide) {
+    ScratchDir d;
+    std::vector<unsigned char> px(16 * 16 * 4);
+    for (int i = 0; i < 256; ++i) {
+        const bool hole = i % 16 == 0;
+        px[4 * static_cast<size_t>(i) + 0] = hole ? 0 : static_cast<unsigned char>(i);
+        px[4 * static_cast<size_t>(i) + 1] = hole ? 0 : static_cast<unsigned char>(i);
+        px[4 * static_cast<size_t>(i) + 2] = hole ? 255 : static_cast<unsigned char>(i);
+        px[4 * static_cast<size_t>(i) + 3] = hole ? 0 : 255;
+    }
+    write_image(d / "grey.png", 16, 16, 4, OIIO::TypeDesc::UINT8, px.data());
+    const std::vector<std::string> grids = {"--lights", "D65,A", "--max-de", "0.05", "--grids",
+                                            "400:700:20,400:700:10,400:700:5,380:780:5"};
+    RunResult r = run_spectex(with(with({"plan", "--texture", d / "grey.png"}, grids), {"--json", "-"}));
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("\"chosen\":\"400:700:20\""), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("\"colours\":\"texture\""), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("240 colours of "), std::string::npos) << r.out;  // 256 pixels, 16 with alpha 0
+    EXPECT_NE(r.out.find("16 with alpha 0 left out"), std::string::npos) << r.out;
+    // The same budget over the cube's sample needs more bins.
+    r = run_spectex(with(with({"plan", "--colours", "sample"}, grids), {"--json", "-"}));
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(r.out.find("\"chosen\":\"400:700:20\""), std::string::npos) << r.out;
+
+    // A texture that cannot be read is exit 1 naming it; its options mean nothing without it; plan
+    // never writes the texture it reads.
+    r = run_spectex(with({"plan", "--texture", d / "missing.png"}, grids));
+    EXPECT_EQ(r.status, 1);
+    EXPECT_NE(r.err.find("missing.png"), std::string::npos) << r.err;
+    EXPECT_EQ(run_spectex({"plan", "--colorspace", "srgb_tx"}).status, 2);
+    const std::string before = read_file(d / "grey.png");
+    EXPECT_EQ(run_spectex({"plan", "--texture", d / "grey.png", "--json", d / "grey.png"}).status, 2);
+    EXPECT_EQ(read_file(d / "grey.png"), before);
+}
