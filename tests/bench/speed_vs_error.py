@@ -16,8 +16,10 @@ Per scene (also alone with --scenes-only; --no-scenes skips it): for daylight (D
 tungsten (A) and mixed fluorescent and LED (FL2, FL11, LED-B3) at budgets 0.25, 0.5 and 1.0 ΔE00,
 the grid `spectex plan` chooses, its bake time and bytes on the --size² input against the default
 380:780:5, and grid_check.py's worst ΔE00 per light on plan's dense sample against a 1 nm float
-bake, marked where it differs from plan's figure by more than grid_check.TOLERANCE. Written to
-OUT/scenes.md, scenes.csv, scenes.json (and appended to report.md in a full run).
+bake, marked where it differs from plan's figure by more than grid_check.TOLERANCE. Each scene and
+budget is also planned with `--nonuniform --grid-file`; when that choice is a non-uniform grid it is
+baked (`--wavelengths-file`) and checked the same way, as a second row. Written to OUT/scenes.md,
+scenes.csv, scenes.json (and appended to report.md in a full run).
 
 With --method-size S (e.g. 4096) it also times a S² bake of --method lattice against --method
 basis, alternating, in the same run, with zip and with no compression (the kernel's share).
@@ -141,7 +143,11 @@ def method_args(cfg):
 
 
 def bake(a, cfg, src, out, jsonl):
-    cmd = [a.spectex, "bake", src, "-o", out, "--wavelengths", cfg["grid"], "--type", cfg["type"],
+    """cfg["grid"] is START:END:STEP, unless cfg["wavelengths_file"] names a file of wavelengths
+    (`--wavelengths-file`, e.g. a non-uniform grid written by `plan --grid-file`)."""
+    grid = (["--wavelengths-file", cfg["wavelengths_file"]] if cfg.get("wavelengths_file")
+            else ["--wavelengths", cfg["grid"]])
+    cmd = [a.spectex, "bake", src, "-o", out, *grid, "--type", cfg["type"],
            "--compression", cfg["compression"], *method_args(cfg), "--threads", a.threads, "-q",
            "--json", jsonl]
     wall, mb, _ = timed(cmd)
@@ -316,14 +322,32 @@ def plan_json(a, *args):
     return json.loads(p.stdout), time.time() - t0
 
 
+def nonuniform_key(wavelengths):
+    """The key of a non-uniform grid in res["grids"]: its wavelengths (two scenes may choose
+    different grids with the same label, "non-uniform N")."""
+    return "non-uniform:" + ",".join(f"{w:g}" for w in wavelengths)
+
+
+def read_grid_file(path):
+    """Wavelengths of a `plan --grid-file` (a `# ` comment line, then one per line)."""
+    return [float(l) for l in Path(path).read_text().splitlines() if l.strip() and not l.startswith("#")]
+
+
+def span(wavelengths):
+    return f"{wavelengths[0]:g}–{wavelengths[-1]:g}"
+
+
 def scenes(a, work, photo=None):
-    """The per-scene section: plan's choice for each scene and budget, its bake time and bytes on
-    the photograph-like input against the default grid, and the checker's figures."""
+    """The per-scene section: plan's choice for each scene and budget (uniform candidates, and with
+    --nonuniform), its bake time and bytes on the photograph-like input against the default grid,
+    and the checker's figures."""
     gc = grid_check_module()
     lights_all = list(dict.fromkeys(["D65"] + [l for _, ls in SCENES for l in ls]))
     res = dict(size=a.size, repeat=a.repeat, threads=a.threads, tolerance=gc.TOLERANCE, budgets=BUDGETS,
                scenes=[dict(name=n, lights=ls) for n, ls in SCENES], plans=[], grids={})
-    # 1. plan's choice per scene and budget (default --colours auto, linear, 360:830).
+    grid_files = {}  # non-uniform key -> the --grid-file plan wrote
+    # 1. plan's choice per scene and budget (default --colours auto, linear, 360:830), then the same
+    #    with --nonuniform.
     for name, lights in SCENES:
         for budget in BUDGETS:
             log(f"plan: {name} ({','.join(lights)}), --max-de {budget}")
@@ -335,7 +359,49 @@ def scenes(a, work, photo=None):
                 plan_lights={l["light"]: l["worst"] for l in row["lights"]} if row else {},
                 half_shift={l["light"]: l["half_shift"] for l in row["lights"]} if row else {}))
             log(f"  {p['chosen']} ({secs:.0f} s)")
-    grids = list(dict.fromkeys([r["chosen"] for r in res["plans"] if r["chosen"]] + [DEFAULT_GRID]))
+            gfile = work / f"grid_{len(res['plans'])}.txt"
+            p, secs = plan_json(a, "--lights", ",".join(lights), "--max-de", budget, "--nonuniform", "--grid-file", gfile)
+            row = next((g for g in p["grids"] if g["chosen"]), None)
+            nu = dict(seconds=secs, chosen=p["chosen"], best=p["best"], search=p.get("search"),
+                      uniform=row["uniform"] if row else None)
+            res["plans"][-1]["nonuniform"] = nu
+            log(f"  --nonuniform: {p['chosen']} ({secs:.0f} s; {p.get('search')})")
+            if not row or row["uniform"]:
+                continue
+            wl = row["wavelengths"]
+            if read_grid_file(gfile) != wl:
+                raise RuntimeError(f"plan --grid-file {gfile} does not hold the chosen row's wavelengths {wl}")
+            key = nonuniform_key(wl)
+            grid_files[key] = gfile
+            nu.update(grid=key, label=row["grid"], wavelengths=wl, colours=row["colours"], worst=row["worst"],
+                      plan_lights={l["light"]: l["worst"] for l in row["lights"]},
+                      half_shift={l["light"]: l["half_shift"] for l in row["lights"]})
+            gr = res["grids"].setdefault(key, dict(grid=key, label=row["grid"], wavelengths=wl, uniform=False,
+                                                   walls=[], plan_sample={}))
+            # plan's figure for this grid on the sample (the checker's colours): `plan --grids` takes
+            # only uniform grids, so the same search with --colours sample, which evaluates every grid
+            # of its trails on the sample. The trails do not depend on the uniform candidates (these
+            # only drop trail grids with as many bins as the cheapest passing one): one candidate,
+            # the default grid, keeps every trail grid and skips evaluating the other uniform ones.
+            ps, ssecs = plan_json(a, "--lights", ",".join(lights), "--max-de", budget, "--nonuniform",
+                                  "--colours", "sample", "--grids", DEFAULT_GRID)
+            nu["sample_seconds"] = ssecs
+            srow = next((g for g in ps["grids"] if not g["uniform"] and g["wavelengths"] == wl), None)
+            if srow is None:
+                log(f"  ! the --colours sample run has no row with the chosen wavelengths ({ssecs:.0f} s)")
+            else:
+                gr["plan_sample"].update({l["light"]: dict(worst=l["worst"], p99=l["p99"], worst_code=l["worst_code"])
+                                          for l in srow["lights"]})
+                log(f"  its sample figures: " + ", ".join(f"{l['light']} {l['worst']:.4g}" for l in srow["lights"])
+                    + f" ({ssecs:.0f} s)")
+    uniform = list(dict.fromkeys([r["chosen"] for r in res["plans"] if r["chosen"]] + [DEFAULT_GRID]))
+    for g in uniform:
+        res["grids"].setdefault(g, dict(grid=g, label=g, wavelengths=None, uniform=True, walls=[]))
+    grids = uniform + list(grid_files)
+
+    def cfg_of(key):
+        return dict(DEFAULT, grid=res["grids"][key]["label"], wavelengths_file=grid_files.get(key))
+
     # 2. Bake time and bytes on the photograph-like input: every grid and the default, alternating.
     if photo is None:
         photo = work / "scene_photo.png"
@@ -345,15 +411,17 @@ def scenes(a, work, photo=None):
         for g in grids:
             jsonl = work / "scene.jsonl"
             jsonl.unlink(missing_ok=True)
-            wall, mb, rec = bake(a, dict(DEFAULT, grid=g), photo, exr, jsonl)
+            wall, mb, rec = bake(a, cfg_of(g), photo, exr, jsonl)
             exr.unlink(missing_ok=True)
-            gr = res["grids"].setdefault(g, dict(grid=g, walls=[]))
+            gr = res["grids"][g]
             gr["walls"].append(wall)
             if wall == min(gr["walls"]):
                 gr.update(wall_s=wall, peak_mb=mb, bytes=rec["bytes"], bins=rec["bins"])
-            log(f"  bake {g}: {wall:.2f} s")
+            log(f"  bake {gr['label']}{'' if gr['uniform'] else ' (' + span(gr['wavelengths']) + ')'}: {wall:.2f} s")
+    d = res["grids"][DEFAULT_GRID]
     for gr in res["grids"].values():
-        gr["ratio_default"] = gr["wall_s"] / res["grids"][DEFAULT_GRID]["wall_s"]
+        gr["ratio_default"] = gr["wall_s"] / d["wall_s"]
+        gr["bytes_ratio_default"] = gr["bytes"] / d["bytes"]
         gr["bytes_per_pixel"] = gr["bins"] * 2
     # 3. The checker: plan's dense sample baked in half on each grid, against its 1 nm float bake.
     sample, ref = work / "scene_sample.png", work / "scene_ref.exr"
@@ -366,61 +434,77 @@ def scenes(a, work, photo=None):
     codes = gc.read_codes(sample)
     res["light_sources"] = dict(integ.sources)
     for g in grids:
+        gr = res["grids"][g]
         cand = work / "scene_sample.exr"
-        bake(a, dict(DEFAULT, grid=g), sample, cand, work / "scene_sample.jsonl")
+        bake(a, cfg_of(g), sample, cand, work / "scene_sample.jsonl")
         cx, f = integ.xyz_of_file(cand, "linear")
         cand.unlink(missing_ok=True)
+        if not gr["uniform"] and f.wavelengths.tolist() != gr["wavelengths"]:
+            raise RuntimeError(f"the sample baked on {g} has the channels {f.wavelengths.tolist()}")
         chk = {l["light"]: l for l in gc.compare(integ, ref_xyz, cx, f.width, codes)}
-        p, _ = plan_json(a, "--colours", "sample", "--grids", g, "--lights", ",".join(lights_all), "--max-de", 100)
-        prow = p["grids"][0]
-        res["grids"][g].update(
-            checker={l: dict(worst=chk[l]["worst"], p99=chk[l]["p99"], mean=chk[l]["mean"],
-                             worst_code=chk[l]["worst_code"]) for l in lights_all},
-            plan_sample={l["light"]: dict(worst=l["worst"], p99=l["p99"], worst_code=l["worst_code"])
-                         for l in prow["lights"]})
-        log(f"  {g}: " + ", ".join(f"{l} {chk[l]['worst']:.4g} (plan {res['grids'][g]['plan_sample'][l]['worst']:.4g})"
-                                   for l in lights_all))
+        gr["checker"] = {l: dict(worst=chk[l]["worst"], p99=chk[l]["p99"], mean=chk[l]["mean"],
+                                 worst_code=chk[l]["worst_code"]) for l in lights_all}
+        if gr["uniform"]:
+            p, _ = plan_json(a, "--colours", "sample", "--grids", g, "--lights", ",".join(lights_all), "--max-de", 100)
+            gr["plan_sample"] = {l["light"]: dict(worst=l["worst"], p99=l["p99"], worst_code=l["worst_code"])
+                                 for l in p["grids"][0]["lights"]}
+        ps = gr["plan_sample"]
+        log(f"  {gr['label']}: " + ", ".join(
+            f"{l} {chk[l]['worst']:.4g}" + (f" (plan {ps[l]['worst']:.4g})" if l in ps else "") for l in lights_all))
     # 4. Rows.
     tol = gc.TOLERANCE
     rows = []
 
     def verdict(g, lights, cube=None):
         gr = res["grids"][g]
-        bad = []
+        bad, diffs = [], []
         for l in lights:
+            if l not in gr["plan_sample"]:
+                bad.append(f"{l}: no plan figure on the sample")
+                continue
             d = gr["checker"][l]["worst"] - gr["plan_sample"][l]["worst"]
+            diffs.append(abs(d))
             if abs(d) > tol:
                 bad.append(f"{l} {d:+.3g} vs plan's sample")
             if cube and gr["checker"][l]["worst"] > cube[l] + tol:
                 bad.append(f"{l} above plan's cube figure by {gr['checker'][l]['worst'] - cube[l]:.3g}")
-        dmax = max(abs(gr["checker"][l]["worst"] - gr["plan_sample"][l]["worst"]) for l in lights)
-        return (not bad), bad, dmax
+        return (not bad), bad, (max(diffs) if diffs else None)
+
+    def grid_fields(g, lights, plan_lights):
+        gr = res["grids"][g]
+        ok, bad, dmax = verdict(g, lights, plan_lights)
+        return dict(bins=gr["bins"], bytes_per_pixel=gr["bytes_per_pixel"], bytes=gr["bytes"], wall_s=gr["wall_s"],
+                    ratio_default=gr["ratio_default"], bytes_ratio_default=gr["bytes_ratio_default"],
+                    agree=ok, disagreements="; ".join(bad), max_abs_diff=dmax,
+                    **{f"plan_{l}": plan_lights[l] for l in lights},
+                    **{f"plan_sample_{l}": gr["plan_sample"].get(l, {}).get("worst") for l in lights},
+                    **{f"checker_{l}": gr["checker"][l]["worst"] for l in lights})
 
     for name, lights in SCENES:
         for r in [r for r in res["plans"] if r["scene"] == name]:
-            row = dict(scene=name, lights=",".join(lights), budget=r["budget"], grid=r["chosen"], plan_seconds=r["seconds"])
+            row = dict(scene=name, lights=",".join(lights), budget=r["budget"], grid=r["chosen"], uniform=True,
+                       plan_seconds=r["seconds"])
             if r["chosen"]:
-                gr = res["grids"][r["chosen"]]
-                ok, bad, dmax = verdict(r["chosen"], lights, r["plan_lights"])
-                row.update(bins=gr["bins"], bytes_per_pixel=gr["bytes_per_pixel"], bytes=gr["bytes"],
-                           wall_s=gr["wall_s"], ratio_default=gr["ratio_default"], plan_worst=r["worst"],
-                           plan_colours=r["colours"], agree=ok, disagreements="; ".join(bad), max_abs_diff=dmax,
-                           **{f"plan_{l}": r["plan_lights"][l] for l in lights},
-                           **{f"plan_sample_{l}": gr["plan_sample"][l]["worst"] for l in lights},
-                           **{f"checker_{l}": gr["checker"][l]["worst"] for l in lights})
+                row.update(plan_worst=r["worst"], plan_colours=r["colours"],
+                           **grid_fields(r["chosen"], lights, r["plan_lights"]))
             else:
                 row.update(plan_worst=r["best"]["worst"] if r["best"] else None, plan_colours="none within budget")
             rows.append(row)
+            nu = r["nonuniform"]
+            row = dict(scene=name, lights=",".join(lights), budget=r["budget"], uniform=False,
+                       plan_seconds=nu["seconds"], plan_search=nu["search"])
+            if nu.get("grid"):
+                row.update(grid=nu["label"], wavelengths=nu["wavelengths"], plan_sample_seconds=nu.get("sample_seconds"),
+                           plan_worst=nu["worst"], plan_colours=nu["colours"],
+                           **grid_fields(nu["grid"], lights, nu["plan_lights"]))
+            else:
+                row.update(grid=None, nonuniform_kept=nu["chosen"])
+            rows.append(row)
         dl = list(dict.fromkeys(["D65"] + lights))
         gr = res["grids"][DEFAULT_GRID]
-        ok, bad, dmax = verdict(DEFAULT_GRID, dl)
-        rows.append(dict(scene=name, lights=",".join(lights), budget=None, grid=DEFAULT_GRID + " (default)",
-                         bins=gr["bins"], bytes_per_pixel=gr["bytes_per_pixel"], bytes=gr["bytes"], wall_s=gr["wall_s"],
-                         ratio_default=1.0, plan_worst=max(gr["plan_sample"][l]["worst"] for l in dl),
-                         plan_colours="sample", agree=ok, disagreements="; ".join(bad), max_abs_diff=dmax,
-                         **{f"plan_{l}": gr["plan_sample"][l]["worst"] for l in dl},
-                         **{f"plan_sample_{l}": gr["plan_sample"][l]["worst"] for l in dl},
-                         **{f"checker_{l}": gr["checker"][l]["worst"] for l in dl}))
+        rows.append(dict(scene=name, lights=",".join(lights), budget=None, grid=DEFAULT_GRID + " (default)", uniform=True,
+                         plan_worst=max(gr["plan_sample"][l]["worst"] for l in dl), plan_colours="sample",
+                         **grid_fields(DEFAULT_GRID, dl, {l: gr["plan_sample"][l]["worst"] for l in dl})))
     res["rows"] = rows
     return res
 
@@ -435,23 +519,33 @@ def scenes_markdown(res):
          "rounding's largest shift; linear reconstruction over 360:830 at 1 nm), and what it costs: the "
          f"{res['size']}×{res['size']} photograph-like PNG baked on that grid and on the default {DEFAULT_GRID} "
          f"(half, zip, {res['threads']} threads), runs alternating over all the grids, best of {res['repeat']}; "
-         "`× 81 bins` is the bake's wall time over the default bake's; bytes/px counts the spectral channels. "
+         "`× 81 bins` is the bake's wall time over the default bake's, `× 81 bytes` its file's size over the "
+         "default file's; bytes/px counts the spectral channels. "
+         "The second row of each budget is `plan --nonuniform` (the same, also searching non-uniform grids, "
+         "offered when one needs fewer bins than every uniform candidate): its non-uniform choice, written by "
+         "`--grid-file` and baked with `--wavelengths-file` (wavelengths under the table), or *uniform kept* "
+         "when it offers none. "
          "**plan** is the worst ΔE00 per light: the chosen row's on the cube (what plan decides on) / "
-         "`plan --colours sample --grids G` on the sample (the checker's colours). **checker** is `grid_check.py`: "
+         "plan's figure on the sample (the checker's colours: `plan --colours sample --grids G`; for a non-uniform "
+         f"grid, its row in `plan --nonuniform --colours sample --grids {DEFAULT_GRID}`, the same search). "
+         "**checker** is `grid_check.py`: "
          f"plan's dense sample baked in half on the grid, against the same texture baked on {REFERENCE_GRID} in "
          "float, linear reconstruction at 1 nm, colour-science's tables; worst ΔE00 per light over the sample. "
-         f"**agree**: the checker within {res['tolerance']} of `plan --colours sample` on the same grid (same "
+         f"**agree**: the checker within {res['tolerance']} of plan's sample figure on the same grid (same "
          "colours) under every light, and not above plan's cube figure by more than that; a row that does not "
          "is marked **no**. The default row gives the default grid's error under D65 and the scene's lights "
          "with the renderer's continuous integration (plan's figure there is the sample's).\n",
-         "| scene (`--lights`) | budget | grid | bins | bytes/px | file bytes | bake s | × 81 bins | plan worst (cube / sample) | "
-         "checker worst | agree (max \\|Δ\\|) |",
-         "|---|---|---|---|---|---|---|---|---|---|---|"]
+         "| scene (`--lights`) | budget | grid | bins | bytes/px | file bytes | × 81 bytes | bake s | × 81 bins | "
+         "plan worst (cube / sample) | checker worst | agree (max \\|Δ\\|) |",
+         "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    nonuniform = []
     for r in res["rows"]:
         lights = [k[len("checker_"):] for k in r if k.startswith("checker_")]
+        budget = "–" if r["budget"] is None else f"{r['budget']:g}"
         if r.get("grid") is None:
-            L.append(f"| {r['scene']} ({r['lights']}) | {r['budget']} | none (best {g3(r['plan_worst'])}) "
-                     "| | | | | | | | |")
+            what = (f"*uniform kept* (`--nonuniform`: {r.get('nonuniform_kept') or 'none'})" if not r.get("uniform", True)
+                    else f"none (best {g3(r['plan_worst'])})")
+            L.append(f"| {r['scene']} ({r['lights']}) | {budget} | {what} | | | | | | | | | |")
             continue
         if r["budget"] is None:
             plan = ", ".join(f"{l} – / {g3(r['plan_sample_' + l])}" for l in lights)
@@ -459,14 +553,32 @@ def scenes_markdown(res):
             plan = ", ".join(f"{l} {g3(r['plan_' + l])} / {g3(r['plan_sample_' + l])}" for l in lights)
         chk = ", ".join(f"{l} {g3(r['checker_' + l])}" for l in lights)
         agree = (f"yes ({r['max_abs_diff']:.1g})" if r["agree"] else f"**no**: {r['disagreements']}")
-        budget = "–" if r["budget"] is None else f"{r['budget']:g}"
-        grid = r["grid"] if r["budget"] is None else f"**{r['grid']}**"
+        if r["budget"] is None:
+            grid = r["grid"]
+        elif r.get("uniform", True):
+            grid = f"**{r['grid']}**"
+        else:
+            grid = f"**{r['grid']}** ({span(r['wavelengths'])})"
+            nonuniform.append(r)
         L.append(f"| {r['scene']} ({r['lights']}) | {budget} | {grid} | {r['bins']} | {r['bytes_per_pixel']} | "
-                 f"{r['bytes']:,} | {r['wall_s']:.2f} | {r['ratio_default']:.2f} | {plan} | {chk} | {agree} |")
+                 f"{r['bytes']:,} | {r['bytes_ratio_default']:.2f} | {r['wall_s']:.2f} | {r['ratio_default']:.2f} | "
+                 f"{plan} | {chk} | {agree} |")
+    if nonuniform:
+        L.append("\nNon-uniform grids (nm):\n")
+        for r in nonuniform:
+            L.append(f"- {r['scene'].split()[0]} {r['budget']:g}, {r['grid']}: "
+                     + ", ".join(f"{w:g}" for w in r["wavelengths"]))
     srcs = "; ".join(f"{l}: {s}" for l, s in res.get("light_sources", {}).items())
-    L.append(f"\nPlan's own run time per scene and budget: "
-             + ", ".join(f"{p['scene'].split()[0]} {p['budget']:g}: {p['seconds']:.0f} s" for p in res["plans"])
+    L.append(f"\nPlan's own run time per scene and budget (uniform candidates; with `--nonuniform`; its "
+             "`--colours sample` run for the non-uniform grid's sample figures): "
+             + ", ".join(f"{p['scene'].split()[0]} {p['budget']:g}: {p['seconds']:.0f} s; "
+                         f"{p['nonuniform']['seconds']:.0f} s"
+                         + (f"; {p['nonuniform']['sample_seconds']:.0f} s" if "sample_seconds" in p["nonuniform"] else "")
+                         for p in res["plans"])
              + f". Checker's lights: {srcs}.")
+    L.append("\n`--nonuniform`'s search, as plan reports it: "
+             + "; ".join(f"{p['scene'].split()[0]} {p['budget']:g}: {p['nonuniform']['search']}" for p in res["plans"])
+             + ".")
     return "\n".join(L) + "\n"
 
 
@@ -479,7 +591,7 @@ def write_scenes(out, res, report=None):
         w = csv.DictWriter(f, fieldnames=keys)
         w.writeheader()
         for r in res["rows"]:
-            w.writerow(r)
+            w.writerow({k: " ".join(f"{x:g}" for x in v) if isinstance(v, list) else v for k, v in r.items()})
     if report is not None and report.exists():
         with open(report, "a") as f:
             f.write("\n" + text)
