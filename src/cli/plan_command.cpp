@@ -46,8 +46,8 @@ void add_plan_options(ArgParser& p, PlanSpec& spec, bool& lights_given, bool& bu
                  }
              });
     p.flag("--nonuniform",
-           "Also search non-uniform grids (basis only): greedy insertion of bins where the lights need them, "
-           "offered when it needs fewer bins than every uniform candidate.",
+           "Also search non-uniform grids (basis only): greedy removal of bins from uniform grids that hold, "
+           "offered when one needs fewer bins than every uniform candidate (and is measured to hold).",
            [&] { spec.nonuniform = true; });
     p.option("--grids", "LIST",
              "Candidate grids instead of the default ones (uniform 1, 2, 2.5, 4, 5, 10, 20 nm over 380:780, "

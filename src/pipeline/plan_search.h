@@ -2,20 +2,22 @@
 // Non-uniform wavelength grids for `spectex plan --nonuniform` (issue 13, item 3).
 //
 // The layout allows any wavelengths, so a grid may place its bins where the scene needs them. The
-// search is greedy insertion, with the real basis fitted on every trial grid:
+// search is greedy removal, with the real basis fitted on every trial grid:
 //   - colours: a coarse sample of the 8-bit cube (every 17th code: 16³ = 4,096 colours, the
 //     corners, where the error peaks, included), in double, without half rounding;
 //   - a trial's error: the worst ΔE00 over those colours and every light, with the same
 //     definition as the plan (basis fitted on the trial grid, reconstructed at 1 nm by the
 //     renderer's rule, against the basis fitted on 1 nm over the renderer's range);
-//   - start: for each range (400:700, 380:780 and the renderer's), bins about 50 nm apart on
-//     whole nanometres;
-//   - step: try a new bin at the middle and at the quarters of every gap of at least 2 nm (whole
-//     nm), keep the one that lowers the worst error most;
-//   - stop: when the grid has as many bins as the cheapest uniform candidate that meets the
-//     budget on the same colours (no saving left to find), or when the error is within the
-//     budget and a few bins past that (the trail: the plan's full evaluation, with the real half
-//     rounding and the denser sample or the cube, decides which of them holds).
+//   - starts: for each range (400:700, 380:780 and the renderer's), the coarsest uniform grid of
+//     10, 5, 4 and 2.5 nm that holds the budget, and the next finer one (at most 64 bins);
+//   - step: remove the bin whose loss raises the worst error least, while the budget holds;
+//   - result: the last grids of each trail that held (the final one and up to `trail` before it)
+//     with fewer bins than the cheapest uniform candidate that holds on the same colours; the
+//     plan's full evaluation, with the real half rounding and the dense sample or the cube,
+//     decides which of them holds.
+// Greedy insertion from a coarse start was tried first and lost to the uniform grids (0.94 ΔE00
+// with 30 bins against 0.35 with 31 under D65, A, FL11): it places bins for the colour that is
+// worst now and never undoes them.
 // Every trial is a 3×3 map per light (colour under a light is linear in the spectrum, and the
 // basis' spectrum linear in RGB), so a trial costs a fit (well under a millisecond at these sizes)
 // and 4,096 ΔE00 per light.
