@@ -106,11 +106,12 @@ TEST(JakobHanika, WarmStartConverges) {
     EXPECT_LT(info.iterations, 15);
 }
 
-TEST(JakobHanika, TableMatchesNodeFitsAndIsFast) {
+TEST(JakobHanika, TableMatchesNodeFits) {
     const JakobHanikaTable t = JakobHanikaTable::build(d65(), 17);
     std::printf("JH table res 17 at 81 bins: %.3f s, max rgb residual %.3g, max ΔE76 %.3g\n",
                 t.build_seconds, t.max_rgb_residual, t.max_lab_residual);
-    EXPECT_LT(t.build_seconds, 5.0);  // ~2 s budget at 81 bins on one core, margin for load
+    // Its build time is measured by bench_expand's BM_BuildJakobHanikaTable, not asserted here: a
+    // wall-clock bound failed under AddressSanitizer on a loaded machine (9.6 s against 5).
     const int n = t.res();
     std::vector<float> r, g, b;
     std::vector<JHCoefficients> k;
