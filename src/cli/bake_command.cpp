@@ -49,7 +49,7 @@ struct BakeCli {
     bool jh_given = false;
     bool basis_given = false, objective_given = false, lattice_given = false, wavelengths_given = false;
     FitSpec fit;
-    std::string output_dir, from_list, json, shard;
+    std::string output_dir, base_dir, from_list, json, shard;
     int threads = 0, jobs = 1;
     bool quiet = false, verbose = false, progress = false, update = false, force = false, fail_fast = false;
     BakeSettings settings;
@@ -113,11 +113,18 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
                 "<UVTILE>, expanded to the existing tiles. Exit status 0 only when every file succeeded.");
     p.section("Output");
     p.option("-o, --output", "FILE|TEMPLATE",
-             "Output OpenEXR file, or a template with {dir}, {stem}, {ext} (e.g. '{dir}/{stem}.spectral.exr') "
-             "for several inputs. Written atomically; never the input.",
+             "Output OpenEXR file, or a template with {dir}, {reldir} (with --base-dir), {stem}, {ext} (e.g. "
+             "'{dir}/{stem}.spectral.exr') for several inputs; a template's folders are created. Written "
+             "atomically; never the input.",
              [&](const std::string& v) { c.output = v; });
-    p.option("--output-dir", "DIR", "Write <DIR>/<stem>.exr for every input (or -o TEMPLATE inside DIR).",
+    p.option("--output-dir", "DIR",
+             "Write <DIR>/<stem>.exr for every input (or -o TEMPLATE inside DIR); with --base-dir, "
+             "<DIR>/{reldir}/<stem>.exr: the tree mirrored. Folders are created as needed.",
              [&](const std::string& v) { c.output_dir = v; });
+    p.option("--base-dir", "DIR",
+             "The top of an asset tree: {reldir} is an input's folder relative to DIR, and inputs outside "
+             "DIR are refused.",
+             [&](const std::string& v) { c.base_dir = v; });
     p.option("--type", "half|float", "Sample type of the spectral channels (default half).",
              [&](const std::string& v) { c.type = v; });
     p.option("--compression", "NAME",
@@ -325,16 +332,11 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
     BatchPlan plan;
     try {
         c.settings.data_dir = find_data_dir();
-        // --output-dir is created (with its parents) when missing, like mkdir -p.
-        if (!c.output_dir.empty()) {
-            std::string partial;
-            for (size_t pos = 0; pos != std::string::npos;) {
-                pos = c.output_dir.find('/', pos + 1);
-                partial = c.output_dir.substr(0, pos);
-                if (!partial.empty() && ::mkdir(partial.c_str(), 0777) != 0 && errno != EEXIST)
-                    throw Error(c.output_dir + ": cannot create the output folder: " + std::strerror(errno));
-            }
-        }
+        if (!c.base_dir.empty() && !is_directory(c.base_dir))
+            throw UsageError("--base-dir: '" + c.base_dir + "' is not a folder");
+        // --output-dir is created (with its parents) when missing, like mkdir -p; the folders below
+        // it (a mirrored tree, a template's folders) as each file is baked.
+        make_folders(c.output_dir);
         std::vector<std::string> listed = inputs;
         if (!c.from_list.empty()) {
             auto more = read_list(c.from_list);
@@ -356,8 +358,9 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         for (const auto& in : expanded) {
             std::string out;
             try {
+                if (!c.base_dir.empty()) (void)relative_folder(in, c.base_dir);
                 out = c.output_dir.empty() && !has_template_tokens(c.output) ? c.output
-                                                                             : output_for(in, c.output, c.output_dir);
+                                                                             : output_for(in, c.output, c.output_dir, c.base_dir);
             } catch (const Error& e) {
                 throw UsageError(e.what());
             }
@@ -523,6 +526,7 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
     OIIO::attribute("threads", plan.threads);
     c.settings.threads = plan.threads;
     plan.update = c.update && !c.force;
+    plan.make_folders = !c.output_dir.empty() || has_template_tokens(c.output);
     plan.fail_fast = c.fail_fast;
     plan.quiet = c.quiet;
     plan.verbose = c.verbose;

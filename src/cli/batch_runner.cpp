@@ -138,6 +138,10 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
                 if (plan.update && up_to_date(r.input, r.output, settings.settings_hash)) {
                     r.status = "skipped";
                 } else {
+                    if (plan.make_folders) {
+                        const size_t slash = r.output.find_last_of('/');
+                        if (slash != std::string::npos && slash > 0) make_folders(r.output.substr(0, slash));
+                    }
                     r.result = bake_file(r.input, r.output, settings);
                     r.status = "ok";
                 }

@@ -13,6 +13,7 @@ struct BatchPlan {
     int jobs = 1, threads = 1;
     bool update = false, fail_fast = false, quiet = false, verbose = false, progress = false;
     std::string json;  // "" none, "-" stdout, else a file
+    bool make_folders = false;  // outputs named by a template or --output-dir: create their folders
 };
 
 // Returns the exit status: 0 when every file succeeded or was up to date, else 1.

@@ -181,4 +181,19 @@ void write_text_atomically(const std::string& path, const std::string& text) {
     f.commit();
 }
 
+void make_folders(const std::string& dir) {
+    if (dir.empty()) return;
+    for (size_t pos = 0; pos != std::string::npos;) {
+        pos = dir.find('/', pos + 1);
+        const std::string partial = dir.substr(0, pos);
+        if (partial.empty() || partial.back() == '/') continue;
+        if (::mkdir(partial.c_str(), 0777) == 0) continue;
+        const int err = errno;
+        struct stat st;
+        if (err == EEXIST && ::stat(partial.c_str(), &st) == 0 && S_ISDIR(st.st_mode)) continue;
+        throw Error(partial + ": cannot create the output folder: " +
+                    (err == EEXIST ? std::string("something that is not a folder is there") : std::strerror(err)));
+    }
+}
+
 }  // namespace spectex

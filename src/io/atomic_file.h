@@ -33,6 +33,12 @@ private:
 // AtomicFile checks it too; commands call it before any work, so the mistake costs nothing.
 void check_output_path(const std::string& path);
 
+// Creates the folder `dir` and its missing parents, like mkdir -p, each with mode 0777 less the
+// umask. Safe when other processes (farm shards) create the same folders at the same time: a
+// folder that appears meanwhile is taken as made. Throws Error naming the folder and the cause
+// (something that is not a folder in the way, permissions, ...).
+void make_folders(const std::string& dir);
+
 // Installs the handlers that remove live temporary files on every signal whose default action
 // ends the process (SIGINT, SIGTERM, SIGPIPE, SIGUSR1, SIGALRM, SIGXCPU, crashes, ...) and ignores
 // SIGXFSZ, so that a file-size limit gives EFBIG (an error we report) instead of killing us.

@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <memory>
 #include <fstream>
 #include <iostream>
@@ -64,7 +65,7 @@ std::string file_contents(const std::string& path) {
 }  // namespace
 
 const std::vector<std::string>& template_tokens() {
-    static const std::vector<std::string> tokens = {"{dir}", "{stem}", "{ext}"};
+    static const std::vector<std::string> tokens = {"{dir}", "{reldir}", "{stem}", "{ext}"};
     return tokens;
 }
 
@@ -180,13 +181,53 @@ std::vector<std::string> read_list(const std::string& file) {
     return out;
 }
 
-std::string output_for(const std::string& input, const std::string& templ, const std::string& output_dir) {
+std::string relative_folder(const std::string& input, const std::string& base_dir) {
+    namespace fs = std::filesystem;
+    const fs::path in = fs::absolute(fs::path(input)).lexically_normal();
+    const fs::path base = fs::absolute(fs::path(base_dir)).lexically_normal();
+    fs::path rel = in.parent_path().lexically_relative(base);
+    if (rel.empty() && in.parent_path() != base)
+        throw Error(input + ": not below the --base-dir " + base_dir + " (inputs of a mirrored tree must lie in it)");
+    if (rel.empty()) rel = ".";
+    for (const auto& part : rel)
+        if (part == "..")
+            throw Error(input + ": not below the --base-dir " + base_dir + " (inputs of a mirrored tree must lie in it)");
+    std::string out = rel.generic_string();
+    while (out.size() > 1 && out.back() == '/') out.pop_back();
+    return out;
+}
+
+std::string output_for(const std::string& input, const std::string& templ, const std::string& output_dir,
+                       const std::string& base_dir) {
     std::string base = base_part(input);
     size_t dot = base.find_last_of('.');
     std::string stem = dot == std::string::npos || dot == 0 ? base : base.substr(0, dot);
     std::string ext = dot == std::string::npos || dot == 0 ? "" : base.substr(dot + 1);
     std::string pattern = templ;
-    if (!output_dir.empty()) pattern = output_dir + "/" + (has_template_tokens(templ) ? templ : "{stem}.exr");
+    if (!output_dir.empty()) {
+        std::string dir = output_dir;
+        while (dir.size() > 1 && dir.back() == '/') dir.pop_back();
+        pattern = dir + (dir == "/" ? "" : "/") +
+                  (has_template_tokens(templ) ? templ : base_dir.empty() ? "{stem}.exr" : "{reldir}/{stem}.exr");
+    }
+    const bool wants_reldir = pattern.find("{reldir}") != std::string::npos;
+    if (wants_reldir && base_dir.empty())
+        throw Error("the output template '" + pattern + "' uses {reldir}, which needs --base-dir DIR");
+    const std::string reldir = wants_reldir ? relative_folder(input, base_dir) : "";
+    // {dir} under --output-dir: the input's folder as a path inside it ("/abs/x" as "abs/x", never "..").
+    std::string dir_value = dir_part(input);
+    if (!output_dir.empty() && pattern.find("{dir}") != std::string::npos) {
+        while (!dir_value.empty() && dir_value.front() == '/') dir_value.erase(0, 1);
+        if (dir_value.empty()) dir_value = ".";
+        for (size_t b = 0; b <= dir_value.size();) {
+            size_t e = dir_value.find('/', b);
+            if (e == std::string::npos) e = dir_value.size();
+            if (dir_value.compare(b, e - b, "..") == 0)
+                throw Error(input + ": {dir} would climb out of --output-dir " + output_dir +
+                            " (its folder has '..'); give --base-dir and use {reldir}");
+            b = e + 1;
+        }
+    }
     // Folder by folder, so that a name such as "...png" (stem "..") cannot add a "." or ".."
     // component, or an empty one, that the template did not have: an output never climbs out of
     // the folder the template names. {dir} is the input's own folder, as the user spelled it.
@@ -199,14 +240,20 @@ std::string output_for(const std::string& input, const std::string& templ, const
             for (size_t pos = 0; (pos = sub.find(token, pos)) != std::string::npos; pos += value.size())
                 sub.replace(pos, token.size(), value);
         };
-        const bool user_folder = part.find("{dir}") != std::string::npos;
+        const bool user_folder = part.find("{dir}") != std::string::npos || part.find("{reldir}") != std::string::npos;
         replace("{stem}", stem);
         replace("{ext}", ext);
-        replace("{dir}", dir_part(input));
+        replace("{reldir}", reldir);
+        replace("{dir}", dir_value);
         if (!user_folder && sub != part && (sub.empty() || sub == "." || sub == ".."))
             throw Error(input + ": the output template '" + pattern + "' makes the path component '" + sub +
                         "' of this input's name, which would leave the folder it names; rename the file or "
                         "change the template");
+        // A file at the top of --base-dir: "out/{reldir}/x.exr" is "out/x.exr", not "out/./x.exr".
+        if (part == "{reldir}" && sub == "." && slash != std::string::npos) {
+            begin = slash + 1;
+            continue;
+        }
         out += sub;
         if (slash == std::string::npos) break;
         out += '/';
