@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "io/source_identity.h"
+
 namespace spectex {
 
 enum class AlphaKind { None, Associated, Unassociated };
@@ -36,6 +38,13 @@ public:
     ~ImageSource();
 
     const SourceInfo& info() const { return info_; }
+    // Size and modification time of the file opened (fstat of the descriptor the reader uses).
+    const SourceIdentity& identity() const { return identity_; }
+    // FNV-1a 64 of the file's bytes, "fnv1a64:<hex>", for spectex:sourceHash: computed on the bytes
+    // the decoder read, in file order; call after the last read_rgba. Bytes the decoder skipped or
+    // read out of order (and the whole file, for the few readers that cannot read through our
+    // descriptor) are read now, from the page cache in practice.
+    std::string content_hash();
     // Reads rows [y0, y1) of the data window (0-based, relative to info().y) as packed RGBA float;
     // grey is replicated to RGB and alpha is 1 when the file has none. Values are as stored
     // (associated or not: see info().alpha).
@@ -46,6 +55,7 @@ private:
     struct Impl;
     std::unique_ptr<Impl> impl_;
     SourceInfo info_;
+    SourceIdentity identity_;
     std::vector<float> scratch_;
 };
 
