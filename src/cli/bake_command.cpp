@@ -1,5 +1,4 @@
 #include <OpenEXR/ImfThreading.h>
-#include <OpenImageIO/imageio.h>
 
 #include <sys/stat.h>
 #include <unistd.h>
@@ -17,6 +16,7 @@
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
 #include "io/data_dir.h"
+#include "io/image_library.h"
 #include "io/library_stderr.h"
 #include "io/atomic_file.h"
 #include "io/file_identity.h"
@@ -517,7 +517,7 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
     plan.threads = c.threads > 0 ? c.threads : std::max(1, static_cast<int>(hw) / c.jobs);
     // OpenEXR's pool is global to the process: size it for all jobs together.
     Imf::setGlobalThreadCount(plan.jobs * plan.threads);
-    OIIO::attribute("threads", plan.threads);
+    set_image_threads(plan.threads);  // applied if and when an image is decoded
     c.settings.threads = plan.threads;
     plan.update = c.update && !c.force;
     plan.fail_fast = c.fail_fast;

@@ -1,3 +1,6 @@
+// OpenImageIO's side of ImageSource (io/image_source.h), PNG writing for render and the code
+// floats of the linearizer's table: the image module (io/image_library.h).
+#include "io/oiio/oiio_library.h"
 #include "io/image_source.h"
 #include "spectral/text.h"
 
@@ -81,7 +84,16 @@ private:
 
 }  // namespace
 
-struct ImageSource::Impl {
+class OiioImageSource final : public ImageSource {
+public:
+    static std::unique_ptr<ImageSource> open(const std::string& path, uint64_t max_pixels);
+    ~OiioImageSource() override {
+        if (in) in->close();
+    }
+    std::string content_hash() override { return !whole_hash.empty() ? whole_hash : proxy->finish(info_.path); }
+    void read_rgba(int y0, int y1, float* rgba) override;
+
+private:
     std::unique_ptr<CheckedFile> file;    // the descriptor checked, open while the image is read
     std::unique_ptr<HashingProxy> proxy;  // before `in`: destroyed after it
     std::vector<unsigned char> bytes;     // JPEG: the file, read once (see open)
@@ -93,11 +105,8 @@ struct ImageSource::Impl {
     int alpha = -1;                     // relative to chbegin, -1 when none
     bool tiled = false;
     std::vector<float> whole;  // tiled inputs: the whole first level, read once
+    std::vector<float> scratch_;
 };
-
-ImageSource::~ImageSource() {
-    if (impl_ && impl_->in) impl_->in->close();
-}
 
 namespace {
 
@@ -272,7 +281,7 @@ std::string format_from_signature(const unsigned char* b, size_t n) {
 
 }  // namespace
 
-std::unique_ptr<ImageSource> ImageSource::open(const std::string& path, uint64_t max_pixels) {
+std::unique_ptr<ImageSource> OiioImageSource::open(const std::string& path, uint64_t max_pixels) {
     // A regular file, checked before any library opens it: a FIFO, device or folder is refused
     // at once (OIIO would block on a FIFO, or read /dev/zero forever).
     std::string format;  // the reader chosen by the file's first bytes, "" when they say nothing
@@ -349,13 +358,12 @@ std::unique_ptr<ImageSource> ImageSource::open(const std::string& path, uint64_t
     // truncated progressive JPEG, whose scans are read at once) as an error but still open.
     if (in->has_error()) throw Error(path + ": cannot read: " + oiio_error(in.get()));
 
-    std::unique_ptr<ImageSource> src(new ImageSource);
-    src->impl_ = std::make_unique<Impl>();
-    src->impl_->file = std::move(file);
-    src->impl_->proxy = std::move(proxy);
-    src->impl_->bytes = std::move(bytes);
-    src->impl_->memory = std::move(memory);
-    src->impl_->whole_hash = whole_hash;
+    std::unique_ptr<OiioImageSource> src(new OiioImageSource);
+    src->file = std::move(file);
+    src->proxy = std::move(proxy);
+    src->bytes = std::move(bytes);
+    src->memory = std::move(memory);
+    src->whole_hash = whole_hash;
     src->identity_ = identity;
     const OIIO::ImageSpec& spec = in->spec();
     SourceInfo& info = src->info_;
@@ -394,7 +402,7 @@ std::unique_ptr<ImageSource> ImageSource::open(const std::string& path, uint64_t
     int lo = choice.colour[0], hi = choice.colour[0];
     for (int c : {choice.colour[1], choice.colour[2], choice.alpha})
         if (c >= 0) lo = std::min(lo, c), hi = std::max(hi, c);
-    Impl& I = *src->impl_;
+    OiioImageSource& I = *src;
     I.chbegin = lo;
     I.chend = hi + 1;
     for (int i = 0; i < 3; ++i) I.color_channels[i] = choice.colour[i] - lo;
@@ -415,12 +423,8 @@ std::unique_ptr<ImageSource> ImageSource::open(const std::string& path, uint64_t
     return src;
 }
 
-std::string ImageSource::content_hash() {
-    return !impl_->whole_hash.empty() ? impl_->whole_hash : impl_->proxy->finish(info_.path);
-}
-
-void ImageSource::read_rgba(int y0, int y1, float* rgba) {
-    Impl& I = *impl_;
+void OiioImageSource::read_rgba(int y0, int y1, float* rgba) {
+    OiioImageSource& I = *this;
     const int nch = I.chend - I.chbegin;
     const size_t w = static_cast<size_t>(info_.width);
     const size_t rows = static_cast<size_t>(y1 - y0);
@@ -454,6 +458,70 @@ void ImageSource::read_rgba(int y0, int y1, float* rgba) {
         rgba[2] = s[cc[2]];
         rgba[3] = a >= 0 ? s[a] : 1.0f;
     }
+}
+
+namespace {
+
+class OiioPngWriter final : public PngWriter {
+public:
+    OiioPngWriter(const std::string& file_path, const std::string& png_path, int width, int height, int channels,
+                  const std::vector<std::pair<std::string, std::string>>& attributes)
+        : png_path_(png_path) {
+        out_ = OIIO::ImageOutput::create("png");
+        if (!out_) throw Error(png_path + ": OpenImageIO has no PNG writer: " + OIIO::geterror());
+        OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::UINT8);
+        spec.attribute("oiio:ColorSpace", "sRGB");
+        // Our colour is straight already: without this OIIO's PNG writer would divide it by A again.
+        if (channels == 4) spec.attribute("oiio:UnassociatedAlpha", 1);
+        for (const auto& [k, v] : attributes) spec.attribute(k, v);
+        if (!out_->open(file_path, spec)) throw Error(png_path + ": cannot write the PNG: " + out_->geterror());
+    }
+    void write_rows(int y0, int rows, const uint8_t* data) override {
+        if (!out_->write_scanlines(y0, y0 + rows, 0, OIIO::TypeDesc::UINT8, data))
+            throw Error(png_path_ + ": cannot write the PNG: " + out_->geterror());
+    }
+    void close() override {
+        if (!out_->close()) throw Error(png_path_ + ": cannot write the PNG: " + out_->geterror());
+    }
+
+private:
+    std::string png_path_;
+    std::unique_ptr<OIIO::ImageOutput> out_;
+};
+
+class OiioLibrary final : public ImageLibrary {
+public:
+    std::unique_ptr<ImageSource> open_source(const std::string& path, uint64_t max_pixels) override {
+        return OiioImageSource::open(path, max_pixels);
+    }
+    std::vector<float> integer_code_floats(int bits) override {
+        const size_t n = size_t{1} << bits;
+        std::vector<float> key(n);
+        // Exactly the floats OpenImageIO hands us for these codes (its conversion, not ours).
+        if (bits <= 8) {
+            std::vector<uint8_t> c8(n);
+            for (size_t i = 0; i < n; ++i) c8[i] = static_cast<uint8_t>(i);
+            OIIO::convert_pixel_values(OIIO::TypeDesc::UINT8, c8.data(), OIIO::TypeDesc::FLOAT, key.data(), static_cast<int>(n));
+        } else {
+            std::vector<uint16_t> c16(n);
+            for (size_t i = 0; i < n; ++i) c16[i] = static_cast<uint16_t>(i);
+            OIIO::convert_pixel_values(OIIO::TypeDesc::UINT16, c16.data(), OIIO::TypeDesc::FLOAT, key.data(), static_cast<int>(n));
+        }
+        return key;
+    }
+    std::unique_ptr<PngWriter> png_writer(const std::string& file_path, const std::string& png_path, int width,
+                                          int height, int channels,
+                                          const std::vector<std::pair<std::string, std::string>>& attributes) override {
+        return std::make_unique<OiioPngWriter>(file_path, png_path, width, height, channels, attributes);
+    }
+    void set_threads(int threads) override { OIIO::attribute("threads", threads); }
+};
+
+}  // namespace
+
+ImageLibrary* oiio_image_library() {
+    static OiioLibrary library;
+    return &library;
 }
 
 }  // namespace spectex
