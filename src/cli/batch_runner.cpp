@@ -136,7 +136,9 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
             try {
                 if (!clash[i].empty()) throw Error(clash[i]);
                 UpdateCheck check;
-                if (plan.update) check = check_update(r.input, r.output, settings.settings_hash);
+                if (plan.update)
+                    check = i < plan.prechecked.size() ? plan.prechecked[i]
+                                                       : check_update(r.input, r.output, settings.settings_hash);
                 if (check.up_to_date) {
                     r.status = "skipped";
                     r.reason = check.reason;

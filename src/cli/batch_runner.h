@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "pipeline/bake.h"
+#include "pipeline/batch.h"
 
 namespace spectex {
 
@@ -13,6 +14,9 @@ struct BatchPlan {
     int jobs = 1, threads = 1;
     bool update = false, fail_fast = false, quiet = false, verbose = false, progress = false;
     std::string json;  // "" none, "-" stdout, else a file
+    // With update: each file's check_update, made before the set-up (empty: checked by the workers).
+    // When every file is up to date, the settings carry no method: nothing is baked.
+    std::vector<UpdateCheck> prechecked;
 };
 
 // Returns the exit status: 0 when every file succeeded or was up to date, else 1.

@@ -233,8 +233,8 @@ std::vector<std::string> select_shard(const std::vector<std::string>& sorted_inp
 std::string settings_hash(const BakeSettings& s) {
     Fnv1a64 h;
     fnv(h, SPECTEX_VERSION);
-    fnv(h, s.method->checksum());
-    for (double l : s.grid.lambda) fnv(h, format_wavelength(l));
+    fnv(h, !s.method_recipe.empty() ? s.method_recipe : s.method->checksum());
+    for (double l : s.grid.lambda) fnv(h, format_wavelength(l));  // none yet with --wavelengths auto
     fnv(h, s.type == SampleType::Half ? "half" : "float");
     fnv(h, s.compression.name);
     if (s.zip_level != 4) fnv(h, "zip-level " + std::to_string(s.zip_level));  // 4: hashes as before

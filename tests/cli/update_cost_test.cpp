@@ -154,3 +154,26 @@ TEST(UpdateCost, AnUpToDateBatchReadsHeadersAndBuildsNothing) {
     EXPECT_EQ(with.status, 0) << with.err;
     EXPECT_NE(with.err.find("1 baked, 299 up to date, 0 failed"), std::string::npos) << with.err;
 }
+
+TEST(UpdateCost, AnUpToDateFileIsCheckedBeforeTheMethodIsBuilt) {
+    ScratchDir d;
+    write_png(d / "a.png");
+    // A Jakob-Hanika table takes seconds to build: a skip must not build it.
+    const std::vector<std::string> bake = {"bake", d / "a.png", "-o", d / "a.exr", "--method", "jakob-hanika",
+                                           "--jh-resolution", "16", "-v"};
+    const RunResult first = run_spectex(bake);
+    ASSERT_EQ(first.status, 0) << first.err;
+    EXPECT_NE(first.err.find("built in"), std::string::npos) << first.err;
+    std::vector<std::string> again = bake;
+    again.push_back("--update");
+    const RunResult second = run_spectex(again);
+    ASSERT_EQ(second.status, 0) << second.err;
+    EXPECT_EQ(second.err.find("built in"), std::string::npos) << second.err;
+    EXPECT_NE(second.err.find("up to date"), std::string::npos) << second.err;
+    // Another setting of the method is another recipe: rebuilt.
+    std::vector<std::string> other = {"bake", d / "a.png", "-o", d / "a.exr", "--method", "jakob-hanika",
+                                      "--jh-resolution", "17", "--update", "--json", "-"};
+    const RunResult third = run_spectex(other);
+    ASSERT_EQ(third.status, 0) << third.err;
+    EXPECT_NE(third.out.find("\"status\":\"ok\""), std::string::npos) << third.out;
+}
