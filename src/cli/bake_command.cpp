@@ -1,5 +1,4 @@
 #include <OpenEXR/ImfThreading.h>
-#include <OpenImageIO/imageio.h>
 
 #include <sys/stat.h>
 #include <unistd.h>
@@ -17,6 +16,7 @@
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
 #include "io/data_dir.h"
+#include "io/image_library.h"
 #include "io/library_stderr.h"
 #include "io/atomic_file.h"
 #include "io/file_identity.h"
@@ -30,6 +30,7 @@
 #include "spectral/basis_fit.h"
 #include "spectral/colorimetry.h"
 #include "spectral/error.h"
+#include "spectral/fnv1a.h"
 #include "spectral/spectrum.h"
 
 namespace spectex {
@@ -422,69 +423,30 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
 
     // Settings that are the same for every file (grid, colour config and space, observer,
     // illuminant, basis, method) are checked once, before any input is read: one message, exit 2.
+    // The settings hash is computed from the recipe (the options and the tables' contents), before
+    // anything expensive is built (a basis fit, a lattice or Jakob-Hanika table, --wavelengths
+    // auto's search, an OCIO processor), so that --update checks the outputs' headers first and a
+    // run whose files are all up to date builds nothing.
+    std::vector<UpdateCheck> prechecked;
+    bool all_up_to_date = false;
     try {
         if (!c.wavelengths_file.empty()) c.settings.grid = WavelengthGrid::from_file(c.wavelengths_file);
-        if (c.wavelengths == "auto") {
-            // Once per batch: every file of it gets the same grid.
-            c.plan.method.method = c.method;
-            c.plan.method.fit = c.fit;
-            c.plan.method.fit.data_dir = c.settings.data_dir;
-            c.plan.method.lattice_size = c.lattice_size;
-            c.plan.method.vertex_prior = c.vertex_prior;
-            c.plan.half = c.settings.type == SampleType::Half;
-            c.plan.threads = c.threads;
-            const PlanResult pr = plan_grids(c.plan);
-            if (c.verbose) std::cerr << plan_table(c.plan, pr);
-            if (pr.chosen < 0) throw Error(plan_failure(c.plan, pr));
-            const GridRow& row = pr.rows[static_cast<size_t>(pr.chosen)];
-            c.settings.grid = row.grid;
+        const bool automatic = c.wavelengths == "auto";
+        auto& rec = c.settings.plan;
+        if (automatic) {
             char num[64];
-            auto& rec = c.settings.plan;
             for (const auto& l : c.plan.lights) rec.lights += (rec.lights.empty() ? "" : ",") + l;
             std::snprintf(num, sizeof num, "%g", c.plan.max_de);
             rec.max_de = num;
             rec.reconstruction = to_string(c.plan.reconstruction);
             std::snprintf(num, sizeof num, "%g:%g", c.plan.range_start, c.plan.range_end);
             rec.range = num;
-            std::snprintf(num, sizeof num, "%.4g", row.worst);
-            rec.worst_de = num;
             rec.nonuniform = c.plan.nonuniform;
-            if (!c.quiet)
-                std::cerr << "spectex: --wavelengths auto: " << grid_label(row.grid) << " (" << row.bins
-                          << " bins), worst " << rec.worst_de << " ΔE00 under " << row.worst_light << ", within "
-                          << rec.max_de << " under " << join_names(c.plan.lights) << " (" << pr.seconds << " s)\n";
         }
         c.settings.observer = c.fit.observer;
         c.settings.illuminant = c.fit.illuminant;
-        (void)load_observer(c.settings.data_dir, c.fit.observer);
-        (void)load_illuminant(c.settings.data_dir, c.fit.illuminant);
-        if (!c.settings.colorspace.empty())
-            (void)Linearizer::make(ColourRequest{c.settings.data_dir, c.settings.config, c.settings.colorspace, "", ""});
-        if (c.method != "basis") {
-            MethodSpec spec;
-            spec.method = c.method;
-            spec.fit = c.fit;
-            spec.fit.data_dir = c.settings.data_dir;
-            spec.fit.grid = c.settings.grid;
-            spec.lattice_size = c.lattice_size;
-            spec.jh_resolution = c.jh_resolution;
-            spec.vertex_prior = c.vertex_prior;
-            MethodResult made = make_method(spec);
-            c.settings.method = made.method;
-            if (c.verbose)
-                std::cerr << "spectex: " << spec.describe() << ": built in " << made.build_seconds << " s\n";
-        } else if (c.basis == "fit") {
-            c.fit.data_dir = c.settings.data_dir;
-            c.fit.grid = c.settings.grid;
-            FitResult fit = fit_basis_for(c.fit);
-            if (!fit.certificate.feasible && !c.quiet) {
-                const auto& r = fit.certificate.colour_residual;
-                std::cerr << "spectex: warning: no exact basis exists for " << c.fit.describe()
-                          << "; baking with the closest one, which misses the primaries by "
-                          << std::max({r[0], r[1], r[2]}) << " in linear RGB (--allow-infeasible)\n";
-            }
-            c.settings.method = std::make_shared<BasisMethod>(fit.basis, "fitted by spectex: " + c.fit.describe());
-        } else {
+        std::shared_ptr<Basis> file_basis;  // --basis mallett2019 or FILE: read now (cheap)
+        if (c.method == "basis" && c.basis != "fit") {
             Basis basis = load_basis(c.settings.data_dir, c.basis);
             // A given basis is exact for the conditions it was made for; the default ones are recorded.
             if (c.basis == "mallett2019") c.settings.observer = "cie1931-2", c.settings.illuminant = "D65";
@@ -495,23 +457,120 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
                 throw Error("basis " + c.basis + " is on " + basis_grid.describe() + ", not on the output grid " +
                             c.settings.grid.describe() + " (the default --basis fit works on any grid)");
             check_basis_values(basis);
-            // How far the basis is from reproducing the primaries under the colorimetry it is used
-            // with: a wrong table (another observer, a flat one) bakes wrong colours without a word.
-            Colorimetry cm = Colorimetry::make(load_observer(c.settings.data_dir, c.settings.observer),
-                                               load_illuminant(c.settings.data_dir, c.settings.illuminant),
-                                               c.settings.grid, primaries_by_name("srgb"));
-            const FitCertificate cert = certify_basis(basis, cm);
-            const double miss = std::max({cert.colour_residual[0], cert.colour_residual[1], cert.colour_residual[2]});
-            if (miss > kBasisPrimaryTolerance && !c.quiet)
-                std::cerr << "spectex: warning: basis " << c.basis << " misses the sRGB primaries by " << miss
-                          << " in linear RGB under " << c.settings.observer << " and " << c.settings.illuminant
-                          << " (tolerance " << kBasisPrimaryTolerance << "): baked colours will be off by up to that\n";
-            c.settings.method = std::make_shared<BasisMethod>(
-                std::move(basis), c.basis == "mallett2019" ? "published table (Mallett & Yuksel 2019)" : "file");
+            file_basis = std::make_shared<Basis>(std::move(basis));
+        }
+        const Observer observer = load_observer(c.settings.data_dir, c.settings.observer);
+        const Spectrum illuminant = load_illuminant(c.settings.data_dir, c.settings.illuminant);
+        {
+            // The method's recipe: what builds it, the tables' values included (a user table that
+            // changes under the same name changes the hash).
+            Fnv1a64 h;
+            auto add = [&](const std::string& t) { h.add(t.data(), t.size() + 1); };
+            auto add_values = [&](const std::vector<double>& v) { h.add(v.data(), v.size() * sizeof(double)); };
+            if (file_basis) {
+                add("basis " + file_basis->checksum());
+            } else if (c.method == "basis") {
+                add("basis fit, objective " + c.fit.objective + (c.fit.allow_infeasible ? ", infeasible allowed" : ""));
+            } else {
+                add(c.method + " lattice " + std::to_string(c.lattice_size) + " prior " + c.vertex_prior +
+                    " jh " + std::to_string(c.jh_resolution));
+            }
+            add_values(observer.x.lambda);
+            add_values(observer.x.value);
+            add_values(observer.y.value);
+            add_values(observer.z.value);
+            add_values(illuminant.lambda);
+            add_values(illuminant.value);
+            if (automatic) {
+                // The grid is chosen later from these (and this version): the choice is hashed by its inputs.
+                for (const auto& l : c.plan.lights) {
+                    const Spectrum light = load_illuminant(c.settings.data_dir, l);
+                    add("light " + l);
+                    add_values(light.lambda);
+                    add_values(light.value);
+                }
+                for (const auto& g : c.plan.candidates) {
+                    add("candidate");
+                    add_values(g.lambda);
+                }
+                add(std::string(c.plan.half ? "half" : "float") + " stride " + std::to_string(c.plan.sample_stride) +
+                    " colours " + c.plan.colours);
+            }
+            c.settings.method_recipe = h.text();
         }
         // Reads the colour config (checked: a regular file of bounded size), so inside the try.
         c.settings.command_line = command_line;
         c.settings.settings_hash = settings_hash(c.settings);
+        if (c.update && !c.force) {
+            all_up_to_date = true;
+            for (const auto& [in, out] : plan.files) {
+                prechecked.push_back(check_update(in, out, c.settings.settings_hash));
+                all_up_to_date = all_up_to_date && prechecked.back().up_to_date;
+            }
+        }
+        if (!all_up_to_date) {
+            if (automatic) {
+                // Once per batch: every file of it gets the same grid.
+                c.plan.method.method = c.method;
+                c.plan.method.fit = c.fit;
+                c.plan.method.fit.data_dir = c.settings.data_dir;
+                c.plan.method.lattice_size = c.lattice_size;
+                c.plan.method.vertex_prior = c.vertex_prior;
+                c.plan.half = c.settings.type == SampleType::Half;
+                c.plan.threads = c.threads;
+                const PlanResult pr = plan_grids(c.plan);
+                if (c.verbose) std::cerr << plan_table(c.plan, pr);
+                if (pr.chosen < 0) throw Error(plan_failure(c.plan, pr));
+                const GridRow& row = pr.rows[static_cast<size_t>(pr.chosen)];
+                c.settings.grid = row.grid;
+                char num[64];
+                std::snprintf(num, sizeof num, "%.4g", row.worst);
+                rec.worst_de = num;
+                if (!c.quiet)
+                    std::cerr << "spectex: --wavelengths auto: " << grid_label(row.grid) << " (" << row.bins
+                              << " bins), worst " << rec.worst_de << " ΔE00 under " << row.worst_light << ", within "
+                              << rec.max_de << " under " << join_names(c.plan.lights) << " (" << pr.seconds << " s)\n";
+            }
+            if (!c.settings.colorspace.empty())
+                (void)Linearizer::make(ColourRequest{c.settings.data_dir, c.settings.config, c.settings.colorspace, "", ""});
+            if (c.method != "basis") {
+                MethodSpec spec;
+                spec.method = c.method;
+                spec.fit = c.fit;
+                spec.fit.data_dir = c.settings.data_dir;
+                spec.fit.grid = c.settings.grid;
+                spec.lattice_size = c.lattice_size;
+                spec.jh_resolution = c.jh_resolution;
+                spec.vertex_prior = c.vertex_prior;
+                MethodResult made = make_method(spec);
+                c.settings.method = made.method;
+                if (c.verbose)
+                    std::cerr << "spectex: " << spec.describe() << ": built in " << made.build_seconds << " s\n";
+            } else if (c.basis == "fit") {
+                c.fit.data_dir = c.settings.data_dir;
+                c.fit.grid = c.settings.grid;
+                FitResult fit = fit_basis_for(c.fit);
+                if (!fit.certificate.feasible && !c.quiet) {
+                    const auto& r = fit.certificate.colour_residual;
+                    std::cerr << "spectex: warning: no exact basis exists for " << c.fit.describe()
+                              << "; baking with the closest one, which misses the primaries by "
+                              << std::max({r[0], r[1], r[2]}) << " in linear RGB (--allow-infeasible)\n";
+                }
+                c.settings.method = std::make_shared<BasisMethod>(fit.basis, "fitted by spectex: " + c.fit.describe());
+            } else {
+                // How far the basis is from reproducing the primaries under the colorimetry it is used
+                // with: a wrong table (another observer, a flat one) bakes wrong colours without a word.
+                Colorimetry cm = Colorimetry::make(observer, illuminant, c.settings.grid, primaries_by_name("srgb"));
+                const FitCertificate cert = certify_basis(*file_basis, cm);
+                const double miss = std::max({cert.colour_residual[0], cert.colour_residual[1], cert.colour_residual[2]});
+                if (miss > kBasisPrimaryTolerance && !c.quiet)
+                    std::cerr << "spectex: warning: basis " << c.basis << " misses the sRGB primaries by " << miss
+                              << " in linear RGB under " << c.settings.observer << " and " << c.settings.illuminant
+                              << " (tolerance " << kBasisPrimaryTolerance << "): baked colours will be off by up to that\n";
+                c.settings.method = std::make_shared<BasisMethod>(
+                    std::move(*file_basis), c.basis == "mallett2019" ? "published table (Mallett & Yuksel 2019)" : "file");
+            }
+        }
     } catch (const Error& e) {
         print_error(e.what());
         return 2;
@@ -523,10 +582,11 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
     plan.threads = c.threads > 0 ? c.threads : std::max(1, static_cast<int>(hw) / c.jobs);
     // OpenEXR's pool is global to the process: size it for all jobs together.
     Imf::setGlobalThreadCount(plan.jobs * plan.threads);
-    OIIO::attribute("threads", plan.threads);
+    set_image_threads(plan.threads);  // applied if and when an image is decoded
     c.settings.threads = plan.threads;
     plan.update = c.update && !c.force;
     plan.make_folders = !c.output_dir.empty() || has_template_tokens(c.output);
+    plan.prechecked = std::move(prechecked);
     plan.fail_fast = c.fail_fast;
     plan.quiet = c.quiet;
     plan.verbose = c.verbose;

@@ -57,7 +57,8 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
                 "spectra S_r, S_g, S_b with RGB(S_k) = e_k under the illuminant and observer, 0 <= S <= 1 and\n"
                 "S_r + S_g + S_b = 1 at every wavelength, minimising the objective. Prints a certificate\n"
                 "recomputed from the basis: colour residuals, bound and sum violations, KKT residuals.");
-    p.option("-o, --output", "FILE", "Basis CSV to write (wavelength,r,g,b; 17 significant digits); - for stdout.",
+    p.option("-o, --output", "FILE", "Basis CSV to write (header row wavelength,r,g,b first, 17 significant digits; its provenance "
+             "and certificate go to FILE.provenance); - for stdout (the CSV alone).",
              [&](const std::string& v) { output = v; });
     p.option("--wavelengths", "START:END:STEP", "Wavelength grid in nm (default 380:780:5).",
              [&](const std::string& v) { wavelengths = v; });
@@ -89,11 +90,14 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
             reads.add(spec.illuminant, "--illuminant");
             reads.add(wavelengths_file, "--wavelengths-file");
             if (std::string clash = reads.clash(output, "-o"); !clash.empty()) throw UsageError(clash);
+            const std::string sidecar = basis_provenance_path(output);
+            if (std::string clash = reads.clash(sidecar, "the provenance of -o"); !clash.empty()) throw UsageError(clash);
             struct stat st;
             if (output.back() == '/' || (::stat(output.c_str(), &st) == 0 && S_ISDIR(st.st_mode)))
                 throw UsageError("-o: '" + output + "' is a folder; give a file name");
             try {
                 check_output_path(output);
+                check_output_path(sidecar);
             } catch (const Error& e) {
                 throw UsageError(e.what());
             }
@@ -119,7 +123,9 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
         std::string cert = certificate_text(spec, fit);
         std::ostream& report = output == "-" ? std::cerr : std::cout;
         if (!quiet) report << cert;
-        std::vector<std::string> comments = {
+        // The CSV holds the table alone (header row first: generic CSV readers load it); what made
+        // it goes to a sidecar, FILE.provenance, one "key: value" line each.
+        std::vector<std::string> provenance = {
             "spectral primary decomposition basis (Mallett & Yuksel 2019), fitted by spectex",
             "command: " + command_line,
             "fit: " + spec.describe(),
@@ -130,13 +136,16 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
         std::getline(lines, line);  // the first line repeats the fit description
         while (std::getline(lines, line)) {
             if (line.find("solver:") != std::string::npos) continue;  // timing varies: keep files reproducible
-            comments.push_back("certificate:" + line.substr(1));
+            provenance.push_back("certificate:" + line.substr(1));
         }
         if (output == "-") {
-            write_basis_csv(std::cout, fit.basis, comments);
+            write_basis_csv(std::cout, fit.basis);
         } else {
-            std::ostringstream text;
-            write_basis_csv(text, fit.basis, comments);
+            std::ostringstream text, sidecar;
+            write_basis_csv(text, fit.basis);
+            for (const auto& l : provenance) sidecar << l << "\n";
+            // The sidecar first: a CSV never stands without the record of what made it.
+            write_text_atomically(basis_provenance_path(output), sidecar.str());
             write_text_atomically(output, text.str());
         }
     } catch (const Error& e) {

@@ -109,7 +109,7 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
                           st.finish, st.compress_cpu, st.writer.c_str());
             std::cerr << buf;
         }
-        if (plan.verbose && r.status == "skipped") std::cerr << "spectex: " << r.output << ": up to date\n";
+        if (plan.verbose && r.status == "skipped") std::cerr << "spectex: " << one_line(r.output + ": " + r.reason) << "\n";
         if (!plan.json.empty()) write_json(json_record(r) + "\n");
         ++done;
         ok += r.status == "ok";
@@ -135,8 +135,13 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
             auto start = std::chrono::steady_clock::now();
             try {
                 if (!clash[i].empty()) throw Error(clash[i]);
-                if (plan.update && up_to_date(r.input, r.output, settings.settings_hash)) {
+                UpdateCheck check;
+                if (plan.update)
+                    check = i < plan.prechecked.size() ? plan.prechecked[i]
+                                                       : check_update(r.input, r.output, settings.settings_hash);
+                if (check.up_to_date) {
                     r.status = "skipped";
+                    r.reason = check.reason;
                 } else {
                     if (plan.make_folders) {
                         const size_t slash = r.output.find_last_of('/');

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "pipeline/bake.h"
+#include "pipeline/batch.h"
 
 namespace spectex {
 
@@ -14,6 +15,9 @@ struct BatchPlan {
     bool update = false, fail_fast = false, quiet = false, verbose = false, progress = false;
     std::string json;  // "" none, "-" stdout, else a file
     bool make_folders = false;  // outputs named by a template or --output-dir: create their folders
+    // With update: each file's check_update, made before the set-up (empty: checked by the workers).
+    // When every file is up to date, the settings carry no method: nothing is baked.
+    std::vector<UpdateCheck> prechecked;
 };
 
 // Returns the exit status: 0 when every file succeeded or was up to date, else 1.

@@ -1,6 +1,5 @@
 // spectex verify: measure a spectral OpenEXR, alone or against the image it was baked from.
 #include <OpenEXR/ImfThreading.h>
-#include <OpenImageIO/imageio.h>
 
 #include <cmath>
 #include <cstdio>
@@ -14,6 +13,7 @@
 
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
+#include "io/image_library.h"
 #include "pipeline/batch.h"
 #include "io/data_dir.h"
 #include "io/atomic_file.h"
@@ -319,7 +319,7 @@ int run_verify(const std::vector<std::string>& args) {
     // thread pool would hold two decoded chunks per thread (21 MB each at 4K, 81 bins, ZIP), so
     // memory would grow with the core count.
     Imf::setGlobalThreadCount(0);
-    OIIO::attribute("threads", s.threads);
+    set_image_threads(s.threads);  // applied if and when a source is decoded
     try {
         s.data_dir = find_data_dir();
     } catch (const Error& e) {

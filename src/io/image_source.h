@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "io/source_identity.h"
+
 namespace spectex {
 
 enum class AlphaKind { None, Associated, Unassociated };
@@ -26,27 +28,33 @@ struct SourceInfo {
     std::vector<std::string> notes;  // how channels were chosen, when not plainly (a layer's R, G, B)
 };
 
+// A texture being read: OpenImageIO's reader, in the image module (io/image_library.h).
 class ImageSource {
 public:
     // Opens `path` (a regular file, checked before any library opens it) and checks its header;
     // refuses images above max_pixels before allocating. Colour and alpha channels are chosen by
     // name in OpenEXR (R,G,B; Y; a layer's; alpha only from A/alpha), by position in formats
-    // without channel names; a file without colour channels is refused.
+    // without channel names; a file without colour channels is refused. Loads the image module.
     static std::unique_ptr<ImageSource> open(const std::string& path, uint64_t max_pixels);
-    ~ImageSource();
+    virtual ~ImageSource() = default;
 
     const SourceInfo& info() const { return info_; }
+    // Size and modification time of the file opened (fstat of the descriptor the reader uses).
+    const SourceIdentity& identity() const { return identity_; }
+    // FNV-1a 64 of the file's bytes, "fnv1a64:<hex>", for spectex:sourceHash: computed on the bytes
+    // the decoder read, in file order; call after the last read_rgba. Bytes the decoder skipped or
+    // read out of order (and the whole file, for the few readers that cannot read through our
+    // descriptor) are read now, from the page cache in practice.
+    virtual std::string content_hash() = 0;
     // Reads rows [y0, y1) of the data window (0-based, relative to info().y) as packed RGBA float;
     // grey is replicated to RGB and alpha is 1 when the file has none. Values are as stored
     // (associated or not: see info().alpha).
-    void read_rgba(int y0, int y1, float* rgba);
+    virtual void read_rgba(int y0, int y1, float* rgba) = 0;
 
-private:
+protected:
     ImageSource() = default;
-    struct Impl;
-    std::unique_ptr<Impl> impl_;
     SourceInfo info_;
-    std::vector<float> scratch_;
+    SourceIdentity identity_;
 };
 
 }  // namespace spectex

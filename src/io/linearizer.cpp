@@ -1,8 +1,8 @@
 #include "io/linearizer.h"
+#include "io/image_library.h"
 #include "spectral/text.h"
 
 #include <OpenColorIO/OpenColorIO.h>
-#include <OpenImageIO/imageio.h>
 
 #include <algorithm>
 #include <climits>
@@ -288,16 +288,9 @@ bool Linearizer::use_code_table(int bits) {
     Impl& I = *impl_;
     if (identity_ || I.crosstalk || bits < 1 || bits > 16) return false;
     const size_t n = size_t{1} << bits;
-    std::vector<uint16_t> codes(n);
-    for (size_t i = 0; i < n; ++i) codes[i] = static_cast<uint16_t>(i);
-    I.key.resize(n);
     // Exactly the floats OpenImageIO hands us for these codes (its conversion, not ours).
-    if (bits <= 8) {
-        std::vector<uint8_t> c8(codes.begin(), codes.end());
-        OIIO::convert_pixel_values(OIIO::TypeDesc::UINT8, c8.data(), OIIO::TypeDesc::FLOAT, I.key.data(), static_cast<int>(n));
-    } else {
-        OIIO::convert_pixel_values(OIIO::TypeDesc::UINT16, codes.data(), OIIO::TypeDesc::FLOAT, I.key.data(), static_cast<int>(n));
-    }
+    I.key = image_library().integer_code_floats(bits <= 8 ? 8 : 16);
+    I.key.resize(n);
     std::vector<float> ramp(4 * n);
     for (size_t i = 0; i < n; ++i) ramp[4 * i] = ramp[4 * i + 1] = ramp[4 * i + 2] = I.key[i], ramp[4 * i + 3] = 1.0f;
     OCIO::PackedImageDesc desc(ramp.data(), static_cast<long>(n), 1, 4);

@@ -16,6 +16,7 @@
 #include "io/atomic_file.h"
 #include "io/image_source.h"
 #include "io/linearizer.h"
+#include "io/source_identity.h"
 #include "pipeline/batch.h"
 #include "pipeline/pixel_policy.h"
 #include "spectex/version.h"
@@ -164,6 +165,11 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
         {"spectex:zipLevel", std::to_string(s.zip_level)},
         {"spectex:halfRounding", s.type == SampleType::Half ? (s.colour_rounding ? "colour" : "nearest") : "n/a"},
         {"spectex:settingsHash", s.settings_hash},
+        // The source's identity, for --update (io/source_identity.h); the hash is patched in once
+        // the source has been decoded (and so hashed).
+        {kSourceSizeAttribute, src->identity().size_text()},
+        {kSourceMtimeAttribute, src->identity().mtime_text()},
+        {kSourceHashAttribute, source_hash_placeholder()},
     };
     if (!s.plan.lights.empty()) {
         layout.attributes.push_back({"spectex:planLights", s.plan.lights});
@@ -345,6 +351,7 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     }
     auto t_finish = Clock::now();
     writer.finish();
+    patch_string_attribute(out.fd(), kSourceHashAttribute, source_hash_placeholder(), src->content_hash(), output);
     res.stages.finish = since(t_finish);
     const auto wt = writer.timing();
     res.stages.pack = wt.pack_seconds;

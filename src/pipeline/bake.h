@@ -34,6 +34,9 @@ struct BakeSettings {
     uint64_t max_pixels = 268435456;  // 16384 x 16384
     std::string command_line;
     std::string settings_hash;       // recorded as spectex:settingsHash (for --update)
+    // What builds `method` (options and the tables' values), hashed into settings_hash instead of
+    // the built method's checksum, so that the hash is known before the method is built.
+    std::string method_recipe;
     int threads = 1;                 // OpenEXR compression threads for this file
     int tile_width = 0, tile_height = 0;  // tiled output when > 0
     bool mipmap = false;             // MIP-mapped (tiled) output, levels filtered on linear RGB

@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <fstream>
 #include <iostream>
@@ -20,9 +21,11 @@
 
 #include "io/exr_preflight.h"
 #include "io/linearizer.h"
+#include "io/source_identity.h"
 #include "spectral/bounded_read.h"
 #include "spectex/version.h"
 #include "spectral/error.h"
+#include "spectral/fnv1a.h"
 
 namespace spectex {
 
@@ -47,13 +50,10 @@ std::string regex_quote(const std::string& s) {
     return out;
 }
 
-void fnv(uint64_t& h, const std::string& s) {
-    for (unsigned char c : s) {
-        h ^= c;
-        h *= 0x100000001b3ull;
-    }
-    h ^= 0xff;  // separator: "ab"+"c" differs from "a"+"bc"
-    h *= 0x100000001b3ull;
+void fnv(Fnv1a64& h, const std::string& s) {
+    h.add(s.data(), s.size());
+    const unsigned char separator = 0xff;  // "ab"+"c" differs from "a"+"bc"
+    h.add(&separator, 1);
 }
 
 // The colour config's bytes, for the settings hash: a regular file of bounded size (never
@@ -278,10 +278,10 @@ std::vector<std::string> select_shard(const std::vector<std::string>& sorted_inp
 }
 
 std::string settings_hash(const BakeSettings& s) {
-    uint64_t h = 0xcbf29ce484222325ull;
+    Fnv1a64 h;
     fnv(h, SPECTEX_VERSION);
-    fnv(h, s.method->checksum());
-    for (double l : s.grid.lambda) fnv(h, format_wavelength(l));
+    fnv(h, !s.method_recipe.empty() ? s.method_recipe : s.method->checksum());
+    for (double l : s.grid.lambda) fnv(h, format_wavelength(l));  // none yet with --wavelengths auto
     fnv(h, s.type == SampleType::Half ? "half" : "float");
     fnv(h, s.compression.name);
     if (s.zip_level != 4) fnv(h, "zip-level " + std::to_string(s.zip_level));  // 4: hashes as before
@@ -303,33 +303,65 @@ std::string settings_hash(const BakeSettings& s) {
     const std::string config = ocio_config_path(s.data_dir, s.config);
     fnv(h, config);
     fnv(h, file_contents(config));
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "fnv1a64:%016llx", static_cast<unsigned long long>(h));
-    return buf;
+    return h.text();
 }
 
 std::string config_checksum(const std::string& config_path) {
-    uint64_t h = 0xcbf29ce484222325ull;
+    Fnv1a64 h;
     fnv(h, file_contents(config_path));
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "fnv1a64:%016llx", static_cast<unsigned long long>(h));
-    return buf;
+    return h.text();
 }
 
-bool up_to_date(const std::string& input, const std::string& output, const std::string& hash) {
-    struct stat si, so;
-    if (::stat(input.c_str(), &si) != 0 || ::stat(output.c_str(), &so) != 0) return false;
-    if (so.st_mtim.tv_sec < si.st_mtim.tv_sec ||
-        (so.st_mtim.tv_sec == si.st_mtim.tv_sec && so.st_mtim.tv_nsec <= si.st_mtim.tv_nsec))
-        return false;
-    try {
-        exr_preflight(output);
-        Imf::MultiPartInputFile f(output.c_str());
-        auto* a = f.header(0).findTypedAttribute<Imf::StringAttribute>("spectex:settingsHash");
-        return a && a->value() == hash;
-    } catch (const std::exception&) {
-        return false;
+UpdateCheck check_update(const std::string& input, const std::string& output, const std::string& hash) {
+    UpdateCheck c;
+    struct stat si;
+    if (::stat(input.c_str(), &si) != 0 || !S_ISREG(si.st_mode)) {
+        c.reason = "the input cannot be examined";  // the bake reports why
+        return c;
     }
+    std::map<std::string, std::string> h;
+    try {
+        exr_preflight(output, &h);  // the header's bytes only: never the pixels
+    } catch (const std::exception&) {
+        c.reason = "no readable output";
+        return c;
+    }
+    auto value = [&](const char* name) {
+        auto it = h.find(name);
+        return it == h.end() ? std::string() : it->second;
+    };
+    if (value("spectex:settingsHash") != hash) {
+        c.reason = "other settings";
+        return c;
+    }
+    const std::string size = value(kSourceSizeAttribute), mtime = value(kSourceMtimeAttribute),
+                      recorded = value(kSourceHashAttribute);
+    if (size.empty() || mtime.empty() || recorded.empty()) {
+        c.reason = "the output does not record its source's identity";
+        return c;
+    }
+    const SourceIdentity now = SourceIdentity::of(si);
+    if (now.size_text() != size) {
+        c.reason = "the source's size changed";
+        return c;
+    }
+    if (now.mtime_text() == mtime) {
+        c.up_to_date = true;
+        c.reason = "up to date: same settings hash, source size and modification time";
+        return c;
+    }
+    // Same size, another time: a touch, a checkout or a restore of the same bytes keeps the output;
+    // a replacement of the same size does not. The bytes are read, not decoded.
+    try {
+        if (hash_file(input) == recorded) {
+            c.up_to_date = true;
+            c.reason = "up to date: same settings hash and source bytes (its modification time changed)";
+            return c;
+        }
+    } catch (const std::exception&) {
+    }
+    c.reason = "the source's contents changed";
+    return c;
 }
 
 // JSON strings must be UTF-8. File names need not be: a byte that is not part of a valid UTF-8
@@ -393,7 +425,7 @@ std::string json_record(const FileRecord& r) {
       << ",\"colorspace\":\"" << json_escape(r.result.colorspace) << "\",\"settings_hash\":\""
       << json_escape(r.settings_hash) << "\"";
     if (r.status == "skipped")  // why nothing was done, for a script reading the report
-        o << ",\"reason\":\"up to date: the output is newer than the input and records the same settings hash\"";
+        o << ",\"reason\":\"" << json_escape(r.reason) << "\"";
     if (r.status == "ok") {
         const auto& st = r.result.stages;
         char buf[512];

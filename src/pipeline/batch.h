@@ -47,14 +47,25 @@ std::string settings_hash(const BakeSettings& s);
 // knows whether the config a file was baked with is still the same). Throws Error as every reader.
 std::string config_checksum(const std::string& config_path);
 
-// --update: true when `output` exists, is newer than `input` and carries the same settings hash.
-bool up_to_date(const std::string& input, const std::string& output, const std::string& hash);
+// --update: whether `output` need not be baked again from `input`. It must be a readable OpenEXR
+// (only its header is read) carrying the same spectex:settingsHash and the identity of the source
+// it was baked from (io/source_identity.h). Up to date when the source has the recorded size and
+// modification time; when only the time differs (a `touch`, a checkout), the source's bytes are
+// hashed (read, not decoded) and compared with the recorded hash. Anything else rebuilds: a
+// missing or unreadable output, other settings, another size or other bytes, and outputs made
+// before spectex recorded its source's identity.
+struct UpdateCheck {
+    bool up_to_date = false;
+    std::string reason;  // why it is up to date (for --json and --verbose), or why not
+};
+UpdateCheck check_update(const std::string& input, const std::string& output, const std::string& hash);
 
 struct FileRecord {
     std::string input, output, status;  // status: ok, failed, skipped
     std::string error;
     BakeResult result;
     std::string settings_hash;
+    std::string reason;  // skipped: why (check_update)
 };
 constexpr int kJsonSchemaVersion = 1;
 std::string json_record(const FileRecord& r);

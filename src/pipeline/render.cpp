@@ -1,12 +1,11 @@
 #include "pipeline/render.h"
 
-#include <OpenImageIO/imageio.h>
-
 #include <algorithm>
 #include <memory>
 #include <thread>
 
 #include "io/atomic_file.h"
+#include "io/image_library.h"
 #include "io/spectral_reader.h"
 #include "pipeline/bitmap_font.h"
 #include "pipeline/look.h"
@@ -95,23 +94,12 @@ RenderReport render_file(const std::string& exr_path, const std::string& png_pat
     const bool associated = reader.alpha() == "associated";
 
     AtomicFile file(png_path);
-    std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create("png");
-    if (!out) throw Error(png_path + ": OpenImageIO has no PNG writer: " + OIIO::geterror());
-    OIIO::ImageSpec spec(r.width, r.height, nch, OIIO::TypeDesc::UINT8);
-    spec.attribute("oiio:ColorSpace", "sRGB");
-    // Our colour is straight already: without this OIIO's PNG writer would divide it by A again.
-    if (nch == 4) spec.attribute("oiio:UnassociatedAlpha", 1);
     std::string description = "spectex render of " + exr_path + " under";
     for (const auto& l : v.lights) description += " " + l.name;
     description += s.adapt ? " (Bradford-adapted to D65)" : " (not adapted)";
-    spec.attribute("ImageDescription", description);
-    spec.attribute("Software", "spectex");
-    if (!out->open(file.temp_path(), spec))
-        throw Error(png_path + ": cannot write the PNG: " + out->geterror());
-    auto write_rows = [&](int y0, int rows, const uint8_t* data) {
-        if (!out->write_scanlines(y0, y0 + rows, 0, OIIO::TypeDesc::UINT8, data))
-            throw Error(png_path + ": cannot write the PNG: " + out->geterror());
-    };
+    std::unique_ptr<PngWriter> out = image_library().png_writer(
+        file.temp_path(), png_path, r.width, r.height, nch, {{"ImageDescription", description}, {"Software", "spectex"}});
+    auto write_rows = [&](int y0, int rows, const uint8_t* data) { out->write_rows(y0, rows, data); };
 
     // Label strip.
     if (r.label_height > 0) {
@@ -162,7 +150,7 @@ RenderReport render_file(const std::string& exr_path, const std::string& png_pat
         }
         write_rows(r.label_height + y0, nrows, rows.data());
     }
-    if (!out->close()) throw Error(png_path + ": cannot write the PNG: " + out->geterror());
+    out->close();
     out.reset();
     file.commit();
     return r;

@@ -45,13 +45,17 @@ Basis read_basis_csv(const std::string& path, const std::string& name) {
     return Basis{name, t.data[0], t.data[1], t.data[2], t.data[3]};
 }
 
-void write_basis_csv(std::ostream& out, const Basis& basis, const std::vector<std::string>& comments) {
+void write_basis_csv(std::ostream& out, const Basis& basis) {
+    // The header row first, no '#' lines: Python's csv module, numpy.genfromtxt(names=True) and
+    // colour-science's read_sds_from_csv_file read it as it is. Provenance goes to a sidecar
+    // (basis_provenance_path); reading still accepts the older files that start with '#' lines.
     CsvTable t;
-    t.comments = comments;
     t.columns = {"wavelength", "r", "g", "b"};
     t.data = {basis.lambda, basis.r, basis.g, basis.b};
     write_csv_table(out, t);
 }
+
+std::string basis_provenance_path(const std::string& csv_path) { return csv_path + ".provenance"; }
 
 std::vector<std::string> shipped_bases() { return {"mallett2019"}; }
 

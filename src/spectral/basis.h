@@ -16,9 +16,14 @@ struct Basis {
     std::string checksum() const;
 };
 
-// CSV with header "wavelength,r,g,b" (DESIGN.md conventions).
+// CSV with header "wavelength,r,g,b" (DESIGN.md conventions). Written with the header row first
+// and nothing else, so that generic CSV readers load it; read with or without leading '#' lines
+// (files written before carry their provenance there).
 Basis read_basis_csv(const std::string& path, const std::string& name);
-void write_basis_csv(std::ostream& out, const Basis& basis, const std::vector<std::string>& comments);
+void write_basis_csv(std::ostream& out, const Basis& basis);
+// Where `spectex basis -o FILE` writes the provenance of FILE (command, fit, checksum,
+// certificate), one "key: value" line each: FILE + ".provenance".
+std::string basis_provenance_path(const std::string& csv_path);
 
 // "mallett2019" (the published table shipped in <data_dir>/spectral/), or a CSV file path.
 Basis load_basis(const std::string& data_dir, const std::string& name_or_file);

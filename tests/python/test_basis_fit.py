@@ -168,6 +168,10 @@ def read_basis(path):
             elif line:
                 rows.append([float(v) for v in line.split(",")])
     assert header == "wavelength,r,g,b"
+    assert not comments, "the CSV holds the table alone; its provenance is in FILE.provenance"
+    # The provenance and certificate, one "key: value" line each (issue 14, item 10).
+    with open(path + ".provenance") as f:
+        comments = [line.rstrip("\n") for line in f]
     data = np.array(rows)
     return data[:, 0], data[:, 1:4], comments
 
@@ -390,11 +394,33 @@ def test_shipped_basis_matches_fresh_fit(tmp):
     assert r.returncode == 0, r.stderr
     assert data_lines(shipped) == data_lines(fresh)
 
-    def checksum(p):
-        with open(p) as f:
-            return [l for l in f.read().splitlines() if l.startswith("# checksum:")]
+    def checksum(p):  # the provenance sidecar (issue 14, item 10)
+        with open(p + ".provenance") as f:
+            return [l for l in f.read().splitlines() if l.startswith("checksum:")]
 
     assert checksum(shipped) == checksum(fresh) and len(checksum(fresh)) == 1
+
+
+def test_basis_csv_loads_in_generic_readers(tmp):
+    # The header row first, nothing else: Python's csv module, numpy.genfromtxt(names=True) and
+    # colour-science's read_sds_from_csv_file load it without options (issue 14, item 10).
+    import csv
+    import colour
+
+    out = os.path.join(tmp, "plain.csv")
+    r, _ = run_basis(out, "-q")
+    assert r.returncode == 0, r.stderr
+    with open(out, newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 81 and float(rows[0]["wavelength"]) == 380
+    arr = np.genfromtxt(out, delimiter=",", names=True)
+    assert arr.dtype.names == ("wavelength", "r", "g", "b") and len(arr) == 81
+    sds = colour.read_sds_from_csv_file(out)
+    assert sorted(sds) == ["b", "g", "r"]
+    total = sds["r"].values + sds["g"].values + sds["b"].values
+    assert np.allclose(total, 1, atol=1e-12)
+    for name in ("r", "g", "b"):
+        assert np.array_equal(sds[name].values, arr[name])
 
 
 # --------------------------------------------------------------------------------------------

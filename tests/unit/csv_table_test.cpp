@@ -50,9 +50,19 @@ TEST(CsvTable, ErrorNamesFileAndLine) {
 TEST(CsvTable, BasisWriteReadIsExact) {
     Basis b{"t", {380, 382.5}, {0.1, 1.0 / 3.0}, {0.2, 2.0 / 3.0}, {0.7, 1e-17}};
     std::ostringstream out;
-    write_basis_csv(out, b, {"made by a test"});
+    write_basis_csv(out, b);
+    EXPECT_EQ(out.str().rfind("wavelength,r,g,b\n", 0), 0u) << "the header row comes first (generic CSV readers)";
     auto t = parse_csv_table(out.str(), "mem", {"wavelength", "r", "g", "b"});
     Basis back{"t", t.data[0], t.data[1], t.data[2], t.data[3]};
     EXPECT_EQ(back.checksum(), b.checksum());  // 17 significant digits round-trip doubles exactly
     EXPECT_EQ(back.r[1], 1.0 / 3.0);
+}
+
+TEST(CsvTable, BasisWithTheOlderCommentPreambleStillReads) {
+    const std::string old = "# spectral primary decomposition basis, fitted by spectex\n# checksum: fnv1a64:0\n"
+                            "wavelength,r,g,b\n380,0.1,0.2,0.7\n385,0.2,0.2,0.6\n";
+    auto t = parse_csv_table(old, "old.csv", {"wavelength", "r", "g", "b"});
+    EXPECT_EQ(t.rows(), 2u);
+    EXPECT_EQ(t.comments.size(), 2u);
+    EXPECT_EQ(t.data[3][1], 0.6);
 }

@@ -1,6 +1,10 @@
+// OpenImageIO's side of ImageSource (io/image_source.h), PNG writing for render and the code
+// floats of the linearizer's table: the image module (io/image_library.h).
+#include "io/oiio/oiio_library.h"
 #include "io/image_source.h"
 #include "spectral/text.h"
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
 #include <fcntl.h>
@@ -10,24 +14,99 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <mutex>
 
 #include "spectral/bounded_read.h"
 #include "spectral/error.h"
 
 namespace spectex {
 
-struct ImageSource::Impl {
+namespace {
+
+// The reader's view of the checked file: OIIO reads through this descriptor (never the path again,
+// so the file read is the file checked) and every byte read at the hash's frontier extends the
+// FNV-1a of the file, so the content hash costs no read of its own. Readers may read from several
+// threads (OpenEXR) and out of order (TIFF directories, EXR offset tables): only bytes that continue
+// the hash in file order are hashed; the rest is read at the end (content_hash).
+class HashingProxy final : public OIIO::Filesystem::IOProxy {
+public:
+    HashingProxy(const std::string& path, int fd, uint64_t size)
+        : IOProxy(path, IOProxy::Read), fd_(fd), size_(size) {}
+    const char* proxytype() const override { return "spectex-hashing"; }
+    size_t read(void* buf, size_t size) override {
+        const size_t n = pread(buf, size, m_pos);
+        m_pos += static_cast<int64_t>(n);
+        return n;
+    }
+    size_t pread(void* buf, size_t size, int64_t offset) override {
+        if (offset < 0) return 0;
+        size_t done = 0;
+        while (done < size) {
+            const ssize_t got = ::pread(fd_, static_cast<char*>(buf) + done, size - done, static_cast<off_t>(offset) + static_cast<off_t>(done));
+            if (got < 0 && errno == EINTR) continue;
+            if (got <= 0) break;
+            done += static_cast<size_t>(got);
+        }
+        observe(static_cast<const unsigned char*>(buf), done, static_cast<uint64_t>(offset));
+        return done;
+    }
+    bool seek(int64_t offset) override {
+        if (offset < 0) return false;
+        m_pos = offset;
+        return true;
+    }
+    size_t size() const override { return static_cast<size_t>(size_); }
+    size_t write(const void*, size_t) override { return 0; }
+    size_t pwrite(const void*, size_t, int64_t) override { return 0; }
+
+    // The hash of the whole file: what the decoder left is read now.
+    std::string finish(const std::string& path) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        hash_file_range(fd_, frontier_, size_, hash_, path);
+        frontier_ = size_;
+        return hash_.text();
+    }
+
+private:
+    void observe(const unsigned char* p, size_t n, uint64_t offset) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (offset > frontier_ || offset + n <= frontier_ || frontier_ >= size_) return;
+        const uint64_t end = std::min<uint64_t>(offset + n, size_);
+        hash_.add(p + (frontier_ - offset), static_cast<size_t>(end - frontier_));
+        frontier_ = end;
+    }
+    int fd_;
+    uint64_t size_;
+    std::mutex mutex_;
+    uint64_t frontier_ = 0;  // bytes [0, frontier_) are in hash_
+    Fnv1a64 hash_;
+};
+
+}  // namespace
+
+class OiioImageSource final : public ImageSource {
+public:
+    static std::unique_ptr<ImageSource> open(const std::string& path, uint64_t max_pixels);
+    ~OiioImageSource() override {
+        if (in) in->close();
+    }
+    std::string content_hash() override { return !whole_hash.empty() ? whole_hash : proxy->finish(info_.path); }
+    void read_rgba(int y0, int y1, float* rgba) override;
+
+private:
+    std::unique_ptr<CheckedFile> file;    // the descriptor checked, open while the image is read
+    std::unique_ptr<HashingProxy> proxy;  // before `in`: destroyed after it
+    std::vector<unsigned char> bytes;     // JPEG: the file, read once (see open)
+    std::unique_ptr<OIIO::Filesystem::IOMemReader> memory;
+    std::string whole_hash;               // JPEG: the hash of `bytes`
     std::unique_ptr<OIIO::ImageInput> in;
     int chbegin = 0, chend = 0;        // the channels read: [chbegin, chend) of the file
     int color_channels[3] = {0, 0, 0};  // relative to chbegin
     int alpha = -1;                     // relative to chbegin, -1 when none
     bool tiled = false;
     std::vector<float> whole;  // tiled inputs: the whole first level, read once
+    std::vector<float> scratch_;
 };
-
-ImageSource::~ImageSource() {
-    if (impl_ && impl_->in) impl_->in->close();
-}
 
 namespace {
 
@@ -202,12 +281,16 @@ std::string format_from_signature(const unsigned char* b, size_t n) {
 
 }  // namespace
 
-std::unique_ptr<ImageSource> ImageSource::open(const std::string& path, uint64_t max_pixels) {
+std::unique_ptr<ImageSource> OiioImageSource::open(const std::string& path, uint64_t max_pixels) {
     // A regular file, checked before any library opens it: a FIFO, device or folder is refused
     // at once (OIIO would block on a FIFO, or read /dev/zero forever).
     std::string format;  // the reader chosen by the file's first bytes, "" when they say nothing
+    auto file = std::make_unique<CheckedFile>(path, file_limits::kImage, "an input image");
+    struct stat fst;
+    if (::fstat(file->fd(), &fst) != 0) throw Error(path + ": cannot stat: " + std::strerror(errno));
+    const SourceIdentity identity = SourceIdentity::of(fst);
     {
-        CheckedFile f(path, file_limits::kImage, "an input image");
+        const CheckedFile& f = *file;
         if (f.size() == 0) throw Error(path + ": empty file");
         unsigned char sig[16] = {0};
         const ssize_t got = ::pread(f.fd(), sig, sizeof sig, 0);
@@ -229,8 +312,40 @@ std::unique_ptr<ImageSource> ImageSource::open(const std::string& path, uint64_t
         if (dot != std::string::npos && (slash == std::string::npos || dot > slash)) format = lower_ascii(path.substr(dot + 1));
     }
     if (format.empty()) throw Error(path + ": cannot read: neither its contents nor its name (no extension) say what image format it is");
+    // Readers that can read through a proxy read the checked descriptor and hash as they go;
+    // the others (a few rare formats) open the path, and the hash reads the file at the end.
+    // (Declared before the reader, so that it outlives it.)
+    auto proxy = std::make_unique<HashingProxy>(path, file->fd(), file->size());
+    std::vector<unsigned char> bytes;
+    std::unique_ptr<OIIO::Filesystem::IOMemReader> memory;
+    std::string whole_hash;
     auto in = OIIO::ImageInput::create(format, false, static_cast<const OIIO::ImageSpec*>(nullptr));
     if (!in) throw Error(path + ": cannot read: " + oiio_error(nullptr));
+    if (in->supports("ioproxy")) {
+        OIIO::Filesystem::IOProxy* p = proxy.get();
+        if (std::string(in->format_name()) == "jpeg") {
+            // OIIO 2.4's JPEG reader takes only in-memory proxies: a JPEG (small next to its pixels)
+            // is read once into memory and hashed there. Past 256 MiB it opens the path itself and
+            // the hash reads the file at the end.
+            p = nullptr;
+            if (file->size() <= (uint64_t{256} << 20)) {
+                bytes.resize(static_cast<size_t>(file->size()));
+                size_t done = 0;
+                while (done < bytes.size()) {
+                    const ssize_t got = ::pread(file->fd(), bytes.data() + done, bytes.size() - done, static_cast<off_t>(done));
+                    if (got < 0 && errno == EINTR) continue;
+                    if (got <= 0) throw Error(path + ": read error: " + (got < 0 ? std::strerror(errno) : "the file became shorter"));
+                    done += static_cast<size_t>(got);
+                }
+                Fnv1a64 h;
+                h.add(bytes.data(), bytes.size());
+                whole_hash = h.text();
+                memory = std::make_unique<OIIO::Filesystem::IOMemReader>(bytes.data(), bytes.size());
+                p = memory.get();
+            }
+        }
+        if (p) config.attribute("oiio:ioproxy", OIIO::TypeDesc::PTR, &p);
+    }
     {
         OIIO::ImageSpec opened;
         if (!in->open(path, opened, config)) {
@@ -243,8 +358,13 @@ std::unique_ptr<ImageSource> ImageSource::open(const std::string& path, uint64_t
     // truncated progressive JPEG, whose scans are read at once) as an error but still open.
     if (in->has_error()) throw Error(path + ": cannot read: " + oiio_error(in.get()));
 
-    std::unique_ptr<ImageSource> src(new ImageSource);
-    src->impl_ = std::make_unique<Impl>();
+    std::unique_ptr<OiioImageSource> src(new OiioImageSource);
+    src->file = std::move(file);
+    src->proxy = std::move(proxy);
+    src->bytes = std::move(bytes);
+    src->memory = std::move(memory);
+    src->whole_hash = whole_hash;
+    src->identity_ = identity;
     const OIIO::ImageSpec& spec = in->spec();
     SourceInfo& info = src->info_;
     info.path = path;
@@ -282,7 +402,7 @@ std::unique_ptr<ImageSource> ImageSource::open(const std::string& path, uint64_t
     int lo = choice.colour[0], hi = choice.colour[0];
     for (int c : {choice.colour[1], choice.colour[2], choice.alpha})
         if (c >= 0) lo = std::min(lo, c), hi = std::max(hi, c);
-    Impl& I = *src->impl_;
+    OiioImageSource& I = *src;
     I.chbegin = lo;
     I.chend = hi + 1;
     for (int i = 0; i < 3; ++i) I.color_channels[i] = choice.colour[i] - lo;
@@ -303,8 +423,8 @@ std::unique_ptr<ImageSource> ImageSource::open(const std::string& path, uint64_t
     return src;
 }
 
-void ImageSource::read_rgba(int y0, int y1, float* rgba) {
-    Impl& I = *impl_;
+void OiioImageSource::read_rgba(int y0, int y1, float* rgba) {
+    OiioImageSource& I = *this;
     const int nch = I.chend - I.chbegin;
     const size_t w = static_cast<size_t>(info_.width);
     const size_t rows = static_cast<size_t>(y1 - y0);
@@ -338,6 +458,70 @@ void ImageSource::read_rgba(int y0, int y1, float* rgba) {
         rgba[2] = s[cc[2]];
         rgba[3] = a >= 0 ? s[a] : 1.0f;
     }
+}
+
+namespace {
+
+class OiioPngWriter final : public PngWriter {
+public:
+    OiioPngWriter(const std::string& file_path, const std::string& png_path, int width, int height, int channels,
+                  const std::vector<std::pair<std::string, std::string>>& attributes)
+        : png_path_(png_path) {
+        out_ = OIIO::ImageOutput::create("png");
+        if (!out_) throw Error(png_path + ": OpenImageIO has no PNG writer: " + OIIO::geterror());
+        OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::UINT8);
+        spec.attribute("oiio:ColorSpace", "sRGB");
+        // Our colour is straight already: without this OIIO's PNG writer would divide it by A again.
+        if (channels == 4) spec.attribute("oiio:UnassociatedAlpha", 1);
+        for (const auto& [k, v] : attributes) spec.attribute(k, v);
+        if (!out_->open(file_path, spec)) throw Error(png_path + ": cannot write the PNG: " + out_->geterror());
+    }
+    void write_rows(int y0, int rows, const uint8_t* data) override {
+        if (!out_->write_scanlines(y0, y0 + rows, 0, OIIO::TypeDesc::UINT8, data))
+            throw Error(png_path_ + ": cannot write the PNG: " + out_->geterror());
+    }
+    void close() override {
+        if (!out_->close()) throw Error(png_path_ + ": cannot write the PNG: " + out_->geterror());
+    }
+
+private:
+    std::string png_path_;
+    std::unique_ptr<OIIO::ImageOutput> out_;
+};
+
+class OiioLibrary final : public ImageLibrary {
+public:
+    std::unique_ptr<ImageSource> open_source(const std::string& path, uint64_t max_pixels) override {
+        return OiioImageSource::open(path, max_pixels);
+    }
+    std::vector<float> integer_code_floats(int bits) override {
+        const size_t n = size_t{1} << bits;
+        std::vector<float> key(n);
+        // Exactly the floats OpenImageIO hands us for these codes (its conversion, not ours).
+        if (bits <= 8) {
+            std::vector<uint8_t> c8(n);
+            for (size_t i = 0; i < n; ++i) c8[i] = static_cast<uint8_t>(i);
+            OIIO::convert_pixel_values(OIIO::TypeDesc::UINT8, c8.data(), OIIO::TypeDesc::FLOAT, key.data(), static_cast<int>(n));
+        } else {
+            std::vector<uint16_t> c16(n);
+            for (size_t i = 0; i < n; ++i) c16[i] = static_cast<uint16_t>(i);
+            OIIO::convert_pixel_values(OIIO::TypeDesc::UINT16, c16.data(), OIIO::TypeDesc::FLOAT, key.data(), static_cast<int>(n));
+        }
+        return key;
+    }
+    std::unique_ptr<PngWriter> png_writer(const std::string& file_path, const std::string& png_path, int width,
+                                          int height, int channels,
+                                          const std::vector<std::pair<std::string, std::string>>& attributes) override {
+        return std::make_unique<OiioPngWriter>(file_path, png_path, width, height, channels, attributes);
+    }
+    void set_threads(int threads) override { OIIO::attribute("threads", threads); }
+};
+
+}  // namespace
+
+ImageLibrary* oiio_image_library() {
+    static OiioLibrary library;
+    return &library;
 }
 
 }  // namespace spectex
