@@ -591,6 +591,7 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
     plan.quiet = c.quiet;
     plan.verbose = c.verbose;
     plan.progress = c.progress || (!c.quiet && stderr_is_terminal());
+    plan.progress_terminal = stderr_is_terminal();
     plan.json = c.json;
     return run_batch(plan, c.settings);
 }

@@ -2,7 +2,10 @@
 
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
+#include <ctime>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <iostream>
 #include <map>
@@ -26,6 +29,28 @@ std::string seconds_text(double s) {
     else std::snprintf(buf, sizeof buf, "%dm%02ds", static_cast<int>(s) / 60, static_cast<int>(s) % 60);
     return buf;
 }
+
+std::string base_name(const std::string& p) {
+    const size_t slash = p.find_last_of('/');
+    return slash == std::string::npos ? p : p.substr(slash + 1);
+}
+
+// "2026-12-02T03:59:01Z": the prefix of a progress line in a log.
+std::string utc_stamp() {
+    const std::time_t now = std::time(nullptr);
+    std::tm tm{};
+    gmtime_r(&now, &tm);
+    char buf[32];
+    std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+    return buf;
+}
+
+// What one job is baking, for the progress line.
+struct JobSlot {
+    std::string input;  // "" when idle (guarded by the batch's io mutex)
+    std::chrono::steady_clock::time_point start;
+    BakeProgress rows;
+};
 
 }  // namespace
 
@@ -79,9 +104,40 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
     std::atomic<bool> stop{false};
     size_t done = 0, ok = 0, skipped = 0, failed = 0;
 
+    const int jobs = std::max(1, std::min<int>(plan.jobs, static_cast<int>(total)));
+    std::vector<JobSlot> slots(static_cast<size_t>(jobs));
+    // The progress line (io held): files done, and the rows of the files being baked.
+    auto progress_line = [&]() {
+        const auto now = std::chrono::steady_clock::now();
+        const double el = std::chrono::duration<double>(now - t0).count();
+        std::string line = "spectex: [" + std::to_string(done) + "/" + std::to_string(total) + "] " +
+                           std::to_string(failed) + " failed";
+        double file_eta = 0;
+        for (const auto& sl : slots) {
+            if (sl.input.empty()) continue;
+            const long d = sl.rows.rows_done.load(), t = sl.rows.rows_total.load();
+            if (t <= 0) continue;
+            char buf[96];
+            std::snprintf(buf, sizeof buf, ": rows %ld/%ld (%d%%)", d, t, static_cast<int>(100.0 * d / t));
+            line += "; " + one_line(base_name(sl.input)) + buf;
+            const double fe = std::chrono::duration<double>(now - sl.start).count();
+            if (d > 0) file_eta = std::max(file_eta, fe / static_cast<double>(d) * static_cast<double>(t - d));
+        }
+        double eta = done ? el / static_cast<double>(done) * static_cast<double>(total - done) : file_eta;
+        if (total == 1) eta = file_eta;
+        if (done || file_eta > 0) line += ", ETA " + seconds_text(eta);
+        return line;
+    };
+    auto show_progress = [&]() {
+        if (plan.progress_terminal)
+            std::cerr << "\r\033[K" << progress_line() << std::flush;
+        else
+            std::cerr << utc_stamp() << " " << progress_line() << "\n" << std::flush;
+    };
+
     auto report = [&](const FileRecord& r) {
         std::lock_guard<std::mutex> lock(io);
-        if (plan.progress) std::cerr << "\r\033[K";
+        if (plan.progress && plan.progress_terminal) std::cerr << "\r\033[K";
         if (r.status == "failed") {
             print_error(r.error);
         } else if (!plan.quiet) {
@@ -115,15 +171,11 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
         ok += r.status == "ok";
         skipped += r.status == "skipped";
         failed += r.status == "failed";
-        if (plan.progress) {
-            double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-            double eta = done ? el / static_cast<double>(done) * static_cast<double>(total - done) : 0;
-            std::cerr << "spectex: [" << done << "/" << total << "] " << failed << " failed, ETA "
-                      << seconds_text(eta) << std::flush;
-        }
+        if (plan.progress) show_progress();
     };
 
-    auto worker = [&] {
+    auto worker = [&](size_t job) {
+        JobSlot& slot = slots[job];
         for (;;) {
             if (stop.load()) return;
             size_t i = next.fetch_add(1);
@@ -147,7 +199,14 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
                         const size_t slash = r.output.find_last_of('/');
                         if (slash != std::string::npos && slash > 0) make_folders(r.output.substr(0, slash));
                     }
-                    r.result = bake_file(r.input, r.output, settings);
+                    {
+                        std::lock_guard<std::mutex> lock(io);
+                        slot.input = r.input;
+                        slot.start = std::chrono::steady_clock::now();
+                        slot.rows.rows_done = 0;
+                        slot.rows.rows_total = 0;
+                    }
+                    r.result = bake_file(r.input, r.output, settings, &slot.rows);
                     r.status = "ok";
                 }
             } catch (const Error& e) {
@@ -157,18 +216,54 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
                 r.status = "failed";
                 r.error = r.input + ": " + e.what();
             }
+            {
+                std::lock_guard<std::mutex> lock(io);
+                slot.input.clear();
+            }
             r.result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
             if (r.status == "failed" && plan.fail_fast) stop.store(true);
             report(r);
         }
     };
-    const int jobs = std::max(1, std::min<int>(plan.jobs, static_cast<int>(total)));
+    // Progress within files: a few times a second on a terminal, every 10 s in a log.
+    std::mutex tick_mutex;
+    std::condition_variable tick_cv;
+    bool finished = false;
+    std::thread ticker;
+    if (plan.progress)
+        ticker = std::thread([&] {
+            // A log's cadence: SPECTEX_PROGRESS_SECONDS (default 10).
+            double log_seconds = 10;
+            if (const char* e = std::getenv("SPECTEX_PROGRESS_SECONDS")) {
+                char* end = nullptr;
+                const double v = std::strtod(e, &end);
+                if (end != e && *end == 0 && v >= 0.01 && v <= 86400) log_seconds = v;
+            }
+            const auto period = plan.progress_terminal
+                                    ? std::chrono::milliseconds(250)
+                                    : std::chrono::milliseconds(static_cast<long>(log_seconds * 1000));
+            std::unique_lock<std::mutex> lock(tick_mutex);
+            while (!tick_cv.wait_for(lock, period, [&] { return finished; })) {
+                std::lock_guard<std::mutex> io_lock(io);
+                bool busy = false;
+                for (const auto& sl : slots) busy = busy || (!sl.input.empty() && sl.rows.rows_total.load() > 0);
+                if (busy) show_progress();
+            }
+        });
     std::vector<std::thread> pool;
-    for (int j = 1; j < jobs; ++j) pool.emplace_back(worker);
-    worker();
+    for (int j = 1; j < jobs; ++j) pool.emplace_back(worker, static_cast<size_t>(j));
+    worker(0);
     for (auto& t : pool) t.join();
+    if (ticker.joinable()) {
+        {
+            std::lock_guard<std::mutex> lock(tick_mutex);
+            finished = true;
+        }
+        tick_cv.notify_all();
+        ticker.join();
+    }
 
-    if (plan.progress) std::cerr << "\r\033[K";
+    if (plan.progress && plan.progress_terminal) std::cerr << "\r\033[K";
     const size_t not_attempted = total - done;
     if (!plan.quiet && (total > 1 || failed || skipped)) {
         double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -102,7 +102,8 @@ std::string to_string(RangePolicy p) {
 }
 std::string to_string(NanPolicy p) { return p == NanPolicy::Replace ? "replace" : "error"; }
 
-BakeResult bake_file(const std::string& input, const std::string& output, const BakeSettings& s) {
+BakeResult bake_file(const std::string& input, const std::string& output, const BakeSettings& s,
+                     BakeProgress* progress) {
     auto t0 = std::chrono::steady_clock::now();
     BakeResult res;
     res.input = input;
@@ -261,6 +262,14 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
             writer.write_rows(rows, planes, n, a, r, g, b);
     };
 
+    if (progress) {
+        long rows = info.height;
+        if (s.mipmap) {
+            rows = 0;
+            for (int l = 0; l < writer.levels(); ++l) rows += writer.level_height(l);
+        }
+        progress->rows_total = rows;
+    }
     if (!s.mipmap) {
         // Two strips in flight: while OpenEXR compresses and writes strip k (on its thread pool),
         // a producer thread decodes, linearises and expands strip k+1, so those stages hide
@@ -300,6 +309,7 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
                                         st.b.data());
             else
                 writer.write_rows(st.y1 - st.y0, planes, n, st.a.data(), st.r.data(), st.g.data(), st.b.data());
+            if (progress) progress->rows_done += st.y1 - st.y0;
         };
         produce(strips[0], 0);
         for (int k = 0; strips[k % 2].y0 < info.height; ++k) {
@@ -346,6 +356,7 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
                 expand_and_write(l, y0, y1 - y0, static_cast<size_t>(lw) * static_cast<size_t>(y1 - y0),
                                  level[0].data() + off, level[1].data() + off, level[2].data() + off,
                                  has_alpha ? level[3].data() + off : nullptr);
+                if (progress) progress->rows_done += y1 - y0;
             }
         }
     }

@@ -1,6 +1,7 @@
 #pragma once
 // The streaming bake of one texture: read (OIIO) -> linearise (OCIO) -> policies -> expand ->
 // write (OpenEXR), a strip of rows at a time, into an atomic output file.
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -70,7 +71,14 @@ struct BakeResult {
 };
 
 // Throws Error ("<file>: <cause>") on failure; the output then does not exist under its name.
-BakeResult bake_file(const std::string& input, const std::string& output, const BakeSettings& s);
+// Rows of one bake written so far, for a progress display on another thread (MIP levels count their
+// own rows: rows_total is the sum over levels). Set once the input's header is read.
+struct BakeProgress {
+    std::atomic<long> rows_done{0}, rows_total{0};
+};
+
+BakeResult bake_file(const std::string& input, const std::string& output, const BakeSettings& s,
+                     BakeProgress* progress = nullptr);
 
 // Rows per strip: about 32 MB of spectral samples (row_bytes each). The C++ writer and tiled files
 // take whole chunks (lines_per_chunk rows, rounded up to one); the core writer takes any rows, so
