@@ -171,7 +171,7 @@ TEST(OutputIdentity, OutputsAndGridsAreCheckedBeforeAnyWork) {
     expect_usage_error(run_spectex({"bake", d / "in.png", "-o", d / "x.png"}), "does not end in .exr");
     RunResult tok = run_spectex({"bake", d / "in.png", "-o", d.path() + "/out/{name}.exr"});
     expect_usage_error(tok, "{name}");
-    EXPECT_TRUE(contains(tok.err, "{dir}, {stem}, {ext}")) << tok.err;
+    EXPECT_TRUE(contains(tok.err, "{dir}, {reldir}, {stem}, {ext}")) << tok.err;
     RunResult grid = run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--wavelengths", "400:700:7"});
     expect_usage_error(grid, "400:694:7");
     expect_usage_error(run_spectex({"basis", "-o", d / "b.csv", "--wavelengths", "380:780:30"}), "380:770:30");
