@@ -126,6 +126,10 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     if (!info.is_float) lin.use_code_table(info.bits);
     res.colorspace = lin.input_space();
     res.colorspace_how = lin.how_chosen();
+    res.colorspace_rule = lin.file_rule();
+    res.config = lin.config_path();
+    res.config_from = lin.config_from();
+    res.integer_to_linear_by_default_rule = !info.is_float && lin.by_default_rule() && lin.scene_linear();
 
     const bool has_alpha = info.alpha != AlphaKind::None;
     SpectralExrLayout layout;

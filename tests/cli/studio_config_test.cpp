@@ -1,7 +1,9 @@
 // Issue 14, item 2: a studio config whose default file rule is a scene-linear space. With $OCIO set
 // to an ACES-style config (reference ACES2065-1, default rule to it), an untagged 16-bit sRGB TIFF
 // was read as ACES2065-1 and the only hint was a count of clamped pixels. Now the header records
-// the config (path, where it came from, name, checksum) and how the colour space was chosen.
+// the config (path, where it came from, name, checksum) and how the colour space was chosen, the
+// batch summary names each file's colour space, and one warning per batch names the default rule
+// and suggests --colorspace when integer files fall to a scene-linear space through it.
 //
 // The config is written here: its spaces carry no `encoding`, so what makes ACES2065-1 scene-linear
 // for spectex must be OCIO's transform (a matrix), not a name or a tag; the sRGB space is named as
@@ -20,6 +22,14 @@
 using namespace spectex_test;
 
 namespace {
+
+bool has(const std::string& h, const std::string& n) { return h.find(n) != std::string::npos; }
+
+size_t count(const std::string& h, const std::string& n) {
+    size_t k = 0;
+    for (size_t at = h.find(n); at != std::string::npos; at = h.find(n, at + 1)) ++k;
+    return k;
+}
 
 // The ACES2065-1 -> linear Rec.709 matrix of the shipped config (Bradford to D65), here the
 // transform from this config's reference (ACES2065-1) to its sRGB texture space's linear part.
@@ -89,11 +99,30 @@ void write_tiff16(const std::string& path, uint16_t base = 20000) {
     write_image(path, 6, 4, 3, OIIO::TypeDesc::UINT16, px.data());
 }
 
+void write_float_exr(const std::string& path) {
+    std::vector<float> px(4 * 4 * 3, 0.25f);
+    write_image(path, 4, 4, 3, OIIO::TypeDesc::FLOAT, px.data());
+}
+
 struct Studio {
     ScratchDir d;
     std::string config = d / "studio.ocio";
     Studio() { std::ofstream(config) << kStudioConfig; }
 };
+
+// The stderr lines that hold `needle`.
+std::vector<std::string> lines_with(const std::string& err, const std::string& needle) {
+    std::vector<std::string> out;
+    size_t b = 0;
+    while (b < err.size()) {
+        size_t e = err.find('\n', b);
+        if (e == std::string::npos) e = err.size();
+        std::string line = err.substr(b, e - b);
+        if (has(line, needle)) out.push_back(line);
+        b = e + 1;
+    }
+    return out;
+}
 
 }  // namespace
 
@@ -137,4 +166,78 @@ TEST(StudioConfig, HeaderRecordsTheConfigAndHowTheSpaceWasChosen) {
     ExrImage flag = read_exr(s.d / "flag.exr");
     ASSERT_EQ(flag.pixels.size(), img.pixels.size());
     for (const auto& [name, values] : img.pixels) EXPECT_EQ(flag.pixels.at(name), values) << name;
+}
+
+// Integer files that fall to a scene-linear space through the default rule get one warning per
+// batch, naming the rule, the space and the files, and suggesting --colorspace with the config's
+// own sRGB texture space (found by its transform, not its name). Files chosen by an explicit rule,
+// float files, and --colorspace are not warned about. The summary names every file's space.
+TEST(StudioConfig, DefaultRuleToSceneLinearWarnsOncePerBatch) {
+    Studio s;
+    write_tiff16(s.d / "a.tif");
+    write_tiff16(s.d / "b.tif", 30000);
+    write_tiff16(s.d / "c_lin.tif");
+    write_float_exr(s.d / "d.exr");
+    RunResult r = run_spectex({"bake", s.d / "a.tif", s.d / "b.tif", s.d / "c_lin.tif", s.d / "d.exr", "--output-dir",
+                               s.d / "out", "--jobs", "2"},
+                              {"OCIO=" + s.config});
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto warnings = lines_with(r.err, "warning:");
+    ASSERT_EQ(warnings.size(), 1u) << r.err;
+    const std::string& w = warnings[0];
+    EXPECT_TRUE(has(w, "2 integer")) << w;
+    EXPECT_TRUE(has(w, "'ACES2065-1'")) << w;
+    EXPECT_TRUE(has(w, "scene-linear")) << w;
+    EXPECT_TRUE(has(w, "default file rule 'Default'")) << w;
+    EXPECT_TRUE(has(w, s.config)) << w;
+    EXPECT_TRUE(has(w, "$OCIO")) << w;
+    EXPECT_TRUE(has(w, "a.tif")) << w;
+    EXPECT_TRUE(has(w, "b.tif")) << w;
+    EXPECT_FALSE(has(w, "c_lin.tif")) << "chosen by an explicit rule: " << w;
+    EXPECT_FALSE(has(w, "d.exr")) << "a float file: " << w;
+    EXPECT_TRUE(has(w, "--colorspace 'sRGB Encoded Rec.709 (sRGB)'")) << w;
+
+    // The summary: every file with its colour space and how it was chosen, one line per space and
+    // way, in input order (the float EXR says it is linear: OIIO's "Linear" is the scene_linear role).
+    const auto spaces = lines_with(r.err, "colour space '");
+    ASSERT_EQ(spaces.size(), 3u) << r.err;
+    EXPECT_TRUE(has(spaces[0], "colour space 'ACES2065-1' (config file rule 'Default'): " + s.d / "a.tif" + ", " +
+                                   s.d / "b.tif"))
+        << spaces[0];
+    EXPECT_TRUE(has(spaces[1], "colour space 'ACES2065-1' (config file rule 'LinearTiffs'): " + s.d / "c_lin.tif"))
+        << spaces[1];
+    EXPECT_TRUE(has(spaces[2], "colour space 'ACES2065-1' (file metadata (Linear)): " + s.d / "d.exr")) << spaces[2];
+
+    // --colorspace: no warning; -q: no warning and no summary.
+    RunResult given = run_spectex({"bake", s.d / "a.tif", s.d / "b.tif", "--output-dir", s.d / "given",
+                                   "--colorspace", "sRGB Encoded Rec.709 (sRGB)"},
+                                  {"OCIO=" + s.config});
+    ASSERT_EQ(given.status, 0) << given.err;
+    EXPECT_FALSE(has(given.err, "warning")) << given.err;
+    EXPECT_EQ(count(given.err, "(--colorspace)"), 1u) << given.err;
+    RunResult quiet = run_spectex({"bake", s.d / "a.tif", s.d / "b.tif", "--output-dir", s.d / "quiet", "-q"},
+                                  {"OCIO=" + s.config});
+    ASSERT_EQ(quiet.status, 0) << quiet.err;
+    EXPECT_EQ(quiet.err, "");
+}
+
+// One file is a batch too: the warning comes without a summary; an explicit rule, a float file and
+// the shipped config's default rule (to an sRGB texture space, not scene-linear) give none.
+TEST(StudioConfig, OneFileAndTheCasesThatDoNotWarn) {
+    Studio s;
+    write_tiff16(s.d / "a.tif");
+    write_tiff16(s.d / "c_lin.tif");
+    write_float_exr(s.d / "d.exr");
+    RunResult one = run_spectex({"bake", s.d / "a.tif", "-o", s.d / "a.exr"}, {"OCIO=" + s.config});
+    ASSERT_EQ(one.status, 0) << one.err;
+    EXPECT_EQ(count(one.err, "warning:"), 1u) << one.err;
+    EXPECT_TRUE(has(one.err, "1 integer (display-referred) file was read as 'ACES2065-1'")) << one.err;
+    for (const char* f : {"c_lin.tif", "d.exr"}) {
+        RunResult r = run_spectex({"bake", s.d / f, "-o", s.d / (std::string(f) + ".exr")}, {"OCIO=" + s.config});
+        ASSERT_EQ(r.status, 0) << r.err;
+        EXPECT_FALSE(has(r.err, "warning")) << f << ": " << r.err;
+    }
+    RunResult shipped = run_spectex({"bake", s.d / "a.tif", "-o", s.d / "shipped.exr"}, {"OCIO="});
+    ASSERT_EQ(shipped.status, 0) << shipped.err;
+    EXPECT_FALSE(has(shipped.err, "warning")) << shipped.err;
 }
