@@ -1,5 +1,6 @@
 #include "cli/batch_runner.h"
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
@@ -16,6 +17,7 @@
 #include "cli/commands.h"
 #include "io/atomic_file.h"
 #include "io/file_identity.h"
+#include "io/linearizer.h"
 #include "pipeline/batch.h"
 #include "spectral/error.h"
 
@@ -51,6 +53,65 @@ struct JobSlot {
     std::chrono::steady_clock::time_point start;
     BakeProgress rows;
 };
+
+// Names listed per line of the summary; the --json report has every file.
+constexpr size_t kListedFiles = 20;
+
+std::string file_list(const std::vector<std::string>& names) {
+    std::string out;
+    for (size_t i = 0; i < names.size() && i < kListedFiles; ++i) out += (i ? ", " : "") + names[i];
+    if (names.size() > kListedFiles)
+        out += ", and " + std::to_string(names.size() - kListedFiles) + " more (--json lists each file)";
+    return out;
+}
+
+// One line per colour space and way of choosing it, in input order: which files were read how.
+void print_colour_spaces(const BatchPlan& plan, const std::vector<BakeResult>& baked,
+                         const std::vector<bool>& was_baked) {
+    std::vector<std::pair<std::string, std::vector<std::string>>> groups;  // "'space' (how)", inputs
+    for (size_t i = 0; i < baked.size(); ++i) {
+        if (!was_baked[i]) continue;
+        const std::string key = "'" + baked[i].colorspace + "' (" + baked[i].colorspace_how + ")";
+        auto it = std::find_if(groups.begin(), groups.end(), [&](const auto& g) { return g.first == key; });
+        if (it == groups.end()) it = groups.insert(groups.end(), {key, {}});
+        it->second.push_back(plan.files[i].first);
+    }
+    for (const auto& [key, names] : groups)
+        std::cerr << "spectex: " << one_line("colour space " + key + ": " + file_list(names)) << "\n";
+}
+
+// Once per batch: integer files (display-referred: codes for a screen) read as a scene-linear space
+// only because the config's default rule names it are most likely sRGB textures of a studio config
+// whose default is ACES2065-1; their only other sign is a count of clamped pixels.
+void warn_default_rule_to_linear(const BatchPlan& plan, const BakeSettings& settings,
+                                 const std::vector<BakeResult>& baked, const std::vector<bool>& was_baked) {
+    std::vector<std::string> names;
+    const BakeResult* first = nullptr;
+    for (size_t i = 0; i < baked.size(); ++i)
+        if (was_baked[i] && baked[i].integer_to_linear_by_default_rule) {
+            if (!first) first = &baked[i];
+            names.push_back(plan.files[i].first);
+        }
+    if (!first) return;
+    std::string suggestion;
+    try {
+        suggestion = srgb_texture_space(settings.data_dir, settings.config);
+    } catch (const Error&) {
+        // the config was read for every file: it cannot fail here, but a warning never fails a run
+    }
+    const bool one = names.size() == 1;
+    std::string msg = "warning: " + std::to_string(names.size()) + " integer (display-referred) file" +
+                      (one ? " was" : "s were") + " read as '" + first->colorspace +
+                      "', a scene-linear space, only because the default file rule '" + first->colorspace_rule +
+                      "' of the OCIO config " + first->config +
+                      (first->config_from == "shipped" ? " (shipped)" : " (from " + first->config_from + ")") +
+                      " names it: " +
+                      file_list(names) + "; if " + (one ? "it is an sRGB texture" : "they are sRGB textures") +
+                      ", bake " + (one ? "it" : "them") + " with ";
+    msg += suggestion.empty() ? "--colorspace NAME (the config has no space that decodes as sRGB does)"
+                              : "--colorspace '" + suggestion + "'";
+    std::cerr << "spectex: " << one_line(msg) << "\n";
+}
 
 }  // namespace
 
@@ -103,6 +164,10 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
     std::atomic<size_t> next{0};
     std::atomic<bool> stop{false};
     size_t done = 0, ok = 0, skipped = 0, failed = 0;
+    // Per input, in input order: its colour space and how it was chosen (baked files only), and
+    // whether it is an integer file read as scene-linear through the default rule, for the summary.
+    std::vector<BakeResult> baked(total);
+    std::vector<bool> was_baked(total, false);
 
     const int jobs = std::max(1, std::min<int>(plan.jobs, static_cast<int>(total)));
     std::vector<JobSlot> slots(static_cast<size_t>(jobs));
@@ -223,6 +288,11 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
             r.result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
             if (r.status == "failed" && plan.fail_fast) stop.store(true);
             report(r);
+            if (r.status == "ok") {
+                std::lock_guard<std::mutex> lock(io);
+                baked[i] = r.result;
+                was_baked[i] = true;
+            }
         }
     };
     // Progress within files: a few times a second on a terminal, every 10 s in a log.
@@ -270,7 +340,9 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
         std::cerr << "spectex: " << ok << " baked, " << skipped << " up to date, " << failed << " failed";
         if (not_attempted) std::cerr << ", " << not_attempted << " not attempted (--fail-fast)";
         std::cerr << " of " << total << " in " << seconds_text(el) << "\n";
+        print_colour_spaces(plan, baked, was_baked);
     }
+    if (!plan.quiet) warn_default_rule_to_linear(plan, settings, baked, was_baked);
     if (json_file && json_error.empty()) {
         try {
             json_file->commit();

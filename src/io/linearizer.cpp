@@ -176,6 +176,52 @@ OCIO::ConstConfigRcPtr load_ocio_config(const std::string& path) {
     return cfg;
 }
 
+// The processor from `src` of `cfg` to linear Rec.709: inside the config when it has that space,
+// else bridged to ours through ACES2065-1 (the aces_interchange role). Throws OCIO::Exception.
+OCIO::ConstProcessorRcPtr processor_to_linear(const OCIO::ConstConfigRcPtr& cfg, const std::string& src,
+                                              const std::string& path, const std::string& shipped) {
+    const std::string dst = find_first(cfg, kLinearRec709Names);
+    if (!dst.empty()) return cfg->getProcessor(src.c_str(), dst.c_str());
+    if (!cfg->hasRole("aces_interchange"))
+        throw Error(path + ": config has no linear Rec.709 space (lin_srgb) and no aces_interchange role");
+    return OCIO::Config::GetProcessorFromConfigs(cfg, src.c_str(), load_ocio_config(shipped), "lin_srgb");
+}
+
+// Whether a processor is linear on RGB: f(0) = 0, f(x + y) = f(x) + f(y) and f(x / 2) = f(x) / 2 on
+// a few colours, to float precision (a matrix passes to 1e-7; a transfer curve misses by 1e-2).
+bool measured_linear(const OCIO::ConstCPUProcessorRcPtr& cpu) {
+    const float x[3] = {0.2f, 0.5f, 0.8f}, y[3] = {0.6f, 0.1f, 0.3f};
+    float px[4 * 5] = {};
+    for (int c = 0; c < 3; ++c) {
+        px[4 * 1 + c] = x[c];
+        px[4 * 2 + c] = y[c];
+        px[4 * 3 + c] = x[c] + y[c];
+        px[4 * 4 + c] = x[c] / 2;
+    }
+    for (int p = 0; p < 5; ++p) px[4 * p + 3] = 1.0f;
+    OCIO::PackedImageDesc desc(px, 5, 1, 4);
+    cpu->apply(desc);
+    auto near = [](float a, float b) { return std::isfinite(a) && std::isfinite(b) && std::fabs(a - b) <= 1e-5f * (1 + std::fabs(b)); };
+    for (int c = 0; c < 3; ++c) {
+        const float f0 = px[c], fx = px[4 + c], fy = px[8 + c], fxy = px[12 + c], fh = px[16 + c];
+        if (!near(f0, 0) || !near(fxy, fx + fy) || !near(fh, fx / 2)) return false;
+    }
+    return true;
+}
+
+// "name: description" of a config, on one line.
+std::string describe_config(const OCIO::ConstConfigRcPtr& cfg) {
+    auto tidy = [](std::string t) {
+        for (char& c : t)
+            if (c == '\n' || c == '\r' || c == '\t') c = ' ';
+        const size_t b = t.find_first_not_of(' '), e = t.find_last_not_of(' ');
+        return b == std::string::npos ? std::string() : t.substr(b, e - b + 1);
+    };
+    const std::string name = tidy(cfg->getName() ? cfg->getName() : "");
+    const std::string desc = tidy(cfg->getDescription() ? cfg->getDescription() : "");
+    return name.empty() ? desc : desc.empty() ? name : name + ": " + desc;
+}
+
 }  // namespace
 
 struct Linearizer::Impl {
@@ -214,10 +260,12 @@ Linearizer Linearizer::make(const ColourRequest& req) {
     std::string path = req.config_override;
     if (path.empty())
         if (const char* env = std::getenv("OCIO"); env && *env) path = env;
+    lin.config_from_ = !req.config_override.empty() ? "--config" : !path.empty() ? "$OCIO" : "shipped";
     if (path.empty()) path = shipped;
     lin.config_path_ = path;
 
     OCIO::ConstConfigRcPtr cfg = load_ocio_config(path);
+    lin.config_name_ = describe_config(cfg);
 
     // 1. --colorspace, 2. the file's own metadata when the config knows it, 3. the file rules.
     std::string src;
@@ -241,33 +289,33 @@ Linearizer Linearizer::make(const ColourRequest& req) {
     }
     if (src.empty()) {
         try {
-            src = cfg->getColorSpaceFromFilepath(req.file_path.c_str());
+            size_t rule = 0;
+            src = cfg->getColorSpaceFromFilepath(req.file_path.c_str(), rule);
+            OCIO::ConstFileRulesRcPtr rules = cfg->getFileRules();
+            lin.rule_ = rules->getName(rule);
+            // OCIO keeps the default rule last: it matches what no other rule does.
+            lin.default_rule_ = rule + 1 == rules->getNumEntries();
         } catch (const OCIO::Exception& e) {
             throw Error(path + ": file rules failed: " + e.what());
         }
         src = find_space(cfg, src);
         if (src.empty()) throw Error(path + ": the config's file rules name no known colour space");
-        lin.how_ = "config file rules";
+        lin.how_ = "config file rule '" + lin.rule_ + "'";
     }
     lin.input_space_ = src;
 
     try {
-        OCIO::ConstProcessorRcPtr proc;
-        std::string dst = find_first(cfg, kLinearRec709Names);
-        if (!dst.empty()) {
-            proc = cfg->getProcessor(src.c_str(), dst.c_str());
-        } else {
-            // A foreign config without linear Rec.709: bridge to ours through ACES2065-1.
-            if (!cfg->hasRole("aces_interchange"))
-                throw Error(path + ": config has no linear Rec.709 space (lin_srgb) and no aces_interchange role");
-            auto ours = load_ocio_config(shipped);
-            proc = OCIO::Config::GetProcessorFromConfigs(cfg, src.c_str(), ours, "lin_srgb");
-        }
+        // A foreign config without linear Rec.709 is bridged to ours through ACES2065-1.
+        const std::string dst = find_first(cfg, kLinearRec709Names);
+        OCIO::ConstProcessorRcPtr proc = processor_to_linear(cfg, src, path, shipped);
         lin.identity_ = proc->isNoOp();
         lin.impl_->crosstalk = proc->hasChannelCrosstalk();
         // Full-precision ops only: no LUT approximations of the transfer curves.
         lin.impl_->cpu = proc->getOptimizedCPUProcessor(OCIO::BIT_DEPTH_F32, OCIO::BIT_DEPTH_F32,
                                                         OCIO::OPTIMIZATION_LOSSLESS);
+        OCIO::ConstColorSpaceRcPtr cs = cfg->getColorSpace(src.c_str());
+        lin.scene_linear_ = cs && !cs->isData() && cs->getReferenceSpaceType() == OCIO::REFERENCE_SPACE_SCENE &&
+                            measured_linear(lin.impl_->cpu);
         try {
             OCIO::ConstProcessorRcPtr inv =
                 !dst.empty() ? cfg->getProcessor(dst.c_str(), src.c_str())
@@ -353,6 +401,40 @@ std::vector<std::string> ocio_config_files(const std::string& config_path) {
     OCIO::ConstConfigRcPtr cfg = load_ocio_config(config_path);
     for (const auto& f : lut_files(cfg)) files.push_back(f.second);
     return files;
+}
+
+std::string srgb_texture_space(const std::string& data_dir, const std::string& config_override) {
+    const std::string path = ocio_config_path(data_dir, config_override), shipped = data_dir + "/spectex.ocio";
+    OCIO::ConstConfigRcPtr cfg = load_ocio_config(path);
+    // Codes and the linear values the IEC 61966-2-1 curve gives them, one colour per channel mix
+    // (so that a space with other primaries, which mixes channels, does not pass).
+    auto eotf = [](double v) { return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4); };
+    const float codes[3][3] = {{0.5f, 0.2f, 0.8f}, {0.04f, 0.9f, 0.3f}, {1.0f, 0.0f, 0.6f}};
+    const int n = cfg->getNumColorSpaces(OCIO::SEARCH_REFERENCE_SPACE_SCENE, OCIO::COLORSPACE_ACTIVE);
+    for (int i = 0; i < n; ++i) {
+        const char* name = cfg->getColorSpaceNameByIndex(OCIO::SEARCH_REFERENCE_SPACE_SCENE, OCIO::COLORSPACE_ACTIVE, i);
+        OCIO::ConstColorSpaceRcPtr cs = cfg->getColorSpace(name);
+        if (!cs || cs->isData()) continue;
+        try {
+            auto cpu = processor_to_linear(cfg, name, path, shipped)
+                           ->getOptimizedCPUProcessor(OCIO::BIT_DEPTH_F32, OCIO::BIT_DEPTH_F32,
+                                                      OCIO::OPTIMIZATION_LOSSLESS);
+            float px[12];
+            for (int p = 0; p < 3; ++p) {
+                for (int c = 0; c < 3; ++c) px[4 * p + c] = codes[p][c];
+                px[4 * p + 3] = 1.0f;
+            }
+            OCIO::PackedImageDesc desc(px, 3, 1, 4);
+            cpu->apply(desc);
+            bool same = true;
+            for (int p = 0; p < 3; ++p)
+                for (int c = 0; c < 3; ++c) same = same && std::fabs(px[4 * p + c] - eotf(codes[p][c])) <= 1e-4;
+            if (same) return name;
+        } catch (const std::exception&) {
+            // a space this config cannot convert: not the one
+        }
+    }
+    return "";
 }
 
 std::string ocio_config_path(const std::string& data_dir, const std::string& config_override) {

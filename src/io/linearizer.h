@@ -21,7 +21,20 @@ public:
 
     const std::string& input_space() const { return input_space_; }
     const std::string& config_path() const { return config_path_; }
-    const std::string& how_chosen() const { return how_; }   // "--colorspace", "file metadata", ...
+    // Where the config came from: "--config", "$OCIO" or "shipped".
+    const std::string& config_from() const { return config_from_; }
+    // The config's name and description ("name: description"; either alone when the other is empty).
+    const std::string& config_name() const { return config_name_; }
+    // "--colorspace", "file metadata (sRGB)", "config file rule 'Default'".
+    const std::string& how_chosen() const { return how_; }
+    // The file rule that chose the input space ("" when --colorspace or metadata did), and whether it
+    // is the config's default rule (the one that matches every file no other rule names).
+    const std::string& file_rule() const { return rule_; }
+    bool by_default_rule() const { return default_rule_; }
+    // Whether the input space is scene-linear, as OCIO defines it: scene-referred, not data, and its
+    // transform to linear Rec.709 linear (f(a x + b y) = a f(x) + b f(y), measured, whatever the
+    // space is called or tagged).
+    bool scene_linear() const { return scene_linear_; }
     bool is_identity() const { return identity_; }
 
     // In place on `pixels` packed RGBA float pixels (alpha passes through).
@@ -48,8 +61,8 @@ public:
 private:
     struct Impl;
     std::unique_ptr<Impl> impl_;
-    std::string input_space_, config_path_, how_;
-    bool identity_ = false;
+    std::string input_space_, config_path_, config_from_, config_name_, how_, rule_;
+    bool identity_ = false, default_rule_ = false, scene_linear_ = false;
 };
 
 // Closest names (colour spaces and aliases) to `name` in a config, for "did you mean" messages.
@@ -61,6 +74,10 @@ std::vector<std::string> close_colour_space_names(const std::vector<std::string>
 namespace spectex {
 // The OCIO config a command uses: --config, else $OCIO, else <data_dir>/spectex.ocio.
 std::string ocio_config_path(const std::string& data_dir, const std::string& config_override);
+// A colour space of that config which decodes like an sRGB texture (the IEC 61966-2-1 curve on
+// Rec.709 primaries, D65), found by its transform, not its name; "" when it has none. For a
+// --colorspace suggestion: it builds a processor per colour space, so call it once, not per file.
+std::string srgb_texture_space(const std::string& data_dir, const std::string& config_override);
 // The files that config reads: itself and the LUT files its transforms reference, resolved through
 // its context. Throws Error when the config cannot be read (not a regular file, too large, ...).
 std::vector<std::string> ocio_config_files(const std::string& config_path);

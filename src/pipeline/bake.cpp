@@ -128,6 +128,10 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     if (!info.is_float) lin.use_code_table(info.bits);
     res.colorspace = lin.input_space();
     res.colorspace_how = lin.how_chosen();
+    res.colorspace_rule = lin.file_rule();
+    res.config = lin.config_path();
+    res.config_from = lin.config_from();
+    res.integer_to_linear_by_default_rule = !info.is_float && lin.by_default_rule() && lin.scene_linear();
 
     const bool has_alpha = info.alpha != AlphaKind::None;
     SpectralExrLayout layout;
@@ -158,7 +162,10 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
         {"spectex:observer", s.observer},
         {"spectex:illuminant", s.illuminant},
         {"spectex:inputColorSpace", lin.input_space()},
+        {"spectex:inputColorSpaceFrom", lin.how_chosen()},
         {"spectex:config", std::filesystem::absolute(lin.config_path()).lexically_normal().string()},
+        {"spectex:configFrom", lin.config_from()},
+        {"spectex:configName", lin.config_name()},
         {"spectex:configChecksum", config_checksum(lin.config_path())},
         {"spectex:alpha", has_alpha ? (s.alpha == AlphaMode::Associated ? "associated" : "unassociated") : "none"},
         {"spectex:outOfRange", to_string(s.range)},

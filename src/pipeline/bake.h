@@ -52,6 +52,11 @@ struct BakeSettings {
 struct BakeResult {
     std::string input, output;
     std::string colorspace, colorspace_how;
+    std::string colorspace_rule;     // the config's file rule that chose it ("" when it was not a rule)
+    std::string config, config_from;  // the OCIO config used, and "--config", "$OCIO" or "shipped"
+    // An integer (display-referred) input read as a scene-linear space only because the config's
+    // default file rule names that space: most likely an sRGB texture the config knows nothing of.
+    bool integer_to_linear_by_default_rule = false;
     uint64_t pixels = 0;
     int bins = 0;
     uint64_t bytes = 0;
