@@ -25,7 +25,7 @@ flags="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recove
 
 # Configure once (and again when the flags or compiler change).
 stamp="$build/.spectex-sanitize-config"
-want="$CXX|$flags"
+want="$CXX|$flags|module"  # "module": the image module (spectex-oiio.so) links with the sanitizers too
 if [ ! -f "$build/CMakeCache.txt" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
   cmake -S "$src" -B "$build" -G Ninja \
     -DCMAKE_CXX_COMPILER="$CXX" \
@@ -33,6 +33,8 @@ if [ ! -f "$build/CMakeCache.txt" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$want
     -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g" \
     -DCMAKE_CXX_FLAGS="$flags" \
     -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" \
+    -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=address,undefined" \
+    -DCMAKE_MODULE_LINKER_FLAGS="-fsanitize=address,undefined" \
     -DSPECTEX_INTEROP_TESTS=OFF \
     -DSPECTEX_BUILD_BENCHMARKS=OFF \
     -DSPECTEX_TOOLING_TESTS=OFF
