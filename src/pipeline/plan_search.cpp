@@ -124,12 +124,12 @@ NonuniformSearch search_nonuniform(const PlanSpec& spec, const Observer& observe
         if (uerr[i] <= spec.max_de && (out.uniform_bins == 0 || static_cast<int>(uniform[i].size()) < out.uniform_bins))
             out.uniform_bins = static_cast<int>(uniform[i].size());
 
-    // Greedy removal from the 5 nm grid of each range: drop the bin whose loss raises the worst error
-    // least, while the grid stays within the budget; the trail keeps the last grids that held.
+    // Greedy removal from uniform starts over each range: drop the bin whose loss raises the worst
+    // error least, while the grid stays within the budget; the trail keeps the last grids that held.
     std::vector<std::pair<double, double>> ranges = {{400, 700}, {380, 780}, {spec.range_start, spec.range_end}};
     std::sort(ranges.begin(), ranges.end());
     ranges.erase(std::unique(ranges.begin(), ranges.end()), ranges.end());
-    std::vector<WavelengthGrid> starts;
+    std::vector<std::pair<WavelengthGrid, double>> starts;  // a grid that holds, and its error
     for (const auto& [lo, hi] : ranges) {
         if (lo < fine.lambda.front() || hi > fine.lambda.back()) continue;
         // The coarsest of 10, 5, 4 and 2.5 nm that holds, and the next finer one (at most
@@ -139,15 +139,16 @@ NonuniformSearch search_nonuniform(const PlanSpec& spec, const Observer& observe
             WavelengthGrid g = WavelengthGrid::uniform_grid(lo, lo + std::floor((hi - lo) / step + 1e-9) * step, step);
             if (static_cast<int>(g.size()) > kMaxStartBins) break;
             ++trials;
-            if (found == 0 && !(ctx.error(g) <= spec.max_de)) continue;
-            starts.push_back(g);
+            const double e = ctx.error(g);
+            if (!(e <= spec.max_de)) {
+                if (found == 0) continue;
+                break;
+            }
+            starts.emplace_back(g, e);
             if (++found == 2) break;
         }
     }
-    for (WavelengthGrid g : starts) {
-        double err = ctx.error(g);
-        ++trials;
-        if (!(err <= spec.max_de)) continue;
+    for (auto [g, err] : starts) {
         std::vector<WavelengthGrid> held = {g};
         while (g.size() > 2) {
             std::vector<double> errs(g.size(), kInf);
@@ -193,8 +194,9 @@ NonuniformSearch search_nonuniform(const PlanSpec& spec, const Observer& observe
                       out.uniform_bins, out.best_bins, out.trials, out.seconds);
     else
         std::snprintf(buf, sizeof buf,
-                      "non-uniform search: even the 5 nm grids exceed the budget on the search colours; %ld trials, "
-                      "%.1f s",
+                      "non-uniform search: no uniform start (10, 5, 4 or 2.5 nm, at most %d bins) holds the budget "
+                      "on the search colours; %ld trials, %.1f s",
+                      kMaxStartBins,
                       out.trials, out.seconds);
     out.note = buf;
     return out;
