@@ -148,7 +148,10 @@ NonuniformSearch search_nonuniform(const PlanSpec& spec, const Observer& observe
             if (++found == 2) break;
         }
     }
-    for (auto [g, err] : starts) {
+    for (const auto& start : starts) {
+        // Not a structured binding: lambdas below capture g, which C++17 (clang) does not allow.
+        WavelengthGrid g = start.first;
+        double err = start.second;
         std::vector<WavelengthGrid> held = {g};
         while (g.size() > 2) {
             std::vector<double> errs(g.size(), kInf);
