@@ -16,64 +16,6 @@
 
 namespace spectex {
 
-std::string one_line(const std::string& text) {
-    std::string out;
-    bool pending_break = false;
-    for (size_t i = 0; i < text.size();) {
-        const unsigned char c = static_cast<unsigned char>(text[i]);
-        if (c == '\n' || c == '\r') {
-            pending_break = !out.empty();
-            ++i;
-            continue;
-        }
-        if (pending_break) {
-            while (!out.empty() && out.back() == ' ') out.pop_back();
-            out += "; ";
-            pending_break = false;
-            while (i < text.size() && (text[i] == ' ' || text[i] == '\t')) ++i;
-            continue;
-        }
-        // A whole, valid UTF-8 sequence passes (file names in other scripts stay readable), unless
-        // it is a control (C1) or an invisible format character that reorders or hides text (bidi
-        // overrides, zero-width marks): those are written as \uXXXX. Anything else is \xNN.
-        size_t len = c < 0x80 ? 1 : (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xe ? 3 : (c >> 3) == 0x1e ? 4 : 0;
-        bool valid = len > 0 && i + len <= text.size();
-        for (size_t k = 1; valid && k < len; ++k) valid = (static_cast<unsigned char>(text[i + k]) >> 6) == 0x2;
-        uint32_t cp = 0;
-        if (valid && len > 1) {
-            cp = c & (0x7f >> len);
-            for (size_t k = 1; k < len; ++k) cp = (cp << 6) | (static_cast<unsigned char>(text[i + k]) & 0x3f);
-            const uint32_t min_cp[5] = {0, 0, 0x80, 0x800, 0x10000};
-            valid = cp >= min_cp[len] && cp <= 0x10ffff && !(cp >= 0xd800 && cp <= 0xdfff);  // no overlong, no surrogate
-        }
-        const bool hidden = valid && len > 1 &&
-                            ((cp >= 0x80 && cp <= 0x9f) || (cp >= 0x200b && cp <= 0x200f) ||
-                             (cp >= 0x202a && cp <= 0x202e) || (cp >= 0x2060 && cp <= 0x2069) || cp == 0xfeff ||
-                             cp == 0x061c || cp == 0x2028 || cp == 0x2029);
-        if (c == '\t') {
-            out += ' ';
-            ++i;
-        } else if (len == 1 && c >= 0x20 && c != 0x7f) {
-            out += static_cast<char>(c);
-            ++i;
-        } else if (hidden) {
-            char buf[12];
-            std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned>(cp));
-            out += buf;
-            i += len;
-        } else if (len > 1 && valid) {
-            out.append(text, i, len);
-            i += len;
-        } else {
-            char buf[8];
-            std::snprintf(buf, sizeof buf, "\\x%02x", c);
-            out += buf;
-            ++i;
-        }
-    }
-    return out;
-}
-
 void print_error(const std::string& message) { std::cerr << "spectex: " << one_line(message) << std::endl; }
 
 int run_reporting(const std::string& file, const std::function<void()>& work) {
@@ -129,6 +71,10 @@ std::string quote(const std::string& s) {
 
 }  // namespace
 
+// The command as given, shell-quoted: printed once at the end of a run whose work failed, so that a
+// farm log holds what to rerun (as oiiotool does).
+std::string g_command_line;
+
 // What a command printed must have reached standard output: a full disk or a closed pipe behind
 // it (`> /dev/full`) is a failure, never exit 0 with the output lost.
 int finish(int status) {
@@ -137,8 +83,11 @@ int finish(int status) {
     if (std::fflush(stdout) != 0 || std::ferror(stdout) || !std::cout) {
         const int err = errno;
         spectex::print_error(std::string("standard output: cannot write: ") + (err ? std::strerror(err) : "write error"));
-        return status == 0 ? 1 : status;
+        if (status == 0) status = 1;
     }
+    spectex::finish_library_stderr();  // the libraries' last warnings before the closing line
+    if (status == 1 && !g_command_line.empty())
+        std::cerr << "spectex: the command was: " << spectex::one_line(g_command_line) << std::endl;
     return status;
 }
 
@@ -169,6 +118,7 @@ int run(int argc, char** argv) {
     }
     std::string command_line = "spectex";
     for (const auto& a : args) command_line += " " + quote(a);
+    g_command_line = command_line;
     std::vector<std::string> rest(args.begin() + 1, args.end());
     if (cmd == "bake") return spectex::run_bake(rest, command_line);
     if (cmd == "info") return spectex::run_info(rest);

@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "spectral/text.h"  // one_line
+
 namespace spectex {
 
 int run_bake(const std::vector<std::string>& args, const std::string& command_line);
@@ -23,9 +25,6 @@ class ArgParser;
 // were given.
 void add_plan_options(ArgParser& p, PlanSpec& spec, bool& lights_given, bool& budget_given);
 
-// A message as one printable line: line breaks become "; ", control bytes and bytes that are not
-// valid UTF-8 (a binary file's name or contents quoted by a library) become \xNN.
-std::string one_line(const std::string& text);
 // Prints "spectex: <message>" to stderr, as one_line().
 void print_error(const std::string& message);
 // Runs a command's work on `file`: 0 when it returns, else the error printed as

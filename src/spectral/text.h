@@ -11,4 +11,9 @@ inline std::string lower_ascii(std::string s) {
     return s;
 }
 
+// A message as one printable line: line breaks become "; ", control bytes and bytes that are not
+// valid UTF-8 (a binary file's name or contents quoted by a library) become \xNN, and characters
+// that would act on a terminal or hide text (C1 controls, bidi overrides, zero-width marks) \uXXXX.
+std::string one_line(const std::string& text);
+
 }  // namespace spectex

@@ -84,20 +84,55 @@ TEST(Messages, LibraryErrorsAreOneLineWithOurPrefix) {
     }
 }
 
-TEST(Messages, OcioLoggingNeverReachesStderr) {
+TEST(Messages, OcioInfoAndDebugNeverReachStderrButWarningsDo) {
     ScratchDir d;
     std::vector<uint8_t> px(4 * 4 * 3, 100);
     write_image(d / "in.png", 4, 4, 3, OIIO::TypeDesc::UINT8, px.data());
-    // OCIO logs through its own function (to std::cerr), at the level $OCIO_LOGGING_LEVEL asks,
-    // and complains about a bad level on std::cerr directly.
-    for (const std::string level : {"debug", "info", "warning", "bogus"}) {
+    // OCIO logs through its own function (to std::cerr), at the level $OCIO_LOGGING_LEVEL asks:
+    // our config and a bake give no warning, and info and debug chatter is not shown.
+    for (const std::string level : {"debug", "info", "warning"}) {
         RunResult r = run_spectex({"bake", d / "in.png", "-o", d / "o.exr"}, {"OCIO_LOGGING_LEVEL=" + level});
         EXPECT_EQ(r.status, 0) << level << ": " << r.err;
         EXPECT_FALSE(contains(r.err, "OpenColorIO")) << level << ":\n" << r.err;
         expect_clean_stderr(r, "OCIO_LOGGING_LEVEL=" + level);
     }
-    // SPECTEX_LIBRARY_MESSAGES=1 still shows them, marked as the library's.
-    RunResult shown = run_spectex({"bake", d / "in.png", "-o", d / "o.exr"},
-                                  {"OCIO_LOGGING_LEVEL=debug", "SPECTEX_LIBRARY_MESSAGES=1"});
-    EXPECT_TRUE(contains(shown.err, "spectex: library: [OpenColorIO")) << shown.err;
+    // A warning does reach the log, once, marked as the library's: OCIO complains about a bad
+    // level on std::cerr directly, at its first use.
+    RunResult bogus = run_spectex({"bake", d / "in.png", "-o", d / "o.exr"}, {"OCIO_LOGGING_LEVEL=bogus"});
+    EXPECT_EQ(bogus.status, 0) << bogus.err;
+    expect_clean_stderr(bogus, "OCIO_LOGGING_LEVEL=bogus");
+    size_t shown = 0;
+    for (const auto& l : lines(bogus.err)) shown += l.rfind("spectex: library: [OpenColorIO Warning]", 0) == 0;
+    EXPECT_EQ(shown, 1u) << bogus.err;
+    // SPECTEX_LIBRARY_MESSAGES=0 drops it; =1 shows everything, debug included.
+    RunResult none = run_spectex({"bake", d / "in.png", "-o", d / "o.exr"},
+                                 {"OCIO_LOGGING_LEVEL=bogus", "SPECTEX_LIBRARY_MESSAGES=0"});
+    EXPECT_FALSE(contains(none.err, "OpenColorIO")) << none.err;
+    RunResult all = run_spectex({"bake", d / "in.png", "-o", d / "o.exr"},
+                                {"OCIO_LOGGING_LEVEL=debug", "SPECTEX_LIBRARY_MESSAGES=1"});
+    EXPECT_TRUE(contains(all.err, "spectex: library: [OpenColorIO Debug")) << all.err;
+}
+
+TEST(Messages, AFailedRunEndsWithTheCommandToRerun) {
+    ScratchDir d;
+    std::vector<uint8_t> px(4 * 4 * 3, 100);
+    write_image(d / "in.png", 4, 4, 3, OIIO::TypeDesc::UINT8, px.data());
+    const std::string missing = d / "no such.png";
+    RunResult r = run_spectex({"bake", d / "in.png", missing, "--output-dir", d / "out"});
+    EXPECT_EQ(r.status, 1) << r.err;
+    auto ls = lines(r.err);
+    ASSERT_FALSE(ls.empty());
+    // Last, once, shell-quoted so it can be pasted back.
+    EXPECT_EQ(ls.back(), "spectex: the command was: spectex bake " + d / "in.png" + " '" + missing + "' --output-dir " +
+                             d / "out") << r.err;
+    size_t n = 0;
+    for (const auto& l : ls) n += l.rfind("spectex: the command was:", 0) == 0;
+    EXPECT_EQ(n, 1u) << r.err;
+    // Not after a success, nor after a usage error (which says what to run instead).
+    RunResult ok = run_spectex({"bake", d / "in.png", "-o", d / "o.exr"});
+    EXPECT_EQ(ok.status, 0) << ok.err;
+    EXPECT_FALSE(contains(ok.err, "the command was")) << ok.err;
+    RunResult usage = run_spectex({"bake", "--no-such-option", d / "in.png"});
+    EXPECT_EQ(usage.status, 2) << usage.err;
+    EXPECT_FALSE(contains(usage.err, "the command was")) << usage.err;
 }

@@ -1,0 +1,67 @@
+// Small text helpers shared by every layer (one copy of each).
+#include "spectral/text.h"
+
+#include <cstdint>
+#include <cstdio>
+
+namespace spectex {
+
+std::string one_line(const std::string& text) {
+    std::string out;
+    bool pending_break = false;
+    for (size_t i = 0; i < text.size();) {
+        const unsigned char c = static_cast<unsigned char>(text[i]);
+        if (c == '\n' || c == '\r') {
+            pending_break = !out.empty();
+            ++i;
+            continue;
+        }
+        if (pending_break) {
+            while (!out.empty() && out.back() == ' ') out.pop_back();
+            out += "; ";
+            pending_break = false;
+            while (i < text.size() && (text[i] == ' ' || text[i] == '\t')) ++i;
+            continue;
+        }
+        // A whole, valid UTF-8 sequence passes (file names in other scripts stay readable), unless
+        // it is a control (C1) or an invisible format character that reorders or hides text (bidi
+        // overrides, zero-width marks): those are written as \uXXXX. Anything else is \xNN.
+        size_t len = c < 0x80 ? 1 : (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xe ? 3 : (c >> 3) == 0x1e ? 4 : 0;
+        bool valid = len > 0 && i + len <= text.size();
+        for (size_t k = 1; valid && k < len; ++k) valid = (static_cast<unsigned char>(text[i + k]) >> 6) == 0x2;
+        uint32_t cp = 0;
+        if (valid && len > 1) {
+            cp = c & (0x7f >> len);
+            for (size_t k = 1; k < len; ++k) cp = (cp << 6) | (static_cast<unsigned char>(text[i + k]) & 0x3f);
+            const uint32_t min_cp[5] = {0, 0, 0x80, 0x800, 0x10000};
+            valid = cp >= min_cp[len] && cp <= 0x10ffff && !(cp >= 0xd800 && cp <= 0xdfff);  // no overlong, no surrogate
+        }
+        const bool hidden = valid && len > 1 &&
+                            ((cp >= 0x80 && cp <= 0x9f) || (cp >= 0x200b && cp <= 0x200f) ||
+                             (cp >= 0x202a && cp <= 0x202e) || (cp >= 0x2060 && cp <= 0x2069) || cp == 0xfeff ||
+                             cp == 0x061c || cp == 0x2028 || cp == 0x2029);
+        if (c == '\t') {
+            out += ' ';
+            ++i;
+        } else if (len == 1 && c >= 0x20 && c != 0x7f) {
+            out += static_cast<char>(c);
+            ++i;
+        } else if (hidden) {
+            char buf[12];
+            std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned>(cp));
+            out += buf;
+            i += len;
+        } else if (len > 1 && valid) {
+            out.append(text, i, len);
+            i += len;
+        } else {
+            char buf[8];
+            std::snprintf(buf, sizeof buf, "\\x%02x", c);
+            out += buf;
+            ++i;
+        }
+    }
+    return out;
+}
+
+}  // namespace spectex
