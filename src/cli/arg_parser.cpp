@@ -1,6 +1,7 @@
 #include "cli/arg_parser.h"
 
 #include "io/linearizer.h"
+#include "spectral/text.h"
 
 #include <cctype>
 #include <cerrno>
@@ -168,11 +169,8 @@ int parse_int(const std::string& option, const std::string& value, int min, int 
 }
 
 double parse_number(const std::string& option, const std::string& value) {
-    char* end = nullptr;
-    errno = 0;
-    double v = std::strtod(value.c_str(), &end);
-    if (value.empty() || *end != '\0' || errno == ERANGE || !std::isfinite(v))
-        throw UsageError(option + ": '" + value + "' is not a number");
+    double v = 0;
+    if (!parse_finite(value, &v)) throw UsageError(option + ": '" + value + "' is not a number");
     return v;
 }
 

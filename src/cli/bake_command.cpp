@@ -32,6 +32,7 @@
 #include "spectral/error.h"
 #include "spectral/fnv1a.h"
 #include "spectral/spectrum.h"
+#include "spectral/text.h"
 
 namespace spectex {
 
@@ -68,12 +69,7 @@ T pick(const std::string& option, const std::string& value, std::initializer_lis
     throw UsageError(option + ": '" + value + "' is not one of " + list);
 }
 
-bool ends_with_exr(const std::string& s) {
-    if (s.size() < 4) return false;
-    std::string e = s.substr(s.size() - 4);
-    for (char& ch : e) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-    return e == ".exr";
-}
+bool ends_with_exr(const std::string& s) { return ends_with_nocase(s, ".exr"); }
 
 bool is_directory(const std::string& p) {
     struct stat st;

@@ -18,8 +18,10 @@
 #include "io/atomic_file.h"
 #include "io/file_identity.h"
 #include "io/linearizer.h"
+#include "io/paths.h"
 #include "pipeline/batch.h"
 #include "spectral/error.h"
+#include "spectral/text.h"
 
 namespace spectex {
 
@@ -30,11 +32,6 @@ std::string seconds_text(double s) {
     if (s < 60) std::snprintf(buf, sizeof buf, "%.1f s", s);
     else std::snprintf(buf, sizeof buf, "%dm%02ds", static_cast<int>(s) / 60, static_cast<int>(s) % 60);
     return buf;
-}
-
-std::string base_name(const std::string& p) {
-    const size_t slash = p.find_last_of('/');
-    return slash == std::string::npos ? p : p.substr(slash + 1);
 }
 
 // "2026-12-02T03:59:01Z": the prefix of a progress line in a log.
@@ -184,7 +181,7 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
             if (t <= 0) continue;
             char buf[96];
             std::snprintf(buf, sizeof buf, ": rows %ld/%ld (%d%%)", d, t, static_cast<int>(100.0 * d / t));
-            line += "; " + one_line(base_name(sl.input)) + buf;
+            line += "; " + one_line(file_name_of(sl.input)) + buf;
             const double fe = std::chrono::duration<double>(now - sl.start).count();
             if (d > 0) file_eta = std::max(file_eta, fe / static_cast<double>(d) * static_cast<double>(t - d));
         }
@@ -305,9 +302,8 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
             // A log's cadence: SPECTEX_PROGRESS_SECONDS (default 10).
             double log_seconds = 10;
             if (const char* e = std::getenv("SPECTEX_PROGRESS_SECONDS")) {
-                char* end = nullptr;
-                const double v = std::strtod(e, &end);
-                if (end != e && *end == 0 && v >= 0.01 && v <= 86400) log_seconds = v;
+                double v = 0;
+                if (parse_finite(e, &v) && v >= 0.01 && v <= 86400) log_seconds = v;
             }
             const auto period = plan.progress_terminal
                                     ? std::chrono::milliseconds(250)

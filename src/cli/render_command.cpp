@@ -15,17 +15,13 @@
 #include "pipeline/look.h"
 #include "pipeline/render.h"
 #include "spectral/error.h"
+#include "spectral/text.h"
 
 namespace spectex {
 
 namespace {
 
-bool ends_with_png(const std::string& p) {
-    if (p.size() < 4) return false;
-    std::string e = p.substr(p.size() - 4);
-    for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    return e == ".png";
-}
+bool ends_with_png(const std::string& p) { return ends_with_nocase(p, ".png"); }
 
 }  // namespace
 

@@ -12,6 +12,7 @@
 #include <mutex>
 #include <vector>
 
+#include "io/paths.h"
 #include "spectral/bounded_read.h"
 #include "spectral/error.h"
 
@@ -58,12 +59,6 @@ mode_t current_umask() {
     return mask;
 }
 
-std::string dir_of(const std::string& path) {
-    size_t slash = path.find_last_of('/');
-    if (slash == std::string::npos) return ".";
-    if (slash == 0) return "/";
-    return path.substr(0, slash);
-}
 
 }  // namespace
 
@@ -96,7 +91,7 @@ void install_signal_cleanup() {
 
 void check_output_path(const std::string& path) {
     const std::string base = path.substr(path.find_last_of('/') + 1);
-    long name_max = ::pathconf(dir_of(path).c_str(), _PC_NAME_MAX);
+    long name_max = ::pathconf(folder_of(path).c_str(), _PC_NAME_MAX);
     if (name_max <= 0) name_max = NAME_MAX;
     if (base.size() > static_cast<size_t>(name_max))
         throw Error(path + ": the file name is " + std::to_string(base.size()) + " bytes, longer than the " +
@@ -116,7 +111,7 @@ void check_output_path(const std::string& path) {
 
 AtomicFile::AtomicFile(const std::string& final_path) : final_(final_path) {
     check_output_path(final_path);
-    std::string dir = dir_of(final_path);
+    std::string dir = folder_of(final_path);
     std::string base = final_path.substr(final_path.find_last_of('/') + 1);
     // The temporary name adds 19 bytes: shorten the name part so that it fits the folder's name
     // limit whenever the final name does.
@@ -154,7 +149,7 @@ void AtomicFile::commit() {
     check_output_path(final_);  // what the constructor saw may have changed meanwhile
     if (::rename(temp_.c_str(), final_.c_str()) != 0) fail("cannot rename the temporary file");
     committed_ = true;
-    int dfd = ::open(dir_of(final_).c_str(), O_RDONLY | O_DIRECTORY);
+    int dfd = ::open(folder_of(final_).c_str(), O_RDONLY | O_DIRECTORY);
     if (dfd >= 0) {
         ::fsync(dfd);  // best effort: makes the rename durable
         ::close(dfd);

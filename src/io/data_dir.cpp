@@ -5,6 +5,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "io/paths.h"
 #include "spectral/error.h"
 
 namespace spectex {
@@ -16,13 +17,6 @@ bool has_config(const std::string& dir) {
     return ::stat((dir + "/spectex.ocio").c_str(), &st) == 0 && S_ISREG(st.st_mode);
 }
 
-std::string executable_dir() {
-    char buf[PATH_MAX];
-    ssize_t n = ::readlink("/proc/self/exe", buf, sizeof buf - 1);
-    if (n <= 0) return "";
-    std::string p(buf, static_cast<size_t>(n));
-    return p.substr(0, p.find_last_of('/'));
-}
 
 }  // namespace
 

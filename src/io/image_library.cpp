@@ -8,6 +8,7 @@
 #include <mutex>
 
 #include "io/image_source.h"
+#include "io/paths.h"
 #include "spectral/error.h"
 
 namespace spectex {
@@ -18,13 +19,6 @@ std::mutex g_mutex;
 ImageLibrary* g_library = nullptr;
 int g_threads = -1;  // not set
 
-std::string executable_dir() {
-    char buf[PATH_MAX];
-    const ssize_t n = ::readlink("/proc/self/exe", buf, sizeof buf - 1);
-    if (n <= 0) return "";
-    const std::string p(buf, static_cast<size_t>(n));
-    return p.substr(0, p.find_last_of('/'));
-}
 
 ImageLibrary* load_module() {
     std::vector<std::string> candidates;

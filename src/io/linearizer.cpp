@@ -1,5 +1,6 @@
 #include "io/linearizer.h"
 #include "io/image_library.h"
+#include "io/paths.h"
 #include "spectral/text.h"
 
 #include <OpenColorIO/OpenColorIO.h>
@@ -86,8 +87,7 @@ std::string config_dir(const std::string& path) {
         char cwd[PATH_MAX];
         if (::getcwd(cwd, sizeof cwd)) abs = std::string(cwd) + "/" + path;
     }
-    size_t s = abs.find_last_of('/');
-    return s == std::string::npos ? "." : (s == 0 ? "/" : abs.substr(0, s));
+    return folder_of(abs);
 }
 
 // Every FileTransform anywhere in `t` (groups included).

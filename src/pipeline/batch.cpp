@@ -21,6 +21,7 @@
 
 #include "io/exr_preflight.h"
 #include "io/linearizer.h"
+#include "io/paths.h"
 #include "io/source_identity.h"
 #include "spectral/bounded_read.h"
 #include "spectex/version.h"
@@ -30,15 +31,6 @@
 namespace spectex {
 
 namespace {
-
-std::string dir_part(const std::string& p) {
-    size_t s = p.find_last_of('/');
-    return s == std::string::npos ? "." : (s == 0 ? "/" : p.substr(0, s));
-}
-std::string base_part(const std::string& p) {
-    size_t s = p.find_last_of('/');
-    return s == std::string::npos ? p : p.substr(s + 1);
-}
 
 std::string regex_quote(const std::string& s) {
     static const std::string special = R"(\^$.|?*+()[]{})";
@@ -90,8 +82,8 @@ std::vector<std::string> expand_tiles(const std::string& path) {
     const bool udim = path.find("<UDIM>") != std::string::npos;
     const bool uvtile = path.find("<UVTILE>") != std::string::npos;
     if (!udim && !uvtile) return {path};
-    std::string dir = dir_part(path), base = base_part(path);
-    if (dir_part(path).find('<') != std::string::npos)
+    std::string dir = folder_of(path), base = file_name_of(path);
+    if (folder_of(path).find('<') != std::string::npos)
         throw Error(path + ": tile tokens are only expanded in the file name, not in folders");
     std::string pattern = regex_quote(base);
     auto replace_all = [&](const std::string& from, const std::string& to) {
@@ -199,7 +191,7 @@ std::string relative_folder(const std::string& input, const std::string& base_di
 
 std::string output_for(const std::string& input, const std::string& templ, const std::string& output_dir,
                        const std::string& base_dir) {
-    std::string base = base_part(input);
+    std::string base = file_name_of(input);
     size_t dot = base.find_last_of('.');
     std::string stem = dot == std::string::npos || dot == 0 ? base : base.substr(0, dot);
     std::string ext = dot == std::string::npos || dot == 0 ? "" : base.substr(dot + 1);
@@ -215,7 +207,7 @@ std::string output_for(const std::string& input, const std::string& templ, const
         throw Error("the output template '" + pattern + "' uses {reldir}, which needs --base-dir DIR");
     const std::string reldir = wants_reldir ? relative_folder(input, base_dir) : "";
     // {dir} under --output-dir: the input's folder as a path inside it ("/abs/x" as "abs/x", never "..").
-    std::string dir_value = dir_part(input);
+    std::string dir_value = folder_of(input);
     if (!output_dir.empty() && pattern.find("{dir}") != std::string::npos) {
         while (!dir_value.empty() && dir_value.front() == '/') dir_value.erase(0, 1);
         if (dir_value.empty()) dir_value = ".";

@@ -17,6 +17,7 @@
 #include "spectral/error.h"
 #include "spectral/spectrum.h"
 #include "spectral/srgb_axis.h"
+#include "spectral/text.h"
 
 namespace spectex {
 
@@ -469,9 +470,8 @@ std::pair<double, double> parse_plan_range(const std::string& spec) {
     if (colon == std::string::npos || spec.find(':', colon + 1) != std::string::npos)
         throw Error("'" + spec + "' is not START:END in nm");
     const std::string a = spec.substr(0, colon), b = spec.substr(colon + 1);
-    char *ea = nullptr, *eb = nullptr;
-    const double lo = std::strtod(a.c_str(), &ea), hi = std::strtod(b.c_str(), &eb);
-    if (a.empty() || b.empty() || *ea || *eb) throw Error("'" + spec + "' is not START:END in nm");
+    double lo = 0, hi = 0;
+    if (!parse_finite(a, &lo) || !parse_finite(b, &hi)) throw Error("'" + spec + "' is not START:END in nm");
     renderer_grid(lo, hi);  // whole nm, START < END
     return {lo, hi};
 }

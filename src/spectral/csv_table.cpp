@@ -42,13 +42,7 @@ std::vector<std::string> split_commas(const std::string& line) {
     return out;
 }
 
-bool to_double(const std::string& s, double* v) {
-    if (s.empty()) return false;
-    char* end = nullptr;
-    errno = 0;
-    *v = std::strtod(s.c_str(), &end);
-    return end == s.c_str() + s.size() && errno != ERANGE && std::isfinite(*v);
-}
+bool to_double(const std::string& s, double* v) { return parse_finite(s, v); }
 
 }  // namespace
 

@@ -9,6 +9,7 @@
 
 #include "spectral/error.h"
 #include "spectral/jakob_hanika.h"
+#include "spectral/text.h"
 #include "spectral/vertex_qp.h"
 
 namespace spectex {
@@ -26,9 +27,7 @@ std::string to_string(VertexPrior p) {
 }
 
 VertexPrior parse_vertex_prior(const std::string& s) {
-    std::string l = s;
-    std::transform(l.begin(), l.end(), l.begin(),
-                   [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
+    const std::string l = lower_ascii(s);
     if (l == "jakob-hanika" || l == "jh" || l == "jakob_hanika") return VertexPrior::JakobHanika;
     if (l == "smooth") return VertexPrior::Smooth;
     if (l == "blend") return VertexPrior::Blend;

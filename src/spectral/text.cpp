@@ -1,10 +1,29 @@
 // Small text helpers shared by every layer (one copy of each).
 #include "spectral/text.h"
 
+#include <cctype>
+#include <cerrno>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 
 namespace spectex {
+
+bool ends_with_nocase(const std::string& s, const std::string& suffix) {
+    return s.size() >= suffix.size() && lower_ascii(s.substr(s.size() - suffix.size())) == lower_ascii(suffix);
+}
+
+bool parse_finite(const std::string& s, double* out) {
+    if (s.empty() || std::isspace(static_cast<unsigned char>(s[0]))) return false;
+    const char* begin = s.c_str();
+    char* end = nullptr;
+    errno = 0;
+    const double v = std::strtod(begin, &end);
+    if (end != begin + s.size() || errno == ERANGE || !std::isfinite(v)) return false;
+    *out = v;
+    return true;
+}
 
 std::string one_line(const std::string& text) {
     std::string out;

@@ -11,6 +11,13 @@ inline std::string lower_ascii(std::string s) {
     return s;
 }
 
+// Whether `s` ends with `suffix`, ASCII letters compared without case (".EXR" is ".exr").
+bool ends_with_nocase(const std::string& s, const std::string& suffix);
+
+// A whole token as a finite double, read in the C locale: no leading or trailing characters
+// (space included), no overflow, no inf or nan. False leaves *out untouched.
+bool parse_finite(const std::string& s, double* out);
+
 // A message as one printable line: line breaks become "; ", control bytes and bytes that are not
 // valid UTF-8 (a binary file's name or contents quoted by a library) become \xNN, and characters
 // that would act on a terminal or hide text (C1 controls, bidi overrides, zero-width marks) \uXXXX.

@@ -9,6 +9,7 @@
 
 #include "spectral/bounded_read.h"
 #include "spectral/error.h"
+#include "spectral/text.h"
 
 namespace spectex {
 
@@ -17,17 +18,7 @@ namespace {
 constexpr double kOnGridTolerance = 1e-6;  // nm
 constexpr size_t kMaxBins = 100000;
 
-// strtod in the C locale only; the whole token must be a finite number.
-bool parse_double(const std::string& s, double* out) {
-    if (s.empty() || std::isspace(static_cast<unsigned char>(s[0]))) return false;
-    const char* begin = s.c_str();
-    char* end = nullptr;
-    errno = 0;
-    double v = std::strtod(begin, &end);
-    if (end != begin + s.size() || errno == ERANGE || !std::isfinite(v)) return false;
-    *out = v;
-    return true;
-}
+bool parse_double(const std::string& s, double* out) { return parse_finite(s, out); }
 
 // Every bin must get a channel name that reads back as its wavelength, and no two bins one name.
 void check_names(const std::vector<double>& lambda, const std::string& label) {
