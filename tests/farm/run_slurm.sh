@@ -112,7 +112,9 @@ cleanup() {
   for i in $(seq 100); do left=$(leftovers); [ -z "$left" ] && break; sleep 0.1; done
   if [ -n "$left" ]; then
     echo "farm.slurm: still using $tmp 10 s after the daemons stopped, killed:" >&2
-    for pid in $left; do ps -o pid=,args= -p "$pid" >&2; kill -KILL "$pid" 2>/dev/null; done
+    for pid in $left; do
+      echo "  $pid $(tr "\0" " " <"/proc/$pid/cmdline" 2>/dev/null)" >&2; kill -KILL "$pid" 2>/dev/null
+    done
   fi
   rm -rf "$tmp"
   [ $rc = 0 ] && rc=$fail
