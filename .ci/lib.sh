@@ -4,7 +4,7 @@
 # spectex_configure MODE BUILD [PYTHON]
 #   MODE example: whatever the folder was configured with before stays (only the binary is built).
 #   MODE test: every part of the suite is switched on explicitly, so a folder configured earlier
-#   with tests, benchmarks or the interop tests off (by `example`, by hand) runs everything.
+#   with tests, benchmarks, the interop or the farm tests off (by `example`, by hand) runs everything.
 # A folder made by a plain `cmake -S . -B build` (Unix Makefiles) keeps its generator: passing
 # -G Ninja to it would make cmake refuse.
 spectex_configure() {
@@ -15,6 +15,7 @@ spectex_configure() {
   if [ "$mode" = test ]; then
     opts+=(-DSPECTEX_BUILD_TESTS=ON -DSPECTEX_BUILD_BENCHMARKS=ON -DSPECTEX_TOOLING_TESTS=ON
            -DSPECTEX_INTEROP_TESTS=ON -DSPECTEX_REQUIRE_INTEROP=ON -DSPECTEX_PYTHON="$python")
+    opts+=(-DSPECTEX_FARM_TESTS=ON)
   fi
   cmake -S . -B "$build" "${gen[@]}" "${opts[@]}" >/dev/null
 }

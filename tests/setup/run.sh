@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The README's set-up commands must never test nothing. Configure-only checks of .ci/lib.sh (the
 # steps .ci/bootstrap runs) on scratch build folders, in the orders a newcomer or a packager uses:
-#   1. a folder configured with the tests off (as `example` once did) gets the whole suite from the
-#      test command's configure step;
+#   1. a folder configured with the tests off (as `example` once did; the farm test off too) gets the
+#      whole suite from the test command's configure step;
 #   2. a plain `cmake -S . -B DIR` (no venv, Unix Makefiles) succeeds, says in one line how to turn
 #      the interop tests on, and the test command's configure step then works on that folder;
 #   3. the test command's ctest step fails on a folder with no tests.
@@ -23,7 +23,7 @@ check() {  # check "what" command...
 count_tests() { ctest --test-dir "$1" -N 2>/dev/null | sed -n 's/^Total Tests: //p'; }
 
 # 1. Tests off, then the test command's configure.
-cmake -S . -B "$tmp/off" -G Ninja -DSPECTEX_BUILD_TESTS=OFF >/dev/null
+cmake -S . -B "$tmp/off" -G Ninja -DSPECTEX_BUILD_TESTS=OFF -DSPECTEX_FARM_TESTS=OFF --no-warn-unused-cli >/dev/null
 check "a folder configured with tests off lists no test" test "$(count_tests "$tmp/off")" = 0
 # 3. ... and the test command's ctest step refuses to call that green.
 check "the ctest step fails when there is no test" bash -c '. .ci/lib.sh; ! spectex_ctest "$0" >/dev/null 2>&1' "$tmp/off"
@@ -31,6 +31,7 @@ check "the test configure step succeeds on it" spectex_configure test "$tmp/off"
 n=$(count_tests "$tmp/off")
 check "it then lists the suite ($n entries before building)" test "${n:-0}" -gt 0
 check "including the interop tests" bash -c 'ctest --test-dir "$0" -N -L interop | grep -q "interop\\."' "$tmp/off"
+check "and the farm test" bash -c 'ctest --test-dir "$0" -N -L farm | grep -q "farm\\.slurm"' "$tmp/off"
 
 # 2. A plain configure: default generator, no venv.
 out=$(cmake -S . -B "$tmp/plain" 2>&1)
