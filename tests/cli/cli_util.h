@@ -38,8 +38,10 @@ inline std::vector<char*> c_array(std::vector<std::string>& strings) {
 }
 
 // {SPECTEX_BINARY, args...}.
+// $SPECTEX_TEST_BINARY runs the tests against another build (e.g. an older commit's, to compare).
 inline std::vector<std::string> spectex_argv(const std::vector<std::string>& args) {
-    std::vector<std::string> v{SPECTEX_BINARY};
+    const char* other = std::getenv("SPECTEX_TEST_BINARY");
+    std::vector<std::string> v{other && *other ? other : SPECTEX_BINARY};
     v.insert(v.end(), args.begin(), args.end());
     return v;
 }
