@@ -156,10 +156,18 @@ void expect_refused(const std::string& what, const Limited& r, const std::string
     EXPECT_EQ(r.first_line().rfind("spectex: " + file + ": ", 0), 0u) << "stderr does not start with 'spectex: " << file
                                                                       << ": ':\n" << r.err;
     if (!cause.empty()) EXPECT_TRUE(contains(r.first_line(), cause)) << "no '" << cause << "' in:\n" << r.err;
-    // One line, or one line and the batch summary ("spectex: 0 baked, ... failed of 1 ...").
-    const std::string rest = r.err.substr(std::min(r.err.size(), r.err.find('\n') + 1));
-    EXPECT_TRUE(rest.empty() || (rest.rfind("spectex: 0 baked", 0) == 0 && rest.find('\n') == rest.size() - 1))
-        << "more than one message line:\n" << r.err;
+    // One line, then perhaps the batch summary ("spectex: 0 baked, ... failed of 1 ...") and, after
+    // a failed run, the command to rerun ("spectex: the command was: ..."): nothing else.
+    std::string rest = r.err.substr(std::min(r.err.size(), r.err.find('\n') + 1));
+    auto drop_line = [&rest](const std::string& prefix) {
+        if (rest.rfind(prefix, 0) == 0) rest = rest.substr(std::min(rest.size(), rest.find('\n') + 1));
+    };
+    drop_line("spectex: 0 baked");
+    if (r.status == 1) {
+        EXPECT_EQ(rest.rfind("spectex: the command was: ", 0), 0u) << "a failed run ends with its command:\n" << r.err;
+        drop_line("spectex: the command was: ");
+    }
+    EXPECT_TRUE(rest.empty()) << "more than one message line:\n" << r.err;
     EXPECT_LT(r.seconds, kFailFast);
     if (!output.empty()) {
         struct stat st;
