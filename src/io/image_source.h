@@ -5,17 +5,16 @@
 #include <string>
 #include <vector>
 
+#include "io/pixel_window.h"
 #include "io/source_identity.h"
 
 namespace spectex {
 
 enum class AlphaKind { None, Associated, Unassociated };
 
-struct SourceInfo {
+struct SourceInfo : PixelWindows {
     std::string path;
     std::string format_name;       // OIIO's format name: "png", "openexr", ...
-    int x = 0, y = 0, width = 0, height = 0;                    // data window
-    int full_x = 0, full_y = 0, full_width = 0, full_height = 0;  // display window
     int channels = 0;              // in the file
     int alpha_channel = -1;        // index in the file, -1 when none (only a channel named A/alpha
                                    // in OpenEXR; never depth or other data)

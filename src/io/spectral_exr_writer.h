@@ -6,6 +6,8 @@
 #include <utility>
 #include <vector>
 
+#include "io/pixel_window.h"
+
 namespace spectex {
 
 class AtomicFile;
@@ -20,9 +22,7 @@ struct ExrCompression {
     static std::vector<std::string> names();
 };
 
-struct SpectralExrLayout {
-    int x = 0, y = 0, width = 0, height = 0;                     // data window origin and size
-    int full_x = 0, full_y = 0, full_width = 0, full_height = 0;  // display window
+struct SpectralExrLayout : PixelWindows {
     std::vector<double> lambda;
     SampleType type = SampleType::Half;
     bool alpha = false;

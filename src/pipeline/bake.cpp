@@ -135,14 +135,7 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
 
     const bool has_alpha = info.alpha != AlphaKind::None;
     SpectralExrLayout layout;
-    layout.x = info.x;
-    layout.y = info.y;
-    layout.width = info.width;
-    layout.height = info.height;
-    layout.full_x = info.full_x;
-    layout.full_y = info.full_y;
-    layout.full_width = info.full_width;
-    layout.full_height = info.full_height;
+    static_cast<PixelWindows&>(layout) = info;
     layout.lambda = s.grid.lambda;
     layout.type = s.type;
     layout.alpha = has_alpha;

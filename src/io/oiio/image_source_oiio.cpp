@@ -369,14 +369,8 @@ std::unique_ptr<ImageSource> OiioImageSource::open(const std::string& path, uint
     SourceInfo& info = src->info_;
     info.path = path;
     info.format_name = in->format_name();
-    info.x = spec.x;
-    info.y = spec.y;
-    info.width = spec.width;
-    info.height = spec.height;
-    info.full_x = spec.full_x;
-    info.full_y = spec.full_y;
-    info.full_width = spec.full_width;
-    info.full_height = spec.full_height;
+    static_cast<PixelWindows&>(info) = {spec.x, spec.y, spec.width, spec.height,
+                                        spec.full_x, spec.full_y, spec.full_width, spec.full_height};
     info.channels = spec.nchannels;
     if (spec.width <= 0 || spec.height <= 0) throw Error(path + ": image has no pixels");
     if (spec.depth > 1) throw Error(path + ": volume images (depth " + std::to_string(spec.depth) + ") are not supported");
