@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "pipeline/batch.h"
 #include "spectral/text.h"
 
 using namespace spectex;
@@ -14,7 +15,7 @@ using namespace spectex;
 namespace {
 
 // Every report line must parse with a strict parser (nlohmann's refuses invalid UTF-8 and lone
-// surrogates such as \udcXX).
+// surrogates such as the \udcXX that schema 1 of the bake report wrote).
 Json parse_line(const std::string& line) {
     EXPECT_FALSE(line.empty());
     EXPECT_EQ(line.back(), '\n');
@@ -131,4 +132,35 @@ TEST(JsonText, LinesAreCompactValidJsonWhateverTheBytes) {
     const Json back = parse_line(line);
     EXPECT_EQ(back["name"], "a\"b\\c\n\t\x1b[2J\x7f");
     EXPECT_EQ(back["stray"], "raw \xef\xbf\xbd");
+}
+
+TEST(JsonText, BakeRecordsOfNamesThatAreNotUtf8ParseAndGiveTheBytesBack) {
+    FileRecord r;
+    r.input = "in/caf\xe9\x07.png";
+    r.output = "out/caf\xe9\x07.exr";
+    r.status = "failed";
+    r.error = r.input + ": cannot open";
+    r.result.colorspace = "sRGB - Texture";
+    r.settings_hash = "fnv1a64:0123456789abcdef";
+    const Json j = parse_line(json_record(r));
+    EXPECT_EQ(j["schema_version"], kJsonSchemaVersion);
+    EXPECT_EQ(j["input"], "in/caf\xef\xbf\xbd\x07.png");
+    EXPECT_EQ(j["input_bytes_hex"], bytes_hex(r.input));
+    EXPECT_EQ(j["output_bytes_hex"], bytes_hex(r.output));
+    EXPECT_EQ(j["error_bytes_hex"], bytes_hex(r.error));
+    EXPECT_FALSE(j.contains("colorspace_bytes_hex"));
+    EXPECT_FALSE(j.contains("stages"));  // only for baked files
+
+    r.input = "in/a.png";
+    r.output = "out/a.exr";
+    r.error.clear();
+    r.status = "ok";
+    r.result.seconds = 1.5;
+    r.result.stages.writer = "core";
+    r.result.stages.read = 0.25;
+    const std::string line = json_record(r);
+    EXPECT_EQ(line.find("_bytes_hex"), std::string::npos) << line;
+    EXPECT_NE(line.find("\"error\":null,\"seconds\":1.5,\"pixels\":0,"), std::string::npos) << line;
+    EXPECT_NE(line.find("\"stages\":{\"writer\":\"core\",\"read_s\":0.25,\"colour_s\":0.0,"), std::string::npos)
+        << line;
 }
