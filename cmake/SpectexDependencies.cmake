@@ -22,4 +22,8 @@ endif()
 # Debian 12's 3.1.5 uses zlib, about 1.7x the CPU time for the same standard stream).
 pkg_check_modules(LIBDEFLATE REQUIRED IMPORTED_TARGET libdeflate)
 
+# JSON reports (bake --json, info/verify/sample --json, plan --json) are built with nlohmann-json
+# (nlohmann-json3-dev): its escaping and number output replace hand-written ones. Header-only.
+find_package(nlohmann_json 3.11 REQUIRED CONFIG)
+
 find_package(Threads REQUIRED)

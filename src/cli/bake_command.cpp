@@ -253,7 +253,9 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
     p.flag("--force", "Rebuild every file even with --update.", [&] { c.force = true; });
     p.flag("--fail-fast", "Stop at the first failed file (default: bake the others and fail at the end).",
            [&] { c.fail_fast = true; });
-    p.option("--json", "FILE", "Write one JSON record per file (JSON Lines, schema_version 1); '-' = stdout.",
+    p.option("--json", "FILE",
+             "Write one JSON record per file (JSON Lines, schema_version " + std::to_string(kJsonSchemaVersion) +
+                 "); '-' = stdout.",
              [&](const std::string& v) { c.json = v; });
     p.flag("--progress", "Show progress on stderr even when it is not a terminal.", [&] { c.progress = true; });
     p.section("Resources");

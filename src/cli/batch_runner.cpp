@@ -228,7 +228,7 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
             std::cerr << buf;
         }
         if (plan.verbose && r.status == "skipped") std::cerr << "spectex: " << one_line(r.output + ": " + r.reason) << "\n";
-        if (!plan.json.empty()) write_json(json_record(r) + "\n");
+        if (!plan.json.empty()) write_json(json_record(r));
         ++done;
         ok += r.status == "ok";
         skipped += r.status == "skipped";

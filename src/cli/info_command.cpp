@@ -1,11 +1,10 @@
 #include <iostream>
-#include <sstream>
 
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
 #include "io/spectral_exr_info.h"
 #include "io/spectral_reader.h"
-#include "pipeline/batch.h"
+#include "pipeline/json_text.h"
 #include "spectral/error.h"
 #include "spectral/wavelength_grid.h"
 
@@ -34,54 +33,60 @@ std::string levels_text(const SpectralExrInfo& info) {
 }
 
 std::string info_json(const SpectralExrInfo& info, const WavelengthGrid& grid) {
-    std::ostringstream o;
-    auto box = [](int a, int b, int c, int d) {
-        return "[" + std::to_string(a) + "," + std::to_string(b) + "," + std::to_string(c) + "," + std::to_string(d) + "]";
-    };
-    o << "{\"schema_version\":1,\"file\":" << json_string(info.path) << ",\"width\":" << info.width
-      << ",\"height\":" << info.height
-      << ",\"data_window\":" << box(info.data_x0, info.data_y0, info.data_x1, info.data_y1)
-      << ",\"display_window\":" << box(info.display_x0, info.display_y0, info.display_x1, info.display_y1)
-      << ",\"layout_version\":" << (info.layout_version.empty() ? "null" : json_string(info.layout_version))
-      << ",\"wavelength_grid\":" << json_string(grid.describe()) << ",\"wavelengths\":[";
-    for (size_t k = 0; k < info.reflective.size(); ++k)
-        o << (k ? "," : "") << format_wavelength(info.reflective[k].lambda);
-    o << "],\"channels\":[";
-    for (size_t k = 0; k < info.reflective.size(); ++k) o << (k ? "," : "") << json_string(info.reflective[k].channel);
-    o << "],\"bins\":" << info.reflective.size() << ",\"sample_type\":" << json_string(info.sample_type)
-      << ",\"compression\":" << json_string(info.compression)
-      << ",\"storage\":" << json_string(info.tiled ? "tiled" : "scanline") << ",\"tiles\":";
-    if (info.tiled)
-        o << "{\"width\":" << info.tile_width << ",\"height\":" << info.tile_height << "}";
-    else
-        o << "null";
-    o << ",\"levels\":{\"mode\":" << json_string(info.level_mode) << ",\"rounding\":"
-      << json_string(info.level_rounding);
-    if (info.level_mode == "ripmap") {
-        o << ",\"x_widths\":[";
-        for (size_t i = 0; i < info.rip_x.size(); ++i) o << (i ? "," : "") << info.rip_x[i];
-        o << "],\"y_heights\":[";
-        for (size_t i = 0; i < info.rip_y.size(); ++i) o << (i ? "," : "") << info.rip_y[i];
-        o << "]";
-    } else {
-        const size_t n = info.levels.empty() ? 1 : info.levels.size();
-        o << ",\"count\":" << n << ",\"sizes\":[";
-        if (info.levels.empty())
-            o << "[" << info.width << "," << info.height << "]";
-        for (size_t l = 0; l < info.levels.size(); ++l)
-            o << (l ? "," : "") << "[" << info.levels[l].first << "," << info.levels[l].second << "]";
-        o << "]";
+    Json j;
+    j["schema_version"] = 1;
+    put_text(j, "file", info.path);
+    j["width"] = info.width;
+    j["height"] = info.height;
+    j["data_window"] = {info.data_x0, info.data_y0, info.data_x1, info.data_y1};
+    j["display_window"] = {info.display_x0, info.display_y0, info.display_x1, info.display_y1};
+    put_text_or_null(j, "layout_version", info.layout_version);
+    put_text(j, "wavelength_grid", grid.describe());
+    Json wavelengths = Json::array();
+    std::vector<std::string> channels;
+    for (const auto& bin : info.reflective) {
+        wavelengths.push_back(json_number_text(format_wavelength(bin.lambda)));
+        channels.push_back(bin.channel);
     }
-    o << "},\"parts\":" << info.parts << ",\"alpha\":" << json_string(alpha_kind(info))
-      << ",\"alpha_type\":" << (info.alpha ? json_string(info.alpha_type) : "null")
-      << ",\"preview_rgb\":" << (info.preview ? "true" : "false")
-      << ",\"emissive_channels\":" << info.emissive_channels << ",\"attributes\":[";
-    for (size_t i = 0; i < info.header.size(); ++i)
-        o << (i ? "," : "") << "{\"name\":" << json_string(info.header[i].name)
-          << ",\"type\":" << json_string(info.header[i].type) << ",\"value\":" << json_string(info.header[i].value)
-          << "}";
-    o << "]}\n";
-    return o.str();
+    j["wavelengths"] = std::move(wavelengths);
+    put_texts(j, "channels", channels);
+    j["bins"] = info.reflective.size();
+    put_text(j, "sample_type", info.sample_type);
+    put_text(j, "compression", info.compression);
+    j["storage"] = info.tiled ? "tiled" : "scanline";
+    j["tiles"] = info.tiled ? Json{{"width", info.tile_width}, {"height", info.tile_height}} : Json(nullptr);
+    Json levels;
+    put_text(levels, "mode", info.level_mode);
+    put_text(levels, "rounding", info.level_rounding);
+    if (info.level_mode == "ripmap") {
+        levels["x_widths"] = info.rip_x;
+        levels["y_heights"] = info.rip_y;
+    } else {
+        Json sizes = Json::array();
+        if (info.levels.empty()) sizes.push_back({info.width, info.height});
+        for (const auto& [w, h] : info.levels) sizes.push_back({w, h});
+        levels["count"] = sizes.size();
+        levels["sizes"] = std::move(sizes);
+    }
+    j["levels"] = std::move(levels);
+    j["parts"] = info.parts;
+    j["alpha"] = alpha_kind(info);
+    if (info.alpha)
+        put_text(j, "alpha_type", info.alpha_type);
+    else
+        j["alpha_type"] = nullptr;
+    j["preview_rgb"] = info.preview;
+    j["emissive_channels"] = info.emissive_channels;
+    Json attributes = Json::array();
+    for (const auto& a : info.header) {
+        Json attribute;
+        put_text(attribute, "name", a.name);
+        put_text(attribute, "type", a.type);
+        put_text(attribute, "value", a.value);
+        attributes.push_back(std::move(attribute));
+    }
+    j["attributes"] = std::move(attributes);
+    return json_line(j);
 }
 
 }  // namespace

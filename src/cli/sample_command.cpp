@@ -8,7 +8,7 @@
 #include "cli/commands.h"
 #include "spectral/spectrum.h"
 #include "io/data_dir.h"
-#include "pipeline/batch.h"
+#include "pipeline/json_text.h"
 #include "pipeline/sample.h"
 #include "spectral/error.h"
 #include "spectral/wavelength_grid.h"
@@ -28,11 +28,10 @@ std::string triple(double a, double b, double c, const char* sep, const char* fm
     return num(a, fmt) + sep + num(b, fmt) + sep + num(c, fmt);
 }
 
-
-std::string json_vec(const Eigen::Vector3d& v) { return "[" + triple(v(0), v(1), v(2), ",", "%.9g") + "]"; }
-std::string json_codes(const int* c) {
-    return "[" + std::to_string(c[0]) + "," + std::to_string(c[1]) + "," + std::to_string(c[2]) + "]";
-}
+// JSON numbers to 9 significant digits, as the CSV's samples: a float sample comes back exactly.
+Json json_num(double v) { return json_number(v, "%.9g"); }
+Json json_vec(const Eigen::Vector3d& v) { return {json_num(v(0)), json_num(v(1)), json_num(v(2))}; }
+Json json_codes(const int* c) { return {c[0], c[1], c[2]}; }
 
 void print_csv(const SampleReport& r) {
     std::ostringstream o;
@@ -65,38 +64,54 @@ void print_csv(const SampleReport& r) {
 }
 
 void print_json(const SampleReport& r) {
-    std::ostringstream o;
-    o << "{\"schema_version\":1,\"file\":" << json_string(r.file) << ",\"observer\":" << json_string(r.observer)
-      << ",\"alpha\":" << json_string(r.alpha) << ",\"wavelengths\":[";
-    for (size_t k = 0; k < r.wavelengths.size(); ++k) o << (k ? "," : "") << format_wavelength(r.wavelengths[k]);
-    o << "],\"illuminants\":[";
-    for (size_t l = 0; l < r.lights.size(); ++l)
-        o << (l ? "," : "") << "{\"name\":" << json_string(r.lights[l].name)
-          << ",\"white_xyz\":" << json_vec(r.lights[l].col.white_xyz) << "}";
-    o << "],\"pixels\":[";
+    Json j;
+    j["schema_version"] = 1;
+    put_text(j, "file", r.file);
+    put_text(j, "observer", r.observer);
+    j["alpha"] = r.alpha;
+    Json wavelengths = Json::array();
+    for (double l : r.wavelengths) wavelengths.push_back(json_number_text(format_wavelength(l)));
+    j["wavelengths"] = std::move(wavelengths);
+    Json illuminants = Json::array();
+    for (const auto& light : r.lights) {
+        Json l;
+        put_text(l, "name", light.name);
+        l["white_xyz"] = json_vec(light.col.white_xyz);
+        illuminants.push_back(std::move(l));
+    }
+    j["illuminants"] = std::move(illuminants);
+    Json pixels = Json::array();
     for (size_t i = 0; i < r.pixels.size(); ++i) {
         const PixelSpectrum& p = r.pixels[i];
-        o << (i ? "," : "") << "{\"x\":" << p.x << ",\"y\":" << p.y << ",\"alpha\":"
-          << (r.alpha == "none" ? std::string("null") : num(p.alpha)) << ",\"values\":[";
-        for (size_t k = 0; k < p.values.size(); ++k) o << (k ? "," : "") << num(p.values[k]);
-        o << "],\"colours\":[";
+        Json pixel;
+        pixel["x"] = p.x;
+        pixel["y"] = p.y;
+        pixel["alpha"] = r.alpha == "none" ? Json(nullptr) : json_num(p.alpha);
+        Json values = Json::array();
+        for (double v : p.values) values.push_back(json_num(v));
+        pixel["values"] = std::move(values);
+        Json colours = Json::array();
         for (size_t l = 0; l < r.lights.size(); ++l) {
             const PixelColour& c = r.colours[i][l];
-            o << (l ? "," : "") << "{\"illuminant\":" << json_string(r.lights[l].name);
-            if (!c.defined) {
-                o << ",\"defined\":false}";
-                continue;
+            Json colour;
+            put_text(colour, "illuminant", r.lights[l].name);
+            colour["defined"] = c.defined;
+            if (c.defined) {
+                colour["xyz"] = json_vec(c.xyz);
+                colour["lab"] = {json_num(c.lab.L), json_num(c.lab.a), json_num(c.lab.b)};
+                colour["linear_rgb"] = json_vec(c.rgb);
+                colour["srgb8"] = json_codes(c.srgb);
+                colour["adaptation"] = l == 0 ? "none" : "bradford";
+                colour["linear_rgb_unadapted"] = json_vec(c.rgb_unadapted);
+                colour["srgb8_unadapted"] = json_codes(c.srgb_unadapted);
             }
-            o << ",\"defined\":true,\"xyz\":" << json_vec(c.xyz) << ",\"lab\":[" << num(c.lab.L) << "," << num(c.lab.a)
-              << "," << num(c.lab.b) << "],\"linear_rgb\":" << json_vec(c.rgb) << ",\"srgb8\":" << json_codes(c.srgb)
-              << ",\"adaptation\":" << json_string(l == 0 ? "none" : "bradford")
-              << ",\"linear_rgb_unadapted\":" << json_vec(c.rgb_unadapted)
-              << ",\"srgb8_unadapted\":" << json_codes(c.srgb_unadapted) << "}";
+            colours.push_back(std::move(colour));
         }
-        o << "]}";
+        pixel["colours"] = std::move(colours);
+        pixels.push_back(std::move(pixel));
     }
-    o << "]}\n";
-    std::cout << o.str();
+    j["pixels"] = std::move(pixels);
+    std::cout << json_line(j);
 }
 
 }  // namespace

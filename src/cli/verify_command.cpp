@@ -15,6 +15,7 @@
 #include "cli/commands.h"
 #include "io/image_library.h"
 #include "pipeline/batch.h"
+#include "pipeline/json_text.h"
 #include "io/data_dir.h"
 #include "io/atomic_file.h"
 #include "io/file_identity.h"
@@ -35,8 +36,9 @@ std::string num(double v, const char* fmt = "%.6g") { return number_text(v, fmt)
 std::string percent(uint64_t count, uint64_t total) { return share_text(count, total); }
 
 
-// JSON has no Inf/NaN: those are written as null.
-std::string json_number(double v) { return std::isfinite(v) ? num(v, "%.9g") : std::string("null"); }
+// JSON numbers to 9 significant digits; null for Inf/NaN, which JSON has not.
+Json json_num(double v) { return json_number(v, "%.9g"); }
+Json json_rgb(const double* v) { return {json_num(v[0]), json_num(v[1]), json_num(v[2])}; }
 
 double share(uint64_t count, uint64_t total) {
     return total ? static_cast<double>(count) / static_cast<double>(total) : 0.0;
@@ -119,83 +121,109 @@ void print_line(const VerifyReport& r, const std::vector<std::string>& failures)
     std::cout << one_line(o.str()) << "\n";
 }
 
-std::string json_line(const VerifyReport& r, const VerifyGates& t, const std::vector<std::string>& failures) {
-    std::ostringstream o;
-    o << "{\"schema_version\":2";
-    o << ",\"file\":" << json_string(r.file);
-    o << ",\"width\":" << r.width << ",\"height\":" << r.height << ",\"pixels\":" << r.pixels;
-    o << ",\"bins\":" << r.bins << ",\"wavelength_min\":" << json_number(r.lambda_min)
-      << ",\"wavelength_max\":" << json_number(r.lambda_max) << ",\"wavelengths\":" << json_string(r.wavelengths);
-    o << ",\"sample_type\":" << json_string(r.sample_type) << ",\"compression\":" << json_string(r.compression)
-      << ",\"storage\":" << json_string(r.storage) << ",\"alpha\":" << json_string(r.alpha);
-    o << ",\"illuminant\":" << json_string(r.illuminant) << ",\"observer\":" << json_string(r.observer);
-    o << ",\"method\":" << (r.method.empty() ? std::string("null") : json_string(r.method))
-      << ",\"out_of_range\":" << json_string(r.out_of_range) << ",\"nan\":" << json_string(r.nan);
-    o << ",\"warnings\":[";
-    for (size_t i = 0; i < r.warnings.size(); ++i) o << (i ? "," : "") << json_string(r.warnings[i]);
-    o << "],\"other_lights\":[";
-    for (size_t i = 0; i < r.other_lights.size(); ++i) {
-        const auto& l = r.other_lights[i];
-        o << (i ? "," : "") << "{\"illuminant\":" << json_string(l.light) << ",\"adaptation\":\"bradford\""
-          << ",\"pixels\":" << l.pixels << ",\"ciede2000\":{\"mean\":" << json_number(l.de_mean)
-          << ",\"p99\":" << json_number(l.de_p99) << ",\"max\":" << json_number(l.de_max) << ",\"max_at\":["
-          << l.de_x << "," << l.de_y << "]},\"rgb_range\":{\"min\":[" << json_number(l.rgb_min[0]) << ","
-          << json_number(l.rgb_min[1]) << "," << json_number(l.rgb_min[2]) << "],\"max\":["
-          << json_number(l.rgb_max[0]) << "," << json_number(l.rgb_max[1]) << "," << json_number(l.rgb_max[2])
-          << "]}}";
+// A count and its share of a total.
+Json count_share(uint64_t count, uint64_t total) { return {{"count", count}, {"share", json_num(share(count, total))}}; }
+
+std::string verify_json(const VerifyReport& r, const VerifyGates& t, const std::vector<std::string>& failures) {
+    Json j;
+    j["schema_version"] = 2;
+    put_text(j, "file", r.file);
+    j["width"] = r.width;
+    j["height"] = r.height;
+    j["pixels"] = r.pixels;
+    j["bins"] = r.bins;
+    j["wavelength_min"] = json_num(r.lambda_min);
+    j["wavelength_max"] = json_num(r.lambda_max);
+    put_text(j, "wavelengths", r.wavelengths);
+    put_text(j, "sample_type", r.sample_type);
+    put_text(j, "compression", r.compression);
+    put_text(j, "storage", r.storage);
+    put_text(j, "alpha", r.alpha);
+    put_text(j, "illuminant", r.illuminant);
+    put_text(j, "observer", r.observer);
+    put_text_or_null(j, "method", r.method);
+    put_text(j, "out_of_range", r.out_of_range);
+    put_text(j, "nan", r.nan);
+    put_texts(j, "warnings", r.warnings);
+    Json others = Json::array();
+    for (const auto& l : r.other_lights) {
+        Json o;
+        put_text(o, "illuminant", l.light);
+        o["adaptation"] = "bradford";
+        o["pixels"] = l.pixels;
+        o["ciede2000"] = {{"mean", json_num(l.de_mean)},
+                          {"p99", json_num(l.de_p99)},
+                          {"max", json_num(l.de_max)},
+                          {"max_at", {l.de_x, l.de_y}}};
+        o["rgb_range"] = {{"min", json_rgb(l.rgb_min)}, {"max", json_rgb(l.rgb_max)}};
+        others.push_back(std::move(o));
     }
-    o << "]";
-    o << ",\"samples\":" << r.samples;
-    o << ",\"outside_unit_interval\":{\"count\":" << r.below_zero + r.above_one
-      << ",\"share\":" << json_number(share(r.below_zero + r.above_one, r.samples)) << ",\"below\":" << r.below_zero
-      << ",\"above\":" << r.above_one << "}";
-    o << ",\"outside_tolerance\":{\"tolerance\":1e-6,\"count\":" << r.below_tol + r.above_tol
-      << ",\"share\":" << json_number(share(r.below_tol + r.above_tol, r.samples)) << ",\"below\":" << r.below_tol
-      << ",\"above\":" << r.above_tol << "}";
-    o << ",\"nonfinite\":{\"count\":" << r.nonfinite << ",\"share\":" << json_number(share(r.nonfinite, r.samples))
-      << "}";
-    o << ",\"rgb_range\":{\"min\":[" << json_number(r.rgb_min[0]) << "," << json_number(r.rgb_min[1]) << ","
-      << json_number(r.rgb_min[2]) << "],\"max\":[" << json_number(r.rgb_max[0]) << "," << json_number(r.rgb_max[1])
-      << "," << json_number(r.rgb_max[2]) << "]}";
+    j["other_lights"] = std::move(others);
+    j["samples"] = r.samples;
+    j["outside_unit_interval"] = count_share(r.below_zero + r.above_one, r.samples);
+    j["outside_unit_interval"]["below"] = r.below_zero;
+    j["outside_unit_interval"]["above"] = r.above_one;
+    Json tolerance = {{"tolerance", 1e-6}};
+    tolerance.update(count_share(r.below_tol + r.above_tol, r.samples));
+    tolerance["below"] = r.below_tol;
+    tolerance["above"] = r.above_tol;
+    j["outside_tolerance"] = std::move(tolerance);
+    j["nonfinite"] = count_share(r.nonfinite, r.samples);
+    j["rgb_range"] = {{"min", json_rgb(r.rgb_min)}, {"max", json_rgb(r.rgb_max)}};
     if (r.compared) {
-        o << ",\"source\":{\"file\":" << json_string(r.source) << ",\"colorspace\":" << json_string(r.source_colorspace)
-          << ",\"colorspace_how\":" << json_string(r.source_colorspace_how) << ",\"bits\":" << r.source_bits
-          << ",\"float\":" << (r.source_float ? "true" : "false") << ",\"compared_pixels\":" << r.compared_pixels
-          << ",\"transparent_pixels\":" << r.transparent_pixels << ",\"nonfinite_pixels\":" << r.nonfinite_pixels
-          << ",\"clamped_pixels\":" << r.source_clamped << ",\"replaced_pixels\":" << r.source_replaced
-          << ",\"rgb_error\":{\"max\":" << json_number(r.rgb_error_max) << ",\"mean\":" << json_number(r.rgb_error_mean)
-          << ",\"max_at\":[" << r.rgb_error_x << "," << r.rgb_error_y << "]}"
-          << ",\"ciede2000\":{\"max\":" << json_number(r.de_max) << ",\"mean\":" << json_number(r.de_mean)
-          << ",\"p99\":" << json_number(r.de_p99) << ",\"max_at\":[" << r.de_x << "," << r.de_y << "]}"
-          << ",\"code_match\":";
-        if (r.code_match_available)
-            o << "{\"share\":" << json_number(r.code_match_share()) << ",\"matched\":" << r.code_matched
-              << ",\"checked\":" << r.code_checked << ",\"encoding\":" << json_string(r.code_match_note) << "}";
-        else
-            o << "{\"share\":null,\"note\":" << json_string(r.code_match_note) << "}";
-        o << "}";
+        Json src;
+        put_text(src, "file", r.source);
+        put_text(src, "colorspace", r.source_colorspace);
+        put_text(src, "colorspace_how", r.source_colorspace_how);
+        src["bits"] = r.source_bits;
+        src["float"] = r.source_float;
+        src["compared_pixels"] = r.compared_pixels;
+        src["transparent_pixels"] = r.transparent_pixels;
+        src["nonfinite_pixels"] = r.nonfinite_pixels;
+        src["clamped_pixels"] = r.source_clamped;
+        src["replaced_pixels"] = r.source_replaced;
+        src["rgb_error"] = {{"max", json_num(r.rgb_error_max)},
+                            {"mean", json_num(r.rgb_error_mean)},
+                            {"max_at", {r.rgb_error_x, r.rgb_error_y}}};
+        src["ciede2000"] = {{"max", json_num(r.de_max)},
+                            {"mean", json_num(r.de_mean)},
+                            {"p99", json_num(r.de_p99)},
+                            {"max_at", {r.de_x, r.de_y}}};
+        Json codes;
+        if (r.code_match_available) {
+            codes["share"] = json_num(r.code_match_share());
+            codes["matched"] = r.code_matched;
+            codes["checked"] = r.code_checked;
+            put_text(codes, "encoding", r.code_match_note);
+        } else {
+            codes["share"] = nullptr;
+            put_text(codes, "note", r.code_match_note);
+        }
+        src["code_match"] = std::move(codes);
+        j["source"] = std::move(src);
     } else {
-        o << ",\"source\":null";
+        j["source"] = nullptr;
     }
-    o << ",\"thresholds\":{\"max_de\":" << (t.de ? json_number(t.max_de) : "null")
-      << ",\"max_rgb_error\":" << (t.rgb ? json_number(t.max_rgb) : "null")
-      << ",\"min_code_match_percent\":" << (t.code ? json_number(t.min_code) : "null") << "}";
-    o << ",\"report_only\":" << (t.report_only ? "true" : "false") << ",\"gates\":[";
-    {
-        const auto applied = gates_applied(r, t);
-        for (size_t i = 0; i < applied.size(); ++i) o << (i ? "," : "") << json_string(applied[i]);
-    }
-    o << "]";
-    o << ",\"failures\":[";
-    for (size_t i = 0; i < failures.size(); ++i) o << (i ? "," : "") << json_string(failures[i]);
-    o << "],\"passed\":" << (failures.empty() ? "true" : "false");
-    o << ",\"seconds\":" << json_number(r.seconds) << "}\n";
-    return o.str();
+    j["thresholds"] = {{"max_de", t.de ? json_num(t.max_de) : Json(nullptr)},
+                       {"max_rgb_error", t.rgb ? json_num(t.max_rgb) : Json(nullptr)},
+                       {"min_code_match_percent", t.code ? json_num(t.min_code) : Json(nullptr)}};
+    j["report_only"] = t.report_only;
+    put_texts(j, "gates", gates_applied(r, t));
+    put_texts(j, "failures", failures);
+    j["passed"] = failures.empty();
+    j["seconds"] = json_num(r.seconds);
+    return json_line(j);
 }
 
-std::string json_error_line(const std::string& file, const std::string& error) {
-    return "{\"schema_version\":2,\"file\":" + json_string(file) + ",\"error\":" + json_string(error) +
-           ",\"failures\":[" + json_string(error) + "],\"passed\":false}\n";
+// A file that could not be verified: its error, which is also its one failure.
+std::string verify_error_json(const std::string& file, const std::string& error) {
+    Json j;
+    j["schema_version"] = 2;
+    put_text(j, "file", file);
+    put_text(j, "error", error);
+    put_texts(j, "failures", {error});
+    j["passed"] = false;
+    return json_line(j);
 }
 
 }  // namespace
@@ -402,7 +430,7 @@ int run_verify(const std::vector<std::string>& args) {
         if (!o.readable) {
             ++unreadable;
             print_error(o.error);
-            json_text += json_error_line(files[i], o.error);
+            json_text += verify_error_json(files[i], o.error);
             continue;
         }
         for (const auto& w : o.report.warnings) print_error("warning: " + files[i] + ": " + w);
@@ -413,7 +441,7 @@ int run_verify(const std::vector<std::string>& args) {
             else
                 print_line(o.report, o.failures);
         }
-        json_text += json_line(o.report, t, o.failures);
+        json_text += verify_json(o.report, t, o.failures);
         for (const auto& f : o.failures) print_error(o.report.file + ": " + f);
     }
     if (files.size() > 1 && !json_stdout && !quiet)

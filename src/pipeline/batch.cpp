@@ -23,6 +23,7 @@
 #include "io/linearizer.h"
 #include "io/paths.h"
 #include "io/source_identity.h"
+#include "pipeline/json_text.h"
 #include "spectral/bounded_read.h"
 #include "spectex/version.h"
 #include "spectral/error.h"
@@ -356,81 +357,39 @@ UpdateCheck check_update(const std::string& input, const std::string& output, co
     return c;
 }
 
-// JSON strings must be UTF-8. File names need not be: a byte that is not part of a valid UTF-8
-// sequence is written as \udcXX (the lone low surrogate U+DC00 + byte, Python's "surrogateescape"),
-// so the record stays valid JSON and the name is recoverable: os.fsencode(record["input"]).
-std::string json_escape(const std::string& s) {
-    std::string o;
-    for (size_t i = 0; i < s.size();) {
-        const unsigned char c = static_cast<unsigned char>(s[i]);
-        char b[8];
-        switch (c) {
-            case '"': o += "\\\""; ++i; continue;
-            case '\\': o += "\\\\"; ++i; continue;
-            case '\n': o += "\\n"; ++i; continue;
-            case '\r': o += "\\r"; ++i; continue;
-            case '\t': o += "\\t"; ++i; continue;
-            default: break;
-        }
-        if (c < 0x20 || c == 0x7f) {
-            std::snprintf(b, sizeof b, "\\u%04x", c);
-            o += b;
-            ++i;
-            continue;
-        }
-        if (c < 0x80) {
-            o += static_cast<char>(c);
-            ++i;
-            continue;
-        }
-        const size_t len = (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xe ? 3 : (c >> 3) == 0x1e ? 4 : 0;
-        bool valid = len > 0 && i + len <= s.size();
-        uint32_t cp = len ? c & (0x7f >> len) : 0;
-        for (size_t k = 1; valid && k < len; ++k) {
-            const unsigned char t = static_cast<unsigned char>(s[i + k]);
-            valid = (t >> 6) == 0x2;
-            cp = (cp << 6) | (t & 0x3f);
-        }
-        const uint32_t min_cp[5] = {0, 0, 0x80, 0x800, 0x10000};
-        valid = valid && cp >= min_cp[len] && cp <= 0x10ffff && !(cp >= 0xd800 && cp <= 0xdfff);
-        if (valid) {
-            o.append(s, i, len);
-            i += len;
-        } else {
-            std::snprintf(b, sizeof b, "\\udc%02x", c);
-            o += b;
-            ++i;
-        }
-    }
-    return o;
-}
-
 std::string json_record(const FileRecord& r) {
-    std::ostringstream o;
-    char secs[32];
-    std::snprintf(secs, sizeof secs, "%.3f", r.result.seconds);
-    o << "{\"schema_version\":" << kJsonSchemaVersion << ",\"input\":\"" << json_escape(r.input) << "\",\"output\":\""
-      << json_escape(r.output) << "\",\"status\":\"" << r.status << "\",\"error\":"
-      << (r.error.empty() ? std::string("null") : "\"" + json_escape(r.error) + "\"") << ",\"seconds\":" << secs
-      << ",\"pixels\":" << r.result.pixels << ",\"bins\":" << r.result.bins << ",\"bytes\":" << r.result.bytes
-      << ",\"clamped_pixels\":" << r.result.clamped_pixels << ",\"replaced_pixels\":" << r.result.replaced_pixels
-      << ",\"colorspace\":\"" << json_escape(r.result.colorspace) << "\",\"settings_hash\":\""
-      << json_escape(r.settings_hash) << "\"";
-    if (r.status == "skipped")  // why nothing was done, for a script reading the report
-        o << ",\"reason\":\"" << json_escape(r.reason) << "\"";
+    Json j;
+    j["schema_version"] = kJsonSchemaVersion;
+    put_text(j, "input", r.input);
+    put_text(j, "output", r.output);
+    j["status"] = r.status;
+    put_text_or_null(j, "error", r.error);
+    j["seconds"] = json_number(r.result.seconds, "%.3f");
+    j["pixels"] = r.result.pixels;
+    j["bins"] = r.result.bins;
+    j["bytes"] = r.result.bytes;
+    j["clamped_pixels"] = r.result.clamped_pixels;
+    j["replaced_pixels"] = r.result.replaced_pixels;
+    put_text(j, "colorspace", r.result.colorspace);
+    put_text(j, "settings_hash", r.settings_hash);
+    if (r.status == "skipped") put_text(j, "reason", r.reason);  // why nothing was done, for a script
     if (r.status == "ok") {
         const auto& st = r.result.stages;
-        char buf[512];
-        std::snprintf(buf, sizeof buf,
-                      ",\"stages\":{\"writer\":\"%s\",\"read_s\":%.4f,\"colour_s\":%.4f,\"expand_s\":%.4f,"
-                      "\"pack_s\":%.4f,\"encoder_wait_s\":%.4f,\"producer_wait_s\":%.4f,\"compress_cpu_s\":%.4f,"
-                      "\"finish_s\":%.4f}",
-                      st.writer.c_str(), st.read, st.colour, st.expand, st.pack, st.encoder_wait, st.producer_wait,
-                      st.compress_cpu, st.finish);
-        o << buf;
+        Json stages;
+        stages["writer"] = st.writer;
+        const std::pair<const char*, double> times[] = {
+            {"read_s", st.read},
+            {"colour_s", st.colour},
+            {"expand_s", st.expand},
+            {"pack_s", st.pack},
+            {"encoder_wait_s", st.encoder_wait},
+            {"producer_wait_s", st.producer_wait},
+            {"compress_cpu_s", st.compress_cpu},
+            {"finish_s", st.finish}};
+        for (const auto& [key, seconds] : times) stages[key] = json_number(seconds, "%.4f");
+        j["stages"] = std::move(stages);
     }
-    o << "}";
-    return o.str();
+    return json_line(j);
 }
 
 }  // namespace spectex

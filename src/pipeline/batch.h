@@ -67,10 +67,11 @@ struct FileRecord {
     std::string settings_hash;
     std::string reason;  // skipped: why (check_update)
 };
-constexpr int kJsonSchemaVersion = 1;
+// Version 2: a name (or other text) that is not UTF-8 is written with U+FFFD for its stray bytes
+// plus a "<field>_bytes_hex" field with its exact bytes (json_text.h); version 1 wrote them as
+// \udcXX, which strict JSON parsers refuse.
+constexpr int kJsonSchemaVersion = 2;
+// The record of one file: one line of JSON, with its line break.
 std::string json_record(const FileRecord& r);
-std::string json_escape(const std::string& s);
-// json_escape in quotes: a JSON string value.
-inline std::string json_string(const std::string& s) { return "\"" + json_escape(s) + "\""; }
 
 }  // namespace spectex

@@ -10,7 +10,7 @@
 #include <thread>
 
 #include "pipeline/basis_cache.h"
-#include "pipeline/batch.h"
+#include "pipeline/json_text.h"
 #include "pipeline/plan_search.h"
 #include "pipeline/plan_texture.h"
 #include "spectral/colorimetry.h"
@@ -418,47 +418,64 @@ std::string plan_failure(const PlanSpec& spec, const PlanResult& r) {
 }
 
 std::string plan_json(const PlanSpec& spec, const PlanResult& r) {
-    std::ostringstream o;
-    auto num = [](double v) { return std::isfinite(v) ? fmt(v, "%.6g") : std::string("null"); };
-    o << "{\"schema_version\":1,\"lights\":[";
-    for (size_t j = 0; j < spec.lights.size(); ++j) o << (j ? "," : "") << "\"" << json_escape(spec.lights[j]) << "\"";
-    o << "],\"max_de\":" << num(spec.max_de) << ",\"reconstruction\":\"" << to_string(spec.reconstruction)
-      << "\",\"range\":[" << num(spec.range_start) << "," << num(spec.range_end) << "],\"method\":\""
-      << json_escape(r.method) << "\",\"type\":\"" << (spec.half ? "half" : "float") << "\",\"colours\":\""
-      << json_escape(r.colours) << "\",\"nonuniform\":" << (spec.nonuniform ? "true" : "false")
-      << ",\"search\":\"" << json_escape(r.search) << "\",\"seconds\":" << num(r.seconds) << ",\"chosen\":";
-    if (r.chosen >= 0)
-        o << "\"" << grid_label(r.rows[static_cast<size_t>(r.chosen)].grid) << "\"";
-    else
-        o << "null";
-    o << ",\"best\":";
-    if (r.best >= 0)
-        o << "{\"grid\":\"" << grid_label(r.rows[static_cast<size_t>(r.best)].grid)
-          << "\",\"worst\":" << num(r.rows[static_cast<size_t>(r.best)].worst) << "}";
-    else
-        o << "null";
-    o << ",\"grids\":[";
+    auto num = [](double v) { return json_number(v, "%.6g"); };
+    Json j;
+    j["schema_version"] = 1;
+    put_texts(j, "lights", spec.lights);
+    j["max_de"] = num(spec.max_de);
+    j["reconstruction"] = to_string(spec.reconstruction);
+    j["range"] = {num(spec.range_start), num(spec.range_end)};
+    put_text(j, "method", r.method);
+    j["type"] = spec.half ? "half" : "float";
+    put_text(j, "colours", r.colours);
+    j["nonuniform"] = spec.nonuniform;
+    put_text(j, "search", r.search);
+    j["seconds"] = num(r.seconds);
+    j["chosen"] = r.chosen >= 0 ? Json(grid_label(r.rows[static_cast<size_t>(r.chosen)].grid)) : Json(nullptr);
+    if (r.best >= 0) {
+        const GridRow& best = r.rows[static_cast<size_t>(r.best)];
+        j["best"] = {{"grid", grid_label(best.grid)}, {"worst", num(best.worst)}};
+    } else {
+        j["best"] = nullptr;
+    }
+    Json grids = Json::array();
     for (size_t i = 0; i < r.rows.size(); ++i) {
         const GridRow& row = r.rows[i];
-        o << (i ? "," : "") << "{\"grid\":\"" << grid_label(row.grid) << "\",\"start\":" << num(row.grid.lambda.front())
-          << ",\"end\":" << num(row.grid.lambda.back()) << ",\"step\":" << (row.grid.uniform ? num(row.grid.step) : "null")
-          << ",\"uniform\":" << (row.grid.uniform ? "true" : "false") << ",\"wavelengths\":[" << wavelength_list(row.grid)
-          << "],\"bins\":" << row.bins
-          << ",\"bytes_per_pixel\":" << row.bytes_per_pixel << ",\"relative_time\":" << num(row.relative_time)
-          << ",\"colours\":\"" << row.colours << "\",\"built\":" << (row.ok ? "true" : "false") << ",\"passes\":" << (row.passes ? "true" : "false")
-          << ",\"chosen\":" << (static_cast<int>(i) == r.chosen ? "true" : "false") << ",\"why\":\""
-          << json_escape(row.why) << "\",\"worst\":" << (row.ok ? num(row.worst) : "null") << ",\"worst_light\":\""
-          << json_escape(row.worst_light) << "\",\"lights\":[";
-        for (size_t j = 0; row.ok && j < row.lights.size(); ++j) {
-            const LightError& le = row.lights[j];
-            o << (j ? "," : "") << "{\"light\":\"" << json_escape(le.light) << "\",\"worst\":" << num(le.worst)
-              << ",\"p99\":" << num(le.p99) << ",\"half_shift\":" << num(le.half_shift) << ",\"worst_code\":["
-              << le.worst_code[0] << "," << le.worst_code[1] << "," << le.worst_code[2] << "]}";
+        Json g;
+        g["grid"] = grid_label(row.grid);
+        g["start"] = num(row.grid.lambda.front());
+        g["end"] = num(row.grid.lambda.back());
+        g["step"] = row.grid.uniform ? num(row.grid.step) : Json(nullptr);
+        g["uniform"] = row.grid.uniform;
+        Json wavelengths = Json::array();
+        for (double l : row.grid.lambda) wavelengths.push_back(json_number_text(format_wavelength(l)));
+        g["wavelengths"] = std::move(wavelengths);
+        g["bins"] = row.bins;
+        g["bytes_per_pixel"] = row.bytes_per_pixel;
+        g["relative_time"] = num(row.relative_time);
+        put_text(g, "colours", row.colours);
+        g["built"] = row.ok;
+        g["passes"] = row.passes;
+        g["chosen"] = static_cast<int>(i) == r.chosen;
+        put_text(g, "why", row.why);
+        g["worst"] = row.ok ? num(row.worst) : Json(nullptr);
+        put_text(g, "worst_light", row.worst_light);
+        Json lights = Json::array();
+        for (size_t k = 0; row.ok && k < row.lights.size(); ++k) {
+            const LightError& le = row.lights[k];
+            Json l;
+            put_text(l, "light", le.light);
+            l["worst"] = num(le.worst);
+            l["p99"] = num(le.p99);
+            l["half_shift"] = num(le.half_shift);
+            l["worst_code"] = le.worst_code;
+            lights.push_back(std::move(l));
         }
-        o << "]}";
+        g["lights"] = std::move(lights);
+        grids.push_back(std::move(g));
     }
-    o << "]}\n";
-    return o.str();
+    j["grids"] = std::move(grids);
+    return json_line(j);
 }
 
 }  // namespace spectex

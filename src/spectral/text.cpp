@@ -25,6 +25,31 @@ bool parse_finite(const std::string& s, double* out) {
     return true;
 }
 
+size_t utf8_sequence_length(const std::string& s, size_t i, uint32_t* cp) {
+    const unsigned char c = static_cast<unsigned char>(s[i]);
+    const size_t len = c < 0x80 ? 1 : (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xe ? 3 : (c >> 3) == 0x1e ? 4 : 0;
+    if (len == 0 || i + len > s.size()) return 0;
+    uint32_t v = len == 1 ? c : c & (0x7fu >> len);
+    for (size_t k = 1; k < len; ++k) {
+        const unsigned char t = static_cast<unsigned char>(s[i + k]);
+        if ((t >> 6) != 0x2) return 0;
+        v = (v << 6) | (t & 0x3fu);
+    }
+    static constexpr uint32_t kMinForLength[5] = {0, 0, 0x80, 0x800, 0x10000};  // shorter is overlong
+    if (v < kMinForLength[len] || v > 0x10ffff || (v >= 0xd800 && v <= 0xdfff)) return 0;
+    if (cp) *cp = v;
+    return len;
+}
+
+bool is_valid_utf8(const std::string& s) {
+    for (size_t i = 0; i < s.size();) {
+        const size_t len = utf8_sequence_length(s, i);
+        if (len == 0) return false;
+        i += len;
+    }
+    return true;
+}
+
 std::string one_line(const std::string& text) {
     std::string out;
     bool pending_break = false;
@@ -45,17 +70,9 @@ std::string one_line(const std::string& text) {
         // A whole, valid UTF-8 sequence passes (file names in other scripts stay readable), unless
         // it is a control (C1) or an invisible format character that reorders or hides text (bidi
         // overrides, zero-width marks): those are written as \uXXXX. Anything else is \xNN.
-        size_t len = c < 0x80 ? 1 : (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xe ? 3 : (c >> 3) == 0x1e ? 4 : 0;
-        bool valid = len > 0 && i + len <= text.size();
-        for (size_t k = 1; valid && k < len; ++k) valid = (static_cast<unsigned char>(text[i + k]) >> 6) == 0x2;
         uint32_t cp = 0;
-        if (valid && len > 1) {
-            cp = c & (0x7f >> len);
-            for (size_t k = 1; k < len; ++k) cp = (cp << 6) | (static_cast<unsigned char>(text[i + k]) & 0x3f);
-            const uint32_t min_cp[5] = {0, 0, 0x80, 0x800, 0x10000};
-            valid = cp >= min_cp[len] && cp <= 0x10ffff && !(cp >= 0xd800 && cp <= 0xdfff);  // no overlong, no surrogate
-        }
-        const bool hidden = valid && len > 1 &&
+        const size_t len = utf8_sequence_length(text, i, &cp);
+        const bool hidden = len > 1 &&
                             ((cp >= 0x80 && cp <= 0x9f) || (cp >= 0x200b && cp <= 0x200f) ||
                              (cp >= 0x202a && cp <= 0x202e) || (cp >= 0x2060 && cp <= 0x2069) || cp == 0xfeff ||
                              cp == 0x061c || cp == 0x2028 || cp == 0x2029);
@@ -70,7 +87,7 @@ std::string one_line(const std::string& text) {
             std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned>(cp));
             out += buf;
             i += len;
-        } else if (len > 1 && valid) {
+        } else if (len > 1) {
             out.append(text, i, len);
             i += len;
         } else {

@@ -1,5 +1,7 @@
 #pragma once
 // Small text helpers shared by every layer (one copy of each).
+#include <cstddef>
+#include <cstdint>
 #include <string>
 
 namespace spectex {
@@ -17,6 +19,13 @@ bool ends_with_nocase(const std::string& s, const std::string& suffix);
 // A whole token as a finite double, read in the C locale: no leading or trailing characters
 // (space included), no overflow, no inf or nan. False leaves *out untouched.
 bool parse_finite(const std::string& s, double* out);
+
+// The length (1 to 4) of the well-formed UTF-8 sequence starting at s[i], or 0 when none starts
+// there: a stray continuation byte, a truncated sequence, an overlong form, a UTF-16 surrogate or a
+// code point above U+10FFFF (file names and header text are bytes, not necessarily UTF-8). *cp, when
+// given, receives the code point of a well-formed sequence.
+size_t utf8_sequence_length(const std::string& s, size_t i, uint32_t* cp = nullptr);
+bool is_valid_utf8(const std::string& s);
 
 // A message as one printable line: line breaks become "; ", control bytes and bytes that are not
 // valid UTF-8 (a binary file's name or contents quoted by a library) become \xNN, and characters

@@ -41,7 +41,7 @@ TEST(Batch, OutputDirAndTemplateAndFailuresDoNotStopOthers) {
     EXPECT_TRUE(file_exists(d / "out/a.exr"));
     EXPECT_TRUE(file_exists(d / "out/b.exr"));
     EXPECT_FALSE(file_exists(d / "out/broken.exr"));
-    EXPECT_EQ(count_lines(r.out, "\"schema_version\":1"), 3u);
+    EXPECT_EQ(count_lines(r.out, "\"schema_version\":2"), 3u);
     EXPECT_EQ(count_lines(r.out, "\"status\":\"ok\""), 2u);
     EXPECT_EQ(count_lines(r.out, "\"status\":\"failed\""), 1u);
     EXPECT_TRUE(contains(r.err, "2 baked, 0 up to date, 1 failed of 3")) << r.err;
