@@ -5,8 +5,9 @@
 // What is hashed, with a reader that shares no code with spectex (a minimal parse of the OpenEXR
 // header as the file format document lays it out):
 //   - every header attribute's name, type and value bytes, except the few that record where and
-//     when the bake ran (kLocal below: paths, times, the command line, the tool's version, and the
-//     source's bytes, which OpenImageIO's encoder writes as it likes);
+//     when the bake ran (kLocal below: paths, times, the command line, the tool's version, the
+//     settings hash that mixes both in, and the source's bytes, which OpenImageIO's encoder writes
+//     as it likes);
 //   - every byte from the first chunk to the end of the file: all chunks, compressed as written.
 // The offset table is left out only because its values move with the header's length (a path).
 //
@@ -34,9 +35,12 @@ using namespace spectex_test;
 
 namespace {
 
+// spectex:settingsHash is left out too: it hashes the tool's version and the config's path with
+// the settings (pipeline/batch.cpp), so a checkout elsewhere gives another; the settings themselves
+// are in the attributes that are hashed.
 const std::set<std::string> kLocal = {
     "spectex:source",     "spectex:commandLine", "spectex:config",     "spectex:version",
-    "spectex:sourceSize", "spectex:sourceMtime", "spectex:sourceHash",
+    "spectex:sourceSize", "spectex:sourceMtime", "spectex:sourceHash", "spectex:settingsHash",
 };
 
 uint64_t fnv1a(uint64_t h, const char* p, size_t n) {
