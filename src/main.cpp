@@ -16,6 +16,11 @@
 
 namespace spectex {
 
+std::string name_file(const std::string& file, const std::string& message) {
+    if (file.empty() || message.compare(0, file.size() + 2, file + ": ") != 0) return message;
+    return quote_path(file) + message.substr(file.size());
+}
+
 void print_error(const std::string& message) { std::cerr << "spectex: " << one_line(message) << std::endl; }
 
 int run_reporting(const std::string& file, const std::function<void()>& work) {
@@ -23,9 +28,9 @@ int run_reporting(const std::string& file, const std::function<void()>& work) {
         work();
         return 0;
     } catch (const Error& e) {
-        print_error(e.what());
+        print_error(name_file(file, e.what()));
     } catch (const std::exception& e) {
-        print_error(file + ": " + e.what());
+        print_error(quote_path(file) + ": " + e.what());
     }
     return 1;
 }
@@ -62,12 +67,6 @@ const char* kUsage =
     "\n"
     "Exit status: 0 success, 1 the work failed, 2 usage error.\n";
 
-std::string quote(const std::string& s) {
-    if (!s.empty() && s.find_first_of(" \t\"'\\$`;&|<>()*?") == std::string::npos) return s;
-    std::string q = "'";
-    for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-    return q + "'";
-}
 
 }  // namespace
 
@@ -117,7 +116,7 @@ int run(int argc, char** argv) {
         return 0;
     }
     std::string command_line = "spectex";
-    for (const auto& a : args) command_line += " " + quote(a);
+    for (const auto& a : args) command_line += " " + spectex::quote_path(a);
     g_command_line = command_line;
     std::vector<std::string> rest(args.begin() + 1, args.end());
     if (cmd == "bake") return spectex::run_bake(rest, command_line);

@@ -201,18 +201,20 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
         std::lock_guard<std::mutex> lock(io);
         if (plan.progress && plan.progress_terminal) std::cerr << "\r\033[K";
         if (r.status == "failed") {
-            print_error(r.error);
+            print_error(name_file(r.input, r.error));
         } else if (!plan.quiet) {
-            for (const auto& n : r.result.notes) std::cerr << "spectex: " << one_line(r.input + ": note: " + n) << "\n";
+            const std::string named = one_line(quote_path(r.input));
+            for (const auto& n : r.result.notes) std::cerr << "spectex: " << named << ": note: " << one_line(n) << "\n";
             if (r.result.clamped_pixels)
-                std::cerr << "spectex: " << one_line(r.input) << ": " << r.result.clamped_pixels
+                std::cerr << "spectex: " << named << ": " << r.result.clamped_pixels
                           << " pixels had linear values outside [0, 1] and were clamped\n";
             if (r.result.replaced_pixels)
-                std::cerr << "spectex: " << one_line(r.input) << ": " << r.result.replaced_pixels
+                std::cerr << "spectex: " << named << ": " << r.result.replaced_pixels
                           << " pixels had NaN/Inf values replaced with 0\n";
         }
         if (plan.verbose && r.status == "ok")
-            std::cerr << "spectex: " << r.input << " -> " << r.output << ": " << r.result.pixels << " pixels, "
+            std::cerr << "spectex: " << one_line(quote_path(r.input)) << " -> " << one_line(quote_path(r.output)) << ": "
+                      << r.result.pixels << " pixels, "
                       << r.result.bins << " bins, colour space '" << r.result.colorspace << "' ("
                       << r.result.colorspace_how << "), " << r.result.bytes << " bytes, "
                       << seconds_text(r.result.seconds) << "\n";
@@ -220,14 +222,15 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
             const auto& st = r.result.stages;
             char buf[400];
             std::snprintf(buf, sizeof buf,
-                          "spectex: %s: stages: read %.2f s, colour %.2f s, expand %.2f s (producer thread); "
+                          "stages: read %.2f s, colour %.2f s, expand %.2f s (producer thread); "
                           "pack %.2f s, waiting for the encoder %.2f s, for the producer %.2f s, finish %.2f s "
                           "(writer thread); compress %.2f CPU-s (%s writer)\n",
-                          r.input.c_str(), st.read, st.colour, st.expand, st.pack, st.encoder_wait, st.producer_wait,
-                          st.finish, st.compress_cpu, st.writer.c_str());
-            std::cerr << buf;
+                          st.read, st.colour, st.expand, st.pack, st.encoder_wait, st.producer_wait, st.finish,
+                          st.compress_cpu, st.writer.c_str());
+            std::cerr << "spectex: " << one_line(quote_path(r.input)) << ": " << buf;
         }
-        if (plan.verbose && r.status == "skipped") std::cerr << "spectex: " << one_line(r.output + ": " + r.reason) << "\n";
+        if (plan.verbose && r.status == "skipped")
+            std::cerr << "spectex: " << one_line(quote_path(r.output) + ": " + r.reason) << "\n";
         if (!plan.json.empty()) write_json(json_record(r));
         ++done;
         ok += r.status == "ok";

@@ -429,11 +429,11 @@ int run_verify(const std::vector<std::string>& args) {
         const Outcome& o = outcomes[i];
         if (!o.readable) {
             ++unreadable;
-            print_error(o.error);
+            print_error(name_file(files[i], o.error));
             json_text += verify_error_json(files[i], o.error);
             continue;
         }
-        for (const auto& w : o.report.warnings) print_error("warning: " + files[i] + ": " + w);
+        for (const auto& w : o.report.warnings) print_error("warning: " + quote_path(files[i]) + ": " + w);
         if (!o.failures.empty()) ++failed;
         if (!json_stdout && !quiet) {
             if (files.size() == 1)
@@ -442,7 +442,7 @@ int run_verify(const std::vector<std::string>& args) {
                 print_line(o.report, o.failures);
         }
         json_text += verify_json(o.report, t, o.failures);
-        for (const auto& f : o.failures) print_error(o.report.file + ": " + f);
+        for (const auto& f : o.failures) print_error(quote_path(o.report.file) + ": " + f);
     }
     if (files.size() > 1 && !json_stdout && !quiet)
         std::cout << files.size() << " files: " << files.size() - failed - unreadable << " passed, " << failed

@@ -14,6 +14,20 @@ bool ends_with_nocase(const std::string& s, const std::string& suffix) {
     return s.size() >= suffix.size() && lower_ascii(s.substr(s.size() - suffix.size())) == lower_ascii(suffix);
 }
 
+std::string quote_path(const std::string& path) {
+    bool plain = !path.empty();
+    for (unsigned char c : path)
+        if (c <= 0x20 || c == 0x7f || c == '\'' || c == '"' || c == '\\' || c == '`' || c == '$' || c == ';' ||
+            c == '&' || c == '|' || c == '<' || c == '>' || c == '(' || c == ')' || c == '*' || c == '?' ||
+            c == '[' || c == '#' || c == '~' || c == '!' || c == '{' || c == '}')
+            plain = false;
+    if (path.find(": ") != std::string::npos) plain = false;
+    if (plain) return path;
+    std::string q = "'";
+    for (char c : path) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    return q + "'";
+}
+
 bool parse_finite(const std::string& s, double* out) {
     if (s.empty() || std::isspace(static_cast<unsigned char>(s[0]))) return false;
     const char* begin = s.c_str();

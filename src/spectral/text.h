@@ -27,6 +27,12 @@ bool parse_finite(const std::string& s, double* out);
 size_t utf8_sequence_length(const std::string& s, size_t i, uint32_t* cp = nullptr);
 bool is_valid_utf8(const std::string& s);
 
+// A path as messages name it: as it is when a shell would read it back as one word and the
+// "<file>: <cause>" convention stays unambiguous, else in single quotes ('my file.png',
+// 'a: b.png', an empty name as ''), a quote inside written '\''. Control bytes are left to
+// one_line.
+std::string quote_path(const std::string& path);
+
 // A message as one printable line: line breaks become "; ", control bytes and bytes that are not
 // valid UTF-8 (a binary file's name or contents quoted by a library) become \xNN, and characters
 // that would act on a terminal or hide text (C1 controls, bidi overrides, zero-width marks) \uXXXX.

@@ -136,3 +136,27 @@ TEST(Messages, AFailedRunEndsWithTheCommandToRerun) {
     EXPECT_EQ(usage.status, 2) << usage.err;
     EXPECT_FALSE(contains(usage.err, "the command was")) << usage.err;
 }
+
+TEST(Messages, PathsAShellWouldSplitAreQuotedInMessages) {
+    ScratchDir d;
+    // From a list (spaces around a path are the list's and dropped; inside it they are the name's),
+    // and as arguments: the error names the file so that it can be pasted back into a shell.
+    const std::string spaced = d / "my file.png", plain = d / "plain.png";
+    std::ofstream(d / "list.txt") << "  " << spaced << "  \n" << plain << "\n";
+    RunResult r = run_spectex({"bake", "--from-list", d / "list.txt", "--output-dir", d / "out"});
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_TRUE(contains(r.err, "spectex: '" + spaced + "': No such file or directory\n")) << r.err;
+    EXPECT_TRUE(contains(r.err, "spectex: " + plain + ": No such file or directory\n")) << r.err;
+    expect_clean_stderr(r, "quoted paths");
+    for (const char* cmd : {"info", "verify"}) {
+        RunResult c = run_spectex({cmd, d / "no such.exr"});
+        EXPECT_EQ(c.status, 1) << cmd << ": " << c.err;
+        EXPECT_EQ(lines(c.err).front(), "spectex: '" + d / "no such.exr" + "': No such file or directory") << cmd;
+    }
+    // A baked file's verbose lines quote it too.
+    std::vector<uint8_t> px(4 * 4 * 3, 100);
+    write_image(spaced, 4, 4, 3, OIIO::TypeDesc::UINT8, px.data());
+    RunResult v = run_spectex({"bake", spaced, "-o", d / "o.exr", "-v"});
+    EXPECT_EQ(v.status, 0) << v.err;
+    EXPECT_TRUE(contains(v.err, "spectex: '" + spaced + "' -> " + d / "o.exr" + ": ")) << v.err;
+}

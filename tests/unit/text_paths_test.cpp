@@ -50,3 +50,16 @@ TEST(Paths, FolderAndNameAsDirnameAndBasename) {
     EXPECT_FALSE(executable_dir().empty());
     EXPECT_EQ(executable_dir().front(), '/');
 }
+
+TEST(Text, QuotePathOnlyWhenAShellOrTheMessageConventionNeedsIt) {
+    EXPECT_EQ(quote_path("assets/a_b-c.1001.png"), "assets/a_b-c.1001.png");
+    EXPECT_EQ(quote_path("/abs/t\xc3\xabxture.png"), "/abs/t\xc3\xabxture.png");  // UTF-8 stays as it is
+    EXPECT_EQ(quote_path("my file.png"), "'my file.png'");
+    EXPECT_EQ(quote_path(" lead.png"), "' lead.png'");
+    EXPECT_EQ(quote_path("a: b.png"), "'a: b.png'");
+    EXPECT_EQ(quote_path("it's.png"), "'it'\\''s.png'");
+    EXPECT_EQ(quote_path("t.<UDIM>.png"), "'t.<UDIM>.png'");
+    EXPECT_EQ(quote_path("$HOME.png"), "'$HOME.png'");
+    EXPECT_EQ(quote_path(""), "''");
+    EXPECT_EQ(quote_path("a\nb"), "'a\nb'");  // one_line escapes the byte afterwards
+}
