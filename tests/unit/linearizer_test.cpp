@@ -169,3 +169,30 @@ TEST(Linearizer, CodeTableGivesOcioBitsForEveryCodeAndAnyOtherValue) {
     Linearizer p3 = make("sRGB Encoded P3-D65 - Texture");
     EXPECT_FALSE(p3.use_code_table(8));
 }
+
+TEST(Linearizer, AConfigEditedBetweenFilesIsReadAnew) {
+    // Configs are parsed once per process for the same path and bytes (a batch of small files);
+    // a config whose file changes under the same path must still be parsed again.
+    std::ifstream in(kData + "/spectex.ocio");
+    const std::string shipped((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::string from = "from_scene_reference: !<ExponentWithLinearTransform> {gamma: 2.4, offset: 0.055, direction: inverse}";
+    ASSERT_NE(shipped.find(from), std::string::npos);
+    std::string g22 = shipped;
+    g22.replace(g22.find(from), from.size(),
+                "from_scene_reference: !<ExponentTransform> {value: 2.2, style: pass_thru, direction: inverse}");
+    char tmpl[] = "/tmp/spectex-ocio-XXXXXX";
+    const std::string dir = mkdtemp(tmpl), path = dir + "/edited.ocio";
+    const std::vector<float> codes{0.1f, 0.5f, 0.9f};
+    for (int round = 0; round < 2; ++round) {  // twice: the second time both versions are cached
+        std::ofstream(path, std::ios::trunc) << shipped;
+        auto a = linearize(make("srgb_tx", path), codes);
+        std::ofstream(path, std::ios::trunc) << g22;
+        auto b = linearize(make("srgb_tx", path), codes);
+        for (size_t i = 0; i < codes.size(); ++i) {
+            EXPECT_NEAR(a[i], iec_srgb_to_linear(codes[i]), 1e-6) << round;
+            EXPECT_NEAR(b[i], std::pow(codes[i], 2.2), 1e-6) << round;
+        }
+    }
+    std::remove(path.c_str());
+    rmdir(dir.c_str());
+}
