@@ -12,13 +12,14 @@
 #include "io/exr_compression.h"
 #include "io/exr_preflight.h"
 #include "spectral/error.h"
+#include "spectral/provenance_keys.h"
 
 namespace spectex {
 
 std::string alpha_kind(const SpectralExrInfo& info) {
     if (!info.alpha) return "none";
     for (const auto& [k, v] : info.attributes)
-        if (k == "spectex:alpha" && v == "unassociated") return "unassociated";
+        if (k == provenance_key::kAlpha && v == "unassociated") return "unassociated";
     return "associated";
 }
 
