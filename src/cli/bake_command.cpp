@@ -16,6 +16,7 @@
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
 #include "io/data_dir.h"
+#include "io/exr_compression.h"
 #include "io/image_library.h"
 #include "io/library_stderr.h"
 #include "io/atomic_file.h"
@@ -125,7 +126,7 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
     p.option("--type", "half|float", "Sample type of the spectral channels (default half).",
              [&](const std::string& v) { c.type = v; });
     p.option("--compression", "NAME",
-             "none, rle, zips, zip, piz, pxr24, b44, b44a, dwaa or dwab (default zip).",
+             ExrCompression::list(", ", " or ") + " (default " + c.compression + ").",
              [&](const std::string& v) { c.compression = v; });
     p.option("--zip-level", "L",
              "Deflate level of zip and zips, 1 (fastest) to 12 (smallest); default 4. Level 1 took 0.6x the "

@@ -6,6 +6,7 @@
 #include "io/spectral_reader.h"
 #include "pipeline/json_text.h"
 #include "spectral/error.h"
+#include "spectral/provenance_keys.h"
 #include "spectral/wavelength_grid.h"
 
 namespace spectex {
@@ -146,8 +147,8 @@ int run_info(const std::vector<std::string>& args) {
             std::cout << "  preview RGB:     " << (info.preview ? "yes" : "no") << "\n";
             if (info.emissive_channels) std::cout << "  emissive chans:  " << info.emissive_channels << "\n";
             for (const auto& [k, v] : info.attributes) {
-                if (k.rfind("spectex:", 0) != 0) continue;
-                if (k == "spectex:wavelengthList") continue;
+                if (k.rfind(provenance_key::kPrefix, 0) != 0) continue;
+                if (k == provenance_key::kWavelengthList) continue;
                 std::cout << "  " << one_line(k) << " " << one_line(v) << "\n";
             }
         } catch (const Error& e) {

@@ -23,6 +23,7 @@
 #include "io/spectral_exr_info.h"
 #include "pipeline/verify.h"
 #include "spectral/error.h"
+#include "spectral/provenance_keys.h"
 #include "spectral/spectrum.h"
 #include "spectral/wavelength_grid.h"
 
@@ -369,9 +370,11 @@ int run_verify(const std::vector<std::string>& args) {
             reads.add(f, "a file to verify");
             try {
                 for (const auto& [k, v] : read_spectral_exr_info(f).attributes) {
-                    if (k == "spectex:source" && source_from_header) reads.add(v, "the source " + f + " records");
-                    if (k == "spectex:config" && s.config.empty()) configs.push_back(v);
-                    if (k == "spectex:observer" || k == "spectex:illuminant") reads.add(v, "a table " + f + " records");
+                    if (k == provenance_key::kSource && source_from_header)
+                        reads.add(v, "the source " + f + " records");
+                    if (k == provenance_key::kConfig && s.config.empty()) configs.push_back(v);
+                    if (k == provenance_key::kObserver || k == provenance_key::kIlluminant)
+                        reads.add(v, "a table " + f + " records");
                 }
             } catch (const Error&) {
                 // An unreadable file is reported when it is verified.
@@ -404,8 +407,9 @@ int run_verify(const std::vector<std::string>& args) {
                 if (source_from_header) {
                     fs.source.clear();
                     for (const auto& [k, v] : read_spectral_exr_info(files[i]).attributes)
-                        if (k == "spectex:source") fs.source = v;
-                    if (fs.source.empty()) throw Error(files[i] + ": the header records no spectex:source");
+                        if (k == provenance_key::kSource) fs.source = v;
+                    if (fs.source.empty())
+                        throw Error(files[i] + ": the header records no " + provenance_key::kSource);
                 }
                 o.report = verify_file(files[i], fs);
                 o.failures = gate_failures(o.report, t);

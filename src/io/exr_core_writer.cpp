@@ -15,6 +15,7 @@
 #include <mutex>
 #include <thread>
 
+#include "io/exr_compression.h"
 #include "spectral/error.h"
 #include "spectral/expand.h"
 #include "spectral/wavelength_grid.h"
@@ -66,7 +67,10 @@ struct CoreChannel {
 
 }  // namespace
 
-bool ExrCoreWriter::supports(const std::string& c) { return c == "none" || c == "zips" || c == "zip"; }
+bool ExrCoreWriter::supports(const std::string& compression) {
+    const ExrCompression* c = ExrCompression::find(compression);
+    return c && c->core_writer;
+}
 
 struct ExrCoreWriter::Impl {
     struct Chunk {
@@ -320,11 +324,9 @@ ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const SpectralExrL
     I.fd = fd;
     const std::string& cname = L.compression.name;
     if (!supports(cname)) throw Error("internal: the core writer does not write " + cname);
-    exr_compression_t comp = cname == "zip"    ? EXR_COMPRESSION_ZIP
-                             : cname == "zips" ? EXR_COMPRESSION_ZIPS
-                                               : EXR_COMPRESSION_NONE;
+    const exr_compression_t comp = static_cast<exr_compression_t>(L.compression.id);
     I.tiled = L.tile_width > 0;
-    I.lines_per_chunk = I.tiled ? L.tile_height : comp == EXR_COMPRESSION_ZIP ? 16 : 1;
+    I.lines_per_chunk = I.tiled ? L.tile_height : L.compression.lines_per_chunk;
     I.compress = comp != EXR_COMPRESSION_NONE;
     I.chunk_count = (L.height + I.lines_per_chunk - 1) / I.lines_per_chunk;  // tiled: set below
 

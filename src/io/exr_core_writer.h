@@ -1,6 +1,6 @@
 #pragma once
-// An OpenEXR writer on OpenEXR's C core API (openexr_core) for NONE, ZIPS and ZIP files, scanline
-// or tiled (one level or MIP-mapped, levels rounded down).
+// An OpenEXR writer on OpenEXR's C core API (openexr_core) for the compressions the table gives it
+// (ExrCompression::core_writer), scanline or tiled (one level or MIP-mapped, levels rounded down).
 //
 // Why not Imf::OutputFile: OpenEXR 3.1's C++ writer keeps 2×threads line buffers, each with its
 // own compression buffers, whatever the chunk size (about 630 MB at 4K and 401 bins), and
@@ -18,7 +18,7 @@ namespace spectex {
 
 class ExrCoreWriter {
 public:
-    static bool supports(const std::string& compression);
+    static bool supports(const std::string& compression);  // ExrCompression::core_writer
     // fd: an open, empty, writable file (the AtomicFile's); name: for messages. The layout's
     // compression must be one that supports() takes; its writer field is not looked at.
     ExrCoreWriter(int fd, const std::string& name, const SpectralExrLayout& layout);

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "io/exr_compression.h"
 #include "spectral/bounded_read.h"
 #include "spectral/error.h"
 
@@ -120,8 +121,8 @@ void exr_preflight(const std::string& path, std::map<std::string, std::string>* 
             chunks = ((static_cast<uint64_t>(w) + tx - 1) / tx) * ((static_cast<uint64_t>(h) + ty - 1) / ty);
             chunks = chunks * 4 / 3 + 64;  // MIP levels add at most a third (RIP maps are not capped here)
         } else {
-            static const int lines[] = {1, 1, 1, 16, 32, 16, 32, 32, 32, 256};
-            chunks = static_cast<uint64_t>(h) / static_cast<uint64_t>(compression >= 0 && compression < 10 ? lines[compression] : 1) + 1;
+            const ExrCompression* known = ExrCompression::find(compression);
+            chunks = static_cast<uint64_t>(h) / static_cast<uint64_t>(known ? known->lines_per_chunk : 1) + 1;
         }
         if (chunks > kMaxChunks)
             throw Error(path + ": OpenEXR header describes " + std::to_string(chunks) +

@@ -1,7 +1,8 @@
 #pragma once
-// A bake's source, as its output's header records it (spectex:sourceSize, spectex:sourceMtime,
-// spectex:sourceHash), so that --update can tell a replaced source from an unchanged one whatever
-// the dates say (a restore, `rsync -t` or a checkout can put an older-dated file in place).
+// A bake's source, as its output's header records it (spectex:sourceSize, sourceMtime and
+// sourceHash: provenance_key::kSource* in spectral/provenance_keys.h), so that --update can tell a
+// replaced source from an unchanged one whatever the dates say (a restore, `rsync -t` or a
+// checkout can put an older-dated file in place).
 //
 // The hash is FNV-1a 64 (spectral/fnv1a.h) over the file's bytes, in file order. A bake computes
 // it while the image is decoded: the reader reads through a descriptor that hashes what it reads
@@ -17,10 +18,6 @@
 #include "spectral/fnv1a.h"
 
 namespace spectex {
-
-constexpr const char* kSourceSizeAttribute = "spectex:sourceSize";
-constexpr const char* kSourceMtimeAttribute = "spectex:sourceMtime";
-constexpr const char* kSourceHashAttribute = "spectex:sourceHash";
 
 struct SourceIdentity {
     uint64_t size = 0;

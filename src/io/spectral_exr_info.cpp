@@ -29,6 +29,7 @@
 #include <cstring>
 #include <fstream>
 
+#include "io/exr_compression.h"
 #include "io/exr_preflight.h"
 #include "spectral/bounded_read.h"
 #include "spectral/error.h"
@@ -48,19 +49,8 @@ std::string type_name(Imf::PixelType t) {
 }
 
 std::string compression_name(Imf::Compression c) {
-    switch (c) {
-        case Imf::NO_COMPRESSION: return "none";
-        case Imf::RLE_COMPRESSION: return "rle";
-        case Imf::ZIPS_COMPRESSION: return "zips";
-        case Imf::ZIP_COMPRESSION: return "zip";
-        case Imf::PIZ_COMPRESSION: return "piz";
-        case Imf::PXR24_COMPRESSION: return "pxr24";
-        case Imf::B44_COMPRESSION: return "b44";
-        case Imf::B44A_COMPRESSION: return "b44a";
-        case Imf::DWAA_COMPRESSION: return "dwaa";
-        case Imf::DWAB_COMPRESSION: return "dwab";
-        default: return "unknown";
-    }
+    const ExrCompression* known = ExrCompression::find(static_cast<int>(c));
+    return known ? known->name : "unknown";
 }
 
 std::string attribute_text(const Imf::Attribute& a) {

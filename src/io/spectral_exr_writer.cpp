@@ -25,19 +25,6 @@ namespace spectex {
 
 namespace {
 
-struct CompressionEntry {
-    const char* name;
-    Imf::Compression id;
-    int lines;
-};
-const CompressionEntry kCompressions[] = {
-    {"none", Imf::NO_COMPRESSION, 1},     {"rle", Imf::RLE_COMPRESSION, 1},
-    {"zips", Imf::ZIPS_COMPRESSION, 1},   {"zip", Imf::ZIP_COMPRESSION, 16},
-    {"piz", Imf::PIZ_COMPRESSION, 32},    {"pxr24", Imf::PXR24_COMPRESSION, 16},
-    {"b44", Imf::B44_COMPRESSION, 32},    {"b44a", Imf::B44A_COMPRESSION, 32},
-    {"dwaa", Imf::DWAA_COMPRESSION, 32},  {"dwab", Imf::DWAB_COMPRESSION, 256},
-};
-
 // An Imf::OStream over a file descriptor (the AtomicFile's), buffered, with pwrite so that
 // OpenEXR's seek back to the offset table works; errors carry errno (ENOSPC, EFBIG, ...).
 class FdOStream : public Imf::OStream {
@@ -106,20 +93,6 @@ const std::vector<std::pair<std::string, std::string>>& texture_attributes() {
     return a;
 }
 
-ExrCompression ExrCompression::parse(const std::string& name) {
-    for (const auto& c : kCompressions)
-        if (name == c.name) return ExrCompression{c.name, static_cast<int>(c.id), c.lines};
-    std::string list;
-    for (const auto& n : names()) list += (list.empty() ? "" : ", ") + n;
-    throw Error("unknown compression '" + name + "' (known: " + list + ")");
-}
-
-std::vector<std::string> ExrCompression::names() {
-    std::vector<std::string> v;
-    for (const auto& c : kCompressions) v.emplace_back(c.name);
-    return v;
-}
-
 struct SpectralExrWriter::Impl {
     SpectralExrLayout layout;
     std::unique_ptr<FdOStream> stream;
@@ -176,7 +149,7 @@ bool SpectralExrWriter::uses_core(const SpectralExrLayout& L) {
         kind = e && *e ? e : "core";
     }
     if (kind != "core" && kind != "imf") throw Error("unknown EXR writer '" + kind + "' (known: core, imf)");
-    return kind == "core" && ExrCoreWriter::supports(L.compression.name);
+    return kind == "core" && L.compression.core_writer;
 }
 
 int SpectralExrWriter::levels() const {

@@ -6,6 +6,7 @@
 #include <utility>
 #include <vector>
 
+#include "io/exr_compression.h"
 #include "io/pixel_window.h"
 
 namespace spectex {
@@ -13,14 +14,6 @@ namespace spectex {
 class AtomicFile;
 
 enum class SampleType { Half, Float };
-
-struct ExrCompression {
-    std::string name;   // none, rle, zips, zip, piz, pxr24, b44, b44a, dwaa, dwab
-    int id = 0;         // Imf::Compression value
-    int lines_per_chunk = 1;
-    static ExrCompression parse(const std::string& name);   // throws Error listing valid names
-    static std::vector<std::string> names();
-};
 
 struct SpectralExrLayout : PixelWindows {
     std::vector<double> lambda;
@@ -34,8 +27,9 @@ struct SpectralExrLayout : PixelWindows {
     // Tiled output (tile_width > 0), optionally MIP-mapped (levels rounded down, as maketx does).
     int tile_width = 0, tile_height = 0;
     bool mipmap = false;
-    // NONE/ZIPS/ZIP files, scanline or tiled, go through the core-API writer (bounded memory,
-    // libdeflate) unless writer is "imf"; "auto" also reads $SPECTEX_EXR_WRITER (core or imf).
+    // Files whose compression the table gives the core writer (ExrCompression::core_writer), scanline
+    // or tiled, go through the core-API writer (bounded memory, libdeflate) unless writer is "imf";
+    // "auto" also reads $SPECTEX_EXR_WRITER (core or imf).
     std::string writer = "auto";
     int zip_level = 4;  // libdeflate level for the core writer (Imf's zlib uses OpenEXR's default)
 };

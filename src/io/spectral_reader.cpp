@@ -9,15 +9,17 @@
 #include <algorithm>
 #include <map>
 
+#include "io/exr_compression.h"
 #include "io/exr_preflight.h"
 #include "spectral/error.h"
+#include "spectral/provenance_keys.h"
 
 namespace spectex {
 
 std::string alpha_kind(const SpectralExrInfo& info) {
     if (!info.alpha) return "none";
     for (const auto& [k, v] : info.attributes)
-        if (k == "spectex:alpha" && v == "unassociated") return "unassociated";
+        if (k == provenance_key::kAlpha && v == "unassociated") return "unassociated";
     return "associated";
 }
 
@@ -75,17 +77,8 @@ int SpectralReader::band_rows(size_t band_bytes) const {
     int chunk = 1;
     if (h.hasTileDescription()) {
         chunk = std::max(1, static_cast<int>(h.tileDescription().ySize));
-    } else {
-        switch (h.compression()) {
-            case Imf::ZIP_COMPRESSION:
-            case Imf::PXR24_COMPRESSION: chunk = 16; break;
-            case Imf::PIZ_COMPRESSION:
-            case Imf::B44_COMPRESSION:
-            case Imf::B44A_COMPRESSION:
-            case Imf::DWAA_COMPRESSION: chunk = 32; break;
-            case Imf::DWAB_COMPRESSION: chunk = 256; break;
-            default: break;
-        }
+    } else if (const ExrCompression* c = ExrCompression::find(static_cast<int>(h.compression()))) {
+        chunk = c->lines_per_chunk;
     }
     const size_t row_bytes = static_cast<size_t>(info_.width) * info_.reflective.size() * sizeof(float);
     int rows = static_cast<int>(std::max<size_t>(1, band_bytes / std::max<size_t>(row_bytes, 1)));

@@ -23,6 +23,7 @@
 #include "spectral/error.h"
 #include "spectral/colorimetry.h"
 #include "spectral/expand.h"
+#include "spectral/provenance_keys.h"
 
 namespace spectex {
 
@@ -147,38 +148,42 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     layout.compression = s.compression;
     layout.zip_level = s.zip_level;
     layout.attributes = {
-        {"spectex:version", SPECTEX_VERSION},
-        {"spectex:commandLine", s.command_line},
-        {"spectex:source", input},
-        {"spectex:wavelengths", s.grid.describe()},
-        {"spectex:wavelengthList", join_lambda(s.grid.lambda)},
-        {"spectex:observer", s.observer},
-        {"spectex:illuminant", s.illuminant},
-        {"spectex:inputColorSpace", lin.input_space()},
-        {"spectex:inputColorSpaceFrom", lin.how_chosen()},
-        {"spectex:config", std::filesystem::absolute(lin.config_path()).lexically_normal().string()},
-        {"spectex:configFrom", lin.config_from()},
-        {"spectex:configName", lin.config_name()},
-        {"spectex:configChecksum", config_checksum(lin.config_path())},
-        {"spectex:alpha", has_alpha ? (s.alpha == AlphaMode::Associated ? "associated" : "unassociated") : "none"},
-        {"spectex:outOfRange", to_string(s.range)},
-        {"spectex:nan", to_string(s.nan)},
-        {"spectex:zipLevel", std::to_string(s.zip_level)},
-        {"spectex:halfRounding", s.type == SampleType::Half ? (s.colour_rounding ? "colour" : "nearest") : "n/a"},
-        {"spectex:settingsHash", s.settings_hash},
+        {provenance_key::kVersion, SPECTEX_VERSION},
+        {provenance_key::kCommandLine, s.command_line},
+        {provenance_key::kSource, input},
+        {provenance_key::kWavelengths, s.grid.describe()},
+        {provenance_key::kWavelengthList, join_lambda(s.grid.lambda)},
+        {provenance_key::kObserver, s.observer},
+        {provenance_key::kIlluminant, s.illuminant},
+        {provenance_key::kInputColorSpace, lin.input_space()},
+        {provenance_key::kInputColorSpaceFrom, lin.how_chosen()},
+        {provenance_key::kConfig,
+         std::filesystem::absolute(lin.config_path()).lexically_normal().string()},
+        {provenance_key::kConfigFrom, lin.config_from()},
+        {provenance_key::kConfigName, lin.config_name()},
+        {provenance_key::kConfigChecksum, config_checksum(lin.config_path())},
+        {provenance_key::kAlpha,
+         has_alpha ? (s.alpha == AlphaMode::Associated ? "associated" : "unassociated") : "none"},
+        {provenance_key::kOutOfRange, to_string(s.range)},
+        {provenance_key::kNan, to_string(s.nan)},
+        {provenance_key::kZipLevel, std::to_string(s.zip_level)},
+        {provenance_key::kHalfRounding,
+         s.type == SampleType::Half ? (s.colour_rounding ? "colour" : "nearest") : "n/a"},
+        {provenance_key::kSettingsHash, s.settings_hash},
         // The source's identity, for --update (io/source_identity.h); the hash is patched in once
         // the source has been decoded (and so hashed).
-        {kSourceSizeAttribute, src->identity().size_text()},
-        {kSourceMtimeAttribute, src->identity().mtime_text()},
-        {kSourceHashAttribute, source_hash_placeholder()},
+        {provenance_key::kSourceSize, src->identity().size_text()},
+        {provenance_key::kSourceMtime, src->identity().mtime_text()},
+        {provenance_key::kSourceHash, source_hash_placeholder()},
     };
     if (!s.plan.lights.empty()) {
-        layout.attributes.push_back({"spectex:planLights", s.plan.lights});
-        layout.attributes.push_back({"spectex:planMaxDe", s.plan.max_de});
-        layout.attributes.push_back({"spectex:planReconstruction", s.plan.reconstruction});
-        layout.attributes.push_back({"spectex:planRange", s.plan.range});
-        layout.attributes.push_back({"spectex:planWorstDe", s.plan.worst_de});
-        if (s.plan.nonuniform) layout.attributes.push_back({"spectex:planGrids", "uniform and non-uniform"});
+        auto& a = layout.attributes;
+        a.push_back({provenance_key::kPlanLights, s.plan.lights});
+        a.push_back({provenance_key::kPlanMaxDe, s.plan.max_de});
+        a.push_back({provenance_key::kPlanReconstruction, s.plan.reconstruction});
+        a.push_back({provenance_key::kPlanRange, s.plan.range});
+        a.push_back({provenance_key::kPlanWorstDe, s.plan.worst_de});
+        if (s.plan.nonuniform) a.push_back({provenance_key::kPlanGrids, "uniform and non-uniform"});
     }
     {
         // The method's own attributes where the basis' always stood (the order is part of the bytes).
@@ -362,7 +367,8 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     }
     auto t_finish = Clock::now();
     writer.finish();
-    patch_string_attribute(out.fd(), kSourceHashAttribute, source_hash_placeholder(), src->content_hash(), output);
+    patch_string_attribute(out.fd(), provenance_key::kSourceHash, source_hash_placeholder(),
+                           src->content_hash(), output);
     res.stages.finish = since(t_finish);
     const auto wt = writer.timing();
     res.stages.pack = wt.pack_seconds;

@@ -28,6 +28,7 @@
 #include "spectex/version.h"
 #include "spectral/error.h"
 #include "spectral/fnv1a.h"
+#include "spectral/provenance_keys.h"
 
 namespace spectex {
 
@@ -323,12 +324,13 @@ UpdateCheck check_update(const std::string& input, const std::string& output, co
         auto it = h.find(name);
         return it == h.end() ? std::string() : it->second;
     };
-    if (value("spectex:settingsHash") != hash) {
+    if (value(provenance_key::kSettingsHash) != hash) {
         c.reason = "other settings";
         return c;
     }
-    const std::string size = value(kSourceSizeAttribute), mtime = value(kSourceMtimeAttribute),
-                      recorded = value(kSourceHashAttribute);
+    const std::string size = value(provenance_key::kSourceSize);
+    const std::string mtime = value(provenance_key::kSourceMtime);
+    const std::string recorded = value(provenance_key::kSourceHash);
     if (size.empty() || mtime.empty() || recorded.empty()) {
         c.reason = "the output does not record its source's identity";
         return c;

@@ -20,6 +20,7 @@
 #include "spectral/ciede2000.h"
 #include "spectral/colorimetry.h"
 #include "spectral/error.h"
+#include "spectral/provenance_keys.h"
 #include "spectral/spectrum.h"
 #include "spectral/text.h"
 #include "spectral/wavelength_grid.h"
@@ -326,13 +327,14 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
             r.warnings.push_back(option + " '" + given + "' overrides the file's '" + rec + "' (" + key + ")");
         return given;
     };
-    r.method = recorded("spectex:method");
-    if (r.method.empty() && !recorded("spectex:basis").empty()) r.method = "basis";  // spectex before 0.1's methods
-    if (const std::string v = recorded("spectex:outOfRange"); !v.empty()) r.out_of_range = v;
-    if (const std::string v = recorded("spectex:nan"); !v.empty()) r.nan = v;
-    r.half_rounding = recorded("spectex:halfRounding");
-    r.illuminant = choose(s.illuminant, "spectex:illuminant", "D65", "--check-illuminant");
-    r.observer = choose(s.observer, "spectex:observer", "cie1931-2", "--observer");
+    r.method = recorded(provenance_key::kMethod);
+    // spectex before 0.1's methods recorded only the basis.
+    if (r.method.empty() && !recorded(provenance_key::kBasis).empty()) r.method = "basis";
+    if (const std::string v = recorded(provenance_key::kOutOfRange); !v.empty()) r.out_of_range = v;
+    if (const std::string v = recorded(provenance_key::kNan); !v.empty()) r.nan = v;
+    r.half_rounding = recorded(provenance_key::kHalfRounding);
+    r.illuminant = choose(s.illuminant, provenance_key::kIlluminant, "D65", "--check-illuminant");
+    r.observer = choose(s.observer, provenance_key::kObserver, "cie1931-2", "--observer");
     r.alpha = reader.alpha();  // "associated" is OpenEXR's convention when nothing says otherwise
 
     std::vector<double> lambdas;
@@ -371,7 +373,8 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
                         " (" + s.source + ")");
         // The OCIO config: the one given, else the one the bake used when it is still there.
         std::string config = s.config;
-        const std::string rec_config = recorded("spectex:config"), rec_sum = recorded("spectex:configChecksum");
+        const std::string rec_config = recorded(provenance_key::kConfig),
+                          rec_sum = recorded(provenance_key::kConfigChecksum);
         if (config.empty() && !rec_config.empty()) {
             if (file_id(rec_config)) {
                 config = rec_config;
@@ -386,18 +389,20 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
             r.warnings.push_back("--config " + config + " differs from the config the file records (" + rec_config +
                                  ")");
         }
-        const std::string rec_space = recorded("spectex:inputColorSpace");
+        const std::string rec_space = recorded(provenance_key::kInputColorSpace);
         ColourRequest req{s.data_dir, config, s.colorspace.empty() ? rec_space : s.colorspace, s.source,
                           si.colorspace_hint};
         lin = Linearizer::make(req);
         if (!s.colorspace.empty() && !rec_space.empty() && lin.input_space() != rec_space)
             r.warnings.push_back("--colorspace '" + s.colorspace + "' ('" + lin.input_space() +
-                                 "') overrides the file's '" + rec_space + "' (spectex:inputColorSpace)");
+                                 "') overrides the file's '" + rec_space + "' (" +
+                                 provenance_key::kInputColorSpace + ")");
         r.compared = true;
         r.source = s.source;
         r.source_colorspace = lin.input_space();
-        r.source_colorspace_how = s.colorspace.empty() && !rec_space.empty() ? "the file's spectex:inputColorSpace"
-                                                                             : lin.how_chosen();
+        r.source_colorspace_how = s.colorspace.empty() && !rec_space.empty()
+                                      ? std::string("the file's ") + provenance_key::kInputColorSpace
+                                      : lin.how_chosen();
         r.source_bits = si.bits;
         r.source_float = si.is_float;
         ctx.compare = true;

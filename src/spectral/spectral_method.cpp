@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "spectral/provenance_keys.h"
+
 namespace spectex {
 
 void SpectralMethod::expand_half(const float* r, const float* g, const float* b, size_t n, uint16_t* out,
@@ -21,7 +23,10 @@ BasisMethod::BasisMethod(Basis basis, std::string source)
     : basis_(std::move(basis)), source_(std::move(source)), m_(ExpansionMatrix::from_basis(basis_)) {}
 
 std::vector<std::pair<std::string, std::string>> BasisMethod::provenance() const {
-    return {{"spectex:method", "basis"}, {"spectex:basis", basis_.name}, {"spectex:basisSource", source_}, {"spectex:basisChecksum", checksum()}};
+    return {{provenance_key::kMethod, "basis"},
+            {provenance_key::kBasis, basis_.name},
+            {provenance_key::kBasisSource, source_},
+            {provenance_key::kBasisChecksum, checksum()}};
 }
 
 void BasisMethod::expand_float(const float* r, const float* g, const float* b, size_t n, float* out,

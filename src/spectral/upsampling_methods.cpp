@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <cstring>
 
+#include "spectral/provenance_keys.h"
+
 namespace spectex {
 
 namespace {
@@ -22,11 +24,11 @@ LatticeMethod::LatticeMethod(SpectralLattice lattice, std::vector<double> lambda
 std::vector<std::pair<std::string, std::string>> LatticeMethod::provenance() const {
     std::string prior = to_string(lattice_.prior());
     if (lattice_.prior() == VertexPrior::Blend) prior += " (weight " + number(blend_) + ")";
-    return {{"spectex:method", "lattice"},
-            {"spectex:latticeSize", std::to_string(lattice_.size())},
-            {"spectex:vertexPrior", prior},
-            {"spectex:methodSource", "built by spectex: " + conditions_},
-            {"spectex:methodChecksum", checksum()}};
+    return {{provenance_key::kMethod, "lattice"},
+            {provenance_key::kLatticeSize, std::to_string(lattice_.size())},
+            {provenance_key::kVertexPrior, prior},
+            {provenance_key::kMethodSource, "built by spectex: " + conditions_},
+            {provenance_key::kMethodChecksum, checksum()}};
 }
 
 JakobHanikaMethod::JakobHanikaMethod(JakobHanikaTable table, std::vector<double> lambda, std::string conditions)
@@ -53,11 +55,12 @@ JakobHanikaMethod::JakobHanikaMethod(JakobHanikaTable table, std::vector<double>
 }
 
 std::vector<std::pair<std::string, std::string>> JakobHanikaMethod::provenance() const {
-    return {{"spectex:method", "jakob-hanika"},
-            {"spectex:jhTableResolution", std::to_string(table_.res())},
-            {"spectex:methodSource", "built by spectex: " + conditions_ + " (not exact: largest linear RGB "
-                                     "residual at the table's nodes " + number(table_.max_rgb_residual) + ")"},
-            {"spectex:methodChecksum", checksum()}};
+    return {{provenance_key::kMethod, "jakob-hanika"},
+            {provenance_key::kJhTableResolution, std::to_string(table_.res())},
+            {provenance_key::kMethodSource, "built by spectex: " + conditions_ +
+                                                " (not exact: largest linear RGB residual at the table's nodes " +
+                                                number(table_.max_rgb_residual) + ")"},
+            {provenance_key::kMethodChecksum, checksum()}};
 }
 
 }  // namespace spectex

@@ -1,0 +1,67 @@
+#pragma once
+// The names of the spectex:* header attributes, which record how a file was baked (README, "The
+// output file"): written by the bake (pipeline/bake.cpp) and the methods' provenance(), read by
+// `info`, `verify` and `bake --update`. Every use names the constant, never the string. They live
+// here, in the lowest layer, because the spectral methods describe themselves with them.
+namespace spectex {
+namespace provenance_key {
+
+constexpr const char* kPrefix = "spectex:";  // every key below starts with it
+
+// The bake: tool, command, input and output grid.
+constexpr const char* kVersion = "spectex:version";
+constexpr const char* kCommandLine = "spectex:commandLine";
+constexpr const char* kSource = "spectex:source";
+constexpr const char* kWavelengths = "spectex:wavelengths";
+constexpr const char* kWavelengthList = "spectex:wavelengthList";
+constexpr const char* kObserver = "spectex:observer";
+constexpr const char* kIlluminant = "spectex:illuminant";
+// The colour: the input's space and how it was chosen, the OCIO config.
+constexpr const char* kInputColorSpace = "spectex:inputColorSpace";
+constexpr const char* kInputColorSpaceFrom = "spectex:inputColorSpaceFrom";
+constexpr const char* kConfig = "spectex:config";
+constexpr const char* kConfigFrom = "spectex:configFrom";
+constexpr const char* kConfigName = "spectex:configName";
+constexpr const char* kConfigChecksum = "spectex:configChecksum";
+// Pixel policies and the encoding.
+constexpr const char* kAlpha = "spectex:alpha";
+constexpr const char* kOutOfRange = "spectex:outOfRange";
+constexpr const char* kNan = "spectex:nan";
+constexpr const char* kZipLevel = "spectex:zipLevel";
+constexpr const char* kHalfRounding = "spectex:halfRounding";
+// --update: the settings and the source's identity (io/source_identity.h).
+constexpr const char* kSettingsHash = "spectex:settingsHash";
+constexpr const char* kSourceSize = "spectex:sourceSize";
+constexpr const char* kSourceMtime = "spectex:sourceMtime";
+constexpr const char* kSourceHash = "spectex:sourceHash";
+// --wavelengths auto: the plan that chose the grid.
+constexpr const char* kPlanLights = "spectex:planLights";
+constexpr const char* kPlanMaxDe = "spectex:planMaxDe";
+constexpr const char* kPlanReconstruction = "spectex:planReconstruction";
+constexpr const char* kPlanRange = "spectex:planRange";
+constexpr const char* kPlanWorstDe = "spectex:planWorstDe";
+constexpr const char* kPlanGrids = "spectex:planGrids";
+// The spectral method (SpectralMethod::provenance()).
+constexpr const char* kMethod = "spectex:method";
+constexpr const char* kBasis = "spectex:basis";
+constexpr const char* kBasisSource = "spectex:basisSource";
+constexpr const char* kBasisChecksum = "spectex:basisChecksum";
+constexpr const char* kLatticeSize = "spectex:latticeSize";
+constexpr const char* kVertexPrior = "spectex:vertexPrior";
+constexpr const char* kJhTableResolution = "spectex:jhTableResolution";
+constexpr const char* kMethodSource = "spectex:methodSource";
+constexpr const char* kMethodChecksum = "spectex:methodChecksum";
+
+// Every key above, for checks that a file records nothing else.
+constexpr const char* kAll[] = {
+    kVersion, kCommandLine, kSource, kWavelengths, kWavelengthList, kObserver, kIlluminant,
+    kInputColorSpace, kInputColorSpaceFrom, kConfig, kConfigFrom, kConfigName, kConfigChecksum,
+    kAlpha, kOutOfRange, kNan, kZipLevel, kHalfRounding,
+    kSettingsHash, kSourceSize, kSourceMtime, kSourceHash,
+    kPlanLights, kPlanMaxDe, kPlanReconstruction, kPlanRange, kPlanWorstDe, kPlanGrids,
+    kMethod, kBasis, kBasisSource, kBasisChecksum, kLatticeSize, kVertexPrior, kJhTableResolution,
+    kMethodSource, kMethodChecksum,
+};
+
+}  // namespace provenance_key
+}  // namespace spectex
