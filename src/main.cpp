@@ -1,18 +1,18 @@
 // spectex: sRGB textures to spectral reflectance OpenEXR. Subcommand dispatch only.
 #include <cerrno>
-#include <cstring>
 #include <clocale>
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <iostream>
 #include <string>
 #include <vector>
 
 #include "cli/commands.h"
-#include "spectral/error.h"
 #include "io/atomic_file.h"
 #include "io/library_stderr.h"
 #include "spectex/version.h"
+#include "spectral/error.h"
 
 namespace spectex {
 
@@ -21,7 +21,9 @@ std::string name_file(const std::string& file, const std::string& message) {
     return quote_path(file) + message.substr(file.size());
 }
 
-void print_error(const std::string& message) { std::cerr << "spectex: " << one_line(message) << std::endl; }
+void print_error(const std::string& message) {
+    std::cerr << "spectex: " << one_line(message) << std::endl;
+}
 
 int run_reporting(const std::string& file, const std::function<void()>& work) {
     try {
@@ -67,7 +69,6 @@ const char* kUsage =
     "\n"
     "Exit status: 0 success, 1 the work failed, 2 usage error.\n";
 
-
 }  // namespace
 
 // The command as given, shell-quoted: printed once at the end of a run whose work failed, so that a
@@ -81,7 +82,8 @@ int finish(int status) {
     errno = 0;
     if (std::fflush(stdout) != 0 || std::ferror(stdout) || !std::cout) {
         const int err = errno;
-        spectex::print_error(std::string("standard output: cannot write: ") + (err ? std::strerror(err) : "write error"));
+        spectex::print_error(std::string("standard output: cannot write: ") +
+                             (err ? std::strerror(err) : "write error"));
         if (status == 0) status = 1;
     }
     spectex::finish_library_stderr();  // the libraries' last warnings before the closing line

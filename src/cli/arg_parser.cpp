@@ -1,8 +1,5 @@
 #include "cli/arg_parser.h"
 
-#include "io/linearizer.h"
-#include "spectral/text.h"
-
 #include <cctype>
 #include <cerrno>
 #include <cmath>
@@ -11,10 +8,15 @@
 #include <iostream>
 #include <sstream>
 
+#include "io/linearizer.h"
+#include "spectral/text.h"
+
 namespace spectex {
 
 ArgParser::ArgParser(std::string command, std::string synopsis, std::string description)
-    : command_(std::move(command)), synopsis_(std::move(synopsis)), description_(std::move(description)) {
+    : command_(std::move(command)),
+      synopsis_(std::move(synopsis)),
+      description_(std::move(description)) {
     flag("-h, --help", "Show this help and exit.", [this] { help_ = true; });
 }
 
@@ -46,8 +48,8 @@ void ArgParser::flag(const std::string& names, const std::string& help, std::fun
     entries_.push_back(e);
 }
 
-void ArgParser::option(const std::string& names, const std::string& metavar, const std::string& help,
-                       std::function<void(const std::string&)> on) {
+void ArgParser::option(const std::string& names, const std::string& metavar,
+                       const std::string& help, std::function<void(const std::string&)> on) {
     Entry e;
     e.names = split_names(names);
     e.label = names + " " + metavar;
@@ -64,7 +66,8 @@ const ArgParser::Entry* ArgParser::find(const std::string& name) const {
     return nullptr;
 }
 
-bool ArgParser::parse_or_help(const std::vector<std::string>& args, std::vector<std::string>& positional) {
+bool ArgParser::parse_or_help(const std::vector<std::string>& args,
+                              std::vector<std::string>& positional) {
     positional = parse(args);
     if (help_) std::cout << help();
     return help_;
@@ -78,7 +81,8 @@ std::vector<std::string> ArgParser::parse(const std::vector<std::string>& args) 
             pos.insert(pos.end(), args.begin() + static_cast<long>(i) + 1, args.end());
             break;
         }
-        if (a.empty()) throw UsageError("an empty argument ('') names no file (an unset shell variable?)");
+        if (a.empty())
+            throw UsageError("an empty argument ('') names no file (an unset shell variable?)");
         if (a.size() < 2 || a[0] != '-' || a == "-") {
             pos.push_back(a);
             continue;
@@ -100,7 +104,8 @@ std::vector<std::string> ArgParser::parse(const std::vector<std::string>& args) 
                 for (const auto& n : en.names)
                     if (n.size() > 2) known.push_back(n);
             const auto close = close_colour_space_names(known, name, 1);  // closest names, any kind
-            throw UsageError("unknown option '" + name + "'" + (close.empty() ? "" : " (did you mean " + close[0] + "?)"));
+            throw UsageError("unknown option '" + name + "'" +
+                             (close.empty() ? "" : " (did you mean " + close[0] + "?)"));
         }
         if (e->on_flag) {
             if (inline_value) throw UsageError("option '" + name + "' takes no value");
@@ -109,12 +114,14 @@ std::vector<std::string> ArgParser::parse(const std::vector<std::string>& args) 
             continue;
         }
         if (!inline_value) {
-            if (i + 1 >= args.size()) throw UsageError("option '" + name + "' needs a value (" + e->metavar + ")");
+            if (i + 1 >= args.size())
+                throw UsageError("option '" + name + "' needs a value (" + e->metavar + ")");
             value = args[++i];
         }
         // No option of spectex takes an empty value: "" is a mistake (an unset shell variable),
         // never "use the default".
-        if (value.empty()) throw UsageError("option '" + name + "' needs a value (" + e->metavar + "), not ''");
+        if (value.empty())
+            throw UsageError("option '" + name + "' needs a value (" + e->metavar + "), not ''");
         e->on_value(value);
     }
     return pos;
@@ -163,8 +170,8 @@ int parse_int(const std::string& option, const std::string& value, int min, int 
     errno = 0;
     long v = std::strtol(value.c_str(), &end, 10);
     if (value.empty() || *end != '\0' || errno == ERANGE || v < min || v > max)
-        throw UsageError(option + ": '" + value + "' is not a whole number from " + std::to_string(min) +
-                         " to " + std::to_string(max));
+        throw UsageError(option + ": '" + value + "' is not a whole number from " +
+                         std::to_string(min) + " to " + std::to_string(max));
     return static_cast<int>(v);
 }
 
@@ -188,10 +195,13 @@ std::vector<std::string> split_list(const std::string& value, const std::string&
     size_t start = 0;
     while (true) {
         const size_t comma = value.find(',', start);
-        std::string item = value.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+        std::string item =
+            value.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
         const size_t b = item.find_first_not_of(" \t"), e = item.find_last_not_of(" \t");
         item = b == std::string::npos ? std::string() : item.substr(b, e - b + 1);
-        if (item.empty()) throw UsageError((option.empty() ? std::string() : option + ": ") + "empty name in '" + value + "'");
+        if (item.empty())
+            throw UsageError((option.empty() ? std::string() : option + ": ") + "empty name in '" +
+                             value + "'");
         out.push_back(item);
         if (comma == std::string::npos) break;
         start = comma + 1;
@@ -210,7 +220,8 @@ std::pair<int, int> parse_pixel(const std::string& option, const std::string& va
         char* end = nullptr;
         errno = 0;
         long v = std::strtol(part.c_str(), &end, 10);
-        const bool ok = !part.empty() && (std::isdigit(static_cast<unsigned char>(part[0])) || part[0] == '-') &&
+        const bool ok = !part.empty() &&
+                        (std::isdigit(static_cast<unsigned char>(part[0])) || part[0] == '-') &&
                         *end == '\0' && errno != ERANGE && v >= -1000000000L && v <= 1000000000L;
         *out = static_cast<int>(v);
         return ok;

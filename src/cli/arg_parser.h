@@ -10,12 +10,12 @@
 namespace spectex {
 
 class UsageError : public std::runtime_error {
-public:
+  public:
     explicit UsageError(const std::string& what) : std::runtime_error(what) {}
 };
 
 class ArgParser {
-public:
+  public:
     ArgParser(std::string command, std::string synopsis, std::string description);
 
     void section(const std::string& title);
@@ -31,7 +31,7 @@ public:
     std::string help() const;
     const std::string& command() const { return command_; }
 
-private:
+  private:
     struct Entry {
         std::vector<std::string> names;
         std::string label, metavar, help;

@@ -1,33 +1,31 @@
 #include <OpenEXR/ImfThreading.h>
-
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-
-#include <algorithm>
 #include <iostream>
 #include <thread>
 
 #include "cli/arg_parser.h"
+#include "cli/batch_runner.h"
 #include "cli/commands.h"
+#include "io/atomic_file.h"
 #include "io/data_dir.h"
 #include "io/exr_compression.h"
+#include "io/file_identity.h"
 #include "io/image_library.h"
 #include "io/library_stderr.h"
-#include "io/atomic_file.h"
-#include "io/file_identity.h"
 #include "io/linearizer.h"
 #include "pipeline/bake.h"
 #include "pipeline/basis_cache.h"
-#include "pipeline/method_cache.h"
 #include "pipeline/batch.h"
+#include "pipeline/method_cache.h"
 #include "pipeline/plan.h"
-#include "cli/batch_runner.h"
 #include "spectral/basis_fit.h"
 #include "spectral/colorimetry.h"
 #include "spectral/error.h"
@@ -44,24 +42,28 @@ namespace {
 constexpr double kBasisPrimaryTolerance = 1e-4;
 
 struct BakeCli {
-    std::string output, basis = "fit", wavelengths = "380:780:5", type = "half", compression = "zip";
+    std::string output, basis = "fit", wavelengths = "380:780:5", type = "half",
+                        compression = "zip";
     std::string alpha = "associated", range = "clamp", nan = "replace";
     std::string wavelengths_file;
     std::string method = "basis", vertex_prior = "jakob-hanika";
     int lattice_size = 9, jh_resolution = 33;
     bool jh_given = false;
-    bool basis_given = false, objective_given = false, lattice_given = false, wavelengths_given = false;
+    bool basis_given = false, objective_given = false, lattice_given = false,
+         wavelengths_given = false;
     FitSpec fit;
     std::string output_dir, base_dir, from_list, json, shard;
     int threads = 0, jobs = 1;
-    bool quiet = false, verbose = false, progress = false, update = false, force = false, fail_fast = false;
+    bool quiet = false, verbose = false, progress = false, update = false, force = false,
+         fail_fast = false;
     BakeSettings settings;
     PlanSpec plan;  // --wavelengths auto
     bool plan_lights = false, plan_budget = false;
 };
 
 template <typename T>
-T pick(const std::string& option, const std::string& value, std::initializer_list<std::pair<const char*, T>> choices) {
+T pick(const std::string& option, const std::string& value,
+       std::initializer_list<std::pair<const char*, T>> choices) {
     std::string list;
     for (const auto& [name, v] : choices) {
         if (value == name) return v;
@@ -84,16 +86,21 @@ void check_output_option(const std::string& output, const std::string& output_di
     for (const auto& t : template_tokens()) tokens += (tokens.empty() ? "" : ", ") + t;
     if (!output.empty()) {
         if (std::string bad = unknown_template_token(output); !bad.empty())
-            throw UsageError("-o: unknown template token '" + bad + "' in '" + output + "' (tokens: " + tokens + ")");
+            throw UsageError("-o: unknown template token '" + bad + "' in '" + output +
+                             "' (tokens: " + tokens + ")");
         if (output.back() == '/' || is_directory(output))
-            throw UsageError("-o: '" + output + "' is a folder; give a file name, or use --output-dir DIR");
+            throw UsageError("-o: '" + output +
+                             "' is a folder; give a file name, or use --output-dir DIR");
         const bool templ = has_template_tokens(output);
         if (!ends_with_exr(output) && (templ || output_dir.empty()))
-            throw UsageError("-o: '" + output + "' does not end in .exr; spectex writes OpenEXR files");
+            throw UsageError("-o: '" + output +
+                             "' does not end in .exr; spectex writes OpenEXR files");
     }
     if (!output_dir.empty()) {
-        if (std::string bad = unknown_template_token(output_dir); !bad.empty() || has_template_tokens(output_dir))
-            throw UsageError("--output-dir: '" + output_dir + "' is a folder, not a template (tokens go in -o)");
+        if (std::string bad = unknown_template_token(output_dir);
+            !bad.empty() || has_template_tokens(output_dir))
+            throw UsageError("--output-dir: '" + output_dir +
+                             "' is a folder, not a template (tokens go in -o)");
         struct stat st;
         if (::stat(output_dir.c_str(), &st) == 0 && !S_ISDIR(st.st_mode))
             throw UsageError("--output-dir: '" + output_dir + "' exists and is not a folder");
@@ -104,15 +111,19 @@ void check_output_option(const std::string& output, const std::string& output_di
 
 int run_bake(const std::vector<std::string>& args, const std::string& command_line) {
     BakeCli c;
-    ArgParser p("bake", "spectex bake [options] INPUT... (-o OUTPUT.exr | -o TEMPLATE | --output-dir DIR)",
-                "Turns textures into spectral reflectance OpenEXRs (Fichet 2021 layout, channels\n"
-                "T.<wavelength>nm): read with OpenImageIO, linearise with OpenColorIO, expand each pixel\n"
-                "with the spectral primary decomposition (Mallett & Yuksel 2019). Inputs may hold <UDIM> or\n"
-                "<UVTILE>, expanded to the existing tiles. Exit status 0 only when every file succeeded.");
+    ArgParser p(
+        "bake", "spectex bake [options] INPUT... (-o OUTPUT.exr | -o TEMPLATE | --output-dir DIR)",
+        "Turns textures into spectral reflectance OpenEXRs (Fichet 2021 layout, channels\n"
+        "T.<wavelength>nm): read with OpenImageIO, linearise with OpenColorIO, expand each pixel\n"
+        "with the spectral primary decomposition (Mallett & Yuksel 2019). Inputs may hold <UDIM> "
+        "or\n"
+        "<UVTILE>, expanded to the existing tiles. Exit status 0 only when every file succeeded.");
     p.section("Output");
     p.option("-o, --output", "FILE|TEMPLATE",
-             "Output OpenEXR file, or a template with {dir}, {reldir} (with --base-dir), {stem}, {ext} (e.g. "
-             "'{dir}/{stem}.spectral.exr') for several inputs; a template's folders are created. Written "
+             "Output OpenEXR file, or a template with {dir}, {reldir} (with --base-dir), {stem}, "
+             "{ext} (e.g. "
+             "'{dir}/{stem}.spectral.exr') for several inputs; a template's folders are created. "
+             "Written "
              "atomically; never the input.",
              [&](const std::string& v) { c.output = v; });
     p.option("--output-dir", "DIR",
@@ -120,7 +131,8 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
              "<DIR>/{reldir}/<stem>.exr: the tree mirrored. Folders are created as needed.",
              [&](const std::string& v) { c.output_dir = v; });
     p.option("--base-dir", "DIR",
-             "The top of an asset tree: {reldir} is an input's folder relative to DIR, and inputs outside "
+             "The top of an asset tree: {reldir} is an input's folder relative to DIR, and inputs "
+             "outside "
              "DIR are refused.",
              [&](const std::string& v) { c.base_dir = v; });
     p.option("--type", "half|float", "Sample type of the spectral channels (default half).",
@@ -128,113 +140,142 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
     p.option("--compression", "NAME",
              ExrCompression::list(", ", " or ") + " (default " + c.compression + ").",
              [&](const std::string& v) { c.compression = v; });
-    p.option("--zip-level", "L",
-             "Deflate level of zip and zips, 1 (fastest) to 12 (smallest); default 4. Level 1 took 0.6x the "
-             "CPU time of 4 for files about 5 % larger; 6 took 1.7x for 0.5 % smaller (see README).",
-             [&](const std::string& v) {
-                 char* end = nullptr;
-                 long l = std::strtol(v.c_str(), &end, 10);
-                 if (v.empty() || *end || l < 1 || l > 12)
-                     throw UsageError("--zip-level: '" + v + "' is not a level from 1 to 12");
-                 c.settings.zip_level = static_cast<int>(l);
-             });
+    p.option(
+        "--zip-level", "L",
+        "Deflate level of zip and zips, 1 (fastest) to 12 (smallest); default 4. Level 1 took 0.6x "
+        "the "
+        "CPU time of 4 for files about 5 % larger; 6 took 1.7x for 0.5 % smaller (see README).",
+        [&](const std::string& v) {
+            char* end = nullptr;
+            long l = std::strtol(v.c_str(), &end, 10);
+            if (v.empty() || *end || l < 1 || l > 12)
+                throw UsageError("--zip-level: '" + v + "' is not a level from 1 to 12");
+            c.settings.zip_level = static_cast<int>(l);
+        });
     p.flag("--preview", "Also write R, G, B channels (linear Rec.709) for image viewers.",
            [&] { c.settings.preview = true; });
-    p.option("--tile", "W[xH]", "Write a tiled file with W x H tiles (maketx's default is 64x64).",
-             [&](const std::string& v) {
-                 int w = 0, h = 0;
-                 char x = 0, extra = 0;
-                 int got = std::sscanf(v.c_str(), "%d%c%d%c", &w, &x, &h, &extra);
-                 if (got == 1) h = w;
-                 if (!((got == 1) || (got == 3 && x == 'x')) || w < 1 || h < 1 || w > 4096 || h > 4096)
-                     throw UsageError("--tile: '" + v + "' is not W or WxH with sizes from 1 to 4096");
-                 c.settings.tile_width = w;
-                 c.settings.tile_height = h;
-             });
-    p.flag("--mipmap", "Write a MIP-mapped tiled texture (64x64 tiles unless --tile) for renderers' texture systems; "
-                       "levels are filtered on linear RGB before expansion.",
+    p.option(
+        "--tile", "W[xH]", "Write a tiled file with W x H tiles (maketx's default is 64x64).",
+        [&](const std::string& v) {
+            int w = 0, h = 0;
+            char x = 0, extra = 0;
+            int got = std::sscanf(v.c_str(), "%d%c%d%c", &w, &x, &h, &extra);
+            if (got == 1) h = w;
+            if (!((got == 1) || (got == 3 && x == 'x')) || w < 1 || h < 1 || w > 4096 || h > 4096)
+                throw UsageError("--tile: '" + v + "' is not W or WxH with sizes from 1 to 4096");
+            c.settings.tile_width = w;
+            c.settings.tile_height = h;
+        });
+    p.flag("--mipmap",
+           "Write a MIP-mapped tiled texture (64x64 tiles unless --tile) for renderers' texture "
+           "systems; "
+           "levels are filtered on linear RGB before expansion.",
            [&] { c.settings.mipmap = true; });
     p.option("--half-rounding", "colour|nearest",
-             "colour (default): round each half bin up or down so that the spectrum's integrated colour stays "
-             "closest to the exact one (all 8-bit sRGB colours re-encode exactly); nearest: plain rounding.",
+             "colour (default): round each half bin up or down so that the spectrum's integrated "
+             "colour stays "
+             "closest to the exact one (all 8-bit sRGB colours re-encode exactly); nearest: plain "
+             "rounding.",
              [&](const std::string& v) {
-                 if (v != "colour" && v != "nearest") throw UsageError("--half-rounding: '" + v + "' is not one of colour, nearest");
+                 if (v != "colour" && v != "nearest")
+                     throw UsageError("--half-rounding: '" + v + "' is not one of colour, nearest");
                  c.settings.colour_rounding = v == "colour";
              });
     p.option("--alpha", "associated|unassociated",
-             "Whether the spectral channels are premultiplied by A (default associated, OpenEXR's convention).",
+             "Whether the spectral channels are premultiplied by A (default associated, OpenEXR's "
+             "convention).",
              [&](const std::string& v) { c.alpha = v; });
     p.section("Colour");
-    p.option("--colorspace", "NAME",
-             "Colour space of the input (an OCIO name or alias, e.g. srgb_tx, lin_srgb, acescg, raw). "
-             "Default: the file's own metadata when the config knows it, else the config's file rules.",
-             [&](const std::string& v) { c.settings.colorspace = v; });
-    p.option("--config", "FILE", "OCIO config to use instead of $OCIO or the shipped config/spectex.ocio.",
+    p.option(
+        "--colorspace", "NAME",
+        "Colour space of the input (an OCIO name or alias, e.g. srgb_tx, lin_srgb, acescg, raw). "
+        "Default: the file's own metadata when the config knows it, else the config's file rules.",
+        [&](const std::string& v) { c.settings.colorspace = v; });
+    p.option("--config", "FILE",
+             "OCIO config to use instead of $OCIO or the shipped config/spectex.ocio.",
              [&](const std::string& v) { c.settings.config = v; });
     p.option("--out-of-range", "clamp|keep|error",
-             "Linear values outside [0, 1]: clamp per channel (default), keep (spectra may leave [0, 1]), or fail.",
+             "Linear values outside [0, 1]: clamp per channel (default), keep (spectra may leave "
+             "[0, 1]), or fail.",
              [&](const std::string& v) { c.range = v; });
     p.option("--nan", "replace|error", "NaN and infinite values: replace with 0 (default) or fail.",
              [&](const std::string& v) { c.nan = v; });
     p.section("Spectra");
     p.option("--wavelengths", "START:END:STEP|auto",
-             "Output wavelength grid in nm (default 380:780:5). auto: the cheapest grid within --max-de under "
-             "every one of --lights, chosen once per batch as 'spectex plan' does (recorded in the header).",
+             "Output wavelength grid in nm (default 380:780:5). auto: the cheapest grid within "
+             "--max-de under "
+             "every one of --lights, chosen once per batch as 'spectex plan' does (recorded in the "
+             "header).",
              [&](const std::string& v) {
                  c.wavelengths = v;
                  c.wavelengths_given = true;
              });
-    p.option("--wavelengths-file", "FILE", "Output wavelengths, one per line (any strictly increasing list).",
+    p.option("--wavelengths-file", "FILE",
+             "Output wavelengths, one per line (any strictly increasing list).",
              [&](const std::string& v) { c.wavelengths_file = v; });
     add_plan_options(p, c.plan, c.plan_lights, c.plan_budget);
-    p.option("--method", "basis|lattice|jakob-hanika",
-             "How a linear RGB becomes a spectrum. basis: r·S_r + g·S_g + b·S_b with --basis (exact under "
-             "the illuminant). lattice: exact vertex spectra on an N^3 lattice over linear RGB, tetrahedral "
-             "interpolation (exact under the illuminant, natural under other light). jakob-hanika: pbrt-v4's "
-             "sigmoid spectra (not exact: for comparison and render-time consistency). Default basis.",
-             [&](const std::string& v) {
-                 if (v != "basis" && v != "lattice" && v != "jakob-hanika")
-                     throw UsageError("--method: '" + v + "' is not one of basis, lattice, jakob-hanika");
-                 c.method = v;
-             });
+    p.option(
+        "--method", "basis|lattice|jakob-hanika",
+        "How a linear RGB becomes a spectrum. basis: r·S_r + g·S_g + b·S_b with --basis (exact "
+        "under "
+        "the illuminant). lattice: exact vertex spectra on an N^3 lattice over linear RGB, "
+        "tetrahedral "
+        "interpolation (exact under the illuminant, natural under other light). jakob-hanika: "
+        "pbrt-v4's "
+        "sigmoid spectra (not exact: for comparison and render-time consistency). Default basis.",
+        [&](const std::string& v) {
+            if (v != "basis" && v != "lattice" && v != "jakob-hanika")
+                throw UsageError("--method: '" + v +
+                                 "' is not one of basis, lattice, jakob-hanika");
+            c.method = v;
+        });
     p.option("--lattice-size", "N", "Breakpoints per axis of the lattice (default 9; 2 to 65).",
              [&](const std::string& v) {
                  c.lattice_size = parse_int("--lattice-size", v, 2, 65);
                  c.lattice_given = true;
              });
     p.option("--vertex-prior", "jakob-hanika|smooth|blend",
-             "What the lattice's vertex spectra are closest to while exact: jakob-hanika (default: the sigmoid "
-             "spectrum, projected), smooth (least first differences), blend (both, smoothness weight 100).",
+             "What the lattice's vertex spectra are closest to while exact: jakob-hanika (default: "
+             "the sigmoid "
+             "spectrum, projected), smooth (least first differences), blend (both, smoothness "
+             "weight 100).",
              [&](const std::string& v) {
                  if (v != "jakob-hanika" && v != "smooth" && v != "blend")
-                     throw UsageError("--vertex-prior: '" + v + "' is not one of jakob-hanika, smooth, blend");
+                     throw UsageError("--vertex-prior: '" + v +
+                                      "' is not one of jakob-hanika, smooth, blend");
                  c.vertex_prior = v;
                  c.lattice_given = true;
              });
     p.option("--jh-resolution", "N",
-             "Nodes per axis of the jakob-hanika coefficient table (default 33; pbrt-v4 uses 64, which takes "
+             "Nodes per axis of the jakob-hanika coefficient table (default 33; pbrt-v4 uses 64, "
+             "which takes "
              "about 6 s to build; 3 to 64).",
              [&](const std::string& v) {
                  c.jh_resolution = parse_int("--jh-resolution", v, 3, 64);
                  c.jh_given = true;
              });
     p.option("--basis", "fit|mallett2019|FILE",
-             "fit (default): a basis fitted on the output grid by 'spectex basis' rules, exact on any grid; "
-             "mallett2019: the published table (380:780:5 only); or a CSV wavelength,r,g,b on the output grid.",
+             "fit (default): a basis fitted on the output grid by 'spectex basis' rules, exact on "
+             "any grid; "
+             "mallett2019: the published table (380:780:5 only); or a CSV wavelength,r,g,b on the "
+             "output grid.",
              [&](const std::string& v) {
                  c.basis = v;
                  c.basis_given = true;
              });
     p.flag("--allow-infeasible",
-           "When no exact basis exists on the grid, bake with the least-squares closest one (colours are then "
+           "When no exact basis exists on the grid, bake with the least-squares closest one "
+           "(colours are then "
            "not exact; a warning gives the miss and the header records it).",
            [&] { c.fit.allow_infeasible = true; });
-    p.option("--objective", "smooth|norm", "Objective of the fitted basis (default smooth; see spectex basis).",
+    p.option("--objective", "smooth|norm",
+             "Objective of the fitted basis (default smooth; see spectex basis).",
              [&](const std::string& v) {
                  c.fit.objective = v;
                  c.objective_given = true;
              });
-    p.option("--observer", "NAME|FILE", "Observer of the fitted basis: cie1931-2 (default), cie1964-10, or a CSV.",
+    p.option("--observer", "NAME|FILE",
+             "Observer of the fitted basis: cie1931-2 (default), cie1964-10, or a CSV.",
              [&](const std::string& v) { c.fit.observer = v; });
     p.option("--illuminant", "NAME|FILE",
              "Illuminant under which the fitted basis is exact: " +
@@ -242,27 +283,34 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
                  " (any case), or a CSV wavelength,value.",
              [&](const std::string& v) { c.fit.illuminant = v; });
     p.section("Batches");
-    p.option("--from-list", "FILE", "Read input paths from FILE, one per line ('-' = stdin), after those given.",
+    p.option("--from-list", "FILE",
+             "Read input paths from FILE, one per line ('-' = stdin), after those given.",
              [&](const std::string& v) { c.from_list = v; });
     p.option("--jobs", "N", "Bake N files at once (default 1); with --threads, N x threads in all.",
              [&](const std::string& v) { c.jobs = parse_int("--jobs", v, 1, 256); });
     p.option("--shard", "K/N",
-             "Bake only file i (0-based, in the byte-sorted, tile-expanded input list) with i mod N = K-1.",
+             "Bake only file i (0-based, in the byte-sorted, tile-expanded input list) with i mod "
+             "N = K-1.",
              [&](const std::string& v) { c.shard = v; });
-    p.flag("--update", "Skip files whose output is newer than the input and was made with the same settings.",
+    p.flag("--update",
+           "Skip files whose output is newer than the input and was made with the same settings.",
            [&] { c.update = true; });
     p.flag("--force", "Rebuild every file even with --update.", [&] { c.force = true; });
-    p.flag("--fail-fast", "Stop at the first failed file (default: bake the others and fail at the end).",
+    p.flag("--fail-fast",
+           "Stop at the first failed file (default: bake the others and fail at the end).",
            [&] { c.fail_fast = true; });
     p.option("--json", "FILE",
-             "Write one JSON record per file (JSON Lines, schema_version " + std::to_string(kJsonSchemaVersion) +
-                 "); '-' = stdout.",
+             "Write one JSON record per file (JSON Lines, schema_version " +
+                 std::to_string(kJsonSchemaVersion) + "); '-' = stdout.",
              [&](const std::string& v) { c.json = v; });
-    p.flag("--progress", "Show progress on stderr even when it is not a terminal.", [&] { c.progress = true; });
+    p.flag("--progress", "Show progress on stderr even when it is not a terminal.",
+           [&] { c.progress = true; });
     p.section("Resources");
-    p.option("--threads", "N", "Threads per file for OpenEXR compression and decoding (default: cores / jobs).",
+    p.option("--threads", "N",
+             "Threads per file for OpenEXR compression and decoding (default: cores / jobs).",
              [&](const std::string& v) { c.threads = parse_int("--threads", v, 0, 1024); });
-    p.option("--max-pixels", "N", "Refuse inputs with more pixels than this (default 268435456 = 16384^2).",
+    p.option("--max-pixels", "N",
+             "Refuse inputs with more pixels than this (default 268435456 = 16384^2).",
              [&](const std::string& v) { c.settings.max_pixels = parse_count("--max-pixels", v); });
     p.flag("-q, --quiet", "Print errors only.", [&] { c.quiet = true; });
     p.flag("-v, --verbose", "Print what was done for each file.", [&] { c.verbose = true; });
@@ -271,7 +319,8 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
     try {
         if (p.parse_or_help(args, inputs)) return 0;
         if (inputs.empty() && c.from_list.empty()) throw UsageError("no input file");
-        if (c.output.empty() && c.output_dir.empty()) throw UsageError("no output (-o OUTPUT.exr, -o TEMPLATE or --output-dir DIR)");
+        if (c.output.empty() && c.output_dir.empty())
+            throw UsageError("no output (-o OUTPUT.exr, -o TEMPLATE or --output-dir DIR)");
         check_output_option(c.output, c.output_dir);
         if (!c.shard.empty()) {
             try {
@@ -280,20 +329,28 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
                 throw UsageError(e.what());
             }
         }
-        c.settings.type = pick<SampleType>("--type", c.type, {{"half", SampleType::Half}, {"float", SampleType::Float}});
-        c.settings.alpha = pick<AlphaMode>("--alpha", c.alpha,
-                                           {{"associated", AlphaMode::Associated}, {"unassociated", AlphaMode::Unassociated}});
+        c.settings.type = pick<SampleType>(
+            "--type", c.type, {{"half", SampleType::Half}, {"float", SampleType::Float}});
+        c.settings.alpha = pick<AlphaMode>(
+            "--alpha", c.alpha,
+            {{"associated", AlphaMode::Associated}, {"unassociated", AlphaMode::Unassociated}});
         c.settings.range = pick<RangePolicy>("--out-of-range", c.range,
-                                             {{"clamp", RangePolicy::Clamp}, {"keep", RangePolicy::Keep}, {"error", RangePolicy::Error}});
-        c.settings.nan = pick<NanPolicy>("--nan", c.nan, {{"replace", NanPolicy::Replace}, {"error", NanPolicy::Error}});
+                                             {{"clamp", RangePolicy::Clamp},
+                                              {"keep", RangePolicy::Keep},
+                                              {"error", RangePolicy::Error}});
+        c.settings.nan = pick<NanPolicy>(
+            "--nan", c.nan, {{"replace", NanPolicy::Replace}, {"error", NanPolicy::Error}});
         try {
             c.settings.compression = ExrCompression::parse(c.compression);
         } catch (const Error& e) {
             throw UsageError(std::string("--compression: ") + e.what());
         }
         if (c.method != "basis" && (c.basis_given || c.objective_given || c.fit.allow_infeasible))
-            throw UsageError("--basis, --objective and --allow-infeasible choose the basis of --method basis, not of "
-                             "--method " + c.method);
+            throw UsageError(
+                "--basis, --objective and --allow-infeasible choose the basis of --method basis, "
+                "not of "
+                "--method " +
+                c.method);
         if (c.method != "lattice" && c.lattice_given)
             throw UsageError("--lattice-size and --vertex-prior belong to --method lattice");
         if (c.method != "jakob-hanika" && c.jh_given)
@@ -306,16 +363,23 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         const bool automatic = c.wavelengths == "auto";
         if (automatic) {
             if (!c.wavelengths_file.empty())
-                throw UsageError("--wavelengths auto and --wavelengths-file are two grids; give one");
+                throw UsageError(
+                    "--wavelengths auto and --wavelengths-file are two grids; give one");
             if (!c.plan_lights || !c.plan_budget)
-                throw UsageError("--wavelengths auto needs --lights and --max-de (the scene's lights and the error budget)");
+                throw UsageError(
+                    "--wavelengths auto needs --lights and --max-de (the scene's lights and the "
+                    "error budget)");
             if (c.method == "basis" && c.basis != "fit")
-                throw UsageError("--wavelengths auto fits the basis on the chosen grid; --basis " + c.basis +
-                                 " has a grid of its own");
+                throw UsageError("--wavelengths auto fits the basis on the chosen grid; --basis " +
+                                 c.basis + " has a grid of its own");
             if (c.plan.nonuniform && c.method != "basis")
-                throw UsageError("--nonuniform searches with the basis' 3x3 maps: it needs --method basis");
-        } else if (c.plan_lights || c.plan_budget || !c.plan.candidates.empty() || c.plan.nonuniform) {
-            throw UsageError("--lights, --max-de, --grids and --nonuniform choose the grid of --wavelengths auto");
+                throw UsageError(
+                    "--nonuniform searches with the basis' 3x3 maps: it needs --method basis");
+        } else if (c.plan_lights || c.plan_budget || !c.plan.candidates.empty() ||
+                   c.plan.nonuniform) {
+            throw UsageError(
+                "--lights, --max-de, --grids and --nonuniform choose the grid of --wavelengths "
+                "auto");
         }
         if (c.wavelengths_file.empty() && !automatic) {
             try {
@@ -341,7 +405,8 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         if (!c.from_list.empty()) {
             auto more = read_list(c.from_list);
             if (more.empty() && inputs.empty())
-                throw Error((c.from_list == "-" ? std::string("standard input (--from-list -)") : c.from_list) +
+                throw Error((c.from_list == "-" ? std::string("standard input (--from-list -)")
+                                                : c.from_list) +
                             ": the input list names no files, and no input was given");
             listed.insert(listed.end(), more.begin(), more.end());
         }
@@ -359,8 +424,9 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
             std::string out;
             try {
                 if (!c.base_dir.empty()) (void)relative_folder(in, c.base_dir);
-                out = c.output_dir.empty() && !has_template_tokens(c.output) ? c.output
-                                                                             : output_for(in, c.output, c.output_dir, c.base_dir);
+                out = c.output_dir.empty() && !has_template_tokens(c.output)
+                          ? c.output
+                          : output_for(in, c.output, c.output_dir, c.base_dir);
             } catch (const Error& e) {
                 throw UsageError(e.what());
             }
@@ -375,13 +441,15 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
             const std::string config = ocio_config_path(c.settings.data_dir, c.settings.config);
             std::vector<std::string> files;
             try {
-                files = ocio_config_files(config);  // a config that cannot be read fails every file: once
+                files = ocio_config_files(
+                    config);  // a config that cannot be read fails every file: once
             } catch (const Error& e) {
                 print_error(e.what());
                 return 2;
             }
             reads.add(files.front(), "the OCIO config");
-            for (size_t i = 1; i < files.size(); ++i) reads.add(files[i], "a LUT file of " + config);
+            for (size_t i = 1; i < files.size(); ++i)
+                reads.add(files[i], "a LUT file of " + config);
         }
         if (c.basis != "fit" && c.basis != "mallett2019") reads.add(c.basis, "--basis");
         reads.add(c.fit.observer, "--observer");
@@ -391,7 +459,8 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
             for (const auto& l : c.plan.lights) reads.add(l, "--lights");
         std::vector<OutputTarget> targets;
         for (const auto& [in, out] : plan.files) {
-            if (std::string clash = reads.clash(out, "the output of " + in); !clash.empty()) throw UsageError(clash);
+            if (std::string clash = reads.clash(out, "the output of " + in); !clash.empty())
+                throw UsageError(clash);
             try {
                 check_output_path(out);
             } catch (const Error& e) {
@@ -400,7 +469,8 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
             targets.push_back(output_target(out));
         }
         if (!c.json.empty() && c.json != "-") {
-            if (std::string clash = reads.clash(c.json, "--json"); !clash.empty()) throw UsageError(clash);
+            if (std::string clash = reads.clash(c.json, "--json"); !clash.empty())
+                throw UsageError(clash);
             if (c.json.back() == '/' || is_directory(c.json))
                 throw UsageError("--json: '" + c.json + "' is a folder; give a file name");
             try {
@@ -411,7 +481,8 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
             const OutputTarget report = output_target(c.json);
             for (size_t i = 0; i < targets.size(); ++i)
                 if (report.same_as(targets[i]))
-                    throw UsageError("--json: " + c.json + " is also the output of " + plan.files[i].first);
+                    throw UsageError("--json: " + c.json + " is also the output of " +
+                                     plan.files[i].first);
         }
     } catch (const UsageError& e) {
         return usage_error("bake", e.what());
@@ -429,7 +500,8 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
     std::vector<UpdateCheck> prechecked;
     bool all_up_to_date = false;
     try {
-        if (!c.wavelengths_file.empty()) c.settings.grid = WavelengthGrid::from_file(c.wavelengths_file);
+        if (!c.wavelengths_file.empty())
+            c.settings.grid = WavelengthGrid::from_file(c.wavelengths_file);
         const bool automatic = c.wavelengths == "auto";
         auto& rec = c.settings.plan;
         if (automatic) {
@@ -447,14 +519,17 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         std::shared_ptr<Basis> file_basis;  // --basis mallett2019 or FILE: read now (cheap)
         if (c.method == "basis" && c.basis != "fit") {
             Basis basis = load_basis(c.settings.data_dir, c.basis);
-            // A given basis is exact for the conditions it was made for; the default ones are recorded.
-            if (c.basis == "mallett2019") c.settings.observer = "cie1931-2", c.settings.illuminant = "D65";
+            // A given basis is exact for the conditions it was made for; the default ones are
+            // recorded.
+            if (c.basis == "mallett2019")
+                c.settings.observer = "cie1931-2", c.settings.illuminant = "D65";
             WavelengthGrid basis_grid = WavelengthGrid::from_list(basis.lambda);
             // Without --wavelengths, the output is on the basis' own grid.
             if (!c.wavelengths_given && c.wavelengths_file.empty()) c.settings.grid = basis_grid;
             if (!same_wavelengths(c.settings.grid.lambda, basis_grid.lambda))
-                throw Error("basis " + c.basis + " is on " + basis_grid.describe() + ", not on the output grid " +
-                            c.settings.grid.describe() + " (the default --basis fit works on any grid)");
+                throw Error("basis " + c.basis + " is on " + basis_grid.describe() +
+                            ", not on the output grid " + c.settings.grid.describe() +
+                            " (the default --basis fit works on any grid)");
             check_basis_values(basis);
             file_basis = std::make_shared<Basis>(std::move(basis));
         }
@@ -465,14 +540,17 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
             // changes under the same name changes the hash).
             Fnv1a64 h;
             auto add = [&](const std::string& t) { h.add(t.data(), t.size() + 1); };
-            auto add_values = [&](const std::vector<double>& v) { h.add(v.data(), v.size() * sizeof(double)); };
+            auto add_values = [&](const std::vector<double>& v) {
+                h.add(v.data(), v.size() * sizeof(double));
+            };
             if (file_basis) {
                 add("basis " + file_basis->checksum());
             } else if (c.method == "basis") {
-                add("basis fit, objective " + c.fit.objective + (c.fit.allow_infeasible ? ", infeasible allowed" : ""));
+                add("basis fit, objective " + c.fit.objective +
+                    (c.fit.allow_infeasible ? ", infeasible allowed" : ""));
             } else {
-                add(c.method + " lattice " + std::to_string(c.lattice_size) + " prior " + c.vertex_prior +
-                    " jh " + std::to_string(c.jh_resolution));
+                add(c.method + " lattice " + std::to_string(c.lattice_size) + " prior " +
+                    c.vertex_prior + " jh " + std::to_string(c.jh_resolution));
             }
             add_values(observer.x.lambda);
             add_values(observer.x.value);
@@ -481,7 +559,8 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
             add_values(illuminant.lambda);
             add_values(illuminant.value);
             if (automatic) {
-                // The grid is chosen later from these (and this version): the choice is hashed by its inputs.
+                // The grid is chosen later from these (and this version): the choice is hashed by
+                // its inputs.
                 for (const auto& l : c.plan.lights) {
                     const Spectrum light = load_illuminant(c.settings.data_dir, l);
                     add("light " + l);
@@ -492,8 +571,8 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
                     add("candidate");
                     add_values(g.lambda);
                 }
-                add(std::string(c.plan.half ? "half" : "float") + " stride " + std::to_string(c.plan.sample_stride) +
-                    " colours " + c.plan.colours);
+                add(std::string(c.plan.half ? "half" : "float") + " stride " +
+                    std::to_string(c.plan.sample_stride) + " colours " + c.plan.colours);
             }
             c.settings.method_recipe = h.text();
         }
@@ -526,12 +605,14 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
                 std::snprintf(num, sizeof num, "%.4g", row.worst);
                 rec.worst_de = num;
                 if (!c.quiet)
-                    std::cerr << "spectex: --wavelengths auto: " << grid_label(row.grid) << " (" << row.bins
-                              << " bins), worst " << rec.worst_de << " ΔE00 under " << row.worst_light << ", within "
-                              << rec.max_de << " under " << join_names(c.plan.lights) << " (" << pr.seconds << " s)\n";
+                    std::cerr << "spectex: --wavelengths auto: " << grid_label(row.grid) << " ("
+                              << row.bins << " bins), worst " << rec.worst_de << " ΔE00 under "
+                              << row.worst_light << ", within " << rec.max_de << " under "
+                              << join_names(c.plan.lights) << " (" << pr.seconds << " s)\n";
             }
             if (!c.settings.colorspace.empty())
-                (void)Linearizer::make(ColourRequest{c.settings.data_dir, c.settings.config, c.settings.colorspace, "", ""});
+                (void)Linearizer::make(ColourRequest{c.settings.data_dir, c.settings.config,
+                                                     c.settings.colorspace, "", ""});
             if (c.method != "basis") {
                 MethodSpec spec;
                 spec.method = c.method;
@@ -544,7 +625,8 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
                 MethodResult made = make_method(spec);
                 c.settings.method = made.method;
                 if (c.verbose)
-                    std::cerr << "spectex: " << spec.describe() << ": built in " << made.build_seconds << " s\n";
+                    std::cerr << "spectex: " << spec.describe() << ": built in "
+                              << made.build_seconds << " s\n";
             } else if (c.basis == "fit") {
                 c.fit.data_dir = c.settings.data_dir;
                 c.fit.grid = c.settings.grid;
@@ -553,28 +635,35 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
                     const auto& r = fit.certificate.colour_residual;
                     std::cerr << "spectex: warning: no exact basis exists for " << c.fit.describe()
                               << "; baking with the closest one, which misses the primaries by "
-                              << std::max({r[0], r[1], r[2]}) << " in linear RGB (--allow-infeasible)\n";
+                              << std::max({r[0], r[1], r[2]})
+                              << " in linear RGB (--allow-infeasible)\n";
                 }
-                c.settings.method = std::make_shared<BasisMethod>(fit.basis, "fitted by spectex: " + c.fit.describe());
-            } else {
-                // How far the basis is from reproducing the primaries under the colorimetry it is used
-                // with: a wrong table (another observer, a flat one) bakes wrong colours without a word.
-                Colorimetry cm = Colorimetry::make(observer, illuminant, c.settings.grid, primaries_by_name("srgb"));
-                const FitCertificate cert = certify_basis(*file_basis, cm);
-                const double miss = std::max({cert.colour_residual[0], cert.colour_residual[1], cert.colour_residual[2]});
-                if (miss > kBasisPrimaryTolerance && !c.quiet)
-                    std::cerr << "spectex: warning: basis " << c.basis << " misses the sRGB primaries by " << miss
-                              << " in linear RGB under " << c.settings.observer << " and " << c.settings.illuminant
-                              << " (tolerance " << kBasisPrimaryTolerance << "): baked colours will be off by up to that\n";
                 c.settings.method = std::make_shared<BasisMethod>(
-                    std::move(*file_basis), c.basis == "mallett2019" ? "published table (Mallett & Yuksel 2019)" : "file");
+                    fit.basis, "fitted by spectex: " + c.fit.describe());
+            } else {
+                // How far the basis is from reproducing the primaries under the colorimetry it is
+                // used with: a wrong table (another observer, a flat one) bakes wrong colours
+                // without a word.
+                Colorimetry cm = Colorimetry::make(observer, illuminant, c.settings.grid,
+                                                   primaries_by_name("srgb"));
+                const FitCertificate cert = certify_basis(*file_basis, cm);
+                const double miss = std::max(
+                    {cert.colour_residual[0], cert.colour_residual[1], cert.colour_residual[2]});
+                if (miss > kBasisPrimaryTolerance && !c.quiet)
+                    std::cerr << "spectex: warning: basis " << c.basis
+                              << " misses the sRGB primaries by " << miss << " in linear RGB under "
+                              << c.settings.observer << " and " << c.settings.illuminant
+                              << " (tolerance " << kBasisPrimaryTolerance
+                              << "): baked colours will be off by up to that\n";
+                c.settings.method = std::make_shared<BasisMethod>(
+                    std::move(*file_basis),
+                    c.basis == "mallett2019" ? "published table (Mallett & Yuksel 2019)" : "file");
             }
         }
     } catch (const Error& e) {
         print_error(e.what());
         return 2;
     }
-
 
     unsigned hw = std::max(1u, std::thread::hardware_concurrency());
     plan.jobs = c.jobs;

@@ -9,8 +9,8 @@
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
 #include "io/atomic_file.h"
-#include "io/file_identity.h"
 #include "io/data_dir.h"
+#include "io/file_identity.h"
 #include "pipeline/basis_cache.h"
 #include "spectral/error.h"
 #include "spectral/spectrum.h"
@@ -32,16 +32,18 @@ std::string certificate_text(const FitSpec& spec, const FitResult& fit) {
     const FitCertificate& c = fit.certificate;
     std::ostringstream o;
     o << "basis fit: " << spec.describe() << "\n";
-    o << "  feasible:                " << (c.feasible ? "yes" : "NO (least-squares closest basis)") << "\n";
-    o << "  colour residual r,g,b:   " << fmt(c.colour_residual[0]) << ", " << fmt(c.colour_residual[1]) << ", "
-      << fmt(c.colour_residual[2]) << "  (max |RGB(S_k) - e_k|, linear RGB)\n";
+    o << "  feasible:                " << (c.feasible ? "yes" : "NO (least-squares closest basis)")
+      << "\n";
+    o << "  colour residual r,g,b:   " << fmt(c.colour_residual[0]) << ", "
+      << fmt(c.colour_residual[1]) << ", " << fmt(c.colour_residual[2])
+      << "  (max |RGB(S_k) - e_k|, linear RGB)\n";
     o << "  bound violation:         " << fmt(c.bound_violation) << "  (0 <= S <= 1)\n";
     o << "  sum-to-one violation:    " << fmt(c.sum_violation) << "\n";
     o << "  KKT stationarity:        " << fmt(c.stationarity) << "  (relative)\n";
     o << "  KKT complementarity:     " << fmt(c.complementarity) << "\n";
     o << "  dual sign violation:     " << fmt(c.dual_sign_violation) << "\n";
-    o << "  active bounds:           " << c.active_lower << " at 0, " << c.active_upper << " at 1 (of "
-      << 3 * fit.basis.size() << ")\n";
+    o << "  active bounds:           " << c.active_lower << " at 0, " << c.active_upper
+      << " at 1 (of " << 3 * fit.basis.size() << ")\n";
     o << "  objective:               " << fmt(c.objective) << "\n";
     o << "  solver:                  " << c.solver_status << ", " << c.iterations << " iterations, "
       << fmt(c.seconds * 1000) << " ms\n";
@@ -52,30 +54,38 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
     FitSpec spec;
     std::string output, wavelengths = "380:780:5", wavelengths_file;
     bool quiet = false;
-    ArgParser p("basis", "spectex basis [options] -o BASIS.csv",
-                "Fits a spectral primary decomposition basis (Mallett & Yuksel 2019): three reflectance\n"
-                "spectra S_r, S_g, S_b with RGB(S_k) = e_k under the illuminant and observer, 0 <= S <= 1 and\n"
-                "S_r + S_g + S_b = 1 at every wavelength, minimising the objective. Prints a certificate\n"
-                "recomputed from the basis: colour residuals, bound and sum violations, KKT residuals.");
-    p.option("-o, --output", "FILE", "Basis CSV to write (header row wavelength,r,g,b first, 17 significant digits; its provenance "
+    ArgParser p(
+        "basis", "spectex basis [options] -o BASIS.csv",
+        "Fits a spectral primary decomposition basis (Mallett & Yuksel 2019): three reflectance\n"
+        "spectra S_r, S_g, S_b with RGB(S_k) = e_k under the illuminant and observer, 0 <= S <= 1 "
+        "and\n"
+        "S_r + S_g + S_b = 1 at every wavelength, minimising the objective. Prints a certificate\n"
+        "recomputed from the basis: colour residuals, bound and sum violations, KKT residuals.");
+    p.option("-o, --output", "FILE",
+             "Basis CSV to write (header row wavelength,r,g,b first, 17 significant digits; its "
+             "provenance "
              "and certificate go to FILE.provenance); - for stdout (the CSV alone).",
              [&](const std::string& v) { output = v; });
     p.option("--wavelengths", "START:END:STEP", "Wavelength grid in nm (default 380:780:5).",
              [&](const std::string& v) { wavelengths = v; });
-    p.option("--wavelengths-file", "FILE", "One wavelength per line (any strictly increasing list).",
+    p.option("--wavelengths-file", "FILE",
+             "One wavelength per line (any strictly increasing list).",
              [&](const std::string& v) { wavelengths_file = v; });
-    p.option("--observer", "NAME|FILE", "cie1931-2 (default) or cie1964-10, or a CSV wavelength,x,y,z.",
+    p.option("--observer", "NAME|FILE",
+             "cie1931-2 (default) or cie1964-10, or a CSV wavelength,x,y,z.",
              [&](const std::string& v) { spec.observer = v; });
-    p.option("--illuminant", "NAME|FILE",
-             shipped_illuminants_list(FitSpec().illuminant) +
-                 " (any case), or a CSV wavelength,value.",
-             [&](const std::string& v) { spec.illuminant = v; });
+    p.option(
+        "--illuminant", "NAME|FILE",
+        shipped_illuminants_list(FitSpec().illuminant) + " (any case), or a CSV wavelength,value.",
+        [&](const std::string& v) { spec.illuminant = v; });
     p.option("--primaries", "NAME", "srgb (default), rec709, p3, rec2020, or xr,yr,xg,yg,xb,yb.",
              [&](const std::string& v) { spec.primaries = v; });
-    p.option("--objective", "norm|smooth",
-             "smooth (default): least squared first differences along wavelength; norm: least ||S||^2.",
-             [&](const std::string& v) { spec.objective = v; });
-    p.flag("--allow-infeasible", "Write the least-squares closest basis when no exact one exists (exit 0).",
+    p.option(
+        "--objective", "norm|smooth",
+        "smooth (default): least squared first differences along wavelength; norm: least ||S||^2.",
+        [&](const std::string& v) { spec.objective = v; });
+    p.flag("--allow-infeasible",
+           "Write the least-squares closest basis when no exact one exists (exit 0).",
            [&] { spec.allow_infeasible = true; });
     p.flag("-q, --quiet", "Do not print the certificate.", [&] { quiet = true; });
     try {
@@ -89,9 +99,11 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
             reads.add(spec.observer, "--observer");
             reads.add(spec.illuminant, "--illuminant");
             reads.add(wavelengths_file, "--wavelengths-file");
-            if (std::string clash = reads.clash(output, "-o"); !clash.empty()) throw UsageError(clash);
+            if (std::string clash = reads.clash(output, "-o"); !clash.empty())
+                throw UsageError(clash);
             const std::string sidecar = basis_provenance_path(output);
-            if (std::string clash = reads.clash(sidecar, "the provenance of -o"); !clash.empty()) throw UsageError(clash);
+            if (std::string clash = reads.clash(sidecar, "the provenance of -o"); !clash.empty())
+                throw UsageError(clash);
             struct stat st;
             if (output.back() == '/' || (::stat(output.c_str(), &st) == 0 && S_ISDIR(st.st_mode)))
                 throw UsageError("-o: '" + output + "' is a folder; give a file name");
@@ -135,7 +147,8 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
         std::string line;
         std::getline(lines, line);  // the first line repeats the fit description
         while (std::getline(lines, line)) {
-            if (line.find("solver:") != std::string::npos) continue;  // timing varies: keep files reproducible
+            if (line.find("solver:") != std::string::npos)
+                continue;  // timing varies: keep files reproducible
             provenance.push_back("certificate:" + line.substr(1));
         }
         if (output == "-") {

@@ -4,9 +4,9 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
-#include <ctime>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <fstream>
 #include <iostream>
 #include <map>
@@ -29,8 +29,11 @@ namespace {
 
 std::string seconds_text(double s) {
     char buf[32];
-    if (s < 60) std::snprintf(buf, sizeof buf, "%.1f s", s);
-    else std::snprintf(buf, sizeof buf, "%dm%02ds", static_cast<int>(s) / 60, static_cast<int>(s) % 60);
+    if (s < 60)
+        std::snprintf(buf, sizeof buf, "%.1f s", s);
+    else
+        std::snprintf(buf, sizeof buf, "%dm%02ds", static_cast<int>(s) / 60,
+                      static_cast<int>(s) % 60);
     return buf;
 }
 
@@ -58,30 +61,35 @@ std::string file_list(const std::vector<std::string>& names) {
     std::string out;
     for (size_t i = 0; i < names.size() && i < kListedFiles; ++i) out += (i ? ", " : "") + names[i];
     if (names.size() > kListedFiles)
-        out += ", and " + std::to_string(names.size() - kListedFiles) + " more (--json lists each file)";
+        out += ", and " + std::to_string(names.size() - kListedFiles) +
+               " more (--json lists each file)";
     return out;
 }
 
 // One line per colour space and way of choosing it, in input order: which files were read how.
 void print_colour_spaces(const BatchPlan& plan, const std::vector<BakeResult>& baked,
                          const std::vector<bool>& was_baked) {
-    std::vector<std::pair<std::string, std::vector<std::string>>> groups;  // "'space' (how)", inputs
+    std::vector<std::pair<std::string, std::vector<std::string>>>
+        groups;  // "'space' (how)", inputs
     for (size_t i = 0; i < baked.size(); ++i) {
         if (!was_baked[i]) continue;
         const std::string key = "'" + baked[i].colorspace + "' (" + baked[i].colorspace_how + ")";
-        auto it = std::find_if(groups.begin(), groups.end(), [&](const auto& g) { return g.first == key; });
+        auto it = std::find_if(groups.begin(), groups.end(),
+                               [&](const auto& g) { return g.first == key; });
         if (it == groups.end()) it = groups.insert(groups.end(), {key, {}});
         it->second.push_back(plan.files[i].first);
     }
     for (const auto& [key, names] : groups)
-        std::cerr << "spectex: " << one_line("colour space " + key + ": " + file_list(names)) << "\n";
+        std::cerr << "spectex: " << one_line("colour space " + key + ": " + file_list(names))
+                  << "\n";
 }
 
 // Once per batch: integer files (display-referred: codes for a screen) read as a scene-linear space
 // only because the config's default rule names it are most likely sRGB textures of a studio config
 // whose default is ACES2065-1; their only other sign is a count of clamped pixels.
 void warn_default_rule_to_linear(const BatchPlan& plan, const BakeSettings& settings,
-                                 const std::vector<BakeResult>& baked, const std::vector<bool>& was_baked) {
+                                 const std::vector<BakeResult>& baked,
+                                 const std::vector<bool>& was_baked) {
     std::vector<std::string> names;
     const BakeResult* first = nullptr;
     for (size_t i = 0; i < baked.size(); ++i)
@@ -97,16 +105,18 @@ void warn_default_rule_to_linear(const BatchPlan& plan, const BakeSettings& sett
         // the config was read for every file: it cannot fail here, but a warning never fails a run
     }
     const bool one = names.size() == 1;
-    std::string msg = "warning: " + std::to_string(names.size()) + " integer (display-referred) file" +
-                      (one ? " was" : "s were") + " read as '" + first->colorspace +
-                      "', a scene-linear space, only because the default file rule '" + first->colorspace_rule +
-                      "' of the OCIO config " + first->config +
-                      (first->config_from == "shipped" ? " (shipped)" : " (from " + first->config_from + ")") +
-                      " names it: " +
-                      file_list(names) + "; if " + (one ? "it is an sRGB texture" : "they are sRGB textures") +
-                      ", bake " + (one ? "it" : "them") + " with ";
-    msg += suggestion.empty() ? "--colorspace NAME (the config has no space that decodes as sRGB does)"
-                              : "--colorspace '" + suggestion + "'";
+    std::string msg =
+        "warning: " + std::to_string(names.size()) + " integer (display-referred) file" +
+        (one ? " was" : "s were") + " read as '" + first->colorspace +
+        "', a scene-linear space, only because the default file rule '" + first->colorspace_rule +
+        "' of the OCIO config " + first->config +
+        (first->config_from == "shipped" ? " (shipped)" : " (from " + first->config_from + ")") +
+        " names it: " + file_list(names) + "; if " +
+        (one ? "it is an sRGB texture" : "they are sRGB textures") + ", bake " +
+        (one ? "it" : "them") + " with ";
+    msg += suggestion.empty()
+               ? "--colorspace NAME (the config has no space that decodes as sRGB does)"
+               : "--colorspace '" + suggestion + "'";
     std::cerr << "spectex: " << one_line(msg) << "\n";
 }
 
@@ -131,7 +141,8 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
     auto write_json = [&](const std::string& line) {
         if (plan.json == "-") {
             std::cout << line << std::flush;
-            if (!std::cout && json_error.empty()) json_error = "standard output: cannot write the JSON report";
+            if (!std::cout && json_error.empty())
+                json_error = "standard output: cannot write the JSON report";
         } else if (json_file && json_error.empty()) {
             try {
                 write_all(json_file->fd(), line, plan.json);
@@ -151,11 +162,14 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
         size_t first = i;
         if (auto [it, fresh] = first_by_key.emplace(t.key, i); !fresh) first = it->second;
         if (t.existing)
-            if (auto [it, fresh] = first_by_id.emplace(std::make_pair(t.existing->dev, t.existing->ino), i); !fresh)
+            if (auto [it, fresh] =
+                    first_by_id.emplace(std::make_pair(t.existing->dev, t.existing->ino), i);
+                !fresh)
                 first = std::min(first, it->second);
         if (first != i)
-            clash[i] = plan.files[i].first + ": its output " + plan.files[i].second + " is also the output of " +
-                       plan.files[first].first + " (as " + plan.files[first].second + "); not baked twice";
+            clash[i] = plan.files[i].first + ": its output " + plan.files[i].second +
+                       " is also the output of " + plan.files[first].first + " (as " +
+                       plan.files[first].second + "); not baked twice";
     }
 
     std::atomic<size_t> next{0};
@@ -172,20 +186,24 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
     auto progress_line = [&]() {
         const auto now = std::chrono::steady_clock::now();
         const double el = std::chrono::duration<double>(now - t0).count();
-        std::string line = "spectex: [" + std::to_string(done) + "/" + std::to_string(total) + "] " +
-                           std::to_string(failed) + " failed";
+        std::string line = "spectex: [" + std::to_string(done) + "/" + std::to_string(total) +
+                           "] " + std::to_string(failed) + " failed";
         double file_eta = 0;
         for (const auto& sl : slots) {
             if (sl.input.empty()) continue;
             const long d = sl.rows.rows_done.load(), t = sl.rows.rows_total.load();
             if (t <= 0) continue;
             char buf[96];
-            std::snprintf(buf, sizeof buf, ": rows %ld/%ld (%d%%)", d, t, static_cast<int>(100.0 * d / t));
+            std::snprintf(buf, sizeof buf, ": rows %ld/%ld (%d%%)", d, t,
+                          static_cast<int>(100.0 * d / t));
             line += "; " + one_line(file_name_of(sl.input)) + buf;
             const double fe = std::chrono::duration<double>(now - sl.start).count();
-            if (d > 0) file_eta = std::max(file_eta, fe / static_cast<double>(d) * static_cast<double>(t - d));
+            if (d > 0)
+                file_eta =
+                    std::max(file_eta, fe / static_cast<double>(d) * static_cast<double>(t - d));
         }
-        double eta = done ? el / static_cast<double>(done) * static_cast<double>(total - done) : file_eta;
+        double eta =
+            done ? el / static_cast<double>(done) * static_cast<double>(total - done) : file_eta;
         if (total == 1) eta = file_eta;
         if (done || file_eta > 0) line += ", ETA " + seconds_text(eta);
         return line;
@@ -204,7 +222,8 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
             print_error(name_file(r.input, r.error));
         } else if (!plan.quiet) {
             const std::string named = one_line(quote_path(r.input));
-            for (const auto& n : r.result.notes) std::cerr << "spectex: " << named << ": note: " << one_line(n) << "\n";
+            for (const auto& n : r.result.notes)
+                std::cerr << "spectex: " << named << ": note: " << one_line(n) << "\n";
             if (r.result.clamped_pixels)
                 std::cerr << "spectex: " << named << ": " << r.result.clamped_pixels
                           << " pixels had linear values outside [0, 1] and were clamped\n";
@@ -213,8 +232,8 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
                           << " pixels had NaN/Inf values replaced with 0\n";
         }
         if (plan.verbose && r.status == "ok")
-            std::cerr << "spectex: " << one_line(quote_path(r.input)) << " -> " << one_line(quote_path(r.output)) << ": "
-                      << r.result.pixels << " pixels, "
+            std::cerr << "spectex: " << one_line(quote_path(r.input)) << " -> "
+                      << one_line(quote_path(r.output)) << ": " << r.result.pixels << " pixels, "
                       << r.result.bins << " bins, colour space '" << r.result.colorspace << "' ("
                       << r.result.colorspace_how << "), " << r.result.bytes << " bytes, "
                       << seconds_text(r.result.seconds) << "\n";
@@ -223,10 +242,11 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
             char buf[400];
             std::snprintf(buf, sizeof buf,
                           "stages: read %.2f s, colour %.2f s, expand %.2f s (producer thread); "
-                          "pack %.2f s, waiting for the encoder %.2f s, for the producer %.2f s, finish %.2f s "
+                          "pack %.2f s, waiting for the encoder %.2f s, for the producer %.2f s, "
+                          "finish %.2f s "
                           "(writer thread); compress %.2f CPU-s (%s writer)\n",
-                          st.read, st.colour, st.expand, st.pack, st.encoder_wait, st.producer_wait, st.finish,
-                          st.compress_cpu, st.writer.c_str());
+                          st.read, st.colour, st.expand, st.pack, st.encoder_wait, st.producer_wait,
+                          st.finish, st.compress_cpu, st.writer.c_str());
             std::cerr << "spectex: " << one_line(quote_path(r.input)) << ": " << buf;
         }
         if (plan.verbose && r.status == "skipped")
@@ -254,15 +274,17 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
                 if (!clash[i].empty()) throw Error(clash[i]);
                 UpdateCheck check;
                 if (plan.update)
-                    check = i < plan.prechecked.size() ? plan.prechecked[i]
-                                                       : check_update(r.input, r.output, settings.settings_hash);
+                    check = i < plan.prechecked.size()
+                                ? plan.prechecked[i]
+                                : check_update(r.input, r.output, settings.settings_hash);
                 if (check.up_to_date) {
                     r.status = "skipped";
                     r.reason = check.reason;
                 } else {
                     if (plan.make_folders) {
                         const size_t slash = r.output.find_last_of('/');
-                        if (slash != std::string::npos && slash > 0) make_folders(r.output.substr(0, slash));
+                        if (slash != std::string::npos && slash > 0)
+                            make_folders(r.output.substr(0, slash));
                     }
                     {
                         std::lock_guard<std::mutex> lock(io);
@@ -285,7 +307,8 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
                 std::lock_guard<std::mutex> lock(io);
                 slot.input.clear();
             }
-            r.result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+            r.result.seconds =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
             if (r.status == "failed" && plan.fail_fast) stop.store(true);
             report(r);
             if (r.status == "ok") {
@@ -308,14 +331,16 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
                 double v = 0;
                 if (parse_finite(e, &v) && v >= 0.01 && v <= 86400) log_seconds = v;
             }
-            const auto period = plan.progress_terminal
-                                    ? std::chrono::milliseconds(250)
-                                    : std::chrono::milliseconds(static_cast<long>(log_seconds * 1000));
+            const auto period =
+                plan.progress_terminal
+                    ? std::chrono::milliseconds(250)
+                    : std::chrono::milliseconds(static_cast<long>(log_seconds * 1000));
             std::unique_lock<std::mutex> lock(tick_mutex);
             while (!tick_cv.wait_for(lock, period, [&] { return finished; })) {
                 std::lock_guard<std::mutex> io_lock(io);
                 bool busy = false;
-                for (const auto& sl : slots) busy = busy || (!sl.input.empty() && sl.rows.rows_total.load() > 0);
+                for (const auto& sl : slots)
+                    busy = busy || (!sl.input.empty() && sl.rows.rows_total.load() > 0);
                 if (busy) show_progress();
             }
         });
@@ -336,7 +361,8 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
     const size_t not_attempted = total - done;
     if (!plan.quiet && (total > 1 || failed || skipped)) {
         double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        std::cerr << "spectex: " << ok << " baked, " << skipped << " up to date, " << failed << " failed";
+        std::cerr << "spectex: " << ok << " baked, " << skipped << " up to date, " << failed
+                  << " failed";
         if (not_attempted) std::cerr << ", " << not_attempted << " not attempted (--fail-fast)";
         std::cerr << " of " << total << " in " << seconds_text(el) << "\n";
         print_colour_spaces(plan, baked, was_baked);

@@ -14,10 +14,11 @@ struct BatchPlan {
     int jobs = 1, threads = 1;
     bool update = false, fail_fast = false, quiet = false, verbose = false, progress = false;
     std::string json;  // "" none, "-" stdout, else a file
-    bool progress_terminal = false;  // progress as one rewritten line (a terminal), else timestamped lines
+    bool progress_terminal =
+        false;  // progress as one rewritten line (a terminal), else timestamped lines
     bool make_folders = false;  // outputs named by a template or --output-dir: create their folders
-    // With update: each file's check_update, made before the set-up (empty: checked by the workers).
-    // When every file is up to date, the settings carry no method: nothing is baked.
+    // With update: each file's check_update, made before the set-up (empty: checked by the
+    // workers). When every file is up to date, the settings carry no method: nothing is baked.
     std::vector<UpdateCheck> prechecked;
 };
 

@@ -13,17 +13,18 @@ namespace spectex {
 
 namespace {
 
-
 std::string levels_text(const SpectralExrInfo& info) {
     std::string out;
     auto size = [](int w, int h) { return std::to_string(w) + "x" + std::to_string(h); };
     if (info.level_mode == "mipmap") {
-        out = "mipmap, " + std::to_string(info.levels.size()) + " levels (rounding " + info.level_rounding + "): ";
+        out = "mipmap, " + std::to_string(info.levels.size()) + " levels (rounding " +
+              info.level_rounding + "): ";
         for (size_t l = 0; l < info.levels.size(); ++l)
             out += (l ? ", " : "") + size(info.levels[l].first, info.levels[l].second);
     } else if (info.level_mode == "ripmap") {
-        out = "ripmap, " + std::to_string(info.rip_x.size()) + " x " + std::to_string(info.rip_y.size()) +
-              " levels (rounding " + info.level_rounding + "): widths";
+        out = "ripmap, " + std::to_string(info.rip_x.size()) + " x " +
+              std::to_string(info.rip_y.size()) + " levels (rounding " + info.level_rounding +
+              "): widths";
         for (int v : info.rip_x) out += " " + std::to_string(v);
         out += ", heights";
         for (int v : info.rip_y) out += " " + std::to_string(v);
@@ -55,7 +56,8 @@ std::string info_json(const SpectralExrInfo& info, const WavelengthGrid& grid) {
     put_text(j, "sample_type", info.sample_type);
     put_text(j, "compression", info.compression);
     j["storage"] = info.tiled ? "tiled" : "scanline";
-    j["tiles"] = info.tiled ? Json{{"width", info.tile_width}, {"height", info.tile_height}} : Json(nullptr);
+    j["tiles"] =
+        info.tiled ? Json{{"width", info.tile_width}, {"height", info.tile_height}} : Json(nullptr);
     Json levels;
     put_text(levels, "mode", info.level_mode);
     put_text(levels, "rounding", info.level_rounding);
@@ -93,13 +95,17 @@ std::string info_json(const SpectralExrInfo& info, const WavelengthGrid& grid) {
 }  // namespace
 
 int run_info(const std::vector<std::string>& args) {
-    ArgParser p("info", "spectex info FILE.exr...",
-                "Prints the wavelength grid, bins, sample type, compression, size, alpha and the spectex:\n"
-                "provenance of spectral OpenEXR files (Fichet 2021 layout, from spectex or any other tool).\n"
-                "Tiled files also show their tile size and MIP levels (count and each level's size).\n"
-                "Exits 1 when a file is not a spectral reflectance image.");
+    ArgParser p(
+        "info", "spectex info FILE.exr...",
+        "Prints the wavelength grid, bins, sample type, compression, size, alpha and the spectex:\n"
+        "provenance of spectral OpenEXR files (Fichet 2021 layout, from spectex or any other "
+        "tool).\n"
+        "Tiled files also show their tile size and MIP levels (count and each level's size).\n"
+        "Exits 1 when a file is not a spectral reflectance image.");
     bool json = false;
-    p.flag("--json", "Print the whole header (every attribute, as text) and the derived facts: one JSON object per file, one per line.",
+    p.flag("--json",
+           "Print the whole header (every attribute, as text) and the derived facts: one JSON "
+           "object per file, one per line.",
            [&] { json = true; });
     std::vector<std::string> files;
     try {
@@ -113,7 +119,9 @@ int run_info(const std::vector<std::string>& args) {
         try {
             SpectralExrInfo info = read_spectral_exr_info(f);
             if (!info.complete)
-                throw Error(f + ": incomplete: chunks of the pixel data are missing (a truncated or interrupted file)");
+                throw Error(f +
+                            ": incomplete: chunks of the pixel data are missing (a truncated or "
+                            "interrupted file)");
             std::vector<double> l;
             for (const auto& b : info.reflective) l.push_back(b.lambda);
             WavelengthGrid grid = WavelengthGrid::from_list(l);
@@ -127,25 +135,32 @@ int run_info(const std::vector<std::string>& args) {
             std::cout << "  size:            " << info.width << " x " << info.height;
             if (info.data_x0 != info.display_x0 || info.data_y0 != info.display_y0 ||
                 info.data_x1 != info.display_x1 || info.data_y1 != info.display_y1)
-                std::cout << " (data window " << info.data_x0 << "," << info.data_y0 << " - " << info.data_x1 << ","
-                          << info.data_y1 << "; display window " << info.display_x0 << "," << info.display_y0
-                          << " - " << info.display_x1 << "," << info.display_y1 << ")";
+                std::cout << " (data window " << info.data_x0 << "," << info.data_y0 << " - "
+                          << info.data_x1 << "," << info.data_y1 << "; display window "
+                          << info.display_x0 << "," << info.display_y0 << " - " << info.display_x1
+                          << "," << info.display_y1 << ")";
             std::cout << "\n";
             std::cout << "  layout:          spectralLayoutVersion "
-                      << (info.layout_version.empty() ? "(absent)" : info.layout_version) << ", reflective\n";
+                      << (info.layout_version.empty() ? "(absent)" : info.layout_version)
+                      << ", reflective\n";
             std::cout << "  wavelengths:     " << grid.describe() << " nm\n";
             std::cout << "  bins:            " << info.reflective.size() << "\n";
             std::cout << "  sample type:     " << info.sample_type << "\n";
             std::cout << "  compression:     " << info.compression << "\n";
             std::cout << "  storage:         "
-                      << (info.tiled ? "tiled " + std::to_string(info.tile_width) + "x" + std::to_string(info.tile_height)
+                      << (info.tiled ? "tiled " + std::to_string(info.tile_width) + "x" +
+                                           std::to_string(info.tile_height)
                                      : std::string("scanline"))
-                      << (info.parts > 1 ? ", " + std::to_string(info.parts) + " parts (first shown)" : "") << "\n";
-            if (info.tiled) std::cout << "  levels:          " << levels_text(info) << "\n";
-            std::cout << "  alpha:           " << (info.alpha ? "A (" + info.alpha_type + ")" : std::string("none"))
+                      << (info.parts > 1
+                              ? ", " + std::to_string(info.parts) + " parts (first shown)"
+                              : "")
                       << "\n";
+            if (info.tiled) std::cout << "  levels:          " << levels_text(info) << "\n";
+            std::cout << "  alpha:           "
+                      << (info.alpha ? "A (" + info.alpha_type + ")" : std::string("none")) << "\n";
             std::cout << "  preview RGB:     " << (info.preview ? "yes" : "no") << "\n";
-            if (info.emissive_channels) std::cout << "  emissive chans:  " << info.emissive_channels << "\n";
+            if (info.emissive_channels)
+                std::cout << "  emissive chans:  " << info.emissive_channels << "\n";
             for (const auto& [k, v] : info.attributes) {
                 if (k.rfind(provenance_key::kPrefix, 0) != 0) continue;
                 if (k == provenance_key::kWavelengthList) continue;

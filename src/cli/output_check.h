@@ -1,8 +1,8 @@
 #pragma once
 // The one check every command makes of an output before any work (a usage error, exit 2): it is
-// none of the files the command reads, compared by identity (those given, plus the tables and config
-// spectex ships), and it can be an output at all (io/atomic_file.h check_output_path: not a device,
-// FIFO, socket or a link to one; a name that fits its folder).
+// none of the files the command reads, compared by identity (those given, plus the tables and
+// config spectex ships), and it can be an output at all (io/atomic_file.h check_output_path: not a
+// device, FIFO, socket or a link to one; a name that fits its folder).
 #include <string>
 #include <utility>
 #include <vector>

@@ -14,21 +14,26 @@ namespace spectex {
 // The options that plan and bake --wavelengths auto share.
 void add_plan_options(ArgParser& p, PlanSpec& spec, bool& lights_given, bool& budget_given) {
     p.option("--lights", "LIST",
-             "Lights of the scene, comma-separated names or CSV files (plan's default D65,A,FL11). Each is "
+             "Lights of the scene, comma-separated names or CSV files (plan's default D65,A,FL11). "
+             "Each is "
              "integrated at 1 nm over --range; a light is dark where its table has no values.",
              [&](const std::string& v) {
                  spec.lights = split_list(v, "--lights");
                  lights_given = true;
              });
-    p.option("--max-de", "DE", "Budget: the worst ΔE00 of any colour under every light (plan's default 0.5).",
+    p.option("--max-de", "DE",
+             "Budget: the worst ΔE00 of any colour under every light (plan's default 0.5).",
              [&](const std::string& v) {
                  spec.max_de = parse_number("--max-de", v);
-                 if (!(spec.max_de > 0)) throw UsageError("--max-de: '" + v + "' is not a positive ΔE00");
+                 if (!(spec.max_de > 0))
+                     throw UsageError("--max-de: '" + v + "' is not a positive ΔE00");
                  budget_given = true;
              });
     p.option("--reconstruction", "linear|nearest|box",
-             "How the renderer reads the spectrum between bins: linear (default; pbrt-v4, Mitsuba 3), nearest, "
-             "or box (bins as boxes between midpoints, averaged over each 1 nm); the end values are held beyond "
+             "How the renderer reads the spectrum between bins: linear (default; pbrt-v4, Mitsuba "
+             "3), nearest, "
+             "or box (bins as boxes between midpoints, averaged over each 1 nm); the end values "
+             "are held beyond "
              "the grid.",
              [&](const std::string& v) {
                  try {
@@ -37,7 +42,8 @@ void add_plan_options(ArgParser& p, PlanSpec& spec, bool& lights_given, bool& bu
                      throw UsageError(std::string("--reconstruction: ") + e.what());
                  }
              });
-    p.option("--range", "START:END", "Wavelengths the renderer samples, whole nm (default 360:830).",
+    p.option("--range", "START:END",
+             "Wavelengths the renderer samples, whole nm (default 360:830).",
              [&](const std::string& v) {
                  try {
                      std::tie(spec.range_start, spec.range_end) = parse_plan_range(v);
@@ -45,12 +51,15 @@ void add_plan_options(ArgParser& p, PlanSpec& spec, bool& lights_given, bool& bu
                      throw UsageError(std::string("--range: ") + e.what());
                  }
              });
-    p.flag("--nonuniform",
-           "Also search non-uniform grids (basis only): greedy removal of bins from uniform grids that hold, "
-           "offered when one needs fewer bins than every uniform candidate (and is measured to hold).",
-           [&] { spec.nonuniform = true; });
+    p.flag(
+        "--nonuniform",
+        "Also search non-uniform grids (basis only): greedy removal of bins from uniform grids "
+        "that hold, "
+        "offered when one needs fewer bins than every uniform candidate (and is measured to hold).",
+        [&] { spec.nonuniform = true; });
     p.option("--grids", "LIST",
-             "Candidate grids instead of the default ones (uniform 1, 2, 2.5, 4, 5, 10, 20 nm over 380:780, "
+             "Candidate grids instead of the default ones (uniform 1, 2, 2.5, 4, 5, 10, 20 nm over "
+             "380:780, "
              "400:700 and --range), e.g. the grids a renderer supports: 380:780:5,400:700:10.",
              [&](const std::string& v) {
                  spec.candidates.clear();
@@ -69,71 +78,95 @@ int run_plan(const std::vector<std::string>& args) {
     spec.method.method = "basis";
     std::string type = "half", json, grid_file;
     bool lights_given = false, budget_given = false, lattice_given = false;
-    ArgParser p("plan", "spectex plan [options]",
-                "Chooses the wavelength grid for a scene: for candidate grids (uniform steps 1, 2, 2.5, 4, 5, 10\n"
-                "and 20 nm over 380:780, 400:700 and the renderer's range), the worst and 99th-percentile\n"
-                "ΔE00 under each light between the spectrum baked on the grid, as the renderer reconstructs it\n"
-                "at 1 nm, and the method's spectrum built on 1 nm; over all 16,777,216 8-bit sRGB colours for\n"
-                "the basis, a dense sample for the other methods. Marks the cheapest grid within --max-de\n"
-                "under every light. Exit status 1 when no grid meets the budget (with the best achievable).");
+    ArgParser p(
+        "plan", "spectex plan [options]",
+        "Chooses the wavelength grid for a scene: for candidate grids (uniform steps 1, 2, 2.5, 4, "
+        "5, 10\n"
+        "and 20 nm over 380:780, 400:700 and the renderer's range), the worst and 99th-percentile\n"
+        "ΔE00 under each light between the spectrum baked on the grid, as the renderer "
+        "reconstructs it\n"
+        "at 1 nm, and the method's spectrum built on 1 nm; over all 16,777,216 8-bit sRGB colours "
+        "for\n"
+        "the basis, a dense sample for the other methods. Marks the cheapest grid within --max-de\n"
+        "under every light. Exit status 1 when no grid meets the budget (with the best "
+        "achievable).");
     add_plan_options(p, spec, lights_given, budget_given);
-    p.option("--method", "basis|lattice|jakob-hanika", "The bake's method (default basis, fitted on each grid).",
-             [&](const std::string& v) {
+    p.option("--method", "basis|lattice|jakob-hanika",
+             "The bake's method (default basis, fitted on each grid).", [&](const std::string& v) {
                  if (v != "basis" && v != "lattice" && v != "jakob-hanika")
-                     throw UsageError("--method: '" + v + "' is not one of basis, lattice, jakob-hanika");
+                     throw UsageError("--method: '" + v +
+                                      "' is not one of basis, lattice, jakob-hanika");
                  spec.method.method = v;
              });
-    p.option("--lattice-size", "N", "Breakpoints per axis of the lattice (default 9).", [&](const std::string& v) {
-        spec.method.lattice_size = parse_int("--lattice-size", v, 2, 65);
-        lattice_given = true;
-    });
-    p.option("--vertex-prior", "jakob-hanika|smooth|blend", "The lattice's vertex prior (default jakob-hanika).",
+    p.option("--lattice-size", "N", "Breakpoints per axis of the lattice (default 9).",
              [&](const std::string& v) {
+                 spec.method.lattice_size = parse_int("--lattice-size", v, 2, 65);
+                 lattice_given = true;
+             });
+    p.option("--vertex-prior", "jakob-hanika|smooth|blend",
+             "The lattice's vertex prior (default jakob-hanika).", [&](const std::string& v) {
                  if (v != "jakob-hanika" && v != "smooth" && v != "blend")
-                     throw UsageError("--vertex-prior: '" + v + "' is not one of jakob-hanika, smooth, blend");
+                     throw UsageError("--vertex-prior: '" + v +
+                                      "' is not one of jakob-hanika, smooth, blend");
                  spec.method.vertex_prior = v;
                  lattice_given = true;
              });
-    p.option("--objective", "smooth|norm", "Objective of the fitted basis (default smooth).", [&](const std::string& v) {
-        if (v != "smooth" && v != "norm") throw UsageError("--objective: '" + v + "' is not one of smooth, norm");
-        spec.method.fit.objective = v;
-    });
-    p.option("--observer", "NAME|FILE", "Observer of the method and of the error (default cie1931-2).",
-             [&](const std::string& v) { spec.method.fit.observer = v; });
-    p.option("--illuminant", "NAME|FILE", "Illuminant the method is exact for (default D65), as in bake.",
-             [&](const std::string& v) { spec.method.fit.illuminant = v; });
-    p.option("--type", "half|float", "Sample type of the bake (default half: its rounding is part of the error).",
+    p.option("--objective", "smooth|norm", "Objective of the fitted basis (default smooth).",
              [&](const std::string& v) {
-                 if (v != "half" && v != "float") throw UsageError("--type: '" + v + "' is not one of half, float");
+                 if (v != "smooth" && v != "norm")
+                     throw UsageError("--objective: '" + v + "' is not one of smooth, norm");
+                 spec.method.fit.objective = v;
+             });
+    p.option("--observer", "NAME|FILE",
+             "Observer of the method and of the error (default cie1931-2).",
+             [&](const std::string& v) { spec.method.fit.observer = v; });
+    p.option("--illuminant", "NAME|FILE",
+             "Illuminant the method is exact for (default D65), as in bake.",
+             [&](const std::string& v) { spec.method.fit.illuminant = v; });
+    p.option("--type", "half|float",
+             "Sample type of the bake (default half: its rounding is part of the error).",
+             [&](const std::string& v) {
+                 if (v != "half" && v != "float")
+                     throw UsageError("--type: '" + v + "' is not one of half, float");
                  type = v;
              });
-    p.option("--sample-stride", "N",
-             "The dense sample: every N-th 8-bit code and 255 per axis (default 4: 274,625 colours).",
-             [&](const std::string& v) { spec.sample_stride = parse_int("--sample-stride", v, 1, 255); });
+    p.option(
+        "--sample-stride", "N",
+        "The dense sample: every N-th 8-bit code and 255 per axis (default 4: 274,625 colours).",
+        [&](const std::string& v) {
+            spec.sample_stride = parse_int("--sample-stride", v, 1, 255);
+        });
     p.option("--colours", "auto|cube|sample",
-             "Which colours decide for the basis: auto (default) every grid on the sample and the chosen one on all "
-             "16,777,216 8-bit codes; cube: every grid on all codes (about 2 CPU-s per grid and light); sample. "
+             "Which colours decide for the basis: auto (default) every grid on the sample and the "
+             "chosen one on all "
+             "16,777,216 8-bit codes; cube: every grid on all codes (about 2 CPU-s per grid and "
+             "light); sample. "
              "Other methods always use the sample.",
              [&](const std::string& v) {
                  if (v != "auto" && v != "cube" && v != "sample")
                      throw UsageError("--colours: '" + v + "' is not one of auto, cube, sample");
                  spec.colours = v;
              });
-    p.option("--grid-file", "FILE",
-             "Write the chosen grid's wavelengths, one per line, for bake --wavelengths-file (any grid, "
-             "non-uniform ones included).",
-             [&](const std::string& v) { grid_file = v; });
+    p.option(
+        "--grid-file", "FILE",
+        "Write the chosen grid's wavelengths, one per line, for bake --wavelengths-file (any grid, "
+        "non-uniform ones included).",
+        [&](const std::string& v) { grid_file = v; });
     p.option("--texture", "FILE",
-             "Measure over this texture's colours (read and linearised as bake reads it; at most 1,048,576 "
-             "distinct colours, an even subset above that; pixels with alpha 0 left out) instead of the 8-bit cube.",
+             "Measure over this texture's colours (read and linearised as bake reads it; at most "
+             "1,048,576 "
+             "distinct colours, an even subset above that; pixels with alpha 0 left out) instead "
+             "of the 8-bit cube.",
              [&](const std::string& v) { spec.texture = v; });
     p.option("--colorspace", "NAME", "With --texture: the texture's colour space, as in bake.",
              [&](const std::string& v) { spec.colorspace = v; });
-    p.option("--config", "FILE", "With --texture: the OCIO config, as in bake (default $OCIO, else the shipped one).",
+    p.option("--config", "FILE",
+             "With --texture: the OCIO config, as in bake (default $OCIO, else the shipped one).",
              [&](const std::string& v) { spec.config = v; });
     p.option("--threads", "N", "Threads (default: all cores).",
              [&](const std::string& v) { spec.threads = parse_int("--threads", v, 0, 1024); });
-    p.option("--json", "FILE", "Also write the table as JSON ('-' = stdout, instead of the text table).",
+    p.option("--json", "FILE",
+             "Also write the table as JSON ('-' = stdout, instead of the text table).",
              [&](const std::string& v) { json = v; });
     try {
         std::vector<std::string> pos;
@@ -142,11 +175,12 @@ int run_plan(const std::vector<std::string>& args) {
         if (lattice_given && spec.method.method != "lattice")
             throw UsageError("--lattice-size and --vertex-prior belong to --method lattice");
         if (spec.nonuniform && spec.method.method != "basis")
-            throw UsageError("--nonuniform searches with the basis' 3x3 maps: it needs --method basis");
+            throw UsageError(
+                "--nonuniform searches with the basis' 3x3 maps: it needs --method basis");
         spec.half = type == "half";
         // Outputs are none of the files plan reads (tables given as files).
-        std::vector<std::pair<std::string, std::string>> reads = {{spec.method.fit.observer, "--observer"},
-                                                                  {spec.method.fit.illuminant, "--illuminant"}};
+        std::vector<std::pair<std::string, std::string>> reads = {
+            {spec.method.fit.observer, "--observer"}, {spec.method.fit.illuminant, "--illuminant"}};
         for (const auto& l : spec.lights) reads.push_back({l, "--lights"});
         if (!spec.texture.empty()) reads.push_back({spec.texture, "--texture"});
         if (!spec.config.empty()) reads.push_back({spec.config, "--config"});
@@ -175,8 +209,10 @@ int run_plan(const std::vector<std::string>& args) {
             return 1;
         }
         if (!grid_file.empty()) {
-            std::string text = "# spectex plan: " + grid_label(r.rows[static_cast<size_t>(r.chosen)].grid) + "\n";
-            for (double l : r.rows[static_cast<size_t>(r.chosen)].grid.lambda) text += format_wavelength(l) + "\n";
+            std::string text =
+                "# spectex plan: " + grid_label(r.rows[static_cast<size_t>(r.chosen)].grid) + "\n";
+            for (double l : r.rows[static_cast<size_t>(r.chosen)].grid.lambda)
+                text += format_wavelength(l) + "\n";
             write_text_atomically(grid_file, text);
         }
     } catch (const Error& e) {

@@ -5,12 +5,12 @@
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
 #include "cli/output_check.h"
-#include "spectral/spectrum.h"
 #include "io/atomic_file.h"
 #include "io/data_dir.h"
 #include "io/file_identity.h"
 #include "pipeline/plot.h"
 #include "spectral/error.h"
+#include "spectral/spectrum.h"
 
 namespace spectex {
 
@@ -20,13 +20,19 @@ int run_plot(const std::vector<std::string>& args) {
     std::vector<std::pair<int, int>> xy;
     bool quiet = false;
     ArgParser p("plot", "spectex plot [options] FILE.exr --pixel X,Y [--pixel X,Y ...] -o OUT.svg",
-                "Writes an SVG 1.1 plot of the spectra of the chosen pixels (data window coordinates, as for\n"
-                "sample; samples as stored): wavelength in nm against reflectance from 0 (to 1, or higher when a\n"
-                "sample is), each line in the pixel's 8-bit sRGB colour under D65 over a dark outline, a legend\n"
-                "with each pixel's coordinates and colour, and with --light a light's spectrum scaled to the plot\n"
-                "height in light grey behind. Only the rows holding the pixels are read; the SVG is written\n"
+                "Writes an SVG 1.1 plot of the spectra of the chosen pixels (data window "
+                "coordinates, as for\n"
+                "sample; samples as stored): wavelength in nm against reflectance from 0 (to 1, or "
+                "higher when a\n"
+                "sample is), each line in the pixel's 8-bit sRGB colour under D65 over a dark "
+                "outline, a legend\n"
+                "with each pixel's coordinates and colour, and with --light a light's spectrum "
+                "scaled to the plot\n"
+                "height in light grey behind. Only the rows holding the pixels are read; the SVG "
+                "is written\n"
                 "atomically. (SVG only; convert it with any SVG tool for a bitmap.)\n"
-                "Exit status: 0 ok, 1 the work failed (e.g. a pixel outside the data window), 2 usage error.");
+                "Exit status: 0 ok, 1 the work failed (e.g. a pixel outside the data window), 2 "
+                "usage error.");
     p.option("--pixel", "X,Y", "A pixel to plot (repeatable).",
              [&](const std::string& v) { xy.push_back(parse_pixel("--pixel", v)); });
     p.option("-o,--output", "OUT.svg", "The SVG to write (never a file this command reads).",
@@ -35,32 +41,39 @@ int run_plot(const std::vector<std::string>& args) {
              "Draw this light's spectrum behind the spectra: " + shipped_illuminants_list() +
                  " (any case), or a CSV wavelength,value.",
              [&](const std::string& v) { s.light = v; });
-    p.option("--observer", "NAME|FILE", "Observer of the line colours: cie1931-2 (default), cie1964-10, or a CSV.",
+    p.option("--observer", "NAME|FILE",
+             "Observer of the line colours: cie1931-2 (default), cie1964-10, or a CSV.",
              [&](const std::string& v) { s.observer = v; });
     p.option("--title", "TEXT", "Title above the plot (default: the file name as given).",
              [&](const std::string& v) { s.title = v; });
-    p.option("--size", "WxH", "Size of the SVG in px (default 820x440).", [&](const std::string& v) {
-        const size_t x = v.find('x');
-        if (x == std::string::npos) throw UsageError("--size: '" + v + "' is not WxH");
-        s.width = parse_int("--size", v.substr(0, x), 500, 10000);
-        s.height = parse_int("--size", v.substr(x + 1), 200, 10000);
-    });
+    p.option("--size", "WxH", "Size of the SVG in px (default 820x440).",
+             [&](const std::string& v) {
+                 const size_t x = v.find('x');
+                 if (x == std::string::npos) throw UsageError("--size: '" + v + "' is not WxH");
+                 s.width = parse_int("--size", v.substr(0, x), 500, 10000);
+                 s.height = parse_int("--size", v.substr(x + 1), 200, 10000);
+             });
     p.flag("-q,--quiet", "Print nothing on success.", [&] { quiet = true; });
     std::vector<std::string> files;
     try {
         if (p.parse_or_help(args, files)) return 0;
         if (files.empty()) throw UsageError("no input file");
-        if (files.size() > 1) throw UsageError("one file at a time (got " + std::to_string(files.size()) + ")");
+        if (files.size() > 1)
+            throw UsageError("one file at a time (got " + std::to_string(files.size()) + ")");
         if (xy.empty()) throw UsageError("no --pixel X,Y given");
         if (output.empty()) throw UsageError("no output: give -o OUT.svg");
-        check_output_against(output, "-o", {{files[0], "the input"}, {s.light, "--light"}, {s.observer, "--observer"}});
+        check_output_against(
+            output, "-o",
+            {{files[0], "the input"}, {s.light, "--light"}, {s.observer, "--observer"}});
     } catch (const UsageError& e) {
         return usage_error("plot", e.what());
     }
     return run_reporting(files[0], [&] {
         s.data_dir = find_data_dir();
         PlotReport r = plot_file(files[0], output, xy, s);
-        if (!quiet) std::cout << r.output << ": SVG plot of " << r.curves << " spectra of " << r.file << "\n";
+        if (!quiet)
+            std::cout << r.output << ": SVG plot of " << r.curves << " spectra of " << r.file
+                      << "\n";
     });
 }
 

@@ -8,13 +8,13 @@
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
 #include "cli/output_check.h"
-#include "spectral/spectrum.h"
 #include "io/atomic_file.h"
 #include "io/data_dir.h"
 #include "io/file_identity.h"
 #include "pipeline/look.h"
 #include "pipeline/render.h"
 #include "spectral/error.h"
+#include "spectral/spectrum.h"
 #include "spectral/text.h"
 
 namespace spectex {
@@ -30,17 +30,25 @@ int run_render(const std::vector<std::string>& args) {
     s.illuminants.clear();
     std::string output;
     bool quiet = false;
-    ArgParser p("render", "spectex render [options] FILE.exr -o OUT.png",
-                "Renders a spectral OpenEXR as it looks under a light, as an 8-bit sRGB PNG: every pixel is\n"
-                "integrated under the light with the observer on the file's own bins (XYZ with the perfect\n"
-                "reflector at Y = 1), white-balanced by a Bradford adaptation of the light's white to D65's, and\n"
-                "encoded as sRGB through D65's white-consistent matrix (the one verify uses), so that a render\n"
-                "under D65 of a spectex bake gives back the source's 8-bit codes. --no-adapt shows the light's\n"
-                "colour cast instead (XYZ relative to the light, same matrix, no adaptation; clipped). Spectra\n"
-                "premultiplied by A are divided by it; a file with A gives an RGBA PNG (straight colour).\n"
-                "Several lights give a sheet: one panel per light, side by side, each under a strip with the\n"
-                "light's name. The file is read a band of rows at a time; the PNG is written atomically.\n"
-                "Exit status: 0 ok, 1 the work failed, 2 usage error.");
+    ArgParser p(
+        "render", "spectex render [options] FILE.exr -o OUT.png",
+        "Renders a spectral OpenEXR as it looks under a light, as an 8-bit sRGB PNG: every pixel "
+        "is\n"
+        "integrated under the light with the observer on the file's own bins (XYZ with the "
+        "perfect\n"
+        "reflector at Y = 1), white-balanced by a Bradford adaptation of the light's white to "
+        "D65's, and\n"
+        "encoded as sRGB through D65's white-consistent matrix (the one verify uses), so that a "
+        "render\n"
+        "under D65 of a spectex bake gives back the source's 8-bit codes. --no-adapt shows the "
+        "light's\n"
+        "colour cast instead (XYZ relative to the light, same matrix, no adaptation; clipped). "
+        "Spectra\n"
+        "premultiplied by A are divided by it; a file with A gives an RGBA PNG (straight colour).\n"
+        "Several lights give a sheet: one panel per light, side by side, each under a strip with "
+        "the\n"
+        "light's name. The file is read a band of rows at a time; the PNG is written atomically.\n"
+        "Exit status: 0 ok, 1 the work failed, 2 usage error.");
     p.option("-o,--output", "OUT.png", "The PNG to write (never a file this command reads).",
              [&](const std::string& v) { output = v; });
     p.section("Colorimetry");
@@ -52,11 +60,14 @@ int run_render(const std::vector<std::string>& args) {
                      s.illuminants.push_back(n);
                  }
              });
-    p.option("--observer", "NAME|FILE", "Observer: cie1931-2 (default), cie1964-10, or a CSV wavelength,x,y,z.",
+    p.option("--observer", "NAME|FILE",
+             "Observer: cie1931-2 (default), cie1964-10, or a CSV wavelength,x,y,z.",
              [&](const std::string& v) { s.observer = v; });
-    p.flag("--no-adapt", "No chromatic adaptation: show the light's colour cast.", [&] { s.adapt = false; });
+    p.flag("--no-adapt", "No chromatic adaptation: show the light's colour cast.",
+           [&] { s.adapt = false; });
     p.section("Resources");
-    p.option("--max-pixels", "N", "Refuse files with more pixels than this (default 268435456 = 16384^2).",
+    p.option("--max-pixels", "N",
+             "Refuse files with more pixels than this (default 268435456 = 16384^2).",
              [&](const std::string& v) { s.max_pixels = parse_count("--max-pixels", v); });
     p.option("--threads", "N", "Threads integrating pixels (default: all cores).",
              [&](const std::string& v) { s.threads = parse_int("--threads", v, 0, 1024); });
@@ -65,13 +76,16 @@ int run_render(const std::vector<std::string>& args) {
     try {
         if (p.parse_or_help(args, files)) return 0;
         if (files.empty()) throw UsageError("no input file");
-        if (files.size() > 1) throw UsageError("one file at a time (got " + std::to_string(files.size()) + ")");
+        if (files.size() > 1)
+            throw UsageError("one file at a time (got " + std::to_string(files.size()) + ")");
         if (output.empty()) throw UsageError("no output: give -o OUT.png");
         if (s.illuminants.empty()) s.illuminants.push_back("D65");
-        std::vector<std::pair<std::string, std::string>> reads = {{files[0], "the input"}, {s.observer, "--observer"}};
+        std::vector<std::pair<std::string, std::string>> reads = {{files[0], "the input"},
+                                                                  {s.observer, "--observer"}};
         for (const auto& l : s.illuminants) reads.push_back({l, "--illuminant"});
         check_output_against(output, "-o", reads);
-        if (!ends_with_png(output)) throw UsageError("-o: '" + output + "' does not end in .png (render writes PNG)");
+        if (!ends_with_png(output))
+            throw UsageError("-o: '" + output + "' does not end in .png (render writes PNG)");
     } catch (const UsageError& e) {
         return usage_error("render", e.what());
     }
@@ -79,8 +93,8 @@ int run_render(const std::vector<std::string>& args) {
         s.data_dir = find_data_dir();
         RenderReport r = render_file(files[0], output, s);
         if (!quiet) {
-            std::cout << r.output << ": " << r.width << " x " << r.height << " sRGB" << (r.channels == 4 ? "A" : "")
-                      << " PNG of " << r.file << " under";
+            std::cout << r.output << ": " << r.width << " x " << r.height << " sRGB"
+                      << (r.channels == 4 ? "A" : "") << " PNG of " << r.file << " under";
             for (const auto& l : r.labels) std::cout << " " << l;
             std::cout << (s.adapt ? " (Bradford-adapted to D65)" : " (not adapted)") << "\n";
         }

@@ -6,11 +6,11 @@
 
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
-#include "spectral/spectrum.h"
 #include "io/data_dir.h"
 #include "pipeline/json_text.h"
 #include "pipeline/sample.h"
 #include "spectral/error.h"
+#include "spectral/spectrum.h"
 #include "spectral/wavelength_grid.h"
 
 namespace spectex {
@@ -40,20 +40,24 @@ void print_csv(const SampleReport& r) {
         const PixelSpectrum& p = r.pixels[i];
         const std::string xy = std::to_string(p.x) + "," + std::to_string(p.y);
         for (size_t k = 0; k < r.wavelengths.size(); ++k)
-            o << xy << "," << format_wavelength(r.wavelengths[k]) << "," << num(p.values[k]) << "\n";
+            o << xy << "," << format_wavelength(r.wavelengths[k]) << "," << num(p.values[k])
+              << "\n";
         if (r.alpha == "associated")
             o << "# pixel " << xy << ": A " << num(p.alpha, "%.6g")
               << (p.alpha > 0 ? " (premultiplied): the colours are of the spectrum divided by A\n"
                               : ": transparent, its colour is not defined\n");
         else if (r.alpha == "unassociated")
-            o << "# pixel " << xy << ": A " << num(p.alpha, "%.6g") << " (unassociated: not applied)\n";
+            o << "# pixel " << xy << ": A " << num(p.alpha, "%.6g")
+              << " (unassociated: not applied)\n";
         for (size_t l = 0; l < r.lights.size(); ++l) {
             const PixelColour& c = r.colours[i][l];
             if (!c.defined) continue;
             const std::string& name = r.lights[l].name;
-            o << "# pixel " << xy << " under " << name << (l == 0 ? "" : " adapted to D65 (Bradford)") << ": "
-              << "linear Rec.709 " << triple(c.rgb(0), c.rgb(1), c.rgb(2), " ") << "; sRGB 8-bit " << c.srgb[0]
-              << " " << c.srgb[1] << " " << c.srgb[2] << "; L*a*b* " << triple(c.lab.L, c.lab.a, c.lab.b, " ", "%.4f");
+            o << "# pixel " << xy << " under " << name
+              << (l == 0 ? "" : " adapted to D65 (Bradford)") << ": "
+              << "linear Rec.709 " << triple(c.rgb(0), c.rgb(1), c.rgb(2), " ") << "; sRGB 8-bit "
+              << c.srgb[0] << " " << c.srgb[1] << " " << c.srgb[2] << "; L*a*b* "
+              << triple(c.lab.L, c.lab.a, c.lab.b, " ", "%.4f");
             if (l != 0)
                 o << " (white " << name << "); unadapted sRGB 8-bit " << c.srgb_unadapted[0] << " "
                   << c.srgb_unadapted[1] << " " << c.srgb_unadapted[2];
@@ -120,15 +124,24 @@ int run_sample(const std::vector<std::string>& args) {
     SampleSettings s;
     bool json = false;
     ArgParser p("sample", "spectex sample [options] FILE.exr X,Y [X,Y ...]",
-                "Prints the spectrum of each pixel X,Y of a spectral OpenEXR (data window coordinates, as stored in\n"
-                "the file: a spectex bake's data window starts at 0,0, the top-left pixel) as CSV with the header\n"
-                "x,y,wavelength,value (one row per bin, samples as stored), each pixel followed by '#' comment\n"
-                "lines with its colour under D65: linear Rec.709 through the white-consistent matrix (as verify\n"
-                "integrates), the 8-bit sRGB code and CIE L*a*b*; and under each --illuminant: L*a*b* relative to\n"
-                "that light's white, and the sRGB colour after a Bradford adaptation of its white to D65's (and\n"
-                "without it). Spectra premultiplied by A (A present, spectex:alpha not 'unassociated') are divided\n"
-                "by A for the colour. Only the rows holding the pixels are read. Put '--' before negative X.\n"
-                "Exit status: 0 ok, 1 unreadable or non-spectral file or a pixel outside the data window, 2 usage.");
+                "Prints the spectrum of each pixel X,Y of a spectral OpenEXR (data window "
+                "coordinates, as stored in\n"
+                "the file: a spectex bake's data window starts at 0,0, the top-left pixel) as CSV "
+                "with the header\n"
+                "x,y,wavelength,value (one row per bin, samples as stored), each pixel followed by "
+                "'#' comment\n"
+                "lines with its colour under D65: linear Rec.709 through the white-consistent "
+                "matrix (as verify\n"
+                "integrates), the 8-bit sRGB code and CIE L*a*b*; and under each --illuminant: "
+                "L*a*b* relative to\n"
+                "that light's white, and the sRGB colour after a Bradford adaptation of its white "
+                "to D65's (and\n"
+                "without it). Spectra premultiplied by A (A present, spectex:alpha not "
+                "'unassociated') are divided\n"
+                "by A for the colour. Only the rows holding the pixels are read. Put '--' before "
+                "negative X.\n"
+                "Exit status: 0 ok, 1 unreadable or non-spectral file or a pixel outside the data "
+                "window, 2 usage.");
     p.section("Colorimetry");
     p.option("--illuminant", "NAME[,NAME...]",
              "Also show the colour under these lights (repeatable): " + shipped_illuminants_list() +
@@ -138,10 +151,12 @@ int run_sample(const std::vector<std::string>& args) {
                      s.illuminants.push_back(n);
                  }
              });
-    p.option("--observer", "NAME|FILE", "Observer: cie1931-2 (default), cie1964-10, or a CSV wavelength,x,y,z.",
+    p.option("--observer", "NAME|FILE",
+             "Observer: cie1931-2 (default), cie1964-10, or a CSV wavelength,x,y,z.",
              [&](const std::string& v) { s.observer = v; });
     p.section("Output");
-    p.flag("--json", "Print one JSON object (schema_version 1) instead of CSV.", [&] { json = true; });
+    p.flag("--json", "Print one JSON object (schema_version 1) instead of CSV.",
+           [&] { json = true; });
     std::vector<std::string> pos;
     std::vector<std::pair<int, int>> xy;
     try {

@@ -1,26 +1,25 @@
 // spectex verify: measure a spectral OpenEXR, alone or against the image it was baked from.
 #include <OpenEXR/ImfThreading.h>
 
+#include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <sstream>
 #include <thread>
 
-#include <algorithm>
-#include <atomic>
-#include <filesystem>
-
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
-#include "io/image_library.h"
-#include "pipeline/batch.h"
-#include "pipeline/json_text.h"
-#include "io/data_dir.h"
 #include "io/atomic_file.h"
+#include "io/data_dir.h"
 #include "io/file_identity.h"
+#include "io/image_library.h"
 #include "io/linearizer.h"
 #include "io/spectral_exr_info.h"
+#include "pipeline/batch.h"
+#include "pipeline/json_text.h"
 #include "pipeline/verify.h"
 #include "spectral/error.h"
 #include "spectral/provenance_keys.h"
@@ -36,7 +35,6 @@ namespace {
 std::string num(double v, const char* fmt = "%.6g") { return number_text(v, fmt); }
 std::string percent(uint64_t count, uint64_t total) { return share_text(count, total); }
 
-
 // JSON numbers to 9 significant digits; null for Inf/NaN, which JSON has not.
 Json json_num(double v) { return json_number(v, "%.9g"); }
 Json json_rgb(const double* v) { return {json_num(v[0]), json_num(v[1]), json_num(v[2])}; }
@@ -45,57 +43,68 @@ double share(uint64_t count, uint64_t total) {
     return total ? static_cast<double>(count) / static_cast<double>(total) : 0.0;
 }
 
-void print_text(const VerifyReport& r, const VerifyGates& g, const std::vector<std::string>& failures) {
+void print_text(const VerifyReport& r, const VerifyGates& g,
+                const std::vector<std::string>& failures) {
     std::ostream& o = std::cout;
     o << r.file << "\n";
-    o << "  size:                 " << r.width << " x " << r.height << " (" << r.pixels << " pixels)\n";
+    o << "  size:                 " << r.width << " x " << r.height << " (" << r.pixels
+      << " pixels)\n";
     o << "  wavelengths:          " << r.wavelengths << " nm, " << r.bins << " bins, "
       << format_wavelength(r.lambda_min) << "-" << format_wavelength(r.lambda_max) << " nm\n";
-    o << "  samples:              " << r.sample_type << ", " << r.compression << ", " << r.storage << "\n";
-    o << "  alpha:                " << (r.alpha == "none" ? std::string("none") : "A (" + r.alpha + ")") << "\n";
+    o << "  samples:              " << r.sample_type << ", " << r.compression << ", " << r.storage
+      << "\n";
+    o << "  alpha:                "
+      << (r.alpha == "none" ? std::string("none") : "A (" + r.alpha + ")") << "\n";
     o << "  integrated under:     " << r.illuminant << ", observer " << r.observer << "\n";
     if (!r.method.empty()) o << "  method:               " << r.method << "\n";
     o << "  outside [0, 1]:       " << r.below_zero + r.above_one << " samples ("
-      << percent(r.below_zero + r.above_one, r.samples) << "): " << r.below_zero << " below 0, " << r.above_one
-      << " above 1\n";
+      << percent(r.below_zero + r.above_one, r.samples) << "): " << r.below_zero << " below 0, "
+      << r.above_one << " above 1\n";
     o << "  beyond 1e-6 of it:    " << r.below_tol + r.above_tol << " samples ("
-      << percent(r.below_tol + r.above_tol, r.samples) << "): " << r.below_tol << " below -1e-6, " << r.above_tol
-      << " above 1+1e-6\n";
-    o << "  non-finite:           " << r.nonfinite << " samples (" << percent(r.nonfinite, r.samples) << ")\n";
+      << percent(r.below_tol + r.above_tol, r.samples) << "): " << r.below_tol << " below -1e-6, "
+      << r.above_tol << " above 1+1e-6\n";
+    o << "  non-finite:           " << r.nonfinite << " samples ("
+      << percent(r.nonfinite, r.samples) << ")\n";
     o << "  linear RGB range:     R " << num(r.rgb_min[0]) << " .. " << num(r.rgb_max[0]) << ", G "
       << num(r.rgb_min[1]) << " .. " << num(r.rgb_max[1]) << ", B " << num(r.rgb_min[2]) << " .. "
       << num(r.rgb_max[2]) << "\n";
     if (r.compared) {
         o << "  source:               " << r.source << " ("
-          << (r.source_float ? std::to_string(r.source_bits) + "-bit float" : std::to_string(r.source_bits) + "-bit")
+          << (r.source_float ? std::to_string(r.source_bits) + "-bit float"
+                             : std::to_string(r.source_bits) + "-bit")
           << ", '" << r.source_colorspace << "' from " << r.source_colorspace_how << ")\n";
         o << "  compared pixels:      " << r.compared_pixels;
         if (r.transparent_pixels) o << " (" << r.transparent_pixels << " with A = 0 skipped)";
         if (r.nonfinite_pixels) o << " (" << r.nonfinite_pixels << " with a non-finite colour)";
         o << "\n";
         if (r.source_clamped || r.source_replaced)
-            o << "  source clamped:       " << r.source_clamped << " pixels outside [0, 1], " << r.source_replaced
-              << " with NaN/Inf (bake's defaults)\n";
-        o << "  linear RGB error:     max " << num(r.rgb_error_max) << " at (" << r.rgb_error_x << ", "
-          << r.rgb_error_y << "), mean " << num(r.rgb_error_mean) << "\n";
-        o << "  CIEDE2000:            max " << num(r.de_max) << " at (" << r.de_x << ", " << r.de_y << "), mean "
-          << num(r.de_mean) << ", 99th percentile " << num(r.de_p99) << "\n";
+            o << "  source clamped:       " << r.source_clamped << " pixels outside [0, 1], "
+              << r.source_replaced << " with NaN/Inf (bake's defaults)\n";
+        o << "  linear RGB error:     max " << num(r.rgb_error_max) << " at (" << r.rgb_error_x
+          << ", " << r.rgb_error_y << "), mean " << num(r.rgb_error_mean) << "\n";
+        o << "  CIEDE2000:            max " << num(r.de_max) << " at (" << r.de_x << ", " << r.de_y
+          << "), mean " << num(r.de_mean) << ", 99th percentile " << num(r.de_p99) << "\n";
         if (r.code_match_available)
-            o << "  code match:           " << percent(r.code_matched, r.code_checked) << " (" << r.code_matched
-              << " of " << r.code_checked << " pixels re-encode to their " << r.source_bits << "-bit codes"
-              << (r.code_checked < r.compared_pixels ? "; pixels the bake clamped are not counted" : "") << "; "
-              << r.code_match_note << ")\n";
+            o << "  code match:           " << percent(r.code_matched, r.code_checked) << " ("
+              << r.code_matched << " of " << r.code_checked << " pixels re-encode to their "
+              << r.source_bits << "-bit codes"
+              << (r.code_checked < r.compared_pixels ? "; pixels the bake clamped are not counted"
+                                                     : "")
+              << "; " << r.code_match_note << ")\n";
         else
             o << "  code match:           n/a (" << r.code_match_note << ")\n";
     }
     for (const auto& l : r.other_lights)
-        o << "  under " << l.light << " (Bradford to " << r.illuminant << "'s white), CIEDE2000 from " << r.illuminant
-          << ": mean " << num(l.de_mean) << ", 99th percentile " << num(l.de_p99) << ", max " << num(l.de_max) << " at ("
-          << l.de_x << ", " << l.de_y << "); linear RGB R " << num(l.rgb_min[0]) << " .. " << num(l.rgb_max[0])
-          << ", G " << num(l.rgb_min[1]) << " .. " << num(l.rgb_max[1]) << ", B " << num(l.rgb_min[2]) << " .. "
-          << num(l.rgb_max[2]) << " (reported, not gated)\n";
+        o << "  under " << l.light << " (Bradford to " << r.illuminant
+          << "'s white), CIEDE2000 from " << r.illuminant << ": mean " << num(l.de_mean)
+          << ", 99th percentile " << num(l.de_p99) << ", max " << num(l.de_max) << " at (" << l.de_x
+          << ", " << l.de_y << "); linear RGB R " << num(l.rgb_min[0]) << " .. "
+          << num(l.rgb_max[0]) << ", G " << num(l.rgb_min[1]) << " .. " << num(l.rgb_max[1])
+          << ", B " << num(l.rgb_min[2]) << " .. " << num(l.rgb_max[2])
+          << " (reported, not gated)\n";
     o << "  time:                 " << num(r.seconds, "%.3f") << " s\n";
-    if (g.report_only) o << "  gates:                none (--report-only)\n";
+    if (g.report_only)
+        o << "  gates:                none (--report-only)\n";
     else if (r.compared && r.method == "jakob-hanika")
         o << "  gates:                colour gates off: jakob-hanika spectra are not exact\n";
     for (const auto& a : gates_applied(r, g)) o << "  gate:                 " << a << "\n";
@@ -116,16 +125,20 @@ void print_line(const VerifyReport& r, const std::vector<std::string>& failures)
         o << ", CIEDE2000 max " << num(r.de_max);
         if (r.code_match_available) o << ", codes " << percent(r.code_matched, r.code_checked);
     }
-    for (const auto& l : r.other_lights) o << ", under " << l.light << " mean " << num(l.de_mean, "%.3g");
+    for (const auto& l : r.other_lights)
+        o << ", under " << l.light << " mean " << num(l.de_mean, "%.3g");
     o << ")";
     for (const auto& f : failures) o << "; " << f;
     std::cout << one_line(o.str()) << "\n";
 }
 
 // A count and its share of a total.
-Json count_share(uint64_t count, uint64_t total) { return {{"count", count}, {"share", json_num(share(count, total))}}; }
+Json count_share(uint64_t count, uint64_t total) {
+    return {{"count", count}, {"share", json_num(share(count, total))}};
+}
 
-std::string verify_json(const VerifyReport& r, const VerifyGates& t, const std::vector<std::string>& failures) {
+std::string verify_json(const VerifyReport& r, const VerifyGates& t,
+                        const std::vector<std::string>& failures) {
     Json j;
     j["schema_version"] = 2;
     put_text(j, "file", r.file);
@@ -235,75 +248,106 @@ int run_verify(const std::vector<std::string>& args) {
     std::string json, from_list;
     bool source_from_header = false, quiet = false;
     int jobs = 1;
-    ArgParser p("verify", "spectex verify [options] FILE.exr [FILE.exr ...]",
-                "Reads reflective spectral OpenEXRs (Fichet 2021 layout, channels T.<wavelength>nm, from spectex\n"
-                "or any other tool) a band of rows at a time, integrates every pixel under the light the file\n"
-                "was baked for (spectex:illuminant, else D65) with its observer, on the file's own bins (linear\n"
-                "Rec.709 through the white-consistent matrix; spectra premultiplied by A are divided by it unless\n"
-                "spectex:alpha says 'unassociated'), and checks it. With --source, it compares every pixel with\n"
-                "the source image, linearised as the file records (input colour space, OCIO config, out-of-range\n"
-                "and NaN policies): linear RGB error, CIEDE2000 (L*a*b* relative to the light's white) and the\n"
-                "share of pixels that re-encode to the source's 8- or 16-bit codes through the config's inverse\n"
-                "transform. Options given override what the file records (a warning says so).\n"
-                "Default gates (a correct bake passes them, --report-only turns them off): no non-finite sample;\n"
-                "no sample more than 1e-6 outside [0, 1] unless the file records --out-of-range keep; with a\n"
-                "source, CIEDE2000 max <= 0.5 and every unchanged pixel re-encoding to its 8-bit code (half or\n"
-                "float; 99.99 % for half with plain rounding) or 16-bit code (float; in half, which cannot keep\n"
-                "16-bit codes, linear RGB error <= 1e-4, 5e-4 with plain rounding). Files baked with\n"
-                "--method jakob-hanika (not exact) get no colour gates unless thresholds are given.\n"
-                "Exit status: 0 every file passed, 1 a gate failed or a file could not be read, 2 usage error.");
+    ArgParser p(
+        "verify", "spectex verify [options] FILE.exr [FILE.exr ...]",
+        "Reads reflective spectral OpenEXRs (Fichet 2021 layout, channels T.<wavelength>nm, from "
+        "spectex\n"
+        "or any other tool) a band of rows at a time, integrates every pixel under the light the "
+        "file\n"
+        "was baked for (spectex:illuminant, else D65) with its observer, on the file's own bins "
+        "(linear\n"
+        "Rec.709 through the white-consistent matrix; spectra premultiplied by A are divided by it "
+        "unless\n"
+        "spectex:alpha says 'unassociated'), and checks it. With --source, it compares every pixel "
+        "with\n"
+        "the source image, linearised as the file records (input colour space, OCIO config, "
+        "out-of-range\n"
+        "and NaN policies): linear RGB error, CIEDE2000 (L*a*b* relative to the light's white) and "
+        "the\n"
+        "share of pixels that re-encode to the source's 8- or 16-bit codes through the config's "
+        "inverse\n"
+        "transform. Options given override what the file records (a warning says so).\n"
+        "Default gates (a correct bake passes them, --report-only turns them off): no non-finite "
+        "sample;\n"
+        "no sample more than 1e-6 outside [0, 1] unless the file records --out-of-range keep; with "
+        "a\n"
+        "source, CIEDE2000 max <= 0.5 and every unchanged pixel re-encoding to its 8-bit code "
+        "(half or\n"
+        "float; 99.99 % for half with plain rounding) or 16-bit code (float; in half, which cannot "
+        "keep\n"
+        "16-bit codes, linear RGB error <= 1e-4, 5e-4 with plain rounding). Files baked with\n"
+        "--method jakob-hanika (not exact) get no colour gates unless thresholds are given.\n"
+        "Exit status: 0 every file passed, 1 a gate failed or a file could not be read, 2 usage "
+        "error.");
     p.section("Inputs");
-    p.option("--from-list", "FILE", "Read more files to verify from FILE, one per line ('-' = stdin).",
+    p.option("--from-list", "FILE",
+             "Read more files to verify from FILE, one per line ('-' = stdin).",
              [&](const std::string& v) { from_list = v; });
     p.section("Comparison");
-    p.option("--source", "FILE", "The image the EXR was baked from (anything OpenImageIO reads); same size. One file.",
+    p.option("--source", "FILE",
+             "The image the EXR was baked from (anything OpenImageIO reads); same size. One file.",
              [&](const std::string& v) { s.source = v; });
-    p.flag("--source-from-header", "Compare each file with the source its header records (spectex:source).",
+    p.flag("--source-from-header",
+           "Compare each file with the source its header records (spectex:source).",
            [&] { source_from_header = true; });
-    p.option("--colorspace", "NAME", "Colour space of the source. Default: the file's spectex:inputColorSpace.",
+    p.option("--colorspace", "NAME",
+             "Colour space of the source. Default: the file's spectex:inputColorSpace.",
              [&](const std::string& v) { s.colorspace = v; });
-    p.option("--config", "FILE", "OCIO config for the source. Default: the file's spectex:config if unchanged.",
+    p.option("--config", "FILE",
+             "OCIO config for the source. Default: the file's spectex:config if unchanged.",
              [&](const std::string& v) { s.config = v; });
     p.section("Colorimetry");
     p.option("--check-illuminant", "NAME|FILE",
-             "The light the file is checked under: the file's by default, else D65; the names listed below.",
+             "The light the file is checked under: the file's by default, else D65; the names "
+             "listed below.",
              [&](const std::string& v) { s.illuminant = v; });
     p.option("--illuminant", "NAME[,NAME...]",
-             "Also report each pixel's colour under these lights (Bradford-adapted), next to the check light's;\n"
-             "never gated. Repeatable. Names: " + shipped_illuminants_list("D65") + " (any case), or a CSV wavelength,value.",
+             "Also report each pixel's colour under these lights (Bradford-adapted), next to the "
+             "check light's;\n"
+             "never gated. Repeatable. Names: " +
+                 shipped_illuminants_list("D65") + " (any case), or a CSV wavelength,value.",
              [&](const std::string& v) {
                  for (const auto& n : split_list(v, "--illuminant")) s.other_lights.push_back(n);
              });
-    p.option("--observer", "NAME|FILE", "Observer: the file's, else cie1931-2; cie1964-10, or a CSV wavelength,x,y,z.",
+    p.option("--observer", "NAME|FILE",
+             "Observer: the file's, else cie1931-2; cie1964-10, or a CSV wavelength,x,y,z.",
              [&](const std::string& v) { s.observer = v; });
     p.section("Gates (exit 1 when not met)");
-    p.option("--max-de", "X", "Largest CIEDE2000 allowed (default 0.5; needs a source).", [&](const std::string& v) {
-        t.max_de = parse_number("--max-de", v);
-        if (!(t.max_de >= 0)) throw UsageError("--max-de: must be >= 0");
-        t.de = true;
-    });
+    p.option("--max-de", "X", "Largest CIEDE2000 allowed (default 0.5; needs a source).",
+             [&](const std::string& v) {
+                 t.max_de = parse_number("--max-de", v);
+                 if (!(t.max_de >= 0)) throw UsageError("--max-de: must be >= 0");
+                 t.de = true;
+             });
     p.option("--max-rgb-error", "X", "Largest absolute linear RGB error allowed (needs a source).",
              [&](const std::string& v) {
                  t.max_rgb = parse_number("--max-rgb-error", v);
                  if (!(t.max_rgb >= 0)) throw UsageError("--max-rgb-error: must be >= 0");
                  t.rgb = true;
              });
-    p.option("--min-code-match", "PERCENT", "Smallest share of pixels, in percent, that re-encode to the source codes.",
+    p.option("--min-code-match", "PERCENT",
+             "Smallest share of pixels, in percent, that re-encode to the source codes.",
              [&](const std::string& v) {
                  t.min_code = parse_number("--min-code-match", v);
-                 if (!(t.min_code >= 0 && t.min_code <= 100)) throw UsageError("--min-code-match: must be in [0, 100]");
+                 if (!(t.min_code >= 0 && t.min_code <= 100))
+                     throw UsageError("--min-code-match: must be in [0, 100]");
                  t.code = true;
              });
-    p.flag("--report-only", "Measure and report, gate nothing (exit 0 unless a file cannot be read).",
+    p.flag("--report-only",
+           "Measure and report, gate nothing (exit 0 unless a file cannot be read).",
            [&] { t.report_only = true; });
     p.section("Output");
-    p.option("--json", "FILE", "Write one JSON object per file (JSON Lines, schema_version 2) to FILE ('-' = stdout).",
-             [&](const std::string& v) { json = v; });
+    p.option(
+        "--json", "FILE",
+        "Write one JSON object per file (JSON Lines, schema_version 2) to FILE ('-' = stdout).",
+        [&](const std::string& v) { json = v; });
     p.flag("-q, --quiet", "Print nothing but errors and failed gates.", [&] { quiet = true; });
     p.option("--jobs", "N", "Verify N files at once (default 1).",
              [&](const std::string& v) { jobs = parse_int("--jobs", v, 1, 256); });
-    p.option("--threads", "N", "Threads measuring pixels per file (default: cores / jobs); decoding runs in one more.",
-             [&](const std::string& v) { s.threads = parse_int("--threads", v, 0, 1024); });
+    p.option(
+        "--threads", "N",
+        "Threads measuring pixels per file (default: cores / jobs); decoding runs in one more.",
+        [&](const std::string& v) { s.threads = parse_int("--threads", v, 0, 1024); });
 
     std::vector<std::string> files;
     try {
@@ -312,9 +356,11 @@ int run_verify(const std::vector<std::string>& args) {
             auto more = read_list(from_list);
             files.insert(files.end(), more.begin(), more.end());
         }
-        if (files.empty()) throw UsageError(from_list.empty() ? "no input file" : "the input list names no files");
+        if (files.empty())
+            throw UsageError(from_list.empty() ? "no input file" : "the input list names no files");
         const bool any_source = !s.source.empty() || source_from_header;
-        if (!s.source.empty() && source_from_header) throw UsageError("--source and --source-from-header exclude each other");
+        if (!s.source.empty() && source_from_header)
+            throw UsageError("--source and --source-from-header exclude each other");
         if (!s.source.empty() && files.size() > 1)
             throw UsageError("--source compares one file (got " + std::to_string(files.size()) +
                              "); use --source-from-header for several");
@@ -383,12 +429,14 @@ int run_verify(const std::vector<std::string>& args) {
         for (const auto& cfg : configs) {
             try {
                 const auto lut = ocio_config_files(cfg);
-                for (size_t i = 0; i < lut.size(); ++i) reads.add(lut[i], i ? "a LUT file of " + cfg : "an OCIO config");
+                for (size_t i = 0; i < lut.size(); ++i)
+                    reads.add(lut[i], i ? "a LUT file of " + cfg : "an OCIO config");
             } catch (const Error&) {
                 // A config that cannot be read is reported when it is used.
             }
         }
-        if (std::string clash = reads.clash(json, "--json"); !clash.empty()) return usage_error("verify", clash);
+        if (std::string clash = reads.clash(json, "--json"); !clash.empty())
+            return usage_error("verify", clash);
     }
 
     struct Outcome {
@@ -409,7 +457,8 @@ int run_verify(const std::vector<std::string>& args) {
                     for (const auto& [k, v] : read_spectral_exr_info(files[i]).attributes)
                         if (k == provenance_key::kSource) fs.source = v;
                     if (fs.source.empty())
-                        throw Error(files[i] + ": the header records no " + provenance_key::kSource);
+                        throw Error(files[i] + ": the header records no " +
+                                    provenance_key::kSource);
                 }
                 o.report = verify_file(files[i], fs);
                 o.failures = gate_failures(o.report, t);
@@ -437,7 +486,8 @@ int run_verify(const std::vector<std::string>& args) {
             json_text += verify_error_json(files[i], o.error);
             continue;
         }
-        for (const auto& w : o.report.warnings) print_error("warning: " + quote_path(files[i]) + ": " + w);
+        for (const auto& w : o.report.warnings)
+            print_error("warning: " + quote_path(files[i]) + ": " + w);
         if (!o.failures.empty()) ++failed;
         if (!json_stdout && !quiet) {
             if (files.size() == 1)
@@ -449,8 +499,8 @@ int run_verify(const std::vector<std::string>& args) {
         for (const auto& f : o.failures) print_error(quote_path(o.report.file) + ": " + f);
     }
     if (files.size() > 1 && !json_stdout && !quiet)
-        std::cout << files.size() << " files: " << files.size() - failed - unreadable << " passed, " << failed
-                  << " failed, " << unreadable << " unreadable\n";
+        std::cout << files.size() << " files: " << files.size() - failed - unreadable << " passed, "
+                  << failed << " failed, " << unreadable << " unreadable\n";
     std::cout.flush();
     int status = failed || unreadable ? 1 : 0;
     if (json_stdout) {

@@ -59,14 +59,13 @@ mode_t current_umask() {
     return mask;
 }
 
-
 }  // namespace
 
 // Every signal whose default action ends the process (POSIX "T" and "A"), real-time ones too.
 std::vector<int> terminating_signals() {
-    std::vector<int> v = {SIGHUP,  SIGINT,  SIGQUIT, SIGILL,    SIGTRAP, SIGABRT, SIGBUS,  SIGFPE,
-                          SIGUSR1, SIGSEGV, SIGUSR2, SIGPIPE,   SIGALRM, SIGTERM, SIGXCPU, SIGVTALRM,
-                          SIGPROF, SIGSYS,  SIGIO,   SIGPWR,    SIGSTKFLT};
+    std::vector<int> v = {SIGHUP,  SIGINT,    SIGQUIT, SIGILL,  SIGTRAP, SIGABRT, SIGBUS,
+                          SIGFPE,  SIGUSR1,   SIGSEGV, SIGUSR2, SIGPIPE, SIGALRM, SIGTERM,
+                          SIGXCPU, SIGVTALRM, SIGPROF, SIGSYS,  SIGIO,   SIGPWR,  SIGSTKFLT};
     for (int sig = SIGRTMIN; sig <= SIGRTMAX; ++sig) v.push_back(sig);
     return v;
 }
@@ -81,8 +80,8 @@ void install_signal_cleanup() {
     // temporary file behind. A signal the parent set to be ignored (nohup) stays ignored.
     for (int sig : terminating_signals()) {
         struct sigaction old;
-        if (::sigaction(sig, nullptr, &old) == 0 && old.sa_handler == SIG_IGN && sig != SIGSEGV && sig != SIGBUS &&
-            sig != SIGFPE && sig != SIGILL && sig != SIGABRT)
+        if (::sigaction(sig, nullptr, &old) == 0 && old.sa_handler == SIG_IGN && sig != SIGSEGV &&
+            sig != SIGBUS && sig != SIGFPE && sig != SIGILL && sig != SIGABRT)
             continue;
         ::sigaction(sig, &sa, nullptr);
     }
@@ -94,19 +93,23 @@ void check_output_path(const std::string& path) {
     long name_max = ::pathconf(folder_of(path).c_str(), _PC_NAME_MAX);
     if (name_max <= 0) name_max = NAME_MAX;
     if (base.size() > static_cast<size_t>(name_max))
-        throw Error(path + ": the file name is " + std::to_string(base.size()) + " bytes, longer than the " +
-                    std::to_string(name_max) + " its folder allows");
-    if (path.size() >= PATH_MAX) throw Error(path + ": the path is longer than " + std::to_string(PATH_MAX - 1) + " bytes");
+        throw Error(path + ": the file name is " + std::to_string(base.size()) +
+                    " bytes, longer than the " + std::to_string(name_max) + " its folder allows");
+    if (path.size() >= PATH_MAX)
+        throw Error(path + ": the path is longer than " + std::to_string(PATH_MAX - 1) + " bytes");
     struct stat st;
     if (::lstat(path.c_str(), &st) != 0) return;  // nothing there yet
     if (S_ISREG(st.st_mode)) return;
     if (S_ISLNK(st.st_mode)) {
         struct stat target;
-        // A link to a regular file (or a dangling one) is replaced by the rename; its target is untouched.
+        // A link to a regular file (or a dangling one) is replaced by the rename; its target is
+        // untouched.
         if (::stat(path.c_str(), &target) != 0 || S_ISREG(target.st_mode)) return;
-        throw Error(path + ": is a link to " + file_kind(target.st_mode) + "; refusing to replace it with an output");
+        throw Error(path + ": is a link to " + file_kind(target.st_mode) +
+                    "; refusing to replace it with an output");
     }
-    throw Error(path + ": is " + file_kind(st.st_mode) + ", not a regular file; refusing to replace it with an output");
+    throw Error(path + ": is " + file_kind(st.st_mode) +
+                ", not a regular file; refusing to replace it with an output");
 }
 
 AtomicFile::AtomicFile(const std::string& final_path) : final_(final_path) {
@@ -119,14 +122,18 @@ AtomicFile::AtomicFile(const std::string& final_path) : final_(final_path) {
     long name_max = ::pathconf(dir.c_str(), _PC_NAME_MAX);
     if (name_max <= 0) name_max = NAME_MAX;
     if (base.size() + suffix.size() > static_cast<size_t>(name_max))
-        base.resize(static_cast<size_t>(name_max) > suffix.size() ? static_cast<size_t>(name_max) - suffix.size() : 0);
-    std::string tmpl = (dir == "." && final_path.find('/') == std::string::npos ? "" : dir + "/") + base + suffix;
+        base.resize(static_cast<size_t>(name_max) > suffix.size()
+                        ? static_cast<size_t>(name_max) - suffix.size()
+                        : 0);
+    std::string tmpl =
+        (dir == "." && final_path.find('/') == std::string::npos ? "" : dir + "/") + base + suffix;
     std::vector<char> buf(tmpl.begin(), tmpl.end());
     buf.push_back('\0');
     current_umask();
     fd_ = ::mkstemps(buf.data(), 4);
     if (fd_ < 0)
-        throw Error(final_path + ": cannot create a temporary file in " + dir + ": " + std::strerror(errno));
+        throw Error(final_path + ": cannot create a temporary file in " + dir + ": " +
+                    std::strerror(errno));
     temp_ = buf.data();
     slot_ = take_slot(temp_);
 }
@@ -187,7 +194,8 @@ void make_folders(const std::string& dir) {
         struct stat st;
         if (err == EEXIST && ::stat(partial.c_str(), &st) == 0 && S_ISDIR(st.st_mode)) continue;
         throw Error(partial + ": cannot create the output folder: " +
-                    (err == EEXIST ? std::string("something that is not a folder is there") : std::strerror(err)));
+                    (err == EEXIST ? std::string("something that is not a folder is there")
+                                   : std::strerror(err)));
     }
 }
 

@@ -1,16 +1,16 @@
 #pragma once
 // Atomic output: a temporary file in the destination folder, fsync, then rename over the final
 // name. Until commit() the final name is untouched; a failure, an exception or any terminating
-// signal removes the temporary file (SIGKILL cannot be caught: it leaves the temporary, never a partial
-// file under the final name).
+// signal removes the temporary file (SIGKILL cannot be caught: it leaves the temporary, never a
+// partial file under the final name).
 #include <string>
 
 namespace spectex {
 
 class AtomicFile {
-public:
-    explicit AtomicFile(const std::string& final_path);   // creates the temporary file
-    ~AtomicFile();                                         // removes it unless committed
+  public:
+    explicit AtomicFile(const std::string& final_path);  // creates the temporary file
+    ~AtomicFile();                                       // removes it unless committed
     AtomicFile(const AtomicFile&) = delete;
     AtomicFile& operator=(const AtomicFile&) = delete;
 
@@ -20,7 +20,7 @@ public:
     // fsync, mode from the umask, close, rename, fsync the folder.
     void commit();
 
-private:
+  private:
     std::string final_, temp_;
     int fd_ = -1;
     int slot_ = -1;

@@ -1,9 +1,10 @@
 #include "io/data_dir.h"
 
-#include <climits>
-#include <cstdlib>
 #include <sys/stat.h>
 #include <unistd.h>
+
+#include <climits>
+#include <cstdlib>
 
 #include "io/paths.h"
 #include "spectral/error.h"
@@ -16,7 +17,6 @@ bool has_config(const std::string& dir) {
     struct stat st;
     return ::stat((dir + "/spectex.ocio").c_str(), &st) == 0 && S_ISREG(st.st_mode);
 }
-
 
 }  // namespace
 

@@ -18,19 +18,19 @@ static_assert(int(Imf::NO_COMPRESSION) == int(EXR_COMPRESSION_NONE) &&
 const std::vector<ExrCompression>& ExrCompression::all() {
     // Lines per chunk are OpenEXR's (ImfCompression.h, exr_get_scanlines_per_chunk). Lossy: pxr24
     // rounds float samples to 24 bits, b44/b44a quantise half samples, dwaa/dwab quantise channels
-        // name   id                        lines  core   lossy
+    // name   id                        lines  core   lossy
     static const std::vector<ExrCompression> table = {
         // name     id                        lines  core   lossy
-        {"none",  Imf::NO_COMPRESSION,      1,     true,  false},
-        {"rle",   Imf::RLE_COMPRESSION,     1,     false, false},
-        {"zips",  Imf::ZIPS_COMPRESSION,    1,     true,  false},
-        {"zip",   Imf::ZIP_COMPRESSION,     16,    true,  false},
-        {"piz",   Imf::PIZ_COMPRESSION,     32,    false, false},
-        {"pxr24", Imf::PXR24_COMPRESSION,   16,    false, true},
-        {"b44",   Imf::B44_COMPRESSION,     32,    false, true},
-        {"b44a",  Imf::B44A_COMPRESSION,    32,    false, true},
-        {"dwaa",  Imf::DWAA_COMPRESSION,    32,    false, true},
-        {"dwab",  Imf::DWAB_COMPRESSION,    256,   false, true},
+        {"none", Imf::NO_COMPRESSION, 1, true, false},
+        {"rle", Imf::RLE_COMPRESSION, 1, false, false},
+        {"zips", Imf::ZIPS_COMPRESSION, 1, true, false},
+        {"zip", Imf::ZIP_COMPRESSION, 16, true, false},
+        {"piz", Imf::PIZ_COMPRESSION, 32, false, false},
+        {"pxr24", Imf::PXR24_COMPRESSION, 16, false, true},
+        {"b44", Imf::B44_COMPRESSION, 32, false, true},
+        {"b44a", Imf::B44A_COMPRESSION, 32, false, true},
+        {"dwaa", Imf::DWAA_COMPRESSION, 32, false, true},
+        {"dwab", Imf::DWAB_COMPRESSION, 256, false, true},
     };
     return table;
 }

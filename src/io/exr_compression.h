@@ -16,8 +16,8 @@ struct ExrCompression {
     bool core_writer = false;  // written by the core-API writer (io/exr_core_writer.h); else by Imf
     bool lossy = false;        // OpenEXR may change samples (of some channel types or names)
 
-    static const std::vector<ExrCompression>& all();  // in id order
-    static ExrCompression parse(const std::string& name);  // throws Error listing valid names
+    static const std::vector<ExrCompression>& all();             // in id order
+    static ExrCompression parse(const std::string& name);        // throws Error listing valid names
     static const ExrCompression* find(const std::string& name);  // nullptr when unknown
     static const ExrCompression* find(int id);                   // nullptr when unknown
     static std::vector<std::string> names();

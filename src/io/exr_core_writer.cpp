@@ -29,7 +29,9 @@ namespace spectex {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+double since(Clock::time_point t) {
+    return std::chrono::duration<double>(Clock::now() - t).count();
+}
 
 // EXR's ZIP pre-pass (ImfZip.cpp, internal_zip.c): even bytes of the block, then odd bytes, then
 // each byte replaced by its difference from the previous one, plus 128.
@@ -51,7 +53,8 @@ void zip_prepare(const uint8_t* in, size_t n, uint8_t* out) {
 }
 // The inverse, for a block that deflate cannot shrink and that is therefore stored raw.
 void zip_restore(uint8_t* prepared, size_t n, uint8_t* out) {
-    for (size_t j = 1; j < n; ++j) prepared[j] = static_cast<uint8_t>(prepared[j - 1] + prepared[j] - 128);
+    for (size_t j = 1; j < n; ++j)
+        prepared[j] = static_cast<uint8_t>(prepared[j - 1] + prepared[j] - 128);
     const uint8_t* t1 = prepared;
     const uint8_t* t2 = prepared + (n + 1) / 2;
     for (size_t i = 0; i < n; ++i) out[i] = (i % 2 == 0) ? *t1++ : *t2++;
@@ -85,8 +88,8 @@ struct ExrCoreWriter::Impl {
     int fd = -1;
     exr_context_t ctxt = nullptr;
     std::vector<CoreChannel> channels;  // file order
-    size_t row_bytes = 0;      // scanline files: bytes of one packed row
-    size_t pixel_bytes = 0;    // bytes of one pixel over all channels
+    size_t row_bytes = 0;               // scanline files: bytes of one packed row
+    size_t pixel_bytes = 0;             // bytes of one pixel over all channels
     int lines_per_chunk = 1, chunk_count = 0;
     bool compress = false;
     bool tiled = false;
@@ -102,31 +105,33 @@ struct ExrCoreWriter::Impl {
     int max_buffers = 2;
     size_t max_chunk_bytes = 0;
     Chunk* current = nullptr;
-    int next_chunk = 0;     // index of the next chunk to start filling
-    int next_write = 0;     // index of the next chunk to write
-    std::mutex mu;          // guards everything above and the error
+    int next_chunk = 0;  // index of the next chunk to start filling
+    int next_write = 0;  // index of the next chunk to write
+    std::mutex mu;       // guards everything above and the error
     std::condition_variable cv;
-    std::mutex write_mu;    // serialises writes to the file
+    std::mutex write_mu;  // serialises writes to the file
     std::vector<std::thread> workers;
     bool stopping = false;
     std::exception_ptr error;
-    std::string io_error;   // the first write() failure, with errno's text
-    std::string core_error; // the last message from OpenEXR's core
+    std::string io_error;    // the first write() failure, with errno's text
+    std::string core_error;  // the last message from OpenEXR's core
     SpectralExrWriter::Timing stats;
     std::mutex stats_mu;
 
-    static int64_t write_fn(exr_const_context_t, void* user, const void* buffer, uint64_t sz, uint64_t offset,
-                            exr_stream_error_func_ptr_t) {
+    static int64_t write_fn(exr_const_context_t, void* user, const void* buffer, uint64_t sz,
+                            uint64_t offset, exr_stream_error_func_ptr_t) {
         auto* self = static_cast<Impl*>(user);
         const char* p = static_cast<const char*>(buffer);
         uint64_t done = 0;
         while (done < sz) {
-            ssize_t n = ::pwrite(self->fd, p + done, static_cast<size_t>(sz - done), static_cast<off_t>(offset + done));
+            ssize_t n = ::pwrite(self->fd, p + done, static_cast<size_t>(sz - done),
+                                 static_cast<off_t>(offset + done));
             if (n < 0 && errno == EINTR) continue;
             if (n <= 0) {
                 const int e = n < 0 ? errno : EIO;
                 std::lock_guard<std::mutex> lock(self->mu);
-                if (self->io_error.empty()) self->io_error = self->name + ": write failed: " + std::strerror(e);
+                if (self->io_error.empty())
+                    self->io_error = self->name + ": write failed: " + std::strerror(e);
                 return -1;
             }
             done += static_cast<uint64_t>(n);
@@ -138,7 +143,8 @@ struct ExrCoreWriter::Impl {
         if (exr_get_user_data(ctxt, &user) == EXR_ERR_SUCCESS && user) {
             auto* self = static_cast<Impl*>(user);
             std::lock_guard<std::mutex> lock(self->mu);
-            self->core_error = std::string(exr_get_error_code_as_string(code)) + (msg ? std::string(": ") + msg : "");
+            self->core_error = std::string(exr_get_error_code_as_string(code)) +
+                               (msg ? std::string(": ") + msg : "");
         }
     }
 
@@ -170,8 +176,10 @@ struct ExrCoreWriter::Impl {
                 done.erase(it);
             }
             const exr_result_t rv =
-                tiled ? exr_write_tile_chunk(ctxt, 0, c->tx, c->ty, c->level, c->level, c->data.data(), c->bytes)
-                      : exr_write_scanline_chunk(ctxt, 0, L.y + c->index * lines_per_chunk, c->data.data(), c->bytes);
+                tiled ? exr_write_tile_chunk(ctxt, 0, c->tx, c->ty, c->level, c->level,
+                                             c->data.data(), c->bytes)
+                      : exr_write_scanline_chunk(ctxt, 0, L.y + c->index * lines_per_chunk,
+                                                 c->data.data(), c->bytes);
             std::exception_ptr e;
             if (rv != EXR_ERR_SUCCESS) {
                 try {
@@ -195,7 +203,8 @@ struct ExrCoreWriter::Impl {
         zip_prepare(c.data.data(), n, scratch.data());
         // A block is stored compressed only if that makes it smaller (the reader tells the two
         // apart by size), so the output may use at most n - 1 bytes.
-        size_t out = n > 1 ? libdeflate_zlib_compress(z, scratch.data(), n, c.data.data(), n - 1) : 0;
+        size_t out =
+            n > 1 ? libdeflate_zlib_compress(z, scratch.data(), n, c.data.data(), n - 1) : 0;
         if (out == 0) {
             zip_restore(scratch.data(), n, c.data.data());
             out = n;
@@ -243,7 +252,9 @@ struct ExrCoreWriter::Impl {
     Chunk* acquire() {
         auto t0 = Clock::now();
         std::unique_lock<std::mutex> lock(mu);
-        cv.wait(lock, [&] { return error || !free.empty() || static_cast<int>(all.size()) < max_buffers; });
+        cv.wait(lock, [&] {
+            return error || !free.empty() || static_cast<int>(all.size()) < max_buffers;
+        });
         rethrow_locked();
         Chunk* c;
         if (!free.empty()) {
@@ -283,12 +294,16 @@ struct ExrCoreWriter::Impl {
     // Packs one line of cw pixels of every channel, in file order, at dst (EXR's layout within a
     // chunk: a line holds each channel's samples in turn); src_off indexes the caller's planes.
     // Returns the end of the line.
-    uint8_t* pack_line(uint8_t* dst, size_t cw, size_t src_off, const void* spectral, size_t plane_stride,
-                       const float* alpha, const float* pr, const float* pg, const float* pb) const {
+    uint8_t* pack_line(uint8_t* dst, size_t cw, size_t src_off, const void* spectral,
+                       size_t plane_stride, const float* alpha, const float* pr, const float* pg,
+                       const float* pb) const {
         for (const CoreChannel& C : channels) {
             const size_t es = C.half ? 2 : 4;
             if (C.source == CoreChannel::Spectral) {
-                std::memcpy(dst, static_cast<const uint8_t*>(spectral) + (C.bin * plane_stride + src_off) * es, cw * es);
+                std::memcpy(
+                    dst,
+                    static_cast<const uint8_t*>(spectral) + (C.bin * plane_stride + src_off) * es,
+                    cw * es);
             } else {
                 const float* src = C.source == CoreChannel::Alpha      ? alpha
                                    : C.source == CoreChannel::PreviewR ? pr
@@ -335,10 +350,12 @@ ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const SpectralExrL
     init.write_fn = &Impl::write_fn;
     init.error_handler_fn = &Impl::error_fn;
     init.zip_level = L.zip_level;
-    I.check(exr_start_write(&I.ctxt, name.c_str(), EXR_WRITE_FILE_DIRECTLY, &init), "cannot start the file");
+    I.check(exr_start_write(&I.ctxt, name.c_str(), EXR_WRITE_FILE_DIRECTLY, &init),
+            "cannot start the file");
     int part = 0;
-    I.check(exr_add_part(I.ctxt, nullptr, I.tiled ? EXR_STORAGE_TILED : EXR_STORAGE_SCANLINE, &part),
-            "cannot add the image part");
+    I.check(
+        exr_add_part(I.ctxt, nullptr, I.tiled ? EXR_STORAGE_TILED : EXR_STORAGE_SCANLINE, &part),
+        "cannot add the image part");
     // The attribute types hold their fields in anonymous unions: set them by name.
     exr_attr_box2i_t data{};
     data.min.x = L.x;
@@ -356,15 +373,18 @@ ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const SpectralExrL
             "cannot set the header");
     const bool half = L.type == SampleType::Half;
     for (size_t k = 0; k < L.lambda.size(); ++k)
-        I.channels.push_back({reflective_channel_name(L.lambda[k]), half, CoreChannel::Spectral, static_cast<int>(k)});
-    if (L.alpha) I.channels.push_back({"A", L.alpha_type == SampleType::Half, CoreChannel::Alpha, 0});
+        I.channels.push_back({reflective_channel_name(L.lambda[k]), half, CoreChannel::Spectral,
+                              static_cast<int>(k)});
+    if (L.alpha)
+        I.channels.push_back({"A", L.alpha_type == SampleType::Half, CoreChannel::Alpha, 0});
     if (L.preview) {
         I.channels.push_back({"R", half, CoreChannel::PreviewR, 0});
         I.channels.push_back({"G", half, CoreChannel::PreviewG, 0});
         I.channels.push_back({"B", half, CoreChannel::PreviewB, 0});
     }
-    std::sort(I.channels.begin(), I.channels.end(),
-              [](const CoreChannel& a, const CoreChannel& b) { return std::strcmp(a.name.c_str(), b.name.c_str()) < 0; });
+    std::sort(I.channels.begin(), I.channels.end(), [](const CoreChannel& a, const CoreChannel& b) {
+        return std::strcmp(a.name.c_str(), b.name.c_str()) < 0;
+    });
     for (const auto& c : I.channels) {
         // Linear = 0 is what Imf::Channel writes by default (pLinear false).
         if (exr_add_channel(I.ctxt, part, c.name.c_str(), c.half ? EXR_PIXEL_HALF : EXR_PIXEL_FLOAT,
@@ -376,7 +396,8 @@ ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const SpectralExrL
     if (I.tiled) {
         I.check(exr_set_tile_descriptor(I.ctxt, part, static_cast<uint32_t>(L.tile_width),
                                         static_cast<uint32_t>(L.tile_height),
-                                        L.mipmap ? EXR_TILE_MIPMAP_LEVELS : EXR_TILE_ONE_LEVEL, EXR_TILE_ROUND_DOWN),
+                                        L.mipmap ? EXR_TILE_MIPMAP_LEVELS : EXR_TILE_ONE_LEVEL,
+                                        EXR_TILE_ROUND_DOWN),
                 "cannot set the tile description");
     }
     const exr_attr_chlist_t* list = nullptr;
@@ -384,16 +405,21 @@ ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const SpectralExrL
     for (int i = 0; i < list->num_channels; ++i)
         if (I.channels[static_cast<size_t>(i)].name != list->entries[i].name.str)
             throw Error(name + ": internal: channel order differs from OpenEXR's");
-    // Attributes in name order, as OpenEXR's C++ writer stores them (the core keeps insertion order).
+    // Attributes in name order, as OpenEXR's C++ writer stores them (the core keeps insertion
+    // order).
     auto attributes = L.attributes;
     attributes.emplace_back("spectralLayoutVersion", "1.0");
-    if (I.tiled) attributes.insert(attributes.end(), texture_attributes().begin(), texture_attributes().end());
+    if (I.tiled)
+        attributes.insert(attributes.end(), texture_attributes().begin(),
+                          texture_attributes().end());
     std::sort(attributes.begin(), attributes.end());
     for (const auto& [k, v] : attributes)
-        I.check(exr_attr_set_string(I.ctxt, part, k.c_str(), v.c_str()), ("cannot set attribute " + k).c_str());
+        I.check(exr_attr_set_string(I.ctxt, part, k.c_str(), v.c_str()),
+                ("cannot set attribute " + k).c_str());
     if (L.preview) {  // the preview channels are linear Rec.709 / sRGB primaries, D65 white
         exr_attr_chromaticities_t c{0.64f, 0.33f, 0.30f, 0.60f, 0.15f, 0.06f, 0.3127f, 0.3290f};
-        I.check(exr_attr_set_chromaticities(I.ctxt, part, "chromaticities", &c), "cannot set chromaticities");
+        I.check(exr_attr_set_chromaticities(I.ctxt, part, "chromaticities", &c),
+                "cannot set chromaticities");
     }
     I.check(exr_write_header(I.ctxt), "cannot write the header");
     if (I.tiled) {
@@ -404,9 +430,11 @@ ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const SpectralExrL
             int32_t w = 0, h = 0;
             I.check(exr_get_level_sizes(I.ctxt, part, l, l, &w, &h), "cannot size a level");
             I.level_size.emplace_back(w, h);
-            I.chunk_count += ((w + L.tile_width - 1) / L.tile_width) * ((h + L.tile_height - 1) / L.tile_height);
+            I.chunk_count +=
+                ((w + L.tile_width - 1) / L.tile_width) * ((h + L.tile_height - 1) / L.tile_height);
         }
-        I.max_chunk_bytes = I.pixel_bytes * static_cast<size_t>(L.tile_width) * static_cast<size_t>(L.tile_height);
+        I.max_chunk_bytes =
+            I.pixel_bytes * static_cast<size_t>(L.tile_width) * static_cast<size_t>(L.tile_height);
     } else {
         I.max_chunk_bytes = I.row_bytes * static_cast<size_t>(I.lines_per_chunk);
     }
@@ -420,11 +448,13 @@ ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const SpectralExrL
 
 ExrCoreWriter::~ExrCoreWriter() {
     impl_->stop_workers();
-    if (impl_->ctxt) exr_finish(&impl_->ctxt);  // frees the context; the AtomicFile discards the data
+    if (impl_->ctxt)
+        exr_finish(&impl_->ctxt);  // frees the context; the AtomicFile discards the data
 }
 
-void ExrCoreWriter::write_rows(int rows, const void* spectral, size_t plane_stride, const float* alpha,
-                               const float* pr, const float* pg, const float* pb) {
+void ExrCoreWriter::write_rows(int rows, const void* spectral, size_t plane_stride,
+                               const float* alpha, const float* pr, const float* pg,
+                               const float* pb) {
     Impl& I = *impl_;
     if (I.tiled) throw Error(I.name + ": internal: write_rows on a tiled file");
     const size_t w = static_cast<size_t>(I.L.width);
@@ -432,8 +462,8 @@ void ExrCoreWriter::write_rows(int rows, const void* spectral, size_t plane_stri
         if (!I.current) I.current = I.acquire();
         auto t0 = Clock::now();
         Impl::Chunk& c = *I.current;
-        I.pack_line(c.data.data() + static_cast<size_t>(c.filled) * I.row_bytes, w, static_cast<size_t>(r) * w,
-                    spectral, plane_stride, alpha, pr, pg, pb);
+        I.pack_line(c.data.data() + static_cast<size_t>(c.filled) * I.row_bytes, w,
+                    static_cast<size_t>(r) * w, spectral, plane_stride, alpha, pr, pg, pb);
         I.stats.pack_seconds += since(t0);
         if (++c.filled == c.rows) {
             I.current = nullptr;
@@ -444,15 +474,19 @@ void ExrCoreWriter::write_rows(int rows, const void* spectral, size_t plane_stri
     I.rethrow_locked();
 }
 
-void ExrCoreWriter::write_level_rows(int level, int row0, int rows, const void* spectral, size_t plane_stride,
-                                     const float* alpha, const float* pr, const float* pg, const float* pb) {
+void ExrCoreWriter::write_level_rows(int level, int row0, int rows, const void* spectral,
+                                     size_t plane_stride, const float* alpha, const float* pr,
+                                     const float* pg, const float* pb) {
     Impl& I = *impl_;
     if (!I.tiled) throw Error(I.name + ": internal: write_level_rows on a scanline file");
-    if (level >= static_cast<int>(I.level_size.size())) throw Error(I.name + ": internal: no level " + std::to_string(level));
+    if (level >= static_cast<int>(I.level_size.size()))
+        throw Error(I.name + ": internal: no level " + std::to_string(level));
     if (level != I.next_level || row0 != I.next_row)
-        throw Error(I.name + ": internal: tiles must come in file order (level " + std::to_string(I.next_level) +
-                    ", row " + std::to_string(I.next_row) + " next)");
-    const int lw = I.level_size[static_cast<size_t>(level)].first, lh = I.level_size[static_cast<size_t>(level)].second;
+        throw Error(I.name + ": internal: tiles must come in file order (level " +
+                    std::to_string(I.next_level) + ", row " + std::to_string(I.next_row) +
+                    " next)");
+    const int lw = I.level_size[static_cast<size_t>(level)].first,
+              lh = I.level_size[static_cast<size_t>(level)].second;
     const int tw = I.L.tile_width, th = I.L.tile_height;
     if (row0 % th != 0 || (rows % th != 0 && row0 + rows != lh))
         throw Error(I.name + ": internal: rows must be whole tile rows");
@@ -470,8 +504,9 @@ void ExrCoreWriter::write_level_rows(int level, int row0, int rows, const void* 
             c.raw_bytes = I.pixel_bytes * cw * static_cast<size_t>(tile_rows);
             uint8_t* dst = c.data.data();
             for (int y = 0; y < tile_rows; ++y)
-                dst = I.pack_line(dst, cw, static_cast<size_t>(y0 - row0 + y) * w + static_cast<size_t>(x0), spectral,
-                                  plane_stride, alpha, pr, pg, pb);
+                dst = I.pack_line(dst, cw,
+                                  static_cast<size_t>(y0 - row0 + y) * w + static_cast<size_t>(x0),
+                                  spectral, plane_stride, alpha, pr, pg, pb);
             I.stats.pack_seconds += since(t0);
             I.submit(&c);
         }

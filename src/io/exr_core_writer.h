@@ -17,7 +17,7 @@
 namespace spectex {
 
 class ExrCoreWriter {
-public:
+  public:
     static bool supports(const std::string& compression);  // ExrCompression::core_writer
     // fd: an open, empty, writable file (the AtomicFile's); name: for messages. The layout's
     // compression must be one that supports() takes; its writer field is not looked at.
@@ -42,7 +42,7 @@ public:
 
     SpectralExrWriter::Timing stats() const;  // valid after finish()
 
-private:
+  private:
     struct Impl;
     std::unique_ptr<Impl> impl_;
 };

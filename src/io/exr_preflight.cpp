@@ -1,10 +1,11 @@
 #include "io/exr_preflight.h"
 
-#include <cstdint>
-#include <cstring>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cerrno>
-#include <unistd.h>
+#include <cstdint>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -21,8 +22,8 @@ constexpr uint64_t kMaxPixels = 1ull << 31;
 constexpr size_t kMaxHeaderBytes = 64u << 20;
 
 int32_t le32(const unsigned char* p) {
-    uint32_t v = static_cast<uint32_t>(p[0]) | static_cast<uint32_t>(p[1]) << 8 | static_cast<uint32_t>(p[2]) << 16 |
-                 static_cast<uint32_t>(p[3]) << 24;
+    uint32_t v = static_cast<uint32_t>(p[0]) | static_cast<uint32_t>(p[1]) << 8 |
+                 static_cast<uint32_t>(p[2]) << 16 | static_cast<uint32_t>(p[3]) << 24;
     int32_t s;
     std::memcpy(&s, &v, 4);
     return s;
@@ -46,7 +47,8 @@ void exr_preflight(const std::string& path, std::map<std::string, std::string>* 
             if (grow <= n) break;
             buf.resize(grow);
             while (n < buf.size()) {
-                const ssize_t got = ::pread(file.fd(), buf.data() + n, buf.size() - n, static_cast<off_t>(n));
+                const ssize_t got =
+                    ::pread(file.fd(), buf.data() + n, buf.size() - n, static_cast<off_t>(n));
                 if (got < 0 && errno == EINTR) continue;
                 if (got < 0) throw Error(path + ": read error: " + std::strerror(errno));
                 if (got == 0) {
@@ -60,7 +62,9 @@ void exr_preflight(const std::string& path, std::map<std::string, std::string>* 
         return n >= want;
     };
     have(8);
-    auto bad = [&](const std::string& why) { throw Error(path + ": corrupt OpenEXR header: " + why); };
+    auto bad = [&](const std::string& why) {
+        throw Error(path + ": corrupt OpenEXR header: " + why);
+    };
     if (n < 8 || le32(buf.data()) != 20000630) throw Error(path + ": not an OpenEXR file");
     const uint32_t version = static_cast<uint32_t>(le32(buf.data() + 4));
     const bool multipart = version & 0x1000u, single_tiled = version & 0x200u;
@@ -89,7 +93,8 @@ void exr_preflight(const std::string& path, std::map<std::string, std::string>* 
             if (!have(pos + 4)) bad("truncated");
             const int32_t size = le32(buf.data() + pos);
             pos += 4;
-            if (size < 0 || (size > 0 && !have(pos + static_cast<size_t>(size))) || static_cast<size_t>(size) > n - pos)
+            if (size < 0 || (size > 0 && !have(pos + static_cast<size_t>(size))) ||
+                static_cast<size_t>(size) > n - pos)
                 bad("attribute '" + name + "' is larger than the file");
             const unsigned char* v = buf.data() + pos;
             if (name == "dataWindow" && type == "box2i" && size == 16) {
@@ -106,23 +111,29 @@ void exr_preflight(const std::string& path, std::map<std::string, std::string>* 
                 if (t == "tiledimage") tiled = true;
             }
             if (part0_strings && part == 0 && type == "string")
-                (*part0_strings)[name] = std::string(reinterpret_cast<const char*>(v), static_cast<size_t>(size));
+                (*part0_strings)[name] =
+                    std::string(reinterpret_cast<const char*>(v), static_cast<size_t>(size));
             pos += static_cast<size_t>(size);
         }
         if (!have_dw) bad("no dataWindow");
-        const int64_t w = static_cast<int64_t>(dw[2]) - dw[0] + 1, h = static_cast<int64_t>(dw[3]) - dw[1] + 1;
+        const int64_t w = static_cast<int64_t>(dw[2]) - dw[0] + 1,
+                      h = static_cast<int64_t>(dw[3]) - dw[1] + 1;
         if (w <= 0 || h <= 0) bad("empty or inverted dataWindow");
         if (static_cast<uint64_t>(w) * static_cast<uint64_t>(h) > kMaxPixels)
-            throw Error(path + ": OpenEXR header claims " + std::to_string(w) + "x" + std::to_string(h) +
-                        " pixels; refusing more than 2^31");
+            throw Error(path + ": OpenEXR header claims " + std::to_string(w) + "x" +
+                        std::to_string(h) + " pixels; refusing more than 2^31");
         uint64_t chunks;
         if (tiled) {
             if (tx == 0 || ty == 0) bad("tiled without a tile size");
-            chunks = ((static_cast<uint64_t>(w) + tx - 1) / tx) * ((static_cast<uint64_t>(h) + ty - 1) / ty);
-            chunks = chunks * 4 / 3 + 64;  // MIP levels add at most a third (RIP maps are not capped here)
+            chunks = ((static_cast<uint64_t>(w) + tx - 1) / tx) *
+                     ((static_cast<uint64_t>(h) + ty - 1) / ty);
+            chunks = chunks * 4 / 3 +
+                     64;  // MIP levels add at most a third (RIP maps are not capped here)
         } else {
             const ExrCompression* known = ExrCompression::find(compression);
-            chunks = static_cast<uint64_t>(h) / static_cast<uint64_t>(known ? known->lines_per_chunk : 1) + 1;
+            chunks = static_cast<uint64_t>(h) /
+                         static_cast<uint64_t>(known ? known->lines_per_chunk : 1) +
+                     1;
         }
         if (chunks > kMaxChunks)
             throw Error(path + ": OpenEXR header describes " + std::to_string(chunks) +

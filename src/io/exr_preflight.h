@@ -12,6 +12,7 @@ namespace spectex {
 // header's bytes (64 KiB at first, more while the header goes on, at most 64 MiB). When
 // `part0_strings` is given, it receives the string attributes of the first part (name -> value):
 // what --update needs from an output, without opening it again.
-void exr_preflight(const std::string& path, std::map<std::string, std::string>* part0_strings = nullptr);
+void exr_preflight(const std::string& path,
+                   std::map<std::string, std::string>* part0_strings = nullptr);
 
 }  // namespace spectex

@@ -28,14 +28,16 @@ void ReadFiles::add(const std::string& path, const std::string& role) {
     // "-" is standard input: a file redirected into it is read like any other.
     const std::string p = path == "-" ? std::string("/dev/stdin") : path;
     if (p.empty() || ::stat(p.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return;
-    files_.push_back({FileId{st.st_dev, st.st_ino}, path == "-" ? std::string("standard input") : path, role});
+    files_.push_back(
+        {FileId{st.st_dev, st.st_ino}, path == "-" ? std::string("standard input") : path, role});
 }
 
 void ReadFiles::add_data_dir(const std::string& data_dir) {
     namespace fs = std::filesystem;
     std::error_code ec;
     add(data_dir + "/spectex.ocio", "the shipped OCIO config");
-    for (fs::directory_iterator it(data_dir + "/spectral", ec), end; !ec && it != end; it.increment(ec))
+    for (fs::directory_iterator it(data_dir + "/spectral", ec), end; !ec && it != end;
+         it.increment(ec))
         add(it->path().string(), "a table shipped with spectex");
 }
 

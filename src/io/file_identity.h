@@ -25,13 +25,15 @@ std::optional<FileId> file_id(const std::string& path);
 struct OutputTarget {
     std::string key;
     std::optional<FileId> existing;
-    bool same_as(const OutputTarget& o) const { return key == o.key || (existing && existing == o.existing); }
+    bool same_as(const OutputTarget& o) const {
+        return key == o.key || (existing && existing == o.existing);
+    }
 };
 OutputTarget output_target(const std::string& path);
 
 // The files a command reads, each with the option that names it ("input", "--basis", ...).
 class ReadFiles {
-public:
+  public:
     // Remembers an existing regular file (after links); other paths cannot be overwritten by a
     // rename and are ignored here (their readers refuse them).
     void add(const std::string& path, const std::string& role);
@@ -41,7 +43,7 @@ public:
     // "" when `output` is none of them, else a message naming both.
     std::string clash(const std::string& output, const std::string& output_role) const;
 
-private:
+  private:
     struct Entry {
         FileId id;
         std::string path, role;

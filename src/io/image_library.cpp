@@ -19,7 +19,6 @@ std::mutex g_mutex;
 ImageLibrary* g_library = nullptr;
 int g_threads = -1;  // not set
 
-
 ImageLibrary* load_module() {
     std::vector<std::string> candidates;
     if (const char* env = std::getenv("SPECTEX_MODULE_DIR"); env && *env) {
@@ -51,7 +50,8 @@ ImageLibrary* load_module() {
         why = "not found in";
         for (const auto& c : candidates) why += " " + c;
     }
-    throw Error("cannot load spectex's image module (OpenImageIO): " + why + " (SPECTEX_MODULE_DIR names its folder)");
+    throw Error("cannot load spectex's image module (OpenImageIO): " + why +
+                " (SPECTEX_MODULE_DIR names its folder)");
 }
 
 }  // namespace

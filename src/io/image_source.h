@@ -14,22 +14,23 @@ enum class AlphaKind { None, Associated, Unassociated };
 
 struct SourceInfo : PixelWindows {
     std::string path;
-    std::string format_name;       // OIIO's format name: "png", "openexr", ...
-    int channels = 0;              // in the file
-    int alpha_channel = -1;        // index in the file, -1 when none (only a channel named A/alpha
-                                   // in OpenEXR; never depth or other data)
+    std::string format_name;  // OIIO's format name: "png", "openexr", ...
+    int channels = 0;         // in the file
+    int alpha_channel = -1;   // index in the file, -1 when none (only a channel named A/alpha
+                              // in OpenEXR; never depth or other data)
     AlphaKind alpha = AlphaKind::None;
-    bool is_float = false;         // float or half samples
-    int bits = 8;                  // bits per sample in the file (8, 16, 32, ...)
-    std::string colorspace_hint;   // oiio:ColorSpace
+    bool is_float = false;        // float or half samples
+    int bits = 8;                 // bits per sample in the file (8, 16, 32, ...)
+    std::string colorspace_hint;  // oiio:ColorSpace
     int subimages = 1;
     int miplevels = 1;
-    std::vector<std::string> notes;  // how channels were chosen, when not plainly (a layer's R, G, B)
+    std::vector<std::string>
+        notes;  // how channels were chosen, when not plainly (a layer's R, G, B)
 };
 
 // A texture being read: OpenImageIO's reader, in the image module (io/image_library.h).
 class ImageSource {
-public:
+  public:
     // Opens `path` (a regular file, checked before any library opens it) and checks its header;
     // refuses images above max_pixels before allocating. Colour and alpha channels are chosen by
     // name in OpenEXR (R,G,B; Y; a layer's; alpha only from A/alpha), by position in formats
@@ -50,7 +51,7 @@ public:
     // (associated or not: see info().alpha).
     virtual void read_rgba(int y0, int y1, float* rgba) = 0;
 
-protected:
+  protected:
     ImageSource() = default;
     SourceInfo info_;
     SourceIdentity identity_;

@@ -1,9 +1,6 @@
 #include "io/library_stderr.h"
 
-#include "spectral/text.h"
-
 #include <OpenColorIO/OpenColorIO.h>
-#include <ext/stdio_filebuf.h>
 #include <fcntl.h>
 #include <unistd.h>
 
@@ -13,12 +10,15 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <ext/stdio_filebuf.h>
 #include <future>
 #include <iostream>
 #include <set>
 #include <string>
 #include <thread>
 #include <utility>
+
+#include "spectral/text.h"
 
 #if defined(__SANITIZE_ADDRESS__)
 #define SPECTEX_SANITIZED 1
@@ -36,8 +36,8 @@ namespace spectex {
 namespace {
 
 bool g_tty = false;
-int g_real = -1;                       // the real stderr, once captured
-std::future<void> g_reader_done;       // ready when the reader has forwarded everything
+int g_real = -1;                  // the real stderr, once captured
+std::future<void> g_reader_done;  // ready when the reader has forwarded everything
 LibraryMessages g_mode = LibraryMessages::warnings;
 
 }  // namespace
@@ -51,11 +51,13 @@ bool LibraryLineFilter::shown(const std::string& line) const {
     if (mode_ == LibraryMessages::all) return true;
     if (mode_ == LibraryMessages::none) return false;
     const std::string l = lower_ascii(line);
-    if (l.find("[opencolorio info]") != std::string::npos || l.find("[opencolorio debug]") != std::string::npos)
+    if (l.find("[opencolorio info]") != std::string::npos ||
+        l.find("[opencolorio debug]") != std::string::npos)
         return false;
     for (size_t p = l.find("error"); p != std::string::npos; p = l.find("error", p + 1)) {
         const bool start = p == 0 || !std::isalpha(static_cast<unsigned char>(l[p - 1]));
-        const size_t after = p + 5 < l.size() && l[p + 5] == 's' ? p + 6 : p + 5;  // "error", "errors"
+        const size_t after =
+            p + 5 < l.size() && l[p + 5] == 's' ? p + 6 : p + 5;  // "error", "errors"
         const bool end = after >= l.size() || !std::isalpha(static_cast<unsigned char>(l[after]));
         if (start && end) return false;
     }
@@ -92,8 +94,10 @@ void capture_library_stderr() {
     ::close(p[1]);
     g_real = real;
     if (const char* e = std::getenv("SPECTEX_LIBRARY_MESSAGES")) {
-        if (std::strcmp(e, "0") == 0) g_mode = LibraryMessages::none;
-        else if (std::strcmp(e, "1") == 0 || std::strcmp(e, "all") == 0) g_mode = LibraryMessages::all;
+        if (std::strcmp(e, "0") == 0)
+            g_mode = LibraryMessages::none;
+        else if (std::strcmp(e, "1") == 0 || std::strcmp(e, "all") == 0)
+            g_mode = LibraryMessages::all;
     }
     // OpenColorIO logs through std::cerr (now the real stderr), not through descriptor 2: send its
     // messages the same way as the other libraries'.
@@ -124,7 +128,8 @@ void capture_library_stderr() {
     std::promise<void> started, finished;
     std::future<void> running = started.get_future();
     g_reader_done = finished.get_future();
-    std::thread([fd = p[0], started = std::move(started), finished = std::move(finished)]() mutable {
+    std::thread([fd = p[0], started = std::move(started),
+                 finished = std::move(finished)]() mutable {
         started.set_value();
         LibraryLineFilter filter(g_mode);
         auto forward = [&filter](const std::string& raw) {

@@ -20,13 +20,13 @@ enum class LibraryMessages { warnings, none, all };
 // The rule above, one line at a time: pass() returns the line to print ("spectex: library: ...\n",
 // at most kMaxLine bytes of the library's text) or "" when the line is not shown.
 class LibraryLineFilter {
-public:
+  public:
     static constexpr size_t kMaxLine = 1000;
     static constexpr size_t kMaxRemembered = 10000;  // distinct lines remembered for "once per run"
     explicit LibraryLineFilter(LibraryMessages mode);
     std::string pass(const std::string& raw_line);
 
-private:
+  private:
     bool shown(const std::string& line) const;
     LibraryMessages mode_;
     std::set<std::string> seen_;

@@ -1,9 +1,7 @@
 #include "io/linearizer.h"
-#include "io/image_library.h"
-#include "io/paths.h"
-#include "spectral/text.h"
 
 #include <OpenColorIO/OpenColorIO.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <climits>
@@ -14,10 +12,12 @@
 #include <mutex>
 #include <sstream>
 #include <utility>
-#include <unistd.h>
 
+#include "io/image_library.h"
+#include "io/paths.h"
 #include "spectral/bounded_read.h"
 #include "spectral/error.h"
+#include "spectral/text.h"
 
 namespace OCIO = OCIO_NAMESPACE;
 
@@ -27,11 +27,10 @@ namespace {
 
 // Names under which configs in the wild (ours, the ACES CG/Studio configs) call linear Rec.709.
 const std::vector<std::string> kLinearRec709Names = {
-    "lin_rec709_srgb", "lin_srgb", "Linear Rec.709 (sRGB)", "Utility - Linear - sRGB", "lin_rec709",
-    "Utility - Linear - Rec.709"};
-const std::vector<std::string> kSrgbTextureNames = {"srgb_tx", "sRGB - Texture", "Utility - sRGB - Texture",
-                                                    "sRGB"};
-
+    "lin_rec709_srgb",         "lin_srgb",   "Linear Rec.709 (sRGB)",
+    "Utility - Linear - sRGB", "lin_rec709", "Utility - Linear - Rec.709"};
+const std::vector<std::string> kSrgbTextureNames = {"srgb_tx", "sRGB - Texture",
+                                                    "Utility - sRGB - Texture", "sRGB"};
 
 size_t edit_distance(const std::string& a, const std::string& b) {
     std::vector<size_t> prev(b.size() + 1), cur(b.size() + 1);
@@ -60,8 +59,10 @@ std::string find_first(const OCIO::ConstConfigRcPtr& cfg, const std::vector<std:
 
 std::vector<std::string> all_names(const OCIO::ConstConfigRcPtr& cfg) {
     std::vector<std::string> out;
-    for (int i = 0; i < cfg->getNumColorSpaces(OCIO::SEARCH_REFERENCE_SPACE_ALL, OCIO::COLORSPACE_ALL); ++i) {
-        const char* n = cfg->getColorSpaceNameByIndex(OCIO::SEARCH_REFERENCE_SPACE_ALL, OCIO::COLORSPACE_ALL, i);
+    for (int i = 0;
+         i < cfg->getNumColorSpaces(OCIO::SEARCH_REFERENCE_SPACE_ALL, OCIO::COLORSPACE_ALL); ++i) {
+        const char* n = cfg->getColorSpaceNameByIndex(OCIO::SEARCH_REFERENCE_SPACE_ALL,
+                                                      OCIO::COLORSPACE_ALL, i);
         out.emplace_back(n);
         auto cs = cfg->getColorSpace(n);
         for (size_t a = 0; cs && a < cs->getNumAliases(); ++a) out.emplace_back(cs->getAlias(a));
@@ -94,12 +95,14 @@ std::string config_dir(const std::string& path) {
 }
 
 // Every FileTransform anywhere in `t` (groups included).
-void collect_file_transforms(const OCIO::ConstTransformRcPtr& t, std::vector<std::string>& out, int depth = 0) {
+void collect_file_transforms(const OCIO::ConstTransformRcPtr& t, std::vector<std::string>& out,
+                             int depth = 0) {
     if (!t || depth > 64) return;
     if (auto f = OCIO::DynamicPtrCast<const OCIO::FileTransform>(t)) {
         if (f->getSrc() && *f->getSrc()) out.emplace_back(f->getSrc());
     } else if (auto g = OCIO::DynamicPtrCast<const OCIO::GroupTransform>(t)) {
-        for (int i = 0; i < g->getNumTransforms(); ++i) collect_file_transforms(g->getTransform(i), out, depth + 1);
+        for (int i = 0; i < g->getNumTransforms(); ++i)
+            collect_file_transforms(g->getTransform(i), out, depth + 1);
     }
 }
 
@@ -113,8 +116,8 @@ std::vector<std::pair<std::string, std::string>> lut_files(const OCIO::ConstConf
     std::vector<std::string> srcs;
     const int n = cfg->getNumColorSpaces(OCIO::SEARCH_REFERENCE_SPACE_ALL, OCIO::COLORSPACE_ALL);
     for (int i = 0; i < n; ++i) {
-        auto cs = cfg->getColorSpace(
-            cfg->getColorSpaceNameByIndex(OCIO::SEARCH_REFERENCE_SPACE_ALL, OCIO::COLORSPACE_ALL, i));
+        auto cs = cfg->getColorSpace(cfg->getColorSpaceNameByIndex(OCIO::SEARCH_REFERENCE_SPACE_ALL,
+                                                                   OCIO::COLORSPACE_ALL, i));
         if (!cs) continue;
         collect_file_transforms(cs->getTransform(OCIO::COLORSPACE_DIR_TO_REFERENCE), srcs);
         collect_file_transforms(cs->getTransform(OCIO::COLORSPACE_DIR_FROM_REFERENCE), srcs);
@@ -132,7 +135,8 @@ std::vector<std::pair<std::string, std::string>> lut_files(const OCIO::ConstConf
         collect_file_transforms(vt->getTransform(OCIO::VIEWTRANSFORM_DIR_FROM_REFERENCE), srcs);
     }
     for (int i = 0; i < cfg->getNumNamedTransforms(OCIO::NAMEDTRANSFORM_ALL); ++i) {
-        auto nt = cfg->getNamedTransform(cfg->getNamedTransformNameByIndex(OCIO::NAMEDTRANSFORM_ALL, i));
+        auto nt =
+            cfg->getNamedTransform(cfg->getNamedTransformNameByIndex(OCIO::NAMEDTRANSFORM_ALL, i));
         if (!nt) continue;
         collect_file_transforms(nt->getTransform(OCIO::TRANSFORM_DIR_FORWARD), srcs);
         collect_file_transforms(nt->getTransform(OCIO::TRANSFORM_DIR_INVERSE), srcs);
@@ -153,7 +157,8 @@ std::vector<std::pair<std::string, std::string>> lut_files(const OCIO::ConstConf
 
 void check_lut_files(const OCIO::ConstConfigRcPtr& cfg, const std::string& config_path) {
     for (const auto& [src, resolved] : lut_files(cfg))
-        check_regular_file(resolved, file_limits::kLutFile, "a LUT file (FileTransform '" + src + "' in " + config_path + ")");
+        check_regular_file(resolved, file_limits::kLutFile,
+                           "a LUT file (FileTransform '" + src + "' in " + config_path + ")");
 }
 
 // An OCIO config read from checked bytes (a regular file of bounded size, never a device or a
@@ -193,20 +198,24 @@ OCIO::ConstConfigRcPtr load_ocio_config(const std::string& path) {
     const auto it = parsed.find(key);
     if (it != parsed.end()) return it->second;
     OCIO::ConstConfigRcPtr cfg = parse_ocio_config(path, key.second);
-    if (parsed.size() >= 8) parsed.clear();  // a batch uses one or two configs; never grow without bound
+    if (parsed.size() >= 8)
+        parsed.clear();  // a batch uses one or two configs; never grow without bound
     parsed.emplace(std::move(key), cfg);
     return cfg;
 }
 
 // The processor from `src` of `cfg` to linear Rec.709: inside the config when it has that space,
 // else bridged to ours through ACES2065-1 (the aces_interchange role). Throws OCIO::Exception.
-OCIO::ConstProcessorRcPtr processor_to_linear(const OCIO::ConstConfigRcPtr& cfg, const std::string& src,
-                                              const std::string& path, const std::string& shipped) {
+OCIO::ConstProcessorRcPtr processor_to_linear(const OCIO::ConstConfigRcPtr& cfg,
+                                              const std::string& src, const std::string& path,
+                                              const std::string& shipped) {
     const std::string dst = find_first(cfg, kLinearRec709Names);
     if (!dst.empty()) return cfg->getProcessor(src.c_str(), dst.c_str());
     if (!cfg->hasRole("aces_interchange"))
-        throw Error(path + ": config has no linear Rec.709 space (lin_srgb) and no aces_interchange role");
-    return OCIO::Config::GetProcessorFromConfigs(cfg, src.c_str(), load_ocio_config(shipped), "lin_srgb");
+        throw Error(path +
+                    ": config has no linear Rec.709 space (lin_srgb) and no aces_interchange role");
+    return OCIO::Config::GetProcessorFromConfigs(cfg, src.c_str(), load_ocio_config(shipped),
+                                                 "lin_srgb");
 }
 
 // Whether a processor is linear on RGB: f(0) = 0, f(x + y) = f(x) + f(y) and f(x / 2) = f(x) / 2 on
@@ -223,7 +232,10 @@ bool measured_linear(const OCIO::ConstCPUProcessorRcPtr& cpu) {
     for (int p = 0; p < 5; ++p) px[4 * p + 3] = 1.0f;
     OCIO::PackedImageDesc desc(px, 5, 1, 4);
     cpu->apply(desc);
-    auto near = [](float a, float b) { return std::isfinite(a) && std::isfinite(b) && std::fabs(a - b) <= 1e-5f * (1 + std::fabs(b)); };
+    auto near = [](float a, float b) {
+        return std::isfinite(a) && std::isfinite(b) &&
+               std::fabs(a - b) <= 1e-5f * (1 + std::fabs(b));
+    };
     for (int c = 0; c < 3; ++c) {
         const float f0 = px[c], fx = px[4 + c], fy = px[8 + c], fxy = px[12 + c], fh = px[16 + c];
         if (!near(f0, 0) || !near(fxy, fx + fy) || !near(fh, fx / 2)) return false;
@@ -264,7 +276,8 @@ Linearizer& Linearizer::operator=(Linearizer&&) noexcept = default;
 std::vector<std::string> close_colour_space_names(const std::vector<std::string>& known,
                                                   const std::string& name, size_t max) {
     std::vector<std::pair<size_t, std::string>> scored;
-    for (const auto& k : known) scored.emplace_back(edit_distance(lower_ascii(k), lower_ascii(name)), k);
+    for (const auto& k : known)
+        scored.emplace_back(edit_distance(lower_ascii(k), lower_ascii(name)), k);
     std::stable_sort(scored.begin(), scored.end(),
                      [](const auto& a, const auto& b) { return a.first < b.first; });
     std::vector<std::string> out;
@@ -282,7 +295,9 @@ Linearizer Linearizer::make(const ColourRequest& req) {
     std::string path = req.config_override;
     if (path.empty())
         if (const char* env = std::getenv("OCIO"); env && *env) path = env;
-    lin.config_from_ = !req.config_override.empty() ? "--config" : !path.empty() ? "$OCIO" : "shipped";
+    lin.config_from_ = !req.config_override.empty() ? "--config"
+                       : !path.empty()              ? "$OCIO"
+                                                    : "shipped";
     if (path.empty()) path = shipped;
     lin.config_path_ = path;
 
@@ -298,7 +313,8 @@ Linearizer Linearizer::make(const ColourRequest& req) {
             auto close = close_colour_space_names(all_names(cfg), req.colorspace);
             if (!close.empty()) {
                 msg += " (did you mean";
-                for (size_t i = 0; i < close.size(); ++i) msg += (i ? ", '" : " '") + close[i] + "'";
+                for (size_t i = 0; i < close.size(); ++i)
+                    msg += (i ? ", '" : " '") + close[i] + "'";
                 msg += "?)";
             }
             throw Error(msg);
@@ -336,20 +352,23 @@ Linearizer Linearizer::make(const ColourRequest& req) {
         lin.impl_->cpu = proc->getOptimizedCPUProcessor(OCIO::BIT_DEPTH_F32, OCIO::BIT_DEPTH_F32,
                                                         OCIO::OPTIMIZATION_LOSSLESS);
         OCIO::ConstColorSpaceRcPtr cs = cfg->getColorSpace(src.c_str());
-        lin.scene_linear_ = cs && !cs->isData() && cs->getReferenceSpaceType() == OCIO::REFERENCE_SPACE_SCENE &&
+        lin.scene_linear_ = cs && !cs->isData() &&
+                            cs->getReferenceSpaceType() == OCIO::REFERENCE_SPACE_SCENE &&
                             measured_linear(lin.impl_->cpu);
         try {
             OCIO::ConstProcessorRcPtr inv =
                 !dst.empty() ? cfg->getProcessor(dst.c_str(), src.c_str())
-                             : OCIO::Config::GetProcessorFromConfigs(load_ocio_config(shipped), "lin_srgb", cfg,
-                                                                     src.c_str());
-            lin.impl_->inverse = inv->getOptimizedCPUProcessor(OCIO::BIT_DEPTH_F32, OCIO::BIT_DEPTH_F32,
-                                                               OCIO::OPTIMIZATION_LOSSLESS);
+                             : OCIO::Config::GetProcessorFromConfigs(load_ocio_config(shipped),
+                                                                     "lin_srgb", cfg, src.c_str());
+            lin.impl_->inverse = inv->getOptimizedCPUProcessor(
+                OCIO::BIT_DEPTH_F32, OCIO::BIT_DEPTH_F32, OCIO::OPTIMIZATION_LOSSLESS);
         } catch (const OCIO::Exception&) {
-            lin.impl_->inverse.reset();  // e.g. a LUT OCIO cannot invert: no code check, the rest works
+            lin.impl_->inverse
+                .reset();  // e.g. a LUT OCIO cannot invert: no code check, the rest works
         }
     } catch (const OCIO::Exception& e) {
-        throw Error(path + ": cannot build the transform from '" + src + "' to linear Rec.709: " + e.what());
+        throw Error(path + ": cannot build the transform from '" + src +
+                    "' to linear Rec.709: " + e.what());
     }
     return lin;
 }
@@ -362,7 +381,8 @@ bool Linearizer::use_code_table(int bits) {
     I.key = image_library().integer_code_floats(bits <= 8 ? 8 : 16);
     I.key.resize(n);
     std::vector<float> ramp(4 * n);
-    for (size_t i = 0; i < n; ++i) ramp[4 * i] = ramp[4 * i + 1] = ramp[4 * i + 2] = I.key[i], ramp[4 * i + 3] = 1.0f;
+    for (size_t i = 0; i < n; ++i)
+        ramp[4 * i] = ramp[4 * i + 1] = ramp[4 * i + 2] = I.key[i], ramp[4 * i + 3] = 1.0f;
     OCIO::PackedImageDesc desc(ramp.data(), static_cast<long>(n), 1, 4);
     I.cpu->apply(desc);
     for (int c = 0; c < 3; ++c) {
@@ -377,7 +397,8 @@ bool Linearizer::can_encode() const { return identity_ || (impl_ && impl_->inver
 
 void Linearizer::encode_rgba(float* rgba, long pixels) const {
     if (identity_ || pixels <= 0) return;
-    if (!impl_->inverse) throw Error(config_path_ + ": the transform to linear Rec.709 cannot be inverted");
+    if (!impl_->inverse)
+        throw Error(config_path_ + ": the transform to linear Rec.709 cannot be inverted");
     OCIO::PackedImageDesc desc(rgba, pixels, 1, 4);
     impl_->inverse->apply(desc);
 }
@@ -426,15 +447,20 @@ std::vector<std::string> ocio_config_files(const std::string& config_path) {
 }
 
 std::string srgb_texture_space(const std::string& data_dir, const std::string& config_override) {
-    const std::string path = ocio_config_path(data_dir, config_override), shipped = data_dir + "/spectex.ocio";
+    const std::string path = ocio_config_path(data_dir, config_override),
+                      shipped = data_dir + "/spectex.ocio";
     OCIO::ConstConfigRcPtr cfg = load_ocio_config(path);
     // Codes and the linear values the IEC 61966-2-1 curve gives them, one colour per channel mix
     // (so that a space with other primaries, which mixes channels, does not pass).
-    auto eotf = [](double v) { return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4); };
+    auto eotf = [](double v) {
+        return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4);
+    };
     const float codes[3][3] = {{0.5f, 0.2f, 0.8f}, {0.04f, 0.9f, 0.3f}, {1.0f, 0.0f, 0.6f}};
-    const int n = cfg->getNumColorSpaces(OCIO::SEARCH_REFERENCE_SPACE_SCENE, OCIO::COLORSPACE_ACTIVE);
+    const int n =
+        cfg->getNumColorSpaces(OCIO::SEARCH_REFERENCE_SPACE_SCENE, OCIO::COLORSPACE_ACTIVE);
     for (int i = 0; i < n; ++i) {
-        const char* name = cfg->getColorSpaceNameByIndex(OCIO::SEARCH_REFERENCE_SPACE_SCENE, OCIO::COLORSPACE_ACTIVE, i);
+        const char* name = cfg->getColorSpaceNameByIndex(OCIO::SEARCH_REFERENCE_SPACE_SCENE,
+                                                         OCIO::COLORSPACE_ACTIVE, i);
         OCIO::ConstColorSpaceRcPtr cs = cfg->getColorSpace(name);
         if (!cs || cs->isData()) continue;
         try {
@@ -450,7 +476,8 @@ std::string srgb_texture_space(const std::string& data_dir, const std::string& c
             cpu->apply(desc);
             bool same = true;
             for (int p = 0; p < 3; ++p)
-                for (int c = 0; c < 3; ++c) same = same && std::fabs(px[4 * p + c] - eotf(codes[p][c])) <= 1e-4;
+                for (int c = 0; c < 3; ++c)
+                    same = same && std::fabs(px[4 * p + c] - eotf(codes[p][c])) <= 1e-4;
             if (same) return name;
         } catch (const std::exception&) {
             // a space this config cannot convert: not the one

@@ -7,15 +7,15 @@
 namespace spectex {
 
 struct ColourRequest {
-    std::string data_dir;          // shipped config lives here
-    std::string config_override;   // --config; empty: $OCIO, else the shipped config
-    std::string colorspace;        // --colorspace; empty: file metadata, then file rules
-    std::string file_path;         // for the config's file_rules
-    std::string file_hint;         // OIIO's oiio:ColorSpace of the file ("sRGB", "Linear", ...)
+    std::string data_dir;         // shipped config lives here
+    std::string config_override;  // --config; empty: $OCIO, else the shipped config
+    std::string colorspace;       // --colorspace; empty: file metadata, then file rules
+    std::string file_path;        // for the config's file_rules
+    std::string file_hint;        // OIIO's oiio:ColorSpace of the file ("sRGB", "Linear", ...)
 };
 
 class Linearizer {
-public:
+  public:
     // Throws Error with the cause (unknown colour space with suggestions, bad config, ...).
     static Linearizer make(const ColourRequest& req);
 
@@ -23,17 +23,18 @@ public:
     const std::string& config_path() const { return config_path_; }
     // Where the config came from: "--config", "$OCIO" or "shipped".
     const std::string& config_from() const { return config_from_; }
-    // The config's name and description ("name: description"; either alone when the other is empty).
+    // The config's name and description ("name: description"; either alone when the other is
+    // empty).
     const std::string& config_name() const { return config_name_; }
     // "--colorspace", "file metadata (sRGB)", "config file rule 'Default'".
     const std::string& how_chosen() const { return how_; }
-    // The file rule that chose the input space ("" when --colorspace or metadata did), and whether it
-    // is the config's default rule (the one that matches every file no other rule names).
+    // The file rule that chose the input space ("" when --colorspace or metadata did), and whether
+    // it is the config's default rule (the one that matches every file no other rule names).
     const std::string& file_rule() const { return rule_; }
     bool by_default_rule() const { return default_rule_; }
-    // Whether the input space is scene-linear, as OCIO defines it: scene-referred, not data, and its
-    // transform to linear Rec.709 linear (f(a x + b y) = a f(x) + b f(y), measured, whatever the
-    // space is called or tagged).
+    // Whether the input space is scene-linear, as OCIO defines it: scene-referred, not data, and
+    // its transform to linear Rec.709 linear (f(a x + b y) = a f(x) + b f(y), measured, whatever
+    // the space is called or tagged).
     bool scene_linear() const { return scene_linear_; }
     bool is_identity() const { return identity_; }
 
@@ -58,7 +59,7 @@ public:
     Linearizer(Linearizer&&) noexcept;
     Linearizer& operator=(Linearizer&&) noexcept;
 
-private:
+  private:
     struct Impl;
     std::unique_ptr<Impl> impl_;
     std::string input_space_, config_path_, config_from_, config_name_, how_, rule_;

@@ -1,7 +1,8 @@
 #include "io/paths.h"
 
-#include <climits>
 #include <unistd.h>
+
+#include <climits>
 
 namespace spectex {
 

@@ -1,26 +1,25 @@
 #include "io/spectral_exr_info.h"
 
+#include <Iex.h>
+#include <ImfBoxAttribute.h>
 #include <ImfChannelList.h>
+#include <ImfChannelListAttribute.h>
+#include <ImfChromaticitiesAttribute.h>
+#include <ImfCompressionAttribute.h>
+#include <ImfDoubleAttribute.h>
+#include <ImfFloatAttribute.h>
+#include <ImfFloatVectorAttribute.h>
 #include <ImfHeader.h>
+#include <ImfIntAttribute.h>
+#include <ImfLineOrderAttribute.h>
+#include <ImfMatrixAttribute.h>
 #include <ImfMultiPartInputFile.h>
-#include <openexr.h>
-#include <sys/stat.h>
+#include <ImfRationalAttribute.h>
 #include <ImfStringAttribute.h>
 #include <ImfStringVectorAttribute.h>
 #include <ImfTileDescriptionAttribute.h>
-#include <ImfFloatAttribute.h>
-#include <ImfIntAttribute.h>
-#include <ImfFloatVectorAttribute.h>
 #include <ImfVecAttribute.h>
-#include <ImfBoxAttribute.h>
-#include <ImfCompressionAttribute.h>
-#include <ImfChannelListAttribute.h>
-#include <ImfChromaticitiesAttribute.h>
-#include <ImfDoubleAttribute.h>
-#include <ImfLineOrderAttribute.h>
-#include <ImfMatrixAttribute.h>
-#include <ImfRationalAttribute.h>
-#include <Iex.h>
+#include <openexr.h>
 #include <sys/stat.h>
 
 #include <algorithm>
@@ -41,10 +40,14 @@ namespace {
 
 std::string type_name(Imf::PixelType t) {
     switch (t) {
-        case Imf::HALF: return "half";
-        case Imf::FLOAT: return "float";
-        case Imf::UINT: return "uint";
-        default: return "unknown";
+        case Imf::HALF:
+            return "half";
+        case Imf::FLOAT:
+            return "float";
+        case Imf::UINT:
+            return "uint";
+        default:
+            return "unknown";
     }
 }
 
@@ -72,13 +75,13 @@ std::string attribute_text(const Imf::Attribute& a) {
     }
     if (auto b = dynamic_cast<const Imf::Box2iAttribute*>(&a)) {
         const auto& v = b->value();
-        return std::to_string(v.min.x) + "," + std::to_string(v.min.y) + " - " + std::to_string(v.max.x) + "," +
-               std::to_string(v.max.y);
+        return std::to_string(v.min.x) + "," + std::to_string(v.min.y) + " - " +
+               std::to_string(v.max.x) + "," + std::to_string(v.max.y);
     }
     if (auto b = dynamic_cast<const Imf::Box2fAttribute*>(&a)) {
         const auto& v = b->value();
-        std::snprintf(buf, sizeof buf, "%g,%g - %g,%g", double(v.min.x), double(v.min.y), double(v.max.x),
-                      double(v.max.y));
+        std::snprintf(buf, sizeof buf, "%g,%g - %g,%g", double(v.min.x), double(v.min.y),
+                      double(v.max.x), double(v.max.y));
         return buf;
     }
     if (auto v = dynamic_cast<const Imf::V2iAttribute*>(&a))
@@ -94,25 +97,33 @@ std::string attribute_text(const Imf::Attribute& a) {
     }
     if (auto r = dynamic_cast<const Imf::RationalAttribute*>(&a))
         return std::to_string(r->value().n) + "/" + std::to_string(r->value().d);
-    if (auto c = dynamic_cast<const Imf::CompressionAttribute*>(&a)) return compression_name(c->value());
+    if (auto c = dynamic_cast<const Imf::CompressionAttribute*>(&a))
+        return compression_name(c->value());
     if (auto l = dynamic_cast<const Imf::LineOrderAttribute*>(&a)) {
         switch (l->value()) {
-            case Imf::INCREASING_Y: return "increasing_y";
-            case Imf::DECREASING_Y: return "decreasing_y";
-            case Imf::RANDOM_Y: return "random_y";
-            default: return "unknown";
+            case Imf::INCREASING_Y:
+                return "increasing_y";
+            case Imf::DECREASING_Y:
+                return "decreasing_y";
+            case Imf::RANDOM_Y:
+                return "random_y";
+            default:
+                return "unknown";
         }
     }
     if (auto t = dynamic_cast<const Imf::TileDescriptionAttribute*>(&a)) {
         const auto& v = t->value();
         return std::to_string(v.xSize) + "x" + std::to_string(v.ySize) + ", " +
-               (v.mode == Imf::ONE_LEVEL ? "one level" : v.mode == Imf::MIPMAP_LEVELS ? "mipmap" : "ripmap") +
+               (v.mode == Imf::ONE_LEVEL       ? "one level"
+                : v.mode == Imf::MIPMAP_LEVELS ? "mipmap"
+                                               : "ripmap") +
                ", rounding " + (v.roundingMode == Imf::ROUND_UP ? "up" : "down");
     }
     if (auto c = dynamic_cast<const Imf::ChannelListAttribute*>(&a)) {
         std::string out;
         for (auto it = c->value().begin(); it != c->value().end(); ++it) {
-            out += (out.empty() ? "" : ", ") + std::string(it.name()) + " " + type_name(it.channel().type);
+            out += (out.empty() ? "" : ", ") + std::string(it.name()) + " " +
+                   type_name(it.channel().type);
             if (it.channel().xSampling != 1 || it.channel().ySampling != 1)
                 out += " (sampling " + std::to_string(it.channel().xSampling) + "x" +
                        std::to_string(it.channel().ySampling) + ")";
@@ -121,16 +132,17 @@ std::string attribute_text(const Imf::Attribute& a) {
     }
     if (auto c = dynamic_cast<const Imf::ChromaticitiesAttribute*>(&a)) {
         const auto& v = c->value();
-        std::snprintf(buf, sizeof buf, "red %g,%g green %g,%g blue %g,%g white %g,%g", double(v.red.x),
-                      double(v.red.y), double(v.green.x), double(v.green.y), double(v.blue.x), double(v.blue.y),
-                      double(v.white.x), double(v.white.y));
+        std::snprintf(buf, sizeof buf, "red %g,%g green %g,%g blue %g,%g white %g,%g",
+                      double(v.red.x), double(v.red.y), double(v.green.x), double(v.green.y),
+                      double(v.blue.x), double(v.blue.y), double(v.white.x), double(v.white.y));
         return buf;
     }
     if (auto m = dynamic_cast<const Imf::M44fAttribute*>(&a)) {
         std::string out;
         for (int i = 0; i < 4; ++i)
             for (int j = 0; j < 4; ++j) {
-                std::snprintf(buf, sizeof buf, "%s%g", out.empty() ? "" : " ", double(m->value()[i][j]));
+                std::snprintf(buf, sizeof buf, "%s%g", out.empty() ? "" : " ",
+                              double(m->value()[i][j]));
                 out += buf;
             }
         return out;
@@ -148,7 +160,8 @@ std::string attribute_text(const Imf::Attribute& a) {
 
 // OpenEXR's level sizes (ImfTiledMisc): floor or ceiling of size / 2^l, at least 1.
 int level_size(int size, int l, bool round_up) {
-    int s = round_up ? static_cast<int>((static_cast<int64_t>(size) + (int64_t(1) << l) - 1) >> l) : size >> l;
+    int s = round_up ? static_cast<int>((static_cast<int64_t>(size) + (int64_t(1) << l) - 1) >> l)
+                     : size >> l;
     return std::max(1, s);
 }
 int level_count(int size, bool round_up) {
@@ -163,7 +176,8 @@ int level_count(int size, bool round_up) {
 
 bool is_emissive(const std::string& name) {
     // S0.<λ>nm .. S3.<λ>nm (Fichet 2021 emissive/polarised channels)
-    if (name.size() < 6 || name[0] != 'S' || name[1] < '0' || name[1] > '3' || name[2] != '.') return false;
+    if (name.size() < 6 || name[0] != 'S' || name[1] < '0' || name[1] > '3' || name[2] != '.')
+        return false;
     double l;
     return parse_reflective_channel("T" + name.substr(2), &l);
 }
@@ -193,9 +207,15 @@ bool chunks_within_file(const std::string& path) {
     exr_get_count(ctx, &parts);
     for (int p = 0; p < parts && ok; ++p) {
         exr_storage_t storage;
-        if (exr_get_storage(ctx, p, &storage) != EXR_ERR_SUCCESS) { ok = false; break; }
+        if (exr_get_storage(ctx, p, &storage) != EXR_ERR_SUCCESS) {
+            ok = false;
+            break;
+        }
         exr_attr_box2i_t dw;
-        if (exr_get_data_window(ctx, p, &dw) != EXR_ERR_SUCCESS) { ok = false; break; }
+        if (exr_get_data_window(ctx, p, &dw) != EXR_ERR_SUCCESS) {
+            ok = false;
+            break;
+        }
         exr_chunk_info_t ci;
         if (storage == EXR_STORAGE_SCANLINE) {
             int32_t lines = 1;
@@ -208,13 +228,17 @@ bool chunks_within_file(const std::string& path) {
             exr_tile_level_mode_t mode;
             exr_tile_round_mode_t round;
             if (exr_get_tile_levels(ctx, p, &lx, &ly) != EXR_ERR_SUCCESS ||
-                exr_get_tile_descriptor(ctx, p, &tx, &ty, &mode, &round) != EXR_ERR_SUCCESS) { ok = false; break; }
+                exr_get_tile_descriptor(ctx, p, &tx, &ty, &mode, &round) != EXR_ERR_SUCCESS) {
+                ok = false;
+                break;
+            }
             for (int32_t a = 0; a < lx && ok; ++a)
                 for (int32_t b = 0; b < ly && ok; ++b) {
                     if (mode == EXR_TILE_MIPMAP_LEVELS && a != b) continue;
                     int32_t w = 0, h = 0, tw = 0, th = 0;
                     if (exr_get_level_sizes(ctx, p, a, b, &w, &h) != EXR_ERR_SUCCESS ||
-                        exr_get_tile_sizes(ctx, p, a, b, &tw, &th) != EXR_ERR_SUCCESS || tw <= 0 || th <= 0) {
+                        exr_get_tile_sizes(ctx, p, a, b, &tw, &th) != EXR_ERR_SUCCESS || tw <= 0 ||
+                        th <= 0) {
                         ok = false;
                         break;
                     }
@@ -247,7 +271,8 @@ SpectralExrInfo read_spectral_exr_info(const std::string& path) {
         exr_preflight(path);
         Imf::MultiPartInputFile file(path.c_str());
         info.parts = file.parts();
-        for (int part = 0; part < file.parts(); ++part) info.complete = info.complete && file.partComplete(part);
+        for (int part = 0; part < file.parts(); ++part)
+            info.complete = info.complete && file.partComplete(part);
         info.complete = info.complete && chunks_within_file(path);
         const Imf::Header& h = file.header(0);
         const Imath::Box2i& dw = h.dataWindow();
@@ -274,11 +299,14 @@ SpectralExrInfo read_spectral_exr_info(const std::string& path) {
             if (w > 0 && ht > 0 && td.mode == Imf::MIPMAP_LEVELS) {
                 info.level_mode = "mipmap";
                 const int n = level_count(std::max(w, ht), up);
-                for (int l = 0; l < n; ++l) info.levels.emplace_back(level_size(w, l, up), level_size(ht, l, up));
+                for (int l = 0; l < n; ++l)
+                    info.levels.emplace_back(level_size(w, l, up), level_size(ht, l, up));
             } else if (w > 0 && ht > 0 && td.mode == Imf::RIPMAP_LEVELS) {
                 info.level_mode = "ripmap";
-                for (int l = 0, n = level_count(w, up); l < n; ++l) info.rip_x.push_back(level_size(w, l, up));
-                for (int l = 0, n = level_count(ht, up); l < n; ++l) info.rip_y.push_back(level_size(ht, l, up));
+                for (int l = 0, n = level_count(w, up); l < n; ++l)
+                    info.rip_x.push_back(level_size(w, l, up));
+                for (int l = 0, n = level_count(ht, up); l < n; ++l)
+                    info.rip_y.push_back(level_size(ht, l, up));
             } else {
                 info.levels.emplace_back(w, ht);
             }
@@ -305,14 +333,15 @@ SpectralExrInfo read_spectral_exr_info(const std::string& path) {
         info.preview = r && g && b;
         for (auto it = h.begin(); it != h.end(); ++it) {
             std::string name = it.name();
-            info.header.push_back({name, it.attribute().typeName(), attribute_text(it.attribute())});
+            info.header.push_back(
+                {name, it.attribute().typeName(), attribute_text(it.attribute())});
             if (name == "spectralLayoutVersion") {
                 info.layout_version = attribute_text(it.attribute());
                 continue;
             }
-            if (name == "channels" || name == "dataWindow" || name == "displayWindow" || name == "compression" ||
-                name == "lineOrder" || name == "pixelAspectRatio" || name == "screenWindowCenter" ||
-                name == "screenWindowWidth" || name == "tiles")
+            if (name == "channels" || name == "dataWindow" || name == "displayWindow" ||
+                name == "compression" || name == "lineOrder" || name == "pixelAspectRatio" ||
+                name == "screenWindowCenter" || name == "screenWindowWidth" || name == "tiles")
                 continue;
             info.attributes.emplace_back(name, attribute_text(it.attribute()));
         }
@@ -322,8 +351,9 @@ SpectralExrInfo read_spectral_exr_info(const std::string& path) {
         throw Error(path + ": cannot read the OpenEXR header: " + e.what());
     }
     if (info.reflective.empty()) {
-        throw Error(path + ": not a spectral reflectance image (no T.<wavelength>nm channels" +
-                    std::string(info.emissive_channels ? "; it has emissive S0-S3 channels only)" : ")"));
+        throw Error(
+            path + ": not a spectral reflectance image (no T.<wavelength>nm channels" +
+            std::string(info.emissive_channels ? "; it has emissive S0-S3 channels only)" : ")"));
     }
     std::sort(info.reflective.begin(), info.reflective.end(),
               [](const SpectralBin& a, const SpectralBin& b) { return a.lambda < b.lambda; });

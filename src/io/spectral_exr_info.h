@@ -7,9 +7,9 @@
 namespace spectex {
 
 struct SpectralBin {
-    double lambda = 0;        // nm
-    std::string channel;      // as spelt in the file, e.g. "T.380,000000nm"
-    std::string type;         // "half", "float", "uint"
+    double lambda = 0;    // nm
+    std::string channel;  // as spelt in the file, e.g. "T.380,000000nm"
+    std::string type;     // "half", "float", "uint"
 };
 
 struct SpectralExrInfo {
@@ -17,9 +17,9 @@ struct SpectralExrInfo {
     int width = 0, height = 0;
     int data_x0 = 0, data_y0 = 0, data_x1 = -1, data_y1 = -1;
     int display_x0 = 0, display_y0 = 0, display_x1 = -1, display_y1 = -1;
-    std::vector<SpectralBin> reflective;   // sorted by wavelength
-    int emissive_channels = 0;             // S0..S3.<λ>nm
-    std::string sample_type;               // of the reflective channels: "half", "float", "mixed"
+    std::vector<SpectralBin> reflective;  // sorted by wavelength
+    int emissive_channels = 0;            // S0..S3.<λ>nm
+    std::string sample_type;              // of the reflective channels: "half", "float", "mixed"
     std::string compression;
     bool tiled = false;
     int tile_width = 0, tile_height = 0;
@@ -32,14 +32,14 @@ struct SpectralExrInfo {
     int parts = 1;
     bool alpha = false;
     std::string alpha_type;
-    bool preview = false;                  // R, G, B present
-    std::string layout_version;            // spectralLayoutVersion, "" when absent
-    bool complete = true;                  // every chunk of every level and part is in the file
+    bool preview = false;        // R, G, B present
+    std::string layout_version;  // spectralLayoutVersion, "" when absent
+    bool complete = true;        // every chunk of every level and part is in the file
     std::vector<std::pair<std::string, std::string>> attributes;  // every other attribute, as text
     struct HeaderAttribute {
         std::string name, type, value;  // value as text (attribute_text)
     };
-    std::vector<HeaderAttribute> header;   // every attribute of the first part's header, in order
+    std::vector<HeaderAttribute> header;  // every attribute of the first part's header, in order
 };
 
 // Throws Error("<path>: <cause>") for unreadable files and for files with no reflective channels.

@@ -5,9 +5,9 @@
 #include <ImfHeader.h>
 #include <ImfIO.h>
 #include <ImfOutputFile.h>
-#include <ImfTiledOutputFile.h>
 #include <ImfStandardAttributes.h>
 #include <ImfStringAttribute.h>
+#include <ImfTiledOutputFile.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -28,7 +28,7 @@ namespace {
 // An Imf::OStream over a file descriptor (the AtomicFile's), buffered, with pwrite so that
 // OpenEXR's seek back to the offset table works; errors carry errno (ENOSPC, EFBIG, ...).
 class FdOStream : public Imf::OStream {
-public:
+  public:
     FdOStream(int fd, const std::string& name) : Imf::OStream(name.c_str()), fd_(fd), name_(name) {
         buf_.reserve(kBufferSize);
     }
@@ -73,7 +73,7 @@ public:
         if (failed_) throw Error(error_);
     }
 
-private:
+  private:
     static constexpr size_t kBufferSize = 4u << 20;
     bool failed_ = false;
     std::string error_;
@@ -88,8 +88,8 @@ Imf::PixelType pixel_type(SampleType t) { return t == SampleType::Half ? Imf::HA
 }  // namespace
 
 const std::vector<std::pair<std::string, std::string>>& texture_attributes() {
-    static const std::vector<std::pair<std::string, std::string>> a = {{"textureformat", "Plain Texture"},
-                                                                       {"wrapmodes", "black,black"}};
+    static const std::vector<std::pair<std::string, std::string>> a = {
+        {"textureformat", "Plain Texture"}, {"wrapmodes", "black,black"}};
     return a;
 }
 
@@ -123,7 +123,8 @@ SpectralExrWriter::SpectralExrWriter(AtomicFile& out, const SpectralExrLayout& l
     }
     if (L.alpha) header.channels().insert("A", Imf::Channel(pixel_type(L.alpha_type)));
     if (L.preview) {
-        for (const char* c : {"R", "G", "B"}) header.channels().insert(c, Imf::Channel(pixel_type(L.type)));
+        for (const char* c : {"R", "G", "B"})
+            header.channels().insert(c, Imf::Channel(pixel_type(L.type)));
         // The preview channels are linear Rec.709 / sRGB primaries, D65 white.
         Imf::addChromaticities(header, Imf::Chromaticities());
     }
@@ -136,9 +137,11 @@ SpectralExrWriter::SpectralExrWriter(AtomicFile& out, const SpectralExrLayout& l
             static_cast<unsigned>(L.tile_width), static_cast<unsigned>(L.tile_height),
             L.mipmap ? Imf::MIPMAP_LEVELS : Imf::ONE_LEVEL, Imf::ROUND_DOWN));
         for (const auto& [k, v] : texture_attributes()) header.insert(k, Imf::StringAttribute(v));
-        impl_->tiled = std::make_unique<Imf::TiledOutputFile>(*impl_->stream, header, std::max(1, L.threads));
+        impl_->tiled =
+            std::make_unique<Imf::TiledOutputFile>(*impl_->stream, header, std::max(1, L.threads));
     } else {
-        impl_->file = std::make_unique<Imf::OutputFile>(*impl_->stream, header, std::max(1, L.threads));
+        impl_->file =
+            std::make_unique<Imf::OutputFile>(*impl_->stream, header, std::max(1, L.threads));
     }
 }
 
@@ -148,7 +151,8 @@ bool SpectralExrWriter::uses_core(const SpectralExrLayout& L) {
         const char* e = std::getenv("SPECTEX_EXR_WRITER");
         kind = e && *e ? e : "core";
     }
-    if (kind != "core" && kind != "imf") throw Error("unknown EXR writer '" + kind + "' (known: core, imf)");
+    if (kind != "core" && kind != "imf")
+        throw Error("unknown EXR writer '" + kind + "' (known: core, imf)");
     return kind == "core" && L.compression.core_writer;
 }
 
@@ -167,8 +171,9 @@ int SpectralExrWriter::level_height(int level) const {
 
 SpectralExrWriter::~SpectralExrWriter() = default;
 
-void SpectralExrWriter::write_rows(int rows, const void* spectral, size_t plane_stride, const float* alpha,
-                                   const float* pr, const float* pg, const float* pb) {
+void SpectralExrWriter::write_rows(int rows, const void* spectral, size_t plane_stride,
+                                   const float* alpha, const float* pr, const float* pg,
+                                   const float* pb) {
     if (impl_->core)
         impl_->core->write_rows(rows, spectral, plane_stride, alpha, pr, pg, pb);
     else
@@ -176,8 +181,9 @@ void SpectralExrWriter::write_rows(int rows, const void* spectral, size_t plane_
     impl_->next_row += rows;
 }
 
-void SpectralExrWriter::write_level_rows(int level, int row0, int rows, const void* spectral, size_t plane_stride,
-                                         const float* alpha, const float* pr, const float* pg, const float* pb) {
+void SpectralExrWriter::write_level_rows(int level, int row0, int rows, const void* spectral,
+                                         size_t plane_stride, const float* alpha, const float* pr,
+                                         const float* pg, const float* pb) {
     if (impl_->core) {
         impl_->core->write_level_rows(level, row0, rows, spectral, plane_stride, alpha, pr, pg, pb);
         return;
@@ -191,21 +197,25 @@ void SpectralExrWriter::write_level_rows(int level, int row0, int rows, const vo
     const size_t es = L.type == SampleType::Half ? 2 : 4;
     for (size_t k = 0; k < impl_->names.size(); ++k) {
         const char* base = static_cast<const char*>(spectral) + k * plane_stride * es;
-        fb.insert(impl_->names[k], Imf::Slice(pixel_type(L.type), const_cast<char*>(base - origin * static_cast<ptrdiff_t>(es)),
-                                              es, es * w));
+        fb.insert(
+            impl_->names[k],
+            Imf::Slice(pixel_type(L.type),
+                       const_cast<char*>(base - origin * static_cast<ptrdiff_t>(es)), es, es * w));
     }
     // OpenEXR's writer does not convert between pixel types: half channels get half data.
     const size_t n = w * static_cast<size_t>(rows);
     auto insert_float = [&](const char* name, const float* p, SampleType type, int scratch) {
         if (type == SampleType::Float) {
-            fb.insert(name, Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(const_cast<float*>(p) - origin),
+            fb.insert(name, Imf::Slice(Imf::FLOAT,
+                                       reinterpret_cast<char*>(const_cast<float*>(p) - origin),
                                        sizeof(float), sizeof(float) * w));
             return;
         }
         auto& h = impl_->half_scratch[scratch];
         h.resize(n);
         for (size_t i = 0; i < n; ++i) h[i] = float_to_half(p[i]);
-        fb.insert(name, Imf::Slice(Imf::HALF, reinterpret_cast<char*>(h.data() - origin), 2, 2 * w));
+        fb.insert(name,
+                  Imf::Slice(Imf::HALF, reinterpret_cast<char*>(h.data() - origin), 2, 2 * w));
     };
     if (L.alpha) insert_float("A", alpha, L.alpha_type, 0);
     if (L.preview) {

@@ -27,9 +27,9 @@ struct SpectralExrLayout : PixelWindows {
     // Tiled output (tile_width > 0), optionally MIP-mapped (levels rounded down, as maketx does).
     int tile_width = 0, tile_height = 0;
     bool mipmap = false;
-    // Files whose compression the table gives the core writer (ExrCompression::core_writer), scanline
-    // or tiled, go through the core-API writer (bounded memory, libdeflate) unless writer is "imf";
-    // "auto" also reads $SPECTEX_EXR_WRITER (core or imf).
+    // Files whose compression the table gives the core writer (ExrCompression::core_writer),
+    // scanline or tiled, go through the core-API writer (bounded memory, libdeflate) unless writer
+    // is "imf"; "auto" also reads $SPECTEX_EXR_WRITER (core or imf).
     std::string writer = "auto";
     int zip_level = 4;  // libdeflate level for the core writer (Imf's zlib uses OpenEXR's default)
 };
@@ -39,7 +39,7 @@ struct SpectralExrLayout : PixelWindows {
 const std::vector<std::pair<std::string, std::string>>& texture_attributes();
 
 class SpectralExrWriter {
-public:
+  public:
     SpectralExrWriter(AtomicFile& file, const SpectralExrLayout& layout);
     // Whether a writer for this layout uses the core-API writer (throws on an unknown writer name).
     static bool uses_core(const SpectralExrLayout& layout);
@@ -50,12 +50,12 @@ public:
     // width*rows each, and ignored when the layout has none.
     void write_rows(int rows, const void* spectral, size_t plane_stride, const float* alpha,
                     const float* preview_r, const float* preview_g, const float* preview_b);
-    // Tiled files: writes rows [row0, row0 + rows) of MIP level `level` (whole tile rows; the planes
-    // are level_width wide). Levels and tile rows may come in any order.
+    // Tiled files: writes rows [row0, row0 + rows) of MIP level `level` (whole tile rows; the
+    // planes are level_width wide). Levels and tile rows may come in any order.
     void write_level_rows(int level, int row0, int rows, const void* spectral, size_t plane_stride,
                           const float* alpha, const float* preview_r, const float* preview_g,
                           const float* preview_b);
-    int levels() const;                       // 1 unless MIP-mapped
+    int levels() const;  // 1 unless MIP-mapped
     int level_width(int level) const;
     int level_height(int level) const;
     // Completes the file (offset table) and flushes it to the AtomicFile.
@@ -69,11 +69,11 @@ public:
         double compress_seconds = 0;  // summed over the compression workers
         size_t chunk_bytes = 0;       // packed bytes of the largest chunk
         int buffers = 0;              // chunk buffers allocated
-        int raw_chunks = 0;           // compressed files: chunks stored raw (deflate did not shrink them)
+        int raw_chunks = 0;  // compressed files: chunks stored raw (deflate did not shrink them)
     };
     Timing timing() const;
 
-private:
+  private:
     struct Impl;
     std::unique_ptr<Impl> impl_;
 };

@@ -56,12 +56,13 @@ void SpectralReader::read_rows(int y0, int rows, float* planes, size_t plane_str
         Imf::FrameBuffer fb;
         const Imath::V2i origin(dw.min.x, dw.min.y + y0);
         for (size_t k = 0; k < info_.reflective.size(); ++k)
-            fb.insert(info_.reflective[k].channel,
-                      Imf::Slice::Make(Imf::FLOAT, planes + k * plane_stride, origin, static_cast<int64_t>(w), rows,
-                                       sizeof(float), sizeof(float) * w));
+            fb.insert(
+                info_.reflective[k].channel,
+                Imf::Slice::Make(Imf::FLOAT, planes + k * plane_stride, origin,
+                                 static_cast<int64_t>(w), rows, sizeof(float), sizeof(float) * w));
         if (alpha && info_.alpha)
-            fb.insert("A", Imf::Slice::Make(Imf::FLOAT, alpha, origin, static_cast<int64_t>(w), rows, sizeof(float),
-                                            sizeof(float) * w));
+            fb.insert("A", Imf::Slice::Make(Imf::FLOAT, alpha, origin, static_cast<int64_t>(w),
+                                            rows, sizeof(float), sizeof(float) * w));
         impl_->file->setFrameBuffer(fb);
         impl_->file->readPixels(dw.min.y + y0, dw.min.y + y0 + rows - 1);
     } catch (const Error&) {
@@ -80,7 +81,8 @@ int SpectralReader::band_rows(size_t band_bytes) const {
     } else if (const ExrCompression* c = ExrCompression::find(static_cast<int>(h.compression()))) {
         chunk = c->lines_per_chunk;
     }
-    const size_t row_bytes = static_cast<size_t>(info_.width) * info_.reflective.size() * sizeof(float);
+    const size_t row_bytes =
+        static_cast<size_t>(info_.width) * info_.reflective.size() * sizeof(float);
     int rows = static_cast<int>(std::max<size_t>(1, band_bytes / std::max<size_t>(row_bytes, 1)));
     if (rows >= chunk)
         rows = rows / chunk * chunk;
@@ -94,8 +96,8 @@ std::vector<PixelSpectrum> SpectralReader::read_pixels(const std::vector<std::pa
         if (x < info_.data_x0 || x > info_.data_x1 || y < info_.data_y0 || y > info_.data_y1)
             throw Error(info_.path + ": pixel " + std::to_string(x) + "," + std::to_string(y) +
                         " is outside the data window " + std::to_string(info_.data_x0) + "," +
-                        std::to_string(info_.data_y0) + " - " + std::to_string(info_.data_x1) + "," +
-                        std::to_string(info_.data_y1));
+                        std::to_string(info_.data_y0) + " - " + std::to_string(info_.data_x1) +
+                        "," + std::to_string(info_.data_y1));
     const size_t w = static_cast<size_t>(info_.width), n = info_.reflective.size();
     std::vector<PixelSpectrum> out(xy.size());
     std::map<int, std::vector<size_t>> by_row;  // rows in file order: each is decoded once

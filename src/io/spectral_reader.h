@@ -22,7 +22,7 @@ struct PixelSpectrum {
 };
 
 class SpectralReader {
-public:
+  public:
     // Throws Error("<path>: <cause>") for unreadable and non-spectral files.
     explicit SpectralReader(const std::string& path);
     ~SpectralReader();
@@ -45,7 +45,7 @@ public:
     // once. Throws Error("<path>: pixel X,Y is outside the data window x0,y0 - x1,y1").
     std::vector<PixelSpectrum> read_pixels(const std::vector<std::pair<int, int>>& xy);
 
-private:
+  private:
     struct Impl;
     SpectralExrInfo info_;
     std::string alpha_;

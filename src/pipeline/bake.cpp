@@ -4,13 +4,13 @@
 
 #include <algorithm>
 #include <array>
-#include <future>
 #include <chrono>
 #include <climits>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <future>
 #include <memory>
 
 #include "io/atomic_file.h"
@@ -20,8 +20,8 @@
 #include "pipeline/batch.h"
 #include "pipeline/pixel_policy.h"
 #include "spectex/version.h"
-#include "spectral/error.h"
 #include "spectral/colorimetry.h"
+#include "spectral/error.h"
 #include "spectral/expand.h"
 #include "spectral/provenance_keys.h"
 
@@ -30,7 +30,9 @@ namespace spectex {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+double since(Clock::time_point t) {
+    return std::chrono::duration<double>(Clock::now() - t).count();
+}
 
 // Bytes of expanded spectral samples held per strip: bounds memory whatever the bin count.
 constexpr size_t kStripBudget = 32u << 20;
@@ -45,7 +47,8 @@ void check_not_input(const std::string& input, const std::string& output) {
     struct stat si, so;
     if (::stat(input.c_str(), &si) != 0) return;  // the reader reports a missing input
     if (::stat(output.c_str(), &so) == 0 && si.st_dev == so.st_dev && si.st_ino == so.st_ino)
-        throw Error(output + ": output is the input file (or a link to it); refusing to overwrite it");
+        throw Error(output +
+                    ": output is the input file (or a link to it); refusing to overwrite it");
     std::string ri = real_path(input), ro = real_path(output);
     if (!ri.empty() && ri == ro)
         throw Error(output + ": output is the input file; refusing to overwrite it");
@@ -60,7 +63,8 @@ std::vector<float> box_downsample(const std::vector<float>& src, int sw, int sh,
         const double scale = static_cast<double>(s) / d;
         for (int i = 0; i < d; ++i) {
             double a = i * scale, b = (i + 1) * scale;
-            for (int j = static_cast<int>(std::floor(a)); j < std::min(s, static_cast<int>(std::ceil(b))); ++j) {
+            for (int j = static_cast<int>(std::floor(a));
+                 j < std::min(s, static_cast<int>(std::ceil(b))); ++j) {
                 double cover = std::min(b, j + 1.0) - std::max(a, static_cast<double>(j));
                 if (cover > 0) w[static_cast<size_t>(i)].emplace_back(j, cover / scale);
             }
@@ -68,17 +72,20 @@ std::vector<float> box_downsample(const std::vector<float>& src, int sw, int sh,
         return w;
     };
     auto wx = weights(sw, dw), wy = weights(sh, dh);
-    std::vector<float> tmp(static_cast<size_t>(dw) * static_cast<size_t>(sh)), out(static_cast<size_t>(dw) * static_cast<size_t>(dh));
+    std::vector<float> tmp(static_cast<size_t>(dw) * static_cast<size_t>(sh)),
+        out(static_cast<size_t>(dw) * static_cast<size_t>(dh));
     for (int y = 0; y < sh; ++y)
         for (int x = 0; x < dw; ++x) {
             double acc = 0;
-            for (auto [j, wt] : wx[static_cast<size_t>(x)]) acc += wt * src[static_cast<size_t>(y) * sw + j];
+            for (auto [j, wt] : wx[static_cast<size_t>(x)])
+                acc += wt * src[static_cast<size_t>(y) * sw + j];
             tmp[static_cast<size_t>(y) * dw + x] = static_cast<float>(acc);
         }
     for (int y = 0; y < dh; ++y)
         for (int x = 0; x < dw; ++x) {
             double acc = 0;
-            for (auto [j, wt] : wy[static_cast<size_t>(y)]) acc += wt * tmp[static_cast<size_t>(j) * dw + x];
+            for (auto [j, wt] : wy[static_cast<size_t>(y)])
+                acc += wt * tmp[static_cast<size_t>(j) * dw + x];
             out[static_cast<size_t>(y) * dw + x] = static_cast<float>(acc);
         }
     return out;
@@ -112,17 +119,21 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     check_not_input(input, output);
     const SpectralMethod& method = *s.method;
     if (!same_wavelengths(method.lambda(), s.grid.lambda))
-        throw Error("the " + method.name() + " method is not on the output grid " + s.grid.describe());
+        throw Error("the " + method.name() + " method is not on the output grid " +
+                    s.grid.describe());
 
     auto src = ImageSource::open(input, s.max_pixels);
     const SourceInfo& info = src->info();
     if (info.miplevels > 1)
-        res.notes.push_back("input has " + std::to_string(info.miplevels) + " MIP levels: the first was used");
+        res.notes.push_back("input has " + std::to_string(info.miplevels) +
+                            " MIP levels: the first was used");
     if (info.subimages > 1)
-        res.notes.push_back("input has " + std::to_string(info.subimages) + " subimages: the first was used");
+        res.notes.push_back("input has " + std::to_string(info.subimages) +
+                            " subimages: the first was used");
     res.notes.insert(res.notes.end(), info.notes.begin(), info.notes.end());
     if (info.channels > 4)
-        res.notes.push_back("input has " + std::to_string(info.channels) + " channels: only RGB(A) were used");
+        res.notes.push_back("input has " + std::to_string(info.channels) +
+                            " channels: only RGB(A) were used");
 
     ColourRequest req{s.data_dir, s.config, s.colorspace, input, info.colorspace_hint};
     Linearizer lin = Linearizer::make(req);
@@ -132,7 +143,8 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     res.colorspace_rule = lin.file_rule();
     res.config = lin.config_path();
     res.config_from = lin.config_from();
-    res.integer_to_linear_by_default_rule = !info.is_float && lin.by_default_rule() && lin.scene_linear();
+    res.integer_to_linear_by_default_rule =
+        !info.is_float && lin.by_default_rule() && lin.scene_linear();
 
     const bool has_alpha = info.alpha != AlphaKind::None;
     SpectralExrLayout layout;
@@ -140,10 +152,12 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     layout.lambda = s.grid.lambda;
     layout.type = s.type;
     layout.alpha = has_alpha;
-    // Half holds every 8-bit alpha exactly enough to re-encode it; 16-bit and float alphas need float.
-    layout.alpha_type = (s.type == SampleType::Half && (info.bits <= 8 || (info.is_float && info.bits == 16)))
-                            ? SampleType::Half
-                            : SampleType::Float;
+    // Half holds every 8-bit alpha exactly enough to re-encode it; 16-bit and float alphas need
+    // float.
+    layout.alpha_type =
+        (s.type == SampleType::Half && (info.bits <= 8 || (info.is_float && info.bits == 16)))
+            ? SampleType::Half
+            : SampleType::Float;
     layout.preview = s.preview;
     layout.compression = s.compression;
     layout.zip_level = s.zip_level;
@@ -186,7 +200,8 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
         if (s.plan.nonuniform) a.push_back({provenance_key::kPlanGrids, "uniform and non-uniform"});
     }
     {
-        // The method's own attributes where the basis' always stood (the order is part of the bytes).
+        // The method's own attributes where the basis' always stood (the order is part of the
+        // bytes).
         auto at = layout.attributes.begin() + 3;
         for (const auto& kv : method.provenance()) at = layout.attributes.insert(at, kv) + 1;
     }
@@ -209,7 +224,8 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
         const Eigen::Matrix3Xd R = c.rgb_weights();
         rgb_weight.resize(3 * static_cast<size_t>(method.bins()));
         for (int k = 0; k < method.bins(); ++k)
-            for (int ch = 0; ch < 3; ++ch) rgb_weight[3 * static_cast<size_t>(k) + ch] = static_cast<float>(R(ch, k));
+            for (int ch = 0; ch < 3; ++ch)
+                rgb_weight[3 * static_cast<size_t>(k) + ch] = static_cast<float>(R(ch, k));
     }
     const std::vector<float>* feedback = rgb_weight.empty() ? nullptr : &rgb_weight;
     const size_t bins = static_cast<size_t>(method.bins());
@@ -218,7 +234,8 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     const bool tiled = layout.tile_width > 0;
     const int chunk = tiled ? layout.tile_height : s.compression.lines_per_chunk;
     size_t row_bytes = w * bins * es;
-    const int strip = strip_rows(row_bytes, chunk, tiled || std::string(writer.writer_name()) != "core", info.height);
+    const int strip = strip_rows(row_bytes, chunk,
+                                 tiled || std::string(writer.writer_name()) != "core", info.height);
 
     const PixelPolicy policy{info.alpha == AlphaKind::Associated, s.nan, s.range};
     const bool premultiply = has_alpha && s.alpha == AlphaMode::Associated;
@@ -249,8 +266,8 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     std::vector<uint16_t> half_planes;
     std::vector<float> float_planes;
     // Expands n pixels and writes them as rows [row0, row0 + rows) of `level`.
-    auto expand_and_write = [&](int level, int row0, int rows, size_t n, const float* r, const float* g,
-                                const float* b, const float* a) {
+    auto expand_and_write = [&](int level, int row0, int rows, size_t n, const float* r,
+                                const float* g, const float* b, const float* a) {
         const void* planes;
         if (s.type == SampleType::Half) {
             half_planes.resize(n * bins);
@@ -298,7 +315,8 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
             auto t_expand = Clock::now();
             if (s.type == SampleType::Half) {
                 st.half.resize(n * bins);
-                method.expand_half(st.r.data(), st.g.data(), st.b.data(), n, st.half.data(), n, feedback);
+                method.expand_half(st.r.data(), st.g.data(), st.b.data(), n, st.half.data(), n,
+                                   feedback);
             } else {
                 st.flt.resize(n * bins);
                 method.expand_float(st.r.data(), st.g.data(), st.b.data(), n, st.flt.data(), n);
@@ -307,13 +325,15 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
         };
         auto consume = [&](const Strip& st) {
             const size_t n = w * static_cast<size_t>(st.y1 - st.y0);
-            const void* planes = s.type == SampleType::Half ? static_cast<const void*>(st.half.data())
-                                                            : static_cast<const void*>(st.flt.data());
+            const void* planes = s.type == SampleType::Half
+                                     ? static_cast<const void*>(st.half.data())
+                                     : static_cast<const void*>(st.flt.data());
             if (tiled)
-                writer.write_level_rows(0, st.y0, st.y1 - st.y0, planes, n, st.a.data(), st.r.data(), st.g.data(),
-                                        st.b.data());
+                writer.write_level_rows(0, st.y0, st.y1 - st.y0, planes, n, st.a.data(),
+                                        st.r.data(), st.g.data(), st.b.data());
             else
-                writer.write_rows(st.y1 - st.y0, planes, n, st.a.data(), st.r.data(), st.g.data(), st.b.data());
+                writer.write_rows(st.y1 - st.y0, planes, n, st.a.data(), st.r.data(), st.g.data(),
+                                  st.b.data());
             if (progress) progress->rows_done += st.y1 - st.y0;
         };
         produce(strips[0], 0);
@@ -321,7 +341,8 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
             const int next_y0 = strips[k % 2].y1;
             std::future<void> next;
             if (next_y0 < info.height)
-                next = std::async(std::launch::async, [&, next_y0, k] { produce(strips[(k + 1) % 2], next_y0); });
+                next = std::async(std::launch::async,
+                                  [&, next_y0, k] { produce(strips[(k + 1) % 2], next_y0); });
             try {
                 consume(strips[k % 2]);
             } catch (...) {
@@ -342,8 +363,8 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
         for (int y0 = 0; y0 < info.height; y0 += strip) {
             const int y1 = std::min(info.height, y0 + strip);
             const size_t off = w * static_cast<size_t>(y0);
-            process_rows(y0, y1, level[0].data() + off, level[1].data() + off, level[2].data() + off,
-                         has_alpha ? level[3].data() + off : nullptr);
+            process_rows(y0, y1, level[0].data() + off, level[1].data() + off,
+                         level[2].data() + off, has_alpha ? level[3].data() + off : nullptr);
         }
         int lw = info.width, lh = info.height;
         for (int l = 0; l < writer.levels(); ++l) {
@@ -358,9 +379,10 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
             for (int y0 = 0; y0 < lh; y0 += th) {
                 const int y1 = std::min(lh, y0 + th);
                 const size_t off = static_cast<size_t>(lw) * static_cast<size_t>(y0);
-                expand_and_write(l, y0, y1 - y0, static_cast<size_t>(lw) * static_cast<size_t>(y1 - y0),
-                                 level[0].data() + off, level[1].data() + off, level[2].data() + off,
-                                 has_alpha ? level[3].data() + off : nullptr);
+                expand_and_write(
+                    l, y0, y1 - y0, static_cast<size_t>(lw) * static_cast<size_t>(y1 - y0),
+                    level[0].data() + off, level[1].data() + off, level[2].data() + off,
+                    has_alpha ? level[3].data() + off : nullptr);
                 if (progress) progress->rows_done += y1 - y0;
             }
         }

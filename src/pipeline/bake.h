@@ -18,8 +18,8 @@ enum class NanPolicy { Replace, Error };
 enum class AlphaMode { Associated, Unassociated };
 
 struct BakeSettings {
-    std::string colorspace;          // --colorspace ("" = metadata, then file rules)
-    std::string config;              // --config ("" = $OCIO, then the shipped config)
+    std::string colorspace;  // --colorspace ("" = metadata, then file rules)
+    std::string config;      // --config ("" = $OCIO, then the shipped config)
     std::string data_dir;
     std::shared_ptr<const SpectralMethod> method;  // RGB -> spectrum, already on the output grid
     std::string observer = "cie1931-2";
@@ -27,21 +27,21 @@ struct BakeSettings {
     WavelengthGrid grid;
     SampleType type = SampleType::Half;
     ExrCompression compression = ExrCompression::parse("zip");
-    int zip_level = 4;               // deflate level of zip/zips (1 fastest .. 12 smallest)
+    int zip_level = 4;  // deflate level of zip/zips (1 fastest .. 12 smallest)
     bool preview = false;
     AlphaMode alpha = AlphaMode::Associated;
     RangePolicy range = RangePolicy::Clamp;
     NanPolicy nan = NanPolicy::Replace;
     uint64_t max_pixels = 268435456;  // 16384 x 16384
     std::string command_line;
-    std::string settings_hash;       // recorded as spectex:settingsHash (for --update)
+    std::string settings_hash;  // recorded as spectex:settingsHash (for --update)
     // What builds `method` (options and the tables' values), hashed into settings_hash instead of
     // the built method's checksum, so that the hash is known before the method is built.
     std::string method_recipe;
-    int threads = 1;                 // OpenEXR compression threads for this file
+    int threads = 1;                      // OpenEXR compression threads for this file
     int tile_width = 0, tile_height = 0;  // tiled output when > 0
-    bool mipmap = false;             // MIP-mapped (tiled) output, levels filtered on linear RGB
-    bool colour_rounding = true;     // half: round bins to keep the integrated colour closest
+    bool mipmap = false;          // MIP-mapped (tiled) output, levels filtered on linear RGB
+    bool colour_rounding = true;  // half: round bins to keep the integrated colour closest
     // --wavelengths auto (issue 13): what chose the grid, recorded as spectex:plan* and hashed.
     struct Plan {
         std::string lights, max_de, reconstruction, range, worst_de;  // empty: the grid was given
@@ -52,7 +52,8 @@ struct BakeSettings {
 struct BakeResult {
     std::string input, output;
     std::string colorspace, colorspace_how;
-    std::string colorspace_rule;     // the config's file rule that chose it ("" when it was not a rule)
+    std::string
+        colorspace_rule;  // the config's file rule that chose it ("" when it was not a rule)
     std::string config, config_from;  // the OCIO config used, and "--config", "$OCIO" or "shipped"
     // An integer (display-referred) input read as a scene-linear space only because the config's
     // default file rule names that space: most likely an sRGB texture the config knows nothing of.
@@ -60,8 +61,8 @@ struct BakeResult {
     uint64_t pixels = 0;
     int bins = 0;
     uint64_t bytes = 0;
-    uint64_t clamped_pixels = 0;     // pixels with a linear component moved into [0, 1]
-    uint64_t replaced_pixels = 0;    // pixels with a NaN/Inf component replaced
+    uint64_t clamped_pixels = 0;   // pixels with a linear component moved into [0, 1]
+    uint64_t replaced_pixels = 0;  // pixels with a NaN/Inf component replaced
     double seconds = 0;
     // Where the time went (seconds). The producer thread reads (decode), colours (linearise, NaN
     // and range policies, premultiply) and expands; the writer thread packs rows into chunks and

@@ -9,8 +9,8 @@
 namespace spectex {
 
 std::string FitSpec::describe() const {
-    return primaries + " primaries, " + observer + ", " + illuminant + ", " + grid.describe() + ", " + objective +
-           (allow_infeasible ? ", infeasible allowed" : "");
+    return primaries + " primaries, " + observer + ", " + illuminant + ", " + grid.describe() +
+           ", " + objective + (allow_infeasible ? ", infeasible allowed" : "");
 }
 
 FitResult fit_basis_for(const FitSpec& spec) {

@@ -5,17 +5,17 @@
 #include <ImfStringAttribute.h>
 #include <dirent.h>
 #include <limits.h>
-#include <unistd.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <map>
-#include <memory>
 #include <fstream>
 #include <iostream>
+#include <map>
+#include <memory>
 #include <regex>
 #include <sstream>
 
@@ -24,8 +24,8 @@
 #include "io/paths.h"
 #include "io/source_identity.h"
 #include "pipeline/json_text.h"
-#include "spectral/bounded_read.h"
 #include "spectex/version.h"
+#include "spectral/bounded_read.h"
 #include "spectral/error.h"
 #include "spectral/fnv1a.h"
 #include "spectral/provenance_keys.h"
@@ -72,7 +72,8 @@ bool has_template_tokens(const std::string& s) {
 std::string unknown_template_token(const std::string& s) {
     for (size_t open = s.find('{'); open != std::string::npos; open = s.find('{', open + 1)) {
         size_t close = s.find('}', open);
-        std::string token = close == std::string::npos ? s.substr(open) : s.substr(open, close - open + 1);
+        std::string token =
+            close == std::string::npos ? s.substr(open) : s.substr(open, close - open + 1);
         bool known = false;
         for (const auto& t : template_tokens()) known = known || token == t;
         if (!known) return token;
@@ -90,7 +91,8 @@ std::vector<std::string> expand_tiles(const std::string& path) {
     std::string pattern = regex_quote(base);
     auto replace_all = [&](const std::string& from, const std::string& to) {
         std::string q = regex_quote(from);
-        for (size_t pos; (pos = pattern.find(q)) != std::string::npos;) pattern.replace(pos, q.size(), to);
+        for (size_t pos; (pos = pattern.find(q)) != std::string::npos;)
+            pattern.replace(pos, q.size(), to);
     };
     replace_all("<UDIM>", "(1[0-9][0-9][1-9]|[2-9][0-9][0-9][0-9])");
     replace_all("<UVTILE>", "u[1-9][0-9]*_v[1-9][0-9]*");
@@ -99,7 +101,8 @@ std::vector<std::string> expand_tiles(const std::string& path) {
     DIR* d = ::opendir(dir.c_str());
     if (!d) throw Error(path + ": cannot list " + dir + ": " + std::strerror(errno));
     while (dirent* e = ::readdir(d))
-        if (std::regex_match(e->d_name, re)) out.push_back(path.find('/') == std::string::npos ? e->d_name : dir + "/" + e->d_name);
+        if (std::regex_match(e->d_name, re))
+            out.push_back(path.find('/') == std::string::npos ? e->d_name : dir + "/" + e->d_name);
     ::closedir(d);
     if (out.empty()) throw Error(path + ": no existing tiles match");
     std::sort(out.begin(), out.end());
@@ -114,7 +117,8 @@ std::vector<std::string> read_list(const std::string& file) {
     const bool is_stdin = file == "-";
     const std::string name = is_stdin ? "standard input (--from-list -)" : file;
     std::unique_ptr<CheckedFile> checked;
-    if (!is_stdin) checked = std::make_unique<CheckedFile>(file, file_limits::kInputList, "an input list");
+    if (!is_stdin)
+        checked = std::make_unique<CheckedFile>(file, file_limits::kInputList, "an input list");
     const int fd = is_stdin ? 0 : checked->fd();
 
     std::vector<std::string> out;
@@ -127,14 +131,16 @@ std::vector<std::string> read_list(const std::string& file) {
     auto control = [&](unsigned char c) {
         char hex[8];
         std::snprintf(hex, sizeof hex, "0x%02x", c);
-        return bad(std::string("control character ") + hex + ": binary data, not a list of paths (one per line)");
+        return bad(std::string("control character ") + hex +
+                   ": binary data, not a list of paths (one per line)");
     };
     auto finish_line = [&] {
         if (!line.empty() && line.back() == '\r') line.pop_back();  // CRLF lists
         if (line.find('\r') != std::string::npos) throw control('\r');
-        if (line.size() >= PATH_MAX) throw bad("longer than PATH_MAX (" + std::to_string(PATH_MAX) + " bytes): not a path");
-        // Spaces and tabs around a path are the list's, not the path's (a list written by hand or by
-        // a spreadsheet); a path that really starts or ends with one goes on the command line.
+        if (line.size() >= PATH_MAX)
+            throw bad("longer than PATH_MAX (" + std::to_string(PATH_MAX) + " bytes): not a path");
+        // Spaces and tabs around a path are the list's, not the path's (a list written by hand or
+        // by a spreadsheet); a path that really starts or ends with one goes on the command line.
         const size_t b = line.find_first_not_of(" \t"), e = line.find_last_not_of(" \t");
         line = b == std::string::npos ? std::string() : line.substr(b, e - b + 1);
         if (!line.empty() && line[0] != '#') {
@@ -156,7 +162,8 @@ std::vector<std::string> read_list(const std::string& file) {
         if (n == 0) break;
         total += static_cast<uint64_t>(n);
         if (total > file_limits::kInputList)
-            throw Error(name + ": an input list may not exceed " + format_bytes(file_limits::kInputList));
+            throw Error(name + ": an input list may not exceed " +
+                        format_bytes(file_limits::kInputList));
         for (ssize_t i = 0; i < n; ++i) {
             const unsigned char c = static_cast<unsigned char>(buf[i]);
             if (c == '\n') {
@@ -167,7 +174,8 @@ std::vector<std::string> read_list(const std::string& file) {
             if ((c < 0x20 && c != '\t' && c != '\r') || c == 0x7f) throw control(c);
             // PATH_MAX counts the terminating NUL; one more byte for a CR before the newline.
             if (line.size() >= PATH_MAX)
-                throw bad("longer than PATH_MAX (" + std::to_string(PATH_MAX) + " bytes): not a path");
+                throw bad("longer than PATH_MAX (" + std::to_string(PATH_MAX) +
+                          " bytes): not a path");
             line += static_cast<char>(c);
         }
     }
@@ -181,18 +189,20 @@ std::string relative_folder(const std::string& input, const std::string& base_di
     const fs::path base = fs::absolute(fs::path(base_dir)).lexically_normal();
     fs::path rel = in.parent_path().lexically_relative(base);
     if (rel.empty() && in.parent_path() != base)
-        throw Error(input + ": not below the --base-dir " + base_dir + " (inputs of a mirrored tree must lie in it)");
+        throw Error(input + ": not below the --base-dir " + base_dir +
+                    " (inputs of a mirrored tree must lie in it)");
     if (rel.empty()) rel = ".";
     for (const auto& part : rel)
         if (part == "..")
-            throw Error(input + ": not below the --base-dir " + base_dir + " (inputs of a mirrored tree must lie in it)");
+            throw Error(input + ": not below the --base-dir " + base_dir +
+                        " (inputs of a mirrored tree must lie in it)");
     std::string out = rel.generic_string();
     while (out.size() > 1 && out.back() == '/') out.pop_back();
     return out;
 }
 
-std::string output_for(const std::string& input, const std::string& templ, const std::string& output_dir,
-                       const std::string& base_dir) {
+std::string output_for(const std::string& input, const std::string& templ,
+                       const std::string& output_dir, const std::string& base_dir) {
     std::string base = file_name_of(input);
     size_t dot = base.find_last_of('.');
     std::string stem = dot == std::string::npos || dot == 0 ? base : base.substr(0, dot);
@@ -202,13 +212,17 @@ std::string output_for(const std::string& input, const std::string& templ, const
         std::string dir = output_dir;
         while (dir.size() > 1 && dir.back() == '/') dir.pop_back();
         pattern = dir + (dir == "/" ? "" : "/") +
-                  (has_template_tokens(templ) ? templ : base_dir.empty() ? "{stem}.exr" : "{reldir}/{stem}.exr");
+                  (has_template_tokens(templ) ? templ
+                   : base_dir.empty()         ? "{stem}.exr"
+                                              : "{reldir}/{stem}.exr");
     }
     const bool wants_reldir = pattern.find("{reldir}") != std::string::npos;
     if (wants_reldir && base_dir.empty())
-        throw Error("the output template '" + pattern + "' uses {reldir}, which needs --base-dir DIR");
+        throw Error("the output template '" + pattern +
+                    "' uses {reldir}, which needs --base-dir DIR");
     const std::string reldir = wants_reldir ? relative_folder(input, base_dir) : "";
-    // {dir} under --output-dir: the input's folder as a path inside it ("/abs/x" as "abs/x", never "..").
+    // {dir} under --output-dir: the input's folder as a path inside it ("/abs/x" as "abs/x", never
+    // "..").
     std::string dir_value = folder_of(input);
     if (!output_dir.empty() && pattern.find("{dir}") != std::string::npos) {
         while (!dir_value.empty() && dir_value.front() == '/') dir_value.erase(0, 1);
@@ -228,21 +242,25 @@ std::string output_for(const std::string& input, const std::string& templ, const
     std::string out;
     for (size_t begin = 0;;) {
         size_t slash = pattern.find('/', begin);
-        std::string part = pattern.substr(begin, slash == std::string::npos ? std::string::npos : slash - begin);
+        std::string part =
+            pattern.substr(begin, slash == std::string::npos ? std::string::npos : slash - begin);
         std::string sub = part;
         auto replace = [&](const std::string& token, const std::string& value) {
-            for (size_t pos = 0; (pos = sub.find(token, pos)) != std::string::npos; pos += value.size())
+            for (size_t pos = 0; (pos = sub.find(token, pos)) != std::string::npos;
+                 pos += value.size())
                 sub.replace(pos, token.size(), value);
         };
-        const bool user_folder = part.find("{dir}") != std::string::npos || part.find("{reldir}") != std::string::npos;
+        const bool user_folder =
+            part.find("{dir}") != std::string::npos || part.find("{reldir}") != std::string::npos;
         replace("{stem}", stem);
         replace("{ext}", ext);
         replace("{reldir}", reldir);
         replace("{dir}", dir_value);
         if (!user_folder && sub != part && (sub.empty() || sub == "." || sub == ".."))
-            throw Error(input + ": the output template '" + pattern + "' makes the path component '" + sub +
-                        "' of this input's name, which would leave the folder it names; rename the file or "
-                        "change the template");
+            throw Error(
+                input + ": the output template '" + pattern + "' makes the path component '" + sub +
+                "' of this input's name, which would leave the folder it names; rename the file or "
+                "change the template");
         // A file at the top of --base-dir: "out/{reldir}/x.exr" is "out/x.exr", not "out/./x.exr".
         if (part == "{reldir}" && sub == "." && slash != std::string::npos) {
             begin = slash + 1;
@@ -267,7 +285,8 @@ Shard Shard::parse(const std::string& spec) {
 std::vector<std::string> select_shard(const std::vector<std::string>& sorted_inputs, Shard s) {
     std::vector<std::string> out;
     for (size_t i = 0; i < sorted_inputs.size(); ++i)
-        if (static_cast<int>(i % static_cast<size_t>(s.n)) == s.k - 1) out.push_back(sorted_inputs[i]);
+        if (static_cast<int>(i % static_cast<size_t>(s.n)) == s.k - 1)
+            out.push_back(sorted_inputs[i]);
     return out;
 }
 
@@ -275,10 +294,12 @@ std::string settings_hash(const BakeSettings& s) {
     Fnv1a64 h;
     fnv(h, SPECTEX_VERSION);
     fnv(h, !s.method_recipe.empty() ? s.method_recipe : s.method->checksum());
-    for (double l : s.grid.lambda) fnv(h, format_wavelength(l));  // none yet with --wavelengths auto
+    for (double l : s.grid.lambda)
+        fnv(h, format_wavelength(l));  // none yet with --wavelengths auto
     fnv(h, s.type == SampleType::Half ? "half" : "float");
     fnv(h, s.compression.name);
-    if (s.zip_level != 4) fnv(h, "zip-level " + std::to_string(s.zip_level));  // 4: hashes as before
+    if (s.zip_level != 4)
+        fnv(h, "zip-level " + std::to_string(s.zip_level));  // 4: hashes as before
     fnv(h, s.preview ? "preview" : "");
     fnv(h, s.alpha == AlphaMode::Associated ? "associated" : "unassociated");
     fnv(h, to_string(s.range));
@@ -287,12 +308,13 @@ std::string settings_hash(const BakeSettings& s) {
     fnv(h, s.illuminant);
     fnv(h, s.colorspace);
     fnv(h, s.colour_rounding ? "colour-rounding" : "nearest");
-    fnv(h, std::to_string(s.tile_width) + "x" + std::to_string(s.tile_height) + (s.mipmap ? "mip" : ""));
+    fnv(h, std::to_string(s.tile_width) + "x" + std::to_string(s.tile_height) +
+               (s.mipmap ? "mip" : ""));
     // --wavelengths auto: the choice's settings (the chosen grid is hashed above); nothing when the
     // grid was given, so those hashes stay as they were.
     if (!s.plan.lights.empty())
-        fnv(h, "plan " + s.plan.lights + "|" + s.plan.max_de + "|" + s.plan.reconstruction + "|" + s.plan.range +
-                   (s.plan.nonuniform ? "|nonuniform" : ""));
+        fnv(h, "plan " + s.plan.lights + "|" + s.plan.max_de + "|" + s.plan.reconstruction + "|" +
+                   s.plan.range + (s.plan.nonuniform ? "|nonuniform" : ""));
     // The colour config decides the linearisation: its path and its contents.
     const std::string config = ocio_config_path(s.data_dir, s.config);
     fnv(h, config);
@@ -306,7 +328,8 @@ std::string config_checksum(const std::string& config_path) {
     return h.text();
 }
 
-UpdateCheck check_update(const std::string& input, const std::string& output, const std::string& hash) {
+UpdateCheck check_update(const std::string& input, const std::string& output,
+                         const std::string& hash) {
     UpdateCheck c;
     struct stat si;
     if (::stat(input.c_str(), &si) != 0 || !S_ISREG(si.st_mode)) {
@@ -350,7 +373,8 @@ UpdateCheck check_update(const std::string& input, const std::string& output, co
     try {
         if (hash_file(input) == recorded) {
             c.up_to_date = true;
-            c.reason = "up to date: same settings hash and source bytes (its modification time changed)";
+            c.reason =
+                "up to date: same settings hash and source bytes (its modification time changed)";
             return c;
         }
     } catch (const std::exception&) {
@@ -374,20 +398,20 @@ std::string json_record(const FileRecord& r) {
     j["replaced_pixels"] = r.result.replaced_pixels;
     put_text(j, "colorspace", r.result.colorspace);
     put_text(j, "settings_hash", r.settings_hash);
-    if (r.status == "skipped") put_text(j, "reason", r.reason);  // why nothing was done, for a script
+    if (r.status == "skipped")
+        put_text(j, "reason", r.reason);  // why nothing was done, for a script
     if (r.status == "ok") {
         const auto& st = r.result.stages;
         Json stages;
         stages["writer"] = st.writer;
-        const std::pair<const char*, double> times[] = {
-            {"read_s", st.read},
-            {"colour_s", st.colour},
-            {"expand_s", st.expand},
-            {"pack_s", st.pack},
-            {"encoder_wait_s", st.encoder_wait},
-            {"producer_wait_s", st.producer_wait},
-            {"compress_cpu_s", st.compress_cpu},
-            {"finish_s", st.finish}};
+        const std::pair<const char*, double> times[] = {{"read_s", st.read},
+                                                        {"colour_s", st.colour},
+                                                        {"expand_s", st.expand},
+                                                        {"pack_s", st.pack},
+                                                        {"encoder_wait_s", st.encoder_wait},
+                                                        {"producer_wait_s", st.producer_wait},
+                                                        {"compress_cpu_s", st.compress_cpu},
+                                                        {"finish_s", st.finish}};
         for (const auto& [key, seconds] : times) stages[key] = json_number(seconds, "%.4f");
         j["stages"] = std::move(stages);
     }

@@ -16,14 +16,15 @@ std::vector<std::string> expand_tiles(const std::string& path);
 // Reads one path per line ('-' = stdin); blank lines and lines starting with '#' are skipped.
 std::vector<std::string> read_list(const std::string& file);
 
-// Output name for an input: a template with {dir}, {reldir}, {stem}, {ext} (e.g. "{dir}/{stem}.exr"),
-// or "<output_dir>/<stem>.exr" when output_dir is given ("<output_dir>/{reldir}/<stem>.exr" with a
-// base_dir: the tree below base_dir mirrored). {reldir} is the input's folder relative to base_dir
+// Output name for an input: a template with {dir}, {reldir}, {stem}, {ext} (e.g.
+// "{dir}/{stem}.exr"), or "<output_dir>/<stem>.exr" when output_dir is given
+// ("<output_dir>/{reldir}/<stem>.exr" with a base_dir: the tree below base_dir mirrored). {reldir}
+// is the input's folder relative to base_dir
 // ("." for base_dir itself). Throws Error when the input's name would make a path component "", "."
 // or ".." that the template does not have, when an input lies outside base_dir, when {reldir} has
 // no base_dir, or when {dir} under output_dir would climb out of it ("..").
-std::string output_for(const std::string& input, const std::string& templ, const std::string& output_dir,
-                       const std::string& base_dir = "");
+std::string output_for(const std::string& input, const std::string& templ,
+                       const std::string& output_dir, const std::string& base_dir = "");
 // The input's folder relative to base_dir, both made absolute and normalised lexically (links are
 // not followed: the mirror is of names). Throws Error naming both when the input is not below it.
 std::string relative_folder(const std::string& input, const std::string& base_dir);
@@ -58,7 +59,8 @@ struct UpdateCheck {
     bool up_to_date = false;
     std::string reason;  // why it is up to date (for --json and --verbose), or why not
 };
-UpdateCheck check_update(const std::string& input, const std::string& output, const std::string& hash);
+UpdateCheck check_update(const std::string& input, const std::string& output,
+                         const std::string& hash);
 
 struct FileRecord {
     std::string input, output, status;  // status: ok, failed, skipped

@@ -77,7 +77,8 @@ const Glyph& find_glyph(char c) {
 uint8_t glyph_row(char c, int r) {
     const Glyph& g = find_glyph(c);
     uint8_t bits = 0;
-    for (int i = 0; i < kGlyphWidth; ++i) bits = static_cast<uint8_t>(bits << 1 | (g.rows[r][i] == '#'));
+    for (int i = 0; i < kGlyphWidth; ++i)
+        bits = static_cast<uint8_t>(bits << 1 | (g.rows[r][i] == '#'));
     return bits;
 }
 
@@ -85,8 +86,8 @@ int text_width(const std::string& text, int scale) {
     return text.empty() ? 0 : (static_cast<int>(text.size()) * kGlyphAdvance - 1) * scale;
 }
 
-void draw_text(uint8_t* image, int w, int h, int nch, size_t stride, int x, int y, const std::string& text, int scale,
-               const uint8_t* colour, int max_x) {
+void draw_text(uint8_t* image, int w, int h, int nch, size_t stride, int x, int y,
+               const std::string& text, int scale, const uint8_t* colour, int max_x) {
     max_x = std::min(max_x, w);
     for (size_t i = 0; i < text.size(); ++i) {
         const int gx = x + static_cast<int>(i) * kGlyphAdvance * scale;
@@ -98,7 +99,8 @@ void draw_text(uint8_t* image, int w, int h, int nch, size_t stride, int x, int 
                     for (int dx = 0; dx < scale; ++dx) {
                         const int px = gx + col * scale + dx, py = y + r * scale + dy;
                         if (px < 0 || px >= max_x || py < 0 || py >= h) continue;
-                        uint8_t* p = image + static_cast<size_t>(py) * stride + static_cast<size_t>(px) * nch;
+                        uint8_t* p = image + static_cast<size_t>(py) * stride +
+                                     static_cast<size_t>(px) * nch;
                         for (int ch = 0; ch < nch; ++ch) p[ch] = colour[ch];
                     }
             }

@@ -15,9 +15,10 @@ uint8_t glyph_row(char c, int r);
 // Width in pixels of `text` drawn at `scale` (advance 6 per character, no trailing gap).
 int text_width(const std::string& text, int scale);
 
-// Draws `text` into an interleaved 8-bit image (nch channels, row stride in bytes) with its top-left
-// corner at (x, y), each font pixel a scale x scale square, clipped to [0, max_x) x [0, h).
-void draw_text(uint8_t* image, int w, int h, int nch, size_t stride, int x, int y, const std::string& text, int scale,
-               const uint8_t* colour, int max_x);
+// Draws `text` into an interleaved 8-bit image (nch channels, row stride in bytes) with its
+// top-left corner at (x, y), each font pixel a scale x scale square, clipped to [0, max_x) x [0,
+// h).
+void draw_text(uint8_t* image, int w, int h, int nch, size_t stride, int x, int y,
+               const std::string& text, int scale, const uint8_t* colour, int max_x);
 
 }  // namespace spectex

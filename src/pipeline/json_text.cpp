@@ -1,7 +1,7 @@
 #include "pipeline/json_text.h"
 
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 
 #include "spectral/error.h"
 #include "spectral/text.h"

@@ -2,10 +2,9 @@
 // The JSON documents spectex writes (bake --json, info/verify/sample/plan --json) are built as
 // nlohmann::ordered_json: keys stay in the order they are set, which the documentation lists and
 // scripts and tests may rely on. Strings and numbers go in through the helpers below.
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 namespace spectex {
 
@@ -27,9 +26,9 @@ void put_text_or_null(Json& object, const std::string& key, const std::string& t
 // object[key + "_bytes_hex"] = one entry each (the hex, or null for an entry that is UTF-8).
 void put_texts(Json& object, const std::string& key, const std::vector<std::string>& texts);
 
-// The number that printf(format, v) writes, as a JSON reader reads it: what the hand-written reports
-// printed, so values keep their precision ("%.9g") and integral text stays an integer ("380", not
-// "380.0"). null when v is not finite (JSON has no NaN or infinity).
+// The number that printf(format, v) writes, as a JSON reader reads it: what the hand-written
+// reports printed, so values keep their precision ("%.9g") and integral text stays an integer
+// ("380", not "380.0"). null when v is not finite (JSON has no NaN or infinity).
 Json json_number(double v, const char* format);
 // A number written as text (format_wavelength's "383.7"), as JSON reads it.
 Json json_number_text(const std::string& text);

@@ -10,16 +10,18 @@ namespace spectex {
 namespace {
 
 std::string label_of(const std::string& name) {
-    std::string base = name.substr(name.find_last_of('/') == std::string::npos ? 0 : name.find_last_of('/') + 1);
-    if (base.size() > 4 && base.compare(base.size() - 4, 4, ".csv") == 0) base.resize(base.size() - 4);
+    std::string base =
+        name.substr(name.find_last_of('/') == std::string::npos ? 0 : name.find_last_of('/') + 1);
+    if (base.size() > 4 && base.compare(base.size() - 4, 4, ".csv") == 0)
+        base.resize(base.size() - 4);
     if (base.rfind("illuminant_", 0) == 0 && base.size() > 11) base = base.substr(11);
     return base.empty() ? name : base;
 }
 
 }  // namespace
 
-Viewer Viewer::make(const std::string& data_dir, const std::string& observer, const std::vector<double>& lambdas,
-                    const std::vector<std::string>& lights) {
+Viewer Viewer::make(const std::string& data_dir, const std::string& observer,
+                    const std::vector<double>& lambdas, const std::vector<std::string>& lights) {
     Viewer v;
     v.observer = observer;
     const WavelengthGrid grid = WavelengthGrid::from_list(lambdas);

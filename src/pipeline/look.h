@@ -6,7 +6,8 @@
 // is linear Rec.709 through D65's white-consistent matrix (the matrix verify uses) after a Bradford
 // adaptation of L's white to D65's (both integrated on the same bins), so the perfect reflector is
 // RGB (1,1,1) under every light; under D65 the adaptation is the identity and the colour is
-// exactly verify's. Unadapted, XYZ relative to L goes through the same D65 matrix (the colour cast).
+// exactly verify's. Unadapted, XYZ relative to L goes through the same D65 matrix (the colour
+// cast).
 #include <Eigen/Dense>
 #include <string>
 #include <vector>
@@ -31,17 +32,17 @@ struct Viewer {
     std::vector<LightView> lights;
 
     // Throws Error for unknown lights/observers and for bins outside their tables.
-    static Viewer make(const std::string& data_dir, const std::string& observer, const std::vector<double>& lambdas,
-                       const std::vector<std::string>& lights);
+    static Viewer make(const std::string& data_dir, const std::string& observer,
+                       const std::vector<double>& lambdas, const std::vector<std::string>& lights);
 };
 
 struct PixelColour {
-    bool defined = true;             // false for premultiplied pixels with A <= 0
-    Eigen::Vector3d xyz{0, 0, 0};    // relative to the light (perfect reflector Y = 1)
-    Lab lab;                         // relative to the light's white
-    Eigen::Vector3d rgb{0, 0, 0};    // linear Rec.709, adapted to D65 (not clipped)
+    bool defined = true;           // false for premultiplied pixels with A <= 0
+    Eigen::Vector3d xyz{0, 0, 0};  // relative to the light (perfect reflector Y = 1)
+    Lab lab;                       // relative to the light's white
+    Eigen::Vector3d rgb{0, 0, 0};  // linear Rec.709, adapted to D65 (not clipped)
     Eigen::Vector3d rgb_unadapted{0, 0, 0};
-    int srgb[3] = {0, 0, 0};         // 8-bit sRGB codes of rgb (clipped)
+    int srgb[3] = {0, 0, 0};  // 8-bit sRGB codes of rgb (clipped)
     int srgb_unadapted[3] = {0, 0, 0};
 };
 

@@ -16,7 +16,8 @@ namespace {
 
 // The conditions a method is exact for (the basis fit's objective is not one of them).
 std::string conditions(const FitSpec& f) {
-    return f.primaries + " primaries, " + f.observer + ", " + f.illuminant + ", " + f.grid.describe();
+    return f.primaries + " primaries, " + f.observer + ", " + f.illuminant + ", " +
+           f.grid.describe();
 }
 
 }  // namespace
@@ -26,9 +27,11 @@ std::string MethodSpec::describe() const {
         char w[32];
         std::snprintf(w, sizeof w, "%g", blend);
         return "lattice " + std::to_string(lattice_size) + ", " + vertex_prior + " prior" +
-               (vertex_prior == "blend" ? std::string(" (weight ") + w + ")" : std::string()) + ", " + conditions(fit);
+               (vertex_prior == "blend" ? std::string(" (weight ") + w + ")" : std::string()) +
+               ", " + conditions(fit);
     }
-    if (method == "jakob-hanika") return "jakob-hanika table " + std::to_string(jh_resolution) + ", " + conditions(fit);
+    if (method == "jakob-hanika")
+        return "jakob-hanika table " + std::to_string(jh_resolution) + ", " + conditions(fit);
     return method + ", " + conditions(fit);
 }
 
@@ -41,17 +44,18 @@ MethodResult make_method(const MethodSpec& spec) {
     if (auto it = cache.find(key); it != cache.end()) return it->second;
     const auto t0 = std::chrono::steady_clock::now();
     Colorimetry c = Colorimetry::make(load_observer(spec.fit.data_dir, spec.fit.observer),
-                                      load_illuminant(spec.fit.data_dir, spec.fit.illuminant), spec.fit.grid,
-                                      primaries_by_name(spec.fit.primaries));
+                                      load_illuminant(spec.fit.data_dir, spec.fit.illuminant),
+                                      spec.fit.grid, primaries_by_name(spec.fit.primaries));
     MethodResult r;
     if (spec.method == "lattice") {
-        SpectralLattice lattice =
-            SpectralLattice::build(c, spec.lattice_size, parse_vertex_prior(spec.vertex_prior), spec.blend);
-        r.method = std::make_shared<LatticeMethod>(std::move(lattice), spec.fit.grid.lambda, conditions(spec.fit),
-                                                   spec.blend);
+        SpectralLattice lattice = SpectralLattice::build(
+            c, spec.lattice_size, parse_vertex_prior(spec.vertex_prior), spec.blend);
+        r.method = std::make_shared<LatticeMethod>(std::move(lattice), spec.fit.grid.lambda,
+                                                   conditions(spec.fit), spec.blend);
     } else if (spec.method == "jakob-hanika") {
-        r.method = std::make_shared<JakobHanikaMethod>(JakobHanikaTable::build(c, spec.jh_resolution),
-                                                       spec.fit.grid.lambda, conditions(spec.fit));
+        r.method =
+            std::make_shared<JakobHanikaMethod>(JakobHanikaTable::build(c, spec.jh_resolution),
+                                                spec.fit.grid.lambda, conditions(spec.fit));
     } else {
         throw Error("unknown method '" + spec.method + "' (basis, lattice, jakob-hanika)");
     }

@@ -11,13 +11,14 @@ namespace spectex {
 
 struct MethodSpec {
     std::string method = "lattice";  // lattice | jakob-hanika
-    FitSpec fit;                     // grid, observer, illuminant, primaries, data dir (objective unused)
+    FitSpec fit;  // grid, observer, illuminant, primaries, data dir (objective unused)
     int lattice_size = 9;
     std::string vertex_prior = "jakob-hanika";
-    double blend = 100;            // vertex prior "blend": weight of the smoothness term
+    double blend = 100;  // vertex prior "blend": weight of the smoothness term
     int jh_resolution = 33;
 
-    std::string describe() const;  // "lattice 9, jakob-hanika prior, srgb primaries, cie1931-2, D65, 380:780:5"
+    std::string describe()
+        const;  // "lattice 9, jakob-hanika prior, srgb primaries, cie1931-2, D65, 380:780:5"
 };
 
 struct MethodResult {

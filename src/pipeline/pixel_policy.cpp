@@ -10,7 +10,8 @@ namespace spectex {
 PolicedCounts police_rgba(float* rgba, size_t n, const Linearizer& lin, const PixelPolicy& policy,
                           const std::string& input, size_t width, int y0, uint8_t* changed) {
     auto where = [&](size_t i) {
-        return "at pixel (" + std::to_string(i % width) + ", " + std::to_string(y0 + static_cast<int>(i / width)) + ")";
+        return "at pixel (" + std::to_string(i % width) + ", " +
+               std::to_string(y0 + static_cast<int>(i / width)) + ")";
     };
     if (policy.straighten) {
         for (size_t i = 0; i < n; ++i) {
@@ -26,7 +27,8 @@ PolicedCounts police_rgba(float* rgba, size_t n, const Linearizer& lin, const Pi
         bool bad = false, out_of_range = false;
         for (int c = 0; c < 4; ++c) {
             if (!std::isfinite(p[c])) {
-                if (policy.nan == NanPolicy::Error) throw Error(input + ": non-finite value " + where(i) + " (--nan error)");
+                if (policy.nan == NanPolicy::Error)
+                    throw Error(input + ": non-finite value " + where(i) + " (--nan error)");
                 p[c] = 0.0f;
                 bad = true;
             }
@@ -34,8 +36,8 @@ PolicedCounts police_rgba(float* rgba, size_t n, const Linearizer& lin, const Pi
         for (int c = 0; c < 3; ++c) {
             if (p[c] < 0.0f || p[c] > 1.0f) {
                 if (policy.range == RangePolicy::Error)
-                    throw Error(input + ": linear value " + std::to_string(p[c]) + " outside [0, 1] " + where(i) +
-                                " (--out-of-range error)");
+                    throw Error(input + ": linear value " + std::to_string(p[c]) +
+                                " outside [0, 1] " + where(i) + " (--out-of-range error)");
                 if (policy.range == RangePolicy::Clamp) {
                     p[c] = std::min(1.0f, std::max(0.0f, p[c]));
                     out_of_range = true;

@@ -3,8 +3,10 @@
 // verify re-applies it to compare, plan --texture applies it to take a texture's colours.
 //   1. straighten: colour divided by alpha when the file's alpha is associated (0 < A != 1);
 //   2. linearise with the colour config (io/linearizer.h);
-//   3. NaN/Inf in any channel become 0 (--nan replace) or are an error naming the pixel (--nan error);
-//   4. linear colour outside [0, 1] is clamped per channel (--out-of-range clamp), kept, or an error.
+//   3. NaN/Inf in any channel become 0 (--nan replace) or are an error naming the pixel (--nan
+//   error);
+//   4. linear colour outside [0, 1] is clamped per channel (--out-of-range clamp), kept, or an
+//   error.
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -26,9 +28,11 @@ struct PolicedCounts {
 };
 
 // In place on n packed RGBA pixels, rows of `width` pixels starting at row y0 of `input` (for the
-// messages). changed (n bytes, optional): 1 where a pixel was replaced or clamped. Throws Error under
+// messages). changed (n bytes, optional): 1 where a pixel was replaced or clamped. Throws Error
+// under
 // --nan error / --out-of-range error.
 PolicedCounts police_rgba(float* rgba, size_t n, const Linearizer& lin, const PixelPolicy& policy,
-                          const std::string& input, size_t width, int y0, uint8_t* changed = nullptr);
+                          const std::string& input, size_t width, int y0,
+                          uint8_t* changed = nullptr);
 
 }  // namespace spectex

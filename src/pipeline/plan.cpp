@@ -53,7 +53,8 @@ std::shared_ptr<const SpectralMethod> build_method(const PlanSpec& s, const Wave
 Eigen::MatrixXd basis_matrix(const SpectralMethod& m) {
     const Basis& b = dynamic_cast<const BasisMethod&>(m).basis();
     Eigen::MatrixXd B(static_cast<Eigen::Index>(b.size()), 3);
-    for (size_t k = 0; k < b.size(); ++k) B.row(static_cast<Eigen::Index>(k)) << b.r[k], b.g[k], b.b[k];
+    for (size_t k = 0; k < b.size(); ++k)
+        B.row(static_cast<Eigen::Index>(k)) << b.r[k], b.g[k], b.b[k];
     return B;
 }
 
@@ -93,10 +94,12 @@ PlanResult plan_grids(const PlanSpec& spec) {
     const WavelengthGrid fine = renderer_grid(spec.range_start, spec.range_end);
     const Observer obs = load_observer(dir, spec.method.fit.observer);
     std::vector<LightWeights> lights;
-    for (const auto& name : spec.lights) lights.push_back(light_weights(obs, load_illuminant(dir, name), fine));
+    for (const auto& name : spec.lights)
+        lights.push_back(light_weights(obs, load_illuminant(dir, name), fine));
     for (size_t j = 0; j < lights.size(); ++j) lights[j].name = spec.lights[j];
     // The colours: the dense sample of the 8-bit cube, or the texture's own (every row on them).
-    std::vector<std::array<uint8_t, 3>> codes;  // 8-bit sRGB code of each colour (for the worst colour)
+    std::vector<std::array<uint8_t, 3>>
+        codes;  // 8-bit sRGB code of each colour (for the worst colour)
     std::vector<float> sr, sg, sb;
     std::string sample_text;
     if (spec.texture.empty()) {
@@ -107,40 +110,49 @@ PlanResult plan_grids(const PlanSpec& spec) {
             sg.push_back(static_cast<float>(t[c[1]]));
             sb.push_back(static_cast<float>(t[c[2]]));
         }
-        sample_text = thousands(codes.size()) + " colours (every " + std::to_string(spec.sample_stride) +
+        sample_text = thousands(codes.size()) + " colours (every " +
+                      std::to_string(spec.sample_stride) +
                       "th 8-bit sRGB code and 255 per axis, the cube's faces included)";
     } else {
-        const TextureColours tc = texture_colours(spec.texture, dir, spec.config, spec.colorspace, spec.max_pixels,
-                                                  spec.texture_cap);
-        if (tc.rgb.empty()) throw Error(spec.texture + ": no pixel with alpha above 0: no colour to plan for");
+        const TextureColours tc = texture_colours(spec.texture, dir, spec.config, spec.colorspace,
+                                                  spec.max_pixels, spec.texture_cap);
+        if (tc.rgb.empty())
+            throw Error(spec.texture + ": no pixel with alpha above 0: no colour to plan for");
         for (const auto& c : tc.rgb) {
             sr.push_back(c[0]);
             sg.push_back(c[1]);
             sb.push_back(c[2]);
-            auto code = [](float v) { return static_cast<uint8_t>(std::lround(255.0 * srgb_encode(v))); };
+            auto code = [](float v) {
+                return static_cast<uint8_t>(std::lround(255.0 * srgb_encode(v)));
+            };
             codes.push_back({{code(c[0]), code(c[1]), code(c[2])}});
         }
         sample_text = thousands(tc.rgb.size()) + " colours of " + spec.texture + " (" +
-                      (tc.rgb.size() < tc.distinct ? "an even subset of its " + thousands(tc.distinct) + " distinct ones, "
-                                                   : std::string("every distinct one, ")) +
+                      (tc.rgb.size() < tc.distinct
+                           ? "an even subset of its " + thousands(tc.distinct) + " distinct ones, "
+                           : std::string("every distinct one, ")) +
                       thousands(tc.pixels) + " pixels" +
-                      (tc.transparent ? ", " + thousands(tc.transparent) + " with alpha 0 left out" : std::string()) +
+                      (tc.transparent ? ", " + thousands(tc.transparent) + " with alpha 0 left out"
+                                      : std::string()) +
                       "; " + tc.colorspace + ")";
     }
     Eigen::Matrix3Xd srgb(3, static_cast<Eigen::Index>(sr.size()));
-    for (size_t i = 0; i < sr.size(); ++i) srgb.col(static_cast<Eigen::Index>(i)) << sr[i], sg[i], sb[i];
+    for (size_t i = 0; i < sr.size(); ++i)
+        srgb.col(static_cast<Eigen::Index>(i)) << sr[i], sg[i], sb[i];
     // A texture's colours are all there is: no cube.
     const std::string mode = spec.texture.empty() ? spec.colours : "sample";
     const char* row_colours = spec.texture.empty() ? "sample" : "texture";
 
-    const int threads =
-        spec.threads > 0 ? spec.threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+    const int threads = spec.threads > 0
+                            ? spec.threads
+                            : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
 
     std::shared_ptr<const SpectralMethod> ref;
     try {
         ref = build_method(spec, fine);
     } catch (const Error& e) {
-        throw Error("the reference (the method on " + fine.describe() + ", the renderer's range at 1 nm): " + e.what());
+        throw Error("the reference (the method on " + fine.describe() +
+                    ", the renderer's range at 1 nm): " + e.what());
     }
     const bool linear = spec.method.method == "basis";
 
@@ -152,20 +164,23 @@ PlanResult plan_grids(const PlanSpec& spec) {
         const size_t cut = res.method.rfind(", ");
         if (cut != std::string::npos) res.method = res.method.substr(0, cut);
     } else {
-        res.method += ", " + spec.method.fit.primaries + " primaries, " + spec.method.fit.observer + ", exact under " +
-                      spec.method.fit.illuminant;
+        res.method += ", " + spec.method.fit.primaries + " primaries, " + spec.method.fit.observer +
+                      ", exact under " + spec.method.fit.illuminant;
     }
 
-    std::vector<WavelengthGrid> grids = spec.candidates.empty() ? default_candidates(spec.range_start, spec.range_end)
-                                                                : spec.candidates;
+    std::vector<WavelengthGrid> grids = spec.candidates.empty()
+                                            ? default_candidates(spec.range_start, spec.range_end)
+                                            : spec.candidates;
     if (spec.nonuniform) {
-        if (!linear) throw Error("--nonuniform searches with the basis' 3x3 maps: it needs --method basis");
+        if (!linear)
+            throw Error("--nonuniform searches with the basis' 3x3 maps: it needs --method basis");
         const NonuniformSearch found =
-            search_nonuniform(spec, obs, load_illuminant(dir, spec.method.fit.illuminant), fine, lights,
-                              basis_matrix(*ref), grids, threads);
+            search_nonuniform(spec, obs, load_illuminant(dir, spec.method.fit.illuminant), fine,
+                              lights, basis_matrix(*ref), grids, threads);
         for (const auto& g : found.grids)
-            if (std::none_of(grids.begin(), grids.end(),
-                             [&](const WavelengthGrid& u) { return same_wavelengths(u.lambda, g.lambda); }))
+            if (std::none_of(grids.begin(), grids.end(), [&](const WavelengthGrid& u) {
+                    return same_wavelengths(u.lambda, g.lambda);
+                }))
                 grids.push_back(g);
         res.search = found.note;
     }
@@ -190,12 +205,15 @@ PlanResult plan_grids(const PlanSpec& spec) {
 
     // Half rounding as a bake does it: colour-aware, under the conditions the method is exact for.
     auto rgb_weight_for = [&](const WavelengthGrid& g) {
-        const Colorimetry c = Colorimetry::make(obs, load_illuminant(dir, spec.method.fit.illuminant), g,
-                                                primaries_by_name(spec.method.fit.primaries));
+        const Colorimetry c =
+            Colorimetry::make(obs, load_illuminant(dir, spec.method.fit.illuminant), g,
+                              primaries_by_name(spec.method.fit.primaries));
         const Eigen::Matrix3Xd R = c.rgb_weights();
         std::vector<float> w(3 * g.size());
         for (size_t k = 0; k < g.size(); ++k)
-            for (int ch = 0; ch < 3; ++ch) w[3 * k + static_cast<size_t>(ch)] = static_cast<float>(R(ch, static_cast<Eigen::Index>(k)));
+            for (int ch = 0; ch < 3; ++ch)
+                w[3 * k + static_cast<size_t>(ch)] =
+                    static_cast<float>(R(ch, static_cast<Eigen::Index>(k)));
         return w;
     };
     for (auto& row : res.rows) row.lights.resize(lights.size());
@@ -210,7 +228,8 @@ PlanResult plan_grids(const PlanSpec& spec) {
                 row.worst = le.worst;
                 row.worst_light = le.light;
             }
-            if (le.worst > spec.max_de) over += (over.empty() ? "" : ", ") + le.light + " " + fmt(le.worst);
+            if (le.worst > spec.max_de)
+                over += (over.empty() ? "" : ", ") + le.light + " " + fmt(le.worst);
         }
         row.passes = over.empty();
         row.why = row.passes ? "" : "fails: " + over + " > " + fmt(spec.max_de);
@@ -218,19 +237,21 @@ PlanResult plan_grids(const PlanSpec& spec) {
         row.why += " on the full cube";
     };
 
-    std::vector<std::vector<Eigen::Matrix3Xd>> recon(res.rows.size());  // per row, per light: W_L·R_G
+    std::vector<std::vector<Eigen::Matrix3Xd>> recon(
+        res.rows.size());  // per row, per light: W_L·R_G
     for (size_t i = 0; i < res.rows.size(); ++i) {
         if (!methods[i]) continue;
-        const Eigen::MatrixXd R = reconstruction_matrix(grids[i].lambda, fine.lambda, spec.reconstruction);
+        const Eigen::MatrixXd R =
+            reconstruction_matrix(grids[i].lambda, fine.lambda, spec.reconstruction);
         for (const auto& lw : lights) recon[i].push_back(lw.W * R);
         for (size_t j = 0; j < lights.size(); ++j) res.rows[i].lights[j].light = lights[j].name;
     }
 
     if (linear) {
         // Colour is a 3×3 map of linear RGB: M_G = W_L·R_G·B_G for the candidate, W_L·B_1nm for the
-        // reference. The sample gives every row's figures (with the real half rounding); the full cube
-        // (float maps, plus the largest change half rounding made to any sample colour's error) is
-        // computed for every row with "cube", for the chosen row with "auto".
+        // reference. The sample gives every row's figures (with the real half rounding); the full
+        // cube (float maps, plus the largest change half rounding made to any sample colour's
+        // error) is computed for every row with "cube", for the chosen row with "auto".
         const Eigen::MatrixXd Bref = basis_matrix(*ref);
         std::vector<Eigen::Matrix3d> Mref;
         std::vector<std::vector<Eigen::Matrix3d>> M(res.rows.size());
@@ -247,13 +268,16 @@ PlanResult plan_grids(const PlanSpec& spec) {
             for (size_t j = 0; j < lights.size(); ++j) {
                 const Eigen::Matrix3Xd ref_xyz = Mref[j] * srgb;
                 std::vector<double> de_float, de_half;
-                const DeltaEHistogram hf = xyz_error(M[i][j] * srgb, ref_xyz, lights[j].white, &de_float);
+                const DeltaEHistogram hf =
+                    xyz_error(M[i][j] * srgb, ref_xyz, lights[j].white, &de_float);
                 LightError& le = res.rows[i].lights[j];
                 ErrorStats st = stats_of(hf, &codes);
                 if (spec.half) {
-                    st = stats_of(xyz_error(half_xyz[j], ref_xyz, lights[j].white, &de_half), &codes);
+                    st = stats_of(xyz_error(half_xyz[j], ref_xyz, lights[j].white, &de_half),
+                                  &codes);
                     for (size_t k = 0; k < de_half.size(); ++k)
-                        le.half_shift = std::max(le.half_shift, std::fabs(de_half[k] - de_float[k]));
+                        le.half_shift =
+                            std::max(le.half_shift, std::fabs(de_half[k] - de_float[k]));
                 }
                 le.worst = st.worst;
                 le.p99 = st.p99;
@@ -281,12 +305,15 @@ PlanResult plan_grids(const PlanSpec& spec) {
                 if (methods[i]) all.push_back(i);
             on_cube(all);
         }
-        res.colours = mode == "sample" ? sample_text
-                                               : "all " + thousands(16777216) + " 8-bit sRGB colours" +
-                                                     std::string(mode == "auto" ? " for the chosen grid, " : " for every grid") +
-                                                     (mode == "auto" ? sample_text + " for the others" : "");
+        res.colours =
+            mode == "sample"
+                ? sample_text
+                : "all " + thousands(16777216) + " 8-bit sRGB colours" +
+                      std::string(mode == "auto" ? " for the chosen grid, " : " for every grid") +
+                      (mode == "auto" ? sample_text + " for the others" : "");
         if (spec.half && mode != "sample")
-            res.colours += "; on the cube, half rounding's largest change of a sample colour's error is added";
+            res.colours +=
+                "; on the cube, half rounding's largest change of a sample colour's error is added";
         for (auto& row : res.rows)
             if (row.ok) judge(row);
         if (mode == "auto") {
@@ -303,7 +330,8 @@ PlanResult plan_grids(const PlanSpec& spec) {
                 }
                 bool verified = false;
                 for (const auto& row : res.rows)
-                    if (row.passes && row.colours == "cube" && (pick < 0 || row.bins <= res.rows[static_cast<size_t>(pick)].bins))
+                    if (row.passes && row.colours == "cube" &&
+                        (pick < 0 || row.bins <= res.rows[static_cast<size_t>(pick)].bins))
                         verified = true;
                 if (pick < 0 || verified) break;
                 on_cube({static_cast<size_t>(pick)});
@@ -318,9 +346,11 @@ PlanResult plan_grids(const PlanSpec& spec) {
             if (!methods[i]) continue;
             std::vector<float> w;
             if (spec.half) w = rgb_weight_for(grids[i]);
-            const auto xyz = method_xyz(*methods[i], recon[i], sr, sg, sb, spec.half, spec.half ? &w : nullptr);
+            const auto xyz =
+                method_xyz(*methods[i], recon[i], sr, sg, sb, spec.half, spec.half ? &w : nullptr);
             for (size_t j = 0; j < lights.size(); ++j) {
-                const ErrorStats st = stats_of(xyz_error(xyz[j], ref_xyz[j], lights[j].white), &codes);
+                const ErrorStats st =
+                    stats_of(xyz_error(xyz[j], ref_xyz[j], lights[j].white), &codes);
                 LightError& le = res.rows[i].lights[j];
                 le.worst = st.worst;
                 le.p99 = st.p99;
@@ -333,10 +363,11 @@ PlanResult plan_grids(const PlanSpec& spec) {
     }
 
     for (size_t i = 0; i < res.rows.size(); ++i)
-        if (res.rows[i].ok && (res.best < 0 || res.rows[i].worst < res.rows[static_cast<size_t>(res.best)].worst))
+        if (res.rows[i].ok &&
+            (res.best < 0 || res.rows[i].worst < res.rows[static_cast<size_t>(res.best)].worst))
             res.best = static_cast<int>(i);
-    // Rows are sorted by bins (bytes and time grow with them): the first that passes, and among equal
-    // bins the smaller error; with "auto", only a row checked on the full cube.
+    // Rows are sorted by bins (bytes and time grow with them): the first that passes, and among
+    // equal bins the smaller error; with "auto", only a row checked on the full cube.
     for (size_t i = 0; i < res.rows.size(); ++i) {
         const GridRow& row = res.rows[i];
         if (!row.passes || (linear && mode == "auto" && row.colours != "cube")) continue;
@@ -353,8 +384,9 @@ PlanResult plan_grids(const PlanSpec& spec) {
             row.why = "chosen: the fewest bins within " + fmt(spec.max_de) + " under every light";
         else if (row.passes && res.chosen >= 0)
             row.why = "meets the budget, but " +
-                      (row.bins > res.rows[static_cast<size_t>(res.chosen)].bins ? std::string("more bins")
-                                                                                 : std::string("a larger error")) +
+                      (row.bins > res.rows[static_cast<size_t>(res.chosen)].bins
+                           ? std::string("more bins")
+                           : std::string("a larger error")) +
                       " than " + grid_label(res.rows[static_cast<size_t>(res.chosen)].grid);
     }
     res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -365,14 +397,17 @@ std::string plan_table(const PlanSpec& spec, const PlanResult& r) {
     std::ostringstream o;
     std::string lights;
     for (const auto& l : spec.lights) lights += (lights.empty() ? "" : ", ") + l;
-    o << "spectex plan: budget " << fmt(spec.max_de) << " ΔE00 (worst colour) under " << lights << "\n";
+    o << "spectex plan: budget " << fmt(spec.max_de) << " ΔE00 (worst colour) under " << lights
+      << "\n";
     o << "  renderer: " << to_string(spec.reconstruction) << " reconstruction, held past the ends, "
       << fmt(spec.range_start, "%g") << "-" << fmt(spec.range_end, "%g") << " nm at 1 nm\n";
     o << "  method:   " << r.method << ", " << (spec.half ? "half" : "float") << "\n";
     o << "  colours:  " << r.colours << "\n";
-    o << "  time:     relative to 81 bins, modelled as 0.24 + 0.76 * bins / 81; bytes: spectral channels only\n\n";
+    o << "  time:     relative to 81 bins, modelled as 0.24 + 0.76 * bins / 81; bytes: spectral "
+         "channels only\n\n";
     char buf[256];
-    std::snprintf(buf, sizeof buf, "  %-15s %5s %6s %5s %-6s", "grid", "bins", "B/px", "time", "over");
+    std::snprintf(buf, sizeof buf, "  %-15s %5s %6s %5s %-6s", "grid", "bins", "B/px", "time",
+                  "over");
     o << buf;
     for (const auto& l : spec.lights) {
         std::snprintf(buf, sizeof buf, "  %15s", (l + " worst/p99").c_str());
@@ -381,9 +416,9 @@ std::string plan_table(const PlanSpec& spec, const PlanResult& r) {
     o << "  verdict\n";
     for (size_t i = 0; i < r.rows.size(); ++i) {
         const GridRow& row = r.rows[i];
-        std::snprintf(buf, sizeof buf, "%s %-15s %5d %6d %5.2f %-6s", static_cast<int>(i) == r.chosen ? "*" : " ",
-                      grid_label(row.grid).c_str(), row.bins, row.bytes_per_pixel, row.relative_time,
-                      row.colours.c_str());
+        std::snprintf(buf, sizeof buf, "%s %-15s %5d %6d %5.2f %-6s",
+                      static_cast<int>(i) == r.chosen ? "*" : " ", grid_label(row.grid).c_str(),
+                      row.bins, row.bytes_per_pixel, row.relative_time, row.colours.c_str());
         o << buf;
         for (const auto& le : row.lights) {
             std::string cell = row.ok ? fmt(le.worst) + " / " + fmt(le.p99) : "-";
@@ -394,12 +429,14 @@ std::string plan_table(const PlanSpec& spec, const PlanResult& r) {
     }
     o << "\n";
     for (const auto& row : r.rows)
-        if (!row.grid.uniform) o << "  " << grid_label(row.grid) << ": " << wavelength_list(row.grid) << " nm\n";
+        if (!row.grid.uniform)
+            o << "  " << grid_label(row.grid) << ": " << wavelength_list(row.grid) << " nm\n";
     if (!r.search.empty()) o << "  " << r.search << "\n\n";
     if (r.chosen >= 0)
-        o << "* " << grid_label(r.rows[static_cast<size_t>(r.chosen)].grid) << ": the cheapest grid within "
-          << fmt(spec.max_de) << " ΔE00 under every light (worst " << fmt(r.rows[static_cast<size_t>(r.chosen)].worst)
-          << " under " << r.rows[static_cast<size_t>(r.chosen)].worst_light << ")\n";
+        o << "* " << grid_label(r.rows[static_cast<size_t>(r.chosen)].grid)
+          << ": the cheapest grid within " << fmt(spec.max_de) << " ΔE00 under every light (worst "
+          << fmt(r.rows[static_cast<size_t>(r.chosen)].worst) << " under "
+          << r.rows[static_cast<size_t>(r.chosen)].worst_light << ")\n";
     else
         o << plan_failure(spec, r) << "\n";
     o << "  (" << fmt(r.seconds, "%.1f") << " s)\n";
@@ -410,7 +447,8 @@ std::string plan_failure(const PlanSpec& spec, const PlanResult& r) {
     std::string s = "no candidate grid meets " + fmt(spec.max_de) + " ΔE00 under every light";
     if (r.best >= 0) {
         const GridRow& b = r.rows[static_cast<size_t>(r.best)];
-        s += ": the best achievable is " + fmt(b.worst) + " (" + grid_label(b.grid) + ", under " + b.worst_light + ")";
+        s += ": the best achievable is " + fmt(b.worst) + " (" + grid_label(b.grid) + ", under " +
+             b.worst_light + ")";
     } else {
         s += ": the method could not be built on any of them";
     }
@@ -431,7 +469,8 @@ std::string plan_json(const PlanSpec& spec, const PlanResult& r) {
     j["nonuniform"] = spec.nonuniform;
     put_text(j, "search", r.search);
     j["seconds"] = num(r.seconds);
-    j["chosen"] = r.chosen >= 0 ? Json(grid_label(r.rows[static_cast<size_t>(r.chosen)].grid)) : Json(nullptr);
+    j["chosen"] = r.chosen >= 0 ? Json(grid_label(r.rows[static_cast<size_t>(r.chosen)].grid))
+                                : Json(nullptr);
     if (r.best >= 0) {
         const GridRow& best = r.rows[static_cast<size_t>(r.best)];
         j["best"] = {{"grid", grid_label(best.grid)}, {"worst", num(best.worst)}};
@@ -448,7 +487,8 @@ std::string plan_json(const PlanSpec& spec, const PlanResult& r) {
         g["step"] = row.grid.uniform ? num(row.grid.step) : Json(nullptr);
         g["uniform"] = row.grid.uniform;
         Json wavelengths = Json::array();
-        for (double l : row.grid.lambda) wavelengths.push_back(json_number_text(format_wavelength(l)));
+        for (double l : row.grid.lambda)
+            wavelengths.push_back(json_number_text(format_wavelength(l)));
         g["wavelengths"] = std::move(wavelengths);
         g["bins"] = row.bins;
         g["bytes_per_pixel"] = row.bytes_per_pixel;
@@ -488,7 +528,8 @@ std::pair<double, double> parse_plan_range(const std::string& spec) {
         throw Error("'" + spec + "' is not START:END in nm");
     const std::string a = spec.substr(0, colon), b = spec.substr(colon + 1);
     double lo = 0, hi = 0;
-    if (!parse_finite(a, &lo) || !parse_finite(b, &hi)) throw Error("'" + spec + "' is not START:END in nm");
+    if (!parse_finite(a, &lo) || !parse_finite(b, &hi))
+        throw Error("'" + spec + "' is not START:END in nm");
     renderer_grid(lo, hi);  // whole nm, START < END
     return {lo, hi};
 }

@@ -15,7 +15,7 @@ namespace spectex {
 
 struct PlanSpec {
     std::vector<std::string> lights = {"D65", "A", "FL11"};
-    double max_de = 0.5;                    // budget on the worst ΔE00 under every light
+    double max_de = 0.5;  // budget on the worst ΔE00 under every light
     Reconstruction reconstruction = Reconstruction::Linear;
     double range_start = 360, range_end = 830;  // the renderer's range, nm
     // method.method: basis | lattice | jakob-hanika; method.fit: data dir, observer, the illuminant
@@ -25,8 +25,9 @@ struct PlanSpec {
     std::vector<WavelengthGrid> candidates;  // empty: default_candidates()
     int threads = 0;                         // 0: hardware concurrency
     int sample_stride = 4;                   // the dense sample (code_sample)
-    // Which colours decide (the basis only; other methods always use the sample): "auto" every row on
-    // the sample and the chosen one on all 16,777,216 codes, "cube" every row on the cube, "sample".
+    // Which colours decide (the basis only; other methods always use the sample): "auto" every row
+    // on the sample and the chosen one on all 16,777,216 codes, "cube" every row on the cube,
+    // "sample".
     std::string colours = "auto";
     // Also search non-uniform grids (plan_search.h; the basis only) and offer those that need fewer
     // bins than every uniform candidate.
@@ -61,21 +62,21 @@ struct GridRow {
     int bytes_per_pixel = 0;  // spectral channels only (alpha not counted)
     double relative_time = 0;
     std::vector<LightError> lights;
-    double worst = 0;         // over the lights
+    double worst = 0;  // over the lights
     std::string worst_light;
-    bool ok = true;           // the method could be built on the grid
+    bool ok = true;  // the method could be built on the grid
     bool passes = false;
-    std::string colours;      // "cube" (all 8-bit codes) or "sample": what the figures are over
-    std::string why;          // why it fails (or the note for the chosen grid)
+    std::string colours;  // "cube" (all 8-bit codes) or "sample": what the figures are over
+    std::string why;      // why it fails (or the note for the chosen grid)
 };
 
 struct PlanResult {
     std::vector<GridRow> rows;
-    int chosen = -1;          // cheapest passing row, -1 when none
-    int best = -1;            // lowest worst error
-    std::string colours;      // how the colours were taken, for the report
-    std::string method;       // the method and conditions
-    std::string search;       // with --nonuniform: what the search found (plan_search.h)
+    int chosen = -1;      // cheapest passing row, -1 when none
+    int best = -1;        // lowest worst error
+    std::string colours;  // how the colours were taken, for the report
+    std::string method;   // the method and conditions
+    std::string search;   // with --nonuniform: what the search found (plan_search.h)
     double seconds = 0;
 };
 

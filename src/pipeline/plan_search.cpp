@@ -19,8 +19,9 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kSearchStride = 17;
-constexpr int kMaxStartBins = 64;   // removal from a start of n bins costs about n²/2 trials
-constexpr int kMaxSearchBins = 160;  // when no uniform candidate meets the budget  // 0, 17, ..., 238 and 255: 16 values per axis, 4,096 colours
+constexpr int kMaxStartBins = 64;    // removal from a start of n bins costs about n²/2 trials
+constexpr int kMaxSearchBins = 160;  // when no uniform candidate meets the budget  // 0, 17, ...,
+                                     // 238 and 255: 16 values per axis, 4,096 colours
 
 // What every trial shares: the colours, their reference L*a*b* under each light.
 struct SearchContext {
@@ -29,8 +30,8 @@ struct SearchContext {
     const Spectrum& exact_under;
     const WavelengthGrid& fine;
     const std::vector<LightWeights>& lights;
-    Eigen::Matrix3Xd rgb;                  // linear RGB, the most saturated colours first
-    std::vector<std::vector<Lab>> ref;     // per light, per colour
+    Eigen::Matrix3Xd rgb;               // linear RGB, the most saturated colours first
+    std::vector<std::vector<Lab>> ref;  // per light, per colour
 
     SearchContext(const PlanSpec& s, const Observer& o, const Spectrum& e, const WavelengthGrid& f,
                   const std::vector<LightWeights>& l, const Eigen::MatrixXd& reference)
@@ -62,20 +63,24 @@ struct SearchContext {
     double error(const WavelengthGrid& grid, double bound = kInf) const {
         Eigen::MatrixXd B;
         try {
-            FitRequest req{Colorimetry::make(observer, exact_under, grid, primaries_by_name(spec.method.fit.primaries)),
+            FitRequest req{Colorimetry::make(observer, exact_under, grid,
+                                             primaries_by_name(spec.method.fit.primaries)),
                            parse_objective(spec.method.fit.objective), false};
             const Basis b = fit_basis(req).basis;
             B.resize(static_cast<Eigen::Index>(b.size()), 3);
-            for (size_t k = 0; k < b.size(); ++k) B.row(static_cast<Eigen::Index>(k)) << b.r[k], b.g[k], b.b[k];
+            for (size_t k = 0; k < b.size(); ++k)
+                B.row(static_cast<Eigen::Index>(k)) << b.r[k], b.g[k], b.b[k];
         } catch (const Error&) {
             return kInf;
         }
-        const Eigen::MatrixXd R = reconstruction_matrix(grid.lambda, fine.lambda, spec.reconstruction);
+        const Eigen::MatrixXd R =
+            reconstruction_matrix(grid.lambda, fine.lambda, spec.reconstruction);
         double worst = 0;
         for (size_t j = 0; j < lights.size(); ++j) {
             const Eigen::Matrix3d M = lights[j].W * R * B;
             for (Eigen::Index i = 0; i < rgb.cols(); ++i) {
-                const double de = ciede2000(ref[j][static_cast<size_t>(i)], lab_from_xyz(M * rgb.col(i), lights[j].white));
+                const double de = ciede2000(ref[j][static_cast<size_t>(i)],
+                                            lab_from_xyz(M * rgb.col(i), lights[j].white));
                 if (!(de <= worst)) worst = std::isnan(de) ? kInf : de;
                 if (worst > bound) return worst;
             }
@@ -105,10 +110,12 @@ double search_error(const PlanSpec& spec, const Observer& observer, const Spectr
     return SearchContext(spec, observer, exact_under, fine, lights, reference).error(grid);
 }
 
-NonuniformSearch search_nonuniform(const PlanSpec& spec, const Observer& observer, const Spectrum& exact_under,
-                                   const WavelengthGrid& fine, const std::vector<LightWeights>& lights,
-                                   const Eigen::MatrixXd& reference, const std::vector<WavelengthGrid>& uniform,
-                                   int threads, int trail) {
+NonuniformSearch search_nonuniform(const PlanSpec& spec, const Observer& observer,
+                                   const Spectrum& exact_under, const WavelengthGrid& fine,
+                                   const std::vector<LightWeights>& lights,
+                                   const Eigen::MatrixXd& reference,
+                                   const std::vector<WavelengthGrid>& uniform, int threads,
+                                   int trail) {
     const auto t0 = std::chrono::steady_clock::now();
     const SearchContext ctx(spec, observer, exact_under, fine, lights, reference);
     NonuniformSearch out;
@@ -121,12 +128,15 @@ NonuniformSearch search_nonuniform(const PlanSpec& spec, const Observer& observe
         ++trials;
     });
     for (size_t i = 0; i < uniform.size(); ++i)
-        if (uerr[i] <= spec.max_de && (out.uniform_bins == 0 || static_cast<int>(uniform[i].size()) < out.uniform_bins))
+        if (uerr[i] <= spec.max_de &&
+            (out.uniform_bins == 0 || static_cast<int>(uniform[i].size()) < out.uniform_bins))
             out.uniform_bins = static_cast<int>(uniform[i].size());
 
     // Greedy removal from uniform starts over each range: drop the bin whose loss raises the worst
-    // error least, while the grid stays within the budget; the trail keeps the last grids that held.
-    std::vector<std::pair<double, double>> ranges = {{400, 700}, {380, 780}, {spec.range_start, spec.range_end}};
+    // error least, while the grid stays within the budget; the trail keeps the last grids that
+    // held.
+    std::vector<std::pair<double, double>> ranges = {
+        {400, 700}, {380, 780}, {spec.range_start, spec.range_end}};
     std::sort(ranges.begin(), ranges.end());
     ranges.erase(std::unique(ranges.begin(), ranges.end()), ranges.end());
     std::vector<std::pair<WavelengthGrid, double>> starts;  // a grid that holds, and its error
@@ -136,7 +146,8 @@ NonuniformSearch search_nonuniform(const PlanSpec& spec, const Observer& observe
         // kMaxStartBins bins: removal costs bins² trials).
         int found = 0;
         for (double step : {10.0, 5.0, 4.0, 2.5}) {
-            WavelengthGrid g = WavelengthGrid::uniform_grid(lo, lo + std::floor((hi - lo) / step + 1e-9) * step, step);
+            WavelengthGrid g = WavelengthGrid::uniform_grid(
+                lo, lo + std::floor((hi - lo) / step + 1e-9) * step, step);
             if (static_cast<int>(g.size()) > kMaxStartBins) break;
             ++trials;
             const double e = ctx.error(g);
@@ -165,7 +176,8 @@ NonuniformSearch search_nonuniform(const PlanSpec& spec, const Observer& observe
                 }
                 ++trials;
             });
-            const size_t pick = static_cast<size_t>(std::min_element(errs.begin(), errs.end()) - errs.begin());
+            const size_t pick =
+                static_cast<size_t>(std::min_element(errs.begin(), errs.end()) - errs.begin());
             if (!(errs[pick] <= spec.max_de)) break;
             std::vector<double> l = g.lambda;
             l.erase(l.begin() + static_cast<std::ptrdiff_t>(pick));
@@ -178,29 +190,34 @@ NonuniformSearch search_nonuniform(const PlanSpec& spec, const Observer& observe
             out.best_worst = err;
         }
         // The last grids that held, fewer bins than the cheapest uniform one.
-        for (size_t k = held.size() > static_cast<size_t>(trail) + 1 ? held.size() - static_cast<size_t>(trail) - 1 : 0;
+        for (size_t k = held.size() > static_cast<size_t>(trail) + 1
+                            ? held.size() - static_cast<size_t>(trail) - 1
+                            : 0;
              k < held.size(); ++k)
-            if (out.uniform_bins == 0 || static_cast<int>(held[k].size()) < out.uniform_bins) out.grids.push_back(held[k]);
+            if (out.uniform_bins == 0 || static_cast<int>(held[k].size()) < out.uniform_bins)
+                out.grids.push_back(held[k]);
     }
     out.trials = trials.load();
     out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     char buf[320];
     if (out.best_bins > 0 && (out.uniform_bins == 0 || out.best_bins < out.uniform_bins))
         std::snprintf(buf, sizeof buf,
-                      "non-uniform search: %d bins within the budget on the search colours (%.3g), the cheapest "
+                      "non-uniform search: %d bins within the budget on the search colours (%.3g), "
+                      "the cheapest "
                       "uniform grid %d; %ld trials, %.1f s",
                       out.best_bins, out.best_worst, out.uniform_bins, out.trials, out.seconds);
     else if (out.best_bins > 0)
         std::snprintf(buf, sizeof buf,
-                      "non-uniform search: none with fewer bins than the cheapest uniform grid (%d): the fewest that "
+                      "non-uniform search: none with fewer bins than the cheapest uniform grid "
+                      "(%d): the fewest that "
                       "held was %d; %ld trials, %.1f s",
                       out.uniform_bins, out.best_bins, out.trials, out.seconds);
     else
         std::snprintf(buf, sizeof buf,
-                      "non-uniform search: no uniform start (10, 5, 4 or 2.5 nm, at most %d bins) holds the budget "
+                      "non-uniform search: no uniform start (10, 5, 4 or 2.5 nm, at most %d bins) "
+                      "holds the budget "
                       "on the search colours; %ld trials, %.1f s",
-                      kMaxStartBins,
-                      out.trials, out.seconds);
+                      kMaxStartBins, out.trials, out.seconds);
     out.note = buf;
     return out;
 }

@@ -34,21 +34,24 @@ struct NonuniformSearch {
     // Grids on the greedy trails whose search error is within the budget (the first of each trail
     // and up to `trail` more bins), fewer bins than the cheapest passing uniform grid.
     std::vector<WavelengthGrid> grids;
-    int uniform_bins = 0;      // the cheapest uniform candidate within the budget on the search colours (0: none)
-    int best_bins = 0;         // the fewest bins a trail reached within the budget (0: none)
-    double best_worst = 0;     // its search error
-    long trials = 0;           // basis fits and evaluations
+    int uniform_bins =
+        0;  // the cheapest uniform candidate within the budget on the search colours (0: none)
+    int best_bins = 0;      // the fewest bins a trail reached within the budget (0: none)
+    double best_worst = 0;  // its search error
+    long trials = 0;        // basis fits and evaluations
     double seconds = 0;
-    std::string note;          // one line for the report: what the search found, or why it found nothing
+    std::string note;  // one line for the report: what the search found, or why it found nothing
 };
 
 // `lights` are the scene's 1 nm weights over `fine` (the renderer's range), `reference` the basis
 // fitted on `fine` (fine.size() × 3). `exact_under` is the illuminant the basis is exact for.
 // `uniform` are the plan's uniform candidates (their search error sets the bins to beat).
-NonuniformSearch search_nonuniform(const PlanSpec& spec, const Observer& observer, const Spectrum& exact_under,
-                                   const WavelengthGrid& fine, const std::vector<LightWeights>& lights,
-                                   const Eigen::MatrixXd& reference, const std::vector<WavelengthGrid>& uniform,
-                                   int threads, int trail = 3);
+NonuniformSearch search_nonuniform(const PlanSpec& spec, const Observer& observer,
+                                   const Spectrum& exact_under, const WavelengthGrid& fine,
+                                   const std::vector<LightWeights>& lights,
+                                   const Eigen::MatrixXd& reference,
+                                   const std::vector<WavelengthGrid>& uniform, int threads,
+                                   int trail = 3);
 
 // The search's error of one grid: the worst ΔE00 over the search colours and the lights, or +inf
 // when no exact basis exists on the grid. Exposed for the tests.

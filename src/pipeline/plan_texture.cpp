@@ -14,7 +14,9 @@ namespace {
 
 struct Key {
     uint32_t v[3];
-    bool operator==(const Key& o) const { return v[0] == o.v[0] && v[1] == o.v[1] && v[2] == o.v[2]; }
+    bool operator==(const Key& o) const {
+        return v[0] == o.v[0] && v[1] == o.v[1] && v[2] == o.v[2];
+    }
 };
 struct KeyHash {
     size_t operator()(const Key& k) const {
@@ -26,15 +28,18 @@ struct KeyHash {
 
 }  // namespace
 
-TextureColours texture_colours(const std::string& path, const std::string& data_dir, const std::string& config,
-                               const std::string& colorspace, uint64_t max_pixels, size_t cap) {
+TextureColours texture_colours(const std::string& path, const std::string& data_dir,
+                               const std::string& config, const std::string& colorspace,
+                               uint64_t max_pixels, size_t cap) {
     auto src = ImageSource::open(path, max_pixels);
     const SourceInfo& info = src->info();
-    Linearizer lin = Linearizer::make(ColourRequest{data_dir, config, colorspace, path, info.colorspace_hint});
+    Linearizer lin =
+        Linearizer::make(ColourRequest{data_dir, config, colorspace, path, info.colorspace_hint});
     if (!info.is_float) lin.use_code_table(info.bits);
     TextureColours out;
     out.colorspace = lin.input_space() + " (" + lin.how_chosen() + ")";
-    const PixelPolicy policy{info.alpha == AlphaKind::Associated, NanPolicy::Replace, RangePolicy::Clamp};
+    const PixelPolicy policy{info.alpha == AlphaKind::Associated, NanPolicy::Replace,
+                             RangePolicy::Clamp};
     std::unordered_map<Key, uint32_t, KeyHash> seen;
     std::vector<std::array<float, 3>> all;
     const size_t w = static_cast<size_t>(info.width);
@@ -57,7 +62,8 @@ TextureColours texture_colours(const std::string& path, const std::string& data_
             std::memcpy(k.v, p, sizeof k.v);
             for (uint32_t& x : k.v)
                 if (x == 0x80000000u) x = 0;  // -0 is 0
-            if (seen.emplace(k, static_cast<uint32_t>(all.size())).second) all.push_back({p[0], p[1], p[2]});
+            if (seen.emplace(k, static_cast<uint32_t>(all.size())).second)
+                all.push_back({p[0], p[1], p[2]});
         }
     }
     out.distinct = all.size();

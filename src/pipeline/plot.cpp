@@ -20,14 +20,24 @@ std::string xml(const std::string& s) {
     std::string o;
     for (char c : s) {
         switch (c) {
-            case '&': o += "&amp;"; break;
-            case '<': o += "&lt;"; break;
-            case '>': o += "&gt;"; break;
-            case '"': o += "&quot;"; break;
+            case '&':
+                o += "&amp;";
+                break;
+            case '<':
+                o += "&lt;";
+                break;
+            case '>':
+                o += "&gt;";
+                break;
+            case '"':
+                o += "&quot;";
+                break;
             default:
                 // Control bytes are not allowed in XML 1.0.
-                if (static_cast<unsigned char>(c) < 0x20 && c != '\t') o += '?';
-                else o += c;
+                if (static_cast<unsigned char>(c) < 0x20 && c != '\t')
+                    o += '?';
+                else
+                    o += c;
         }
     }
     return o;
@@ -55,8 +65,8 @@ double nice_step(double range, int target) {
 
 }  // namespace
 
-std::string plot_svg(const std::string& exr_path, const std::vector<std::pair<int, int>>& xy, const PlotSettings& s,
-                     PlotReport* report) {
+std::string plot_svg(const std::string& exr_path, const std::vector<std::pair<int, int>>& xy,
+                     const PlotSettings& s, PlotReport* report) {
     SpectralReader reader(exr_path);
     const std::vector<double> lambda = reader.wavelengths();
     std::vector<std::string> lights{"D65"};
@@ -71,7 +81,8 @@ std::string plot_svg(const std::string& exr_path, const std::vector<std::pair<in
     const std::vector<PixelSpectrum> px = reader.read_pixels(xy);
     const bool divide = reader.alpha() == "associated";
 
-    const double x_lo = lambda.front(), x_hi = lambda.size() > 1 ? lambda.back() : lambda.front() + 1;
+    const double x_lo = lambda.front(),
+                 x_hi = lambda.size() > 1 ? lambda.back() : lambda.front() + 1;
     double vmax = 1.0;
     for (const auto& p : px)
         for (float val : p.values)
@@ -87,10 +98,12 @@ std::string plot_svg(const std::string& exr_path, const std::vector<std::pair<in
     const std::string title = s.title.empty() ? exr_path : s.title;
     std::ostringstream o;
     o << "<?xml version=\"1.0\" encoding=\"UTF-8\" standalone=\"no\"?>\n"
-      << "<svg xmlns=\"http://www.w3.org/2000/svg\" version=\"1.1\" width=\"" << s.width << "\" height=\"" << s.height
-      << "\" viewBox=\"0 0 " << s.width << " " << s.height << "\" font-family=\"sans-serif\" font-size=\"12\">\n"
+      << "<svg xmlns=\"http://www.w3.org/2000/svg\" version=\"1.1\" width=\"" << s.width
+      << "\" height=\"" << s.height << "\" viewBox=\"0 0 " << s.width << " " << s.height
+      << "\" font-family=\"sans-serif\" font-size=\"12\">\n"
       << "<title>" << (s.title.empty() ? "Spectra of " : "") << xml(title) << "</title>\n"
-      << "<rect x=\"0\" y=\"0\" width=\"" << s.width << "\" height=\"" << s.height << "\" fill=\"#ffffff\"/>\n"
+      << "<rect x=\"0\" y=\"0\" width=\"" << s.width << "\" height=\"" << s.height
+      << "\" fill=\"#ffffff\"/>\n"
       << "<text x=\"" << f(L) << "\" y=\"24\" font-size=\"14\">" << xml(title) << "</text>\n";
 
     // Light spectrum in the background, scaled so that its peak on the plotted range is the top.
@@ -98,41 +111,46 @@ std::string plot_svg(const std::string& exr_path, const std::vector<std::pair<in
         double peak = 0;
         std::vector<std::pair<double, double>> pts;
         for (size_t i = 0; i < light.lambda.size(); ++i)
-            if (light.lambda[i] >= x_lo && light.lambda[i] <= x_hi && std::isfinite(light.value[i])) {
+            if (light.lambda[i] >= x_lo && light.lambda[i] <= x_hi &&
+                std::isfinite(light.value[i])) {
                 pts.emplace_back(light.lambda[i], light.value[i]);
                 peak = std::max(peak, light.value[i]);
             }
         if (peak > 0 && pts.size() > 1) {
             o << "<path class=\"light\" fill=\"none\" stroke=\"#c8c8c8\" stroke-width=\"1.5\" d=\"";
             for (size_t i = 0; i < pts.size(); ++i)
-                o << (i ? " L" : "M") << f(X(pts[i].first)) << "," << f(Y(pts[i].second / peak * y_hi));
+                o << (i ? " L" : "M") << f(X(pts[i].first)) << ","
+                  << f(Y(pts[i].second / peak * y_hi));
             o << "\"/>\n";
         }
     }
 
     // Axes, grid and ticks.
     o << "<g class=\"axes\" stroke=\"#000000\" stroke-width=\"1\">\n"
-      << "<line x1=\"" << f(L) << "\" y1=\"" << f(T + ph) << "\" x2=\"" << f(L + pw) << "\" y2=\"" << f(T + ph)
-      << "\"/>\n<line x1=\"" << f(L) << "\" y1=\"" << f(T) << "\" x2=\"" << f(L) << "\" y2=\"" << f(T + ph)
-      << "\"/>\n</g>\n<g class=\"ticks\" font-size=\"11\">\n";
+      << "<line x1=\"" << f(L) << "\" y1=\"" << f(T + ph) << "\" x2=\"" << f(L + pw) << "\" y2=\""
+      << f(T + ph) << "\"/>\n<line x1=\"" << f(L) << "\" y1=\"" << f(T) << "\" x2=\"" << f(L)
+      << "\" y2=\"" << f(T + ph) << "\"/>\n</g>\n<g class=\"ticks\" font-size=\"11\">\n";
     const double x_step = nice_step(x_hi - x_lo, 8);
     for (double t = std::ceil(x_lo / x_step - 1e-9) * x_step; t <= x_hi + 1e-9; t += x_step)
-        o << "<line x1=\"" << f(X(t)) << "\" y1=\"" << f(T + ph) << "\" x2=\"" << f(X(t)) << "\" y2=\"" << f(T + ph + 5)
-          << "\" stroke=\"#000000\"/><text x=\"" << f(X(t)) << "\" y=\"" << f(T + ph + 18)
-          << "\" text-anchor=\"middle\">" << format_wavelength(t) << "</text>\n";
+        o << "<line x1=\"" << f(X(t)) << "\" y1=\"" << f(T + ph) << "\" x2=\"" << f(X(t))
+          << "\" y2=\"" << f(T + ph + 5) << "\" stroke=\"#000000\"/><text x=\"" << f(X(t))
+          << "\" y=\"" << f(T + ph + 18) << "\" text-anchor=\"middle\">" << format_wavelength(t)
+          << "</text>\n";
     for (int i = 0; i * y_step <= y_hi + 1e-9; ++i) {
         const double t = i * y_step;
         char lab[32];
         std::snprintf(lab, sizeof lab, "%g", std::round(t * 1e6) / 1e6);
-        o << "<line x1=\"" << f(L - 5) << "\" y1=\"" << f(Y(t)) << "\" x2=\"" << f(L + pw) << "\" y2=\"" << f(Y(t))
-          << "\" stroke=\"" << (i ? "#e4e4e4" : "#000000") << "\"/><text x=\"" << f(L - 8) << "\" y=\"" << f(Y(t) + 4)
-          << "\" text-anchor=\"end\">" << lab << "</text>\n";
+        o << "<line x1=\"" << f(L - 5) << "\" y1=\"" << f(Y(t)) << "\" x2=\"" << f(L + pw)
+          << "\" y2=\"" << f(Y(t)) << "\" stroke=\"" << (i ? "#e4e4e4" : "#000000")
+          << "\"/><text x=\"" << f(L - 8) << "\" y=\"" << f(Y(t) + 4) << "\" text-anchor=\"end\">"
+          << lab << "</text>\n";
     }
     o << "</g>\n"
       << "<text class=\"xlabel\" x=\"" << f(L + pw / 2) << "\" y=\"" << f(H - 18)
       << "\" text-anchor=\"middle\">Wavelength (nm)</text>\n"
-      << "<text class=\"ylabel\" x=\"18\" y=\"" << f(T + ph / 2) << "\" text-anchor=\"middle\" transform=\"rotate(-90 18 "
-      << f(T + ph / 2) << ")\">Reflectance</text>\n";
+      << "<text class=\"ylabel\" x=\"18\" y=\"" << f(T + ph / 2)
+      << "\" text-anchor=\"middle\" transform=\"rotate(-90 18 " << f(T + ph / 2)
+      << ")\">Reflectance</text>\n";
 
     // Curves: a dark outline under the pixel's own colour.
     o << "<g class=\"curves\" fill=\"none\" stroke-linejoin=\"round\">\n";
@@ -153,9 +171,10 @@ std::string plot_svg(const std::string& exr_path, const std::vector<std::pair<in
         }
         const std::string id = std::to_string(p.x) + "," + std::to_string(p.y);
         o << "<g class=\"pixel\"><title>pixel " << id << "</title>"
-          << "<path class=\"outline\" stroke=\"#202020\" stroke-width=\"4\" d=\"" << d.str() << "\"/>"
-          << "<path class=\"spectrum\" stroke=\"" << colours.back() << "\" stroke-width=\"2\" d=\"" << d.str()
-          << "\"/></g>\n";
+          << "<path class=\"outline\" stroke=\"#202020\" stroke-width=\"4\" d=\"" << d.str()
+          << "\"/>"
+          << "<path class=\"spectrum\" stroke=\"" << colours.back() << "\" stroke-width=\"2\" d=\""
+          << d.str() << "\"/></g>\n";
     }
     o << "</g>\n";
 
@@ -164,26 +183,29 @@ std::string plot_svg(const std::string& exr_path, const std::vector<std::pair<in
     double ly = T + 6;
     o << "<g class=\"legend\" font-size=\"11\">\n";
     for (size_t i = 0; i < px.size(); ++i) {
-        const PixelColour c = colour_of(v, v.lights[0], px[i].values.data(), divide ? px[i].alpha : 1.0);
+        const PixelColour c =
+            colour_of(v, v.lights[0], px[i].values.data(), divide ? px[i].alpha : 1.0);
         std::string text = "pixel " + std::to_string(px[i].x) + "," + std::to_string(px[i].y);
         if (c.defined)
             text += "  sRGB " + std::to_string(c.srgb[0]) + " " + std::to_string(c.srgb[1]) + " " +
                     std::to_string(c.srgb[2]);
         else
             text += "  (A = 0)";
-        o << "<rect x=\"" << f(lx) << "\" y=\"" << f(ly - 10) << "\" width=\"14\" height=\"14\" fill=\"" << colours[i]
-          << "\" stroke=\"#202020\" stroke-width=\"1\"/><text x=\"" << f(lx + 20) << "\" y=\"" << f(ly + 1) << "\">"
-          << xml(text) << "</text>\n";
+        o << "<rect x=\"" << f(lx) << "\" y=\"" << f(ly - 10)
+          << "\" width=\"14\" height=\"14\" fill=\"" << colours[i]
+          << "\" stroke=\"#202020\" stroke-width=\"1\"/><text x=\"" << f(lx + 20) << "\" y=\""
+          << f(ly + 1) << "\">" << xml(text) << "</text>\n";
         ly += 20;
     }
     if (!s.light.empty()) {
-        o << "<line x1=\"" << f(lx) << "\" y1=\"" << f(ly - 3) << "\" x2=\"" << f(lx + 14) << "\" y2=\"" << f(ly - 3)
-          << "\" stroke=\"#c8c8c8\" stroke-width=\"2\"/><text x=\"" << f(lx + 20) << "\" y=\"" << f(ly + 1) << "\">"
-          << xml(s.light) << " (power, scaled)</text>\n";
+        o << "<line x1=\"" << f(lx) << "\" y1=\"" << f(ly - 3) << "\" x2=\"" << f(lx + 14)
+          << "\" y2=\"" << f(ly - 3) << "\" stroke=\"#c8c8c8\" stroke-width=\"2\"/><text x=\""
+          << f(lx + 20) << "\" y=\"" << f(ly + 1) << "\">" << xml(s.light)
+          << " (power, scaled)</text>\n";
         ly += 20;
     }
-    o << "<text x=\"" << f(lx) << "\" y=\"" << f(ly + 6) << "\" font-size=\"10\" fill=\"#555555\">colours: D65, "
-      << xml(s.observer) << "</text>\n";
+    o << "<text x=\"" << f(lx) << "\" y=\"" << f(ly + 6)
+      << "\" font-size=\"10\" fill=\"#555555\">colours: D65, " << xml(s.observer) << "</text>\n";
     o << "</g>\n</svg>\n";
     if (report) {
         report->file = exr_path;
@@ -193,8 +215,8 @@ std::string plot_svg(const std::string& exr_path, const std::vector<std::pair<in
     return o.str();
 }
 
-PlotReport plot_file(const std::string& exr_path, const std::string& svg_path, const std::vector<std::pair<int, int>>& xy,
-                     const PlotSettings& s) {
+PlotReport plot_file(const std::string& exr_path, const std::string& svg_path,
+                     const std::vector<std::pair<int, int>>& xy, const PlotSettings& s) {
     PlotReport r;
     const std::string svg = plot_svg(exr_path, xy, s, &r);
     r.output = svg_path;

@@ -12,22 +12,22 @@ namespace spectex {
 struct PlotSettings {
     std::string data_dir;
     std::string observer = "cie1931-2";
-    std::string light;                  // "" = none
-    std::string title;                  // "" = the file's name as given
-    int width = 820, height = 440;      // SVG user units (px)
+    std::string light;              // "" = none
+    std::string title;              // "" = the file's name as given
+    int width = 820, height = 440;  // SVG user units (px)
 };
 
 struct PlotReport {
     std::string file, output;
     int curves = 0;
-    double y_max = 1;                   // top of the reflectance axis
+    double y_max = 1;  // top of the reflectance axis
 };
 
 // The SVG text (no file written); throws Error("<file>: <cause>").
-std::string plot_svg(const std::string& exr_path, const std::vector<std::pair<int, int>>& xy, const PlotSettings& s,
-                     PlotReport* report);
+std::string plot_svg(const std::string& exr_path, const std::vector<std::pair<int, int>>& xy,
+                     const PlotSettings& s, PlotReport* report);
 // plot_svg() written atomically to svg_path.
-PlotReport plot_file(const std::string& exr_path, const std::string& svg_path, const std::vector<std::pair<int, int>>& xy,
-                     const PlotSettings& s);
+PlotReport plot_file(const std::string& exr_path, const std::string& svg_path,
+                     const std::vector<std::pair<int, int>>& xy, const PlotSettings& s);
 
 }  // namespace spectex

@@ -21,9 +21,9 @@ constexpr uint8_t kInk[4] = {235, 235, 235, 255};
 
 // Integrates pixels [begin, end) of a band under one light into 8-bit codes of `out` (nch
 // channels, panel_x0 the panel's first column in the output row).
-void integrate(const float* planes, size_t plane, const float* alpha, int bins, size_t w, const Eigen::Matrix3Xd& wrgb,
-               bool associated, bool has_alpha, size_t begin, size_t end, uint8_t* out, size_t out_stride,
-               size_t panel_x0, int nch) {
+void integrate(const float* planes, size_t plane, const float* alpha, int bins, size_t w,
+               const Eigen::Matrix3Xd& wrgb, bool associated, bool has_alpha, size_t begin,
+               size_t end, uint8_t* out, size_t out_stride, size_t panel_x0, int nch) {
     constexpr size_t kBlock = 256;
     double acc[3][kBlock];
     const double* wt = wrgb.data();  // column-major: 3 per bin
@@ -50,20 +50,23 @@ void integrate(const float* planes, size_t plane, const float* alpha, int bins, 
             }
             const double div = associated ? a : 1.0;
             for (int c = 0; c < 3; ++c) q[c] = static_cast<uint8_t>(srgb8(acc[c][j] / div));
-            if (nch == 4) q[3] = static_cast<uint8_t>(std::lround(std::min(1.0, std::max(0.0, a)) * 255.0));
+            if (nch == 4)
+                q[3] = static_cast<uint8_t>(std::lround(std::min(1.0, std::max(0.0, a)) * 255.0));
         }
     }
 }
 
 }  // namespace
 
-RenderReport render_file(const std::string& exr_path, const std::string& png_path, const RenderSettings& s) {
+RenderReport render_file(const std::string& exr_path, const std::string& png_path,
+                         const RenderSettings& s) {
     SpectralReader reader(exr_path);
     const SpectralExrInfo& info = reader.info();
     const uint64_t pixels = static_cast<uint64_t>(info.width) * static_cast<uint64_t>(info.height);
     if (pixels > s.max_pixels)
-        throw Error(exr_path + ": " + std::to_string(info.width) + "x" + std::to_string(info.height) + " = " +
-                    std::to_string(pixels) + " pixels exceed the limit of " + std::to_string(s.max_pixels) +
+        throw Error(exr_path + ": " + std::to_string(info.width) + "x" +
+                    std::to_string(info.height) + " = " + std::to_string(pixels) +
+                    " pixels exceed the limit of " + std::to_string(s.max_pixels) +
                     " (--max-pixels)");
     if (info.width <= 0 || info.height <= 0) throw Error(exr_path + ": empty data window");
     Viewer v;
@@ -84,7 +87,8 @@ RenderReport render_file(const std::string& exr_path, const std::string& png_pat
     r.gap = n > 1 ? 4 * scale : 0;
     r.label_height = n > 1 ? (kGlyphHeight + 4) * scale : 0;
     const int64_t out_w = static_cast<int64_t>(w) * n + static_cast<int64_t>(r.gap) * (n - 1);
-    if (out_w > 1000000000) throw Error(exr_path + ": a sheet of " + std::to_string(n) + " panels is too wide");
+    if (out_w > 1000000000)
+        throw Error(exr_path + ": a sheet of " + std::to_string(n) + " panels is too wide");
     r.width = static_cast<int>(out_w);
     r.height = h + r.label_height;
     r.channels = info.alpha ? 4 : 3;
@@ -97,22 +101,26 @@ RenderReport render_file(const std::string& exr_path, const std::string& png_pat
     std::string description = "spectex render of " + exr_path + " under";
     for (const auto& l : v.lights) description += " " + l.name;
     description += s.adapt ? " (Bradford-adapted to D65)" : " (not adapted)";
-    std::unique_ptr<PngWriter> out = image_library().png_writer(
-        file.temp_path(), png_path, r.width, r.height, nch, {{"ImageDescription", description}, {"Software", "spectex"}});
-    auto write_rows = [&](int y0, int rows, const uint8_t* data) { out->write_rows(y0, rows, data); };
+    std::unique_ptr<PngWriter> out =
+        image_library().png_writer(file.temp_path(), png_path, r.width, r.height, nch,
+                                   {{"ImageDescription", description}, {"Software", "spectex"}});
+    auto write_rows = [&](int y0, int rows, const uint8_t* data) {
+        out->write_rows(y0, rows, data);
+    };
 
     // Label strip.
     if (r.label_height > 0) {
         std::vector<uint8_t> strip(out_stride * static_cast<size_t>(r.label_height));
         for (size_t i = 0; i < strip.size(); i += static_cast<size_t>(nch))
-            std::copy(kBackground, kBackground + nch, strip.begin() + static_cast<std::ptrdiff_t>(i));
+            std::copy(kBackground, kBackground + nch,
+                      strip.begin() + static_cast<std::ptrdiff_t>(i));
         for (int p = 0; p < n; ++p) {
             const int x0 = p * (w + r.gap);
             std::string label = v.lights[static_cast<size_t>(p)].label;
             const int tw = text_width(label, scale);
             const int x = x0 + std::max(scale, (w - tw) / 2);
-            draw_text(strip.data(), r.width, r.label_height, nch, out_stride, x, 2 * scale, label, scale, kInk,
-                      x0 + w);
+            draw_text(strip.data(), r.width, r.label_height, nch, out_stride, x, 2 * scale, label,
+                      scale, kInk, x0 + w);
         }
         write_rows(0, r.label_height, strip.data());
     }
@@ -134,18 +142,22 @@ RenderReport render_file(const std::string& exr_path, const std::string& png_pat
             const LightView& l = v.lights[static_cast<size_t>(p)];
             const Eigen::Matrix3Xd& wrgb = s.adapt ? l.rgb_adapted : l.rgb_unadapted;
             const size_t x0 = static_cast<size_t>(p) * static_cast<size_t>(w + r.gap);
-            const size_t per = (count + static_cast<size_t>(nthreads) - 1) / static_cast<size_t>(nthreads);
+            const size_t per =
+                (count + static_cast<size_t>(nthreads) - 1) / static_cast<size_t>(nthreads);
             std::vector<std::thread> pool;
             for (int t = 1; t < nthreads; ++t) {
-                const size_t b = std::min(count, per * static_cast<size_t>(t)), e = std::min(count, b + per);
+                const size_t b = std::min(count, per * static_cast<size_t>(t)),
+                             e = std::min(count, b + per);
                 if (b < e)
                     pool.emplace_back([&, b, e] {
-                        integrate(planes.data(), plane, alpha.data(), bins, static_cast<size_t>(w), wrgb, associated,
-                                  info.alpha, b, e, rows.data(), out_stride, x0, nch);
+                        integrate(planes.data(), plane, alpha.data(), bins, static_cast<size_t>(w),
+                                  wrgb, associated, info.alpha, b, e, rows.data(), out_stride, x0,
+                                  nch);
                     });
             }
-            integrate(planes.data(), plane, alpha.data(), bins, static_cast<size_t>(w), wrgb, associated, info.alpha,
-                      0, std::min(count, per), rows.data(), out_stride, x0, nch);
+            integrate(planes.data(), plane, alpha.data(), bins, static_cast<size_t>(w), wrgb,
+                      associated, info.alpha, 0, std::min(count, per), rows.data(), out_stride, x0,
+                      nch);
             for (auto& t : pool) t.join();
         }
         write_rows(r.label_height + y0, nrows, rows.data());

@@ -25,7 +25,8 @@ SampleReport sample_pixels(const std::string& exr_path, const std::vector<std::p
     const bool divide = r.alpha == "associated";
     for (const auto& p : r.pixels) {
         std::vector<PixelColour> c;
-        for (const auto& l : v.lights) c.push_back(colour_of(v, l, p.values.data(), divide ? p.alpha : 1.0));
+        for (const auto& l : v.lights)
+            c.push_back(colour_of(v, l, p.values.data(), divide ? p.alpha : 1.0));
         r.colours.push_back(std::move(c));
     }
     r.lights = std::move(v.lights);

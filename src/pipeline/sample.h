@@ -19,9 +19,9 @@ struct SampleSettings {
 struct SampleReport {
     std::string file;
     std::vector<double> wavelengths;
-    std::string alpha;                     // alpha_kind()
+    std::string alpha;  // alpha_kind()
     std::string observer;
-    std::vector<LightView> lights;         // D65 first
+    std::vector<LightView> lights;  // D65 first
     std::vector<PixelSpectrum> pixels;
     std::vector<std::vector<PixelColour>> colours;  // [pixel][light]
 };

@@ -11,11 +11,11 @@
 
 #include "io/file_identity.h"
 #include "io/image_source.h"
-#include "pipeline/batch.h"
-#include "pipeline/pixel_policy.h"
 #include "io/linearizer.h"
 #include "io/spectral_exr_info.h"
 #include "io/spectral_reader.h"
+#include "pipeline/batch.h"
+#include "pipeline/pixel_policy.h"
 #include "spectral/adaptation.h"
 #include "spectral/ciede2000.h"
 #include "spectral/colorimetry.h"
@@ -33,7 +33,7 @@ namespace spectex {
 namespace {
 constexpr double kHistLo = 1e-8;
 constexpr int kHistPerDecade = 1000;
-constexpr int kHistDecades = 12;  // 1e-8 .. 1e4
+constexpr int kHistDecades = 12;                              // 1e-8 .. 1e4
 constexpr int kHistBins = kHistPerDecade * kHistDecades + 2;  // + [0, lo) and [1e4, inf]
 }  // namespace
 
@@ -76,14 +76,13 @@ double ErrorHistogram::percentile(double p, double max) const {
 
 namespace {
 
-
 // One band of rows: the spectral planes (bin-major, as float), alpha, and the source's pixels.
 struct Band {
-    int y0 = 0, rows = 0;              // rows of the data window, 0-based
-    std::vector<float> planes;         // bins x (w * band_rows)
-    std::vector<float> alpha;          // w * band_rows
-    std::vector<float> raw, lin;       // source RGBA as read, and linearised + sanitised
-    std::vector<uint8_t> changed;      // the bake's policies changed this source pixel (clamp, NaN)
+    int y0 = 0, rows = 0;          // rows of the data window, 0-based
+    std::vector<float> planes;     // bins x (w * band_rows)
+    std::vector<float> alpha;      // w * band_rows
+    std::vector<float> raw, lin;   // source RGBA as read, and linearised + sanitised
+    std::vector<uint8_t> changed;  // the bake's policies changed this source pixel (clamp, NaN)
     uint64_t clamped = 0, replaced = 0;
 };
 
@@ -100,7 +99,8 @@ struct LightStats {
 struct Stats {
     uint64_t below_zero = 0, above_one = 0, below_tol = 0, above_tol = 0, nonfinite = 0;
     double rgb_min[3] = {DBL_MAX, DBL_MAX, DBL_MAX}, rgb_max[3] = {-DBL_MAX, -DBL_MAX, -DBL_MAX};
-    uint64_t compared = 0, transparent = 0, nonfinite_pixels = 0, code_checked = 0, code_matched = 0;
+    uint64_t compared = 0, transparent = 0, nonfinite_pixels = 0, code_checked = 0,
+             code_matched = 0;
     double rgb_err_max = -1, rgb_err_sum = 0;
     int rgb_err_x = 0, rgb_err_y = 0;
     double de_max = -1, de_sum = 0;
@@ -116,14 +116,15 @@ struct OtherLight {
 };
 
 struct Context {
-    size_t w = 0, plane = 0;           // plane = w * band_rows
+    size_t w = 0, plane = 0;  // plane = w * band_rows
     int bins = 0;
-    int x0 = 0, y0 = 0;                // data window origin, for reported coordinates
-    const double* wrgb = nullptr;      // 3 x bins, column-major (Eigen)
+    int x0 = 0, y0 = 0;            // data window origin, for reported coordinates
+    const double* wrgb = nullptr;  // 3 x bins, column-major (Eigen)
     Eigen::Matrix3d rgb_to_xyz, xyz_to_rgb;
     Eigen::Vector3d white;
     bool has_alpha = false, associated = false, compare = false;
-    const Linearizer* encoder = nullptr;  // re-encodes linear Rec.709 to the source's space (code check)
+    const Linearizer* encoder =
+        nullptr;  // re-encodes linear Rec.709 to the source's space (code check)
     double max_code = 255;
     bool source_associated = false;
     std::vector<OtherLight> lights;
@@ -206,7 +207,8 @@ void compute_range(const Context& c, const Band& b, size_t begin, size_t end, St
                 }
                 for (double& v : rgb) v /= a;
             }
-            const bool finite = std::isfinite(rgb[0]) && std::isfinite(rgb[1]) && std::isfinite(rgb[2]);
+            const bool finite =
+                std::isfinite(rgb[0]) && std::isfinite(rgb[1]) && std::isfinite(rgb[2]);
             if (finite)
                 for (int ch = 0; ch < 3; ++ch) {
                     st.rgb_min[ch] = std::min(st.rgb_min[ch], rgb[ch]);
@@ -220,7 +222,8 @@ void compute_range(const Context& c, const Band& b, size_t begin, size_t end, St
                 const Lab ref_lab = lab_from_xyz(ref, c.white);
                 for (size_t l = 0; l < nl; ++l) {
                     const double* a = &lacc[l * 3 * kBlock];
-                    const Eigen::Vector3d xyz(a[j] * inv_a, a[kBlock + j] * inv_a, a[2 * kBlock + j] * inv_a);
+                    const Eigen::Vector3d xyz(a[j] * inv_a, a[kBlock + j] * inv_a,
+                                              a[2 * kBlock + j] * inv_a);
                     if (!xyz.allFinite()) continue;
                     LightStats& ls = st.lights[l];
                     ++ls.pixels;
@@ -241,7 +244,8 @@ void compute_range(const Context& c, const Band& b, size_t begin, size_t end, St
             if (!finite) {
                 ++st.nonfinite_pixels;
                 const double inf = std::numeric_limits<double>::infinity();
-                if (st.rgb_err_max < inf) st.rgb_err_max = inf, st.rgb_err_x = px, st.rgb_err_y = py;
+                if (st.rgb_err_max < inf)
+                    st.rgb_err_max = inf, st.rgb_err_x = px, st.rgb_err_y = py;
                 if (st.de_max < inf) st.de_max = inf, st.de_x = px, st.de_y = py;
                 st.rgb_err_sum = inf;
                 st.de_sum = inf;
@@ -259,7 +263,8 @@ void compute_range(const Context& c, const Band& b, size_t begin, size_t end, St
             const Eigen::Vector3d v2(src[0], src[1], src[2]);
             double de = 0;
             if (v1 != v2)
-                de = ciede2000(lab_from_xyz(c.rgb_to_xyz * v1, c.white), lab_from_xyz(c.rgb_to_xyz * v2, c.white));
+                de = ciede2000(lab_from_xyz(c.rgb_to_xyz * v1, c.white),
+                               lab_from_xyz(c.rgb_to_xyz * v2, c.white));
             st.de_sum += de;
             if (de > st.de_max) st.de_max = de, st.de_x = px, st.de_y = py;
             st.hist.add(de);
@@ -269,7 +274,8 @@ void compute_range(const Context& c, const Band& b, size_t begin, size_t end, St
                 enc_idx[nenc++] = idx;
             }
         }
-        // Code check: re-encode through the config's inverse transform, round to the source's codes.
+        // Code check: re-encode through the config's inverse transform, round to the source's
+        // codes.
         if (nenc) {
             c.encoder->encode_rgba(enc, static_cast<long>(nenc));
             for (size_t e = 0; e < nenc; ++e) {
@@ -277,7 +283,8 @@ void compute_range(const Context& c, const Band& b, size_t begin, size_t end, St
                 const double k = c.source_associated ? static_cast<double>(raw[3]) : 1.0;
                 bool match = true;
                 for (int ch = 0; ch < 3 && match; ++ch) {
-                    const double v = std::min(1.0, std::max(0.0, static_cast<double>(enc[4 * e + ch])));
+                    const double v =
+                        std::min(1.0, std::max(0.0, static_cast<double>(enc[4 * e + ch])));
                     const long expect = std::lround(v * k * c.max_code);
                     const long have = std::lround(static_cast<double>(raw[ch]) * c.max_code);
                     match = expect == have;
@@ -298,7 +305,9 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
     // A truncated file can still decode its first level (verify reads level 0): its other levels,
     // or later chunks, are missing.
     if (!info.complete)
-        throw Error(exr_path + ": incomplete: chunks of the pixel data are missing (a truncated or interrupted file)");
+        throw Error(
+            exr_path +
+            ": incomplete: chunks of the pixel data are missing (a truncated or interrupted file)");
 
     VerifyReport r;
     r.file = exr_path;
@@ -310,21 +319,26 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
     r.lambda_max = info.reflective.back().lambda;
     r.sample_type = info.sample_type;
     r.compression = info.compression;
-    r.storage = info.tiled ? "tiled " + std::to_string(info.tile_width) + "x" + std::to_string(info.tile_height)
+    r.storage = info.tiled ? "tiled " + std::to_string(info.tile_width) + "x" +
+                                 std::to_string(info.tile_height)
                            : std::string("scanline");
-    // What the file records, and what is used: a setting given overrides the file's, with a warning.
+    // What the file records, and what is used: a setting given overrides the file's, with a
+    // warning.
     auto recorded = [&](const std::string& key) {
         for (const auto& [k, v] : info.attributes)
             if (k == key) return v;
         return std::string();
     };
-    auto differ = [](const std::string& a, const std::string& b) { return lower_ascii(a) != lower_ascii(b); };
+    auto differ = [](const std::string& a, const std::string& b) {
+        return lower_ascii(a) != lower_ascii(b);
+    };
     auto choose = [&](const std::string& given, const std::string& key, const std::string& fallback,
                       const std::string& option) {
         const std::string rec = recorded(key);
         if (given.empty()) return rec.empty() ? fallback : rec;
         if (!rec.empty() && differ(given, rec))
-            r.warnings.push_back(option + " '" + given + "' overrides the file's '" + rec + "' (" + key + ")");
+            r.warnings.push_back(option + " '" + given + "' overrides the file's '" + rec + "' (" +
+                                 key + ")");
         return given;
     };
     r.method = recorded(provenance_key::kMethod);
@@ -345,10 +359,11 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
         WavelengthGrid grid = WavelengthGrid::from_list(lambdas);
         r.wavelengths = grid.describe();
         Observer obs = load_observer(s.data_dir, r.observer);
-        col = Colorimetry::make(obs, load_illuminant(s.data_dir, r.illuminant), grid, primaries_by_name("srgb"));
+        col = Colorimetry::make(obs, load_illuminant(s.data_dir, r.illuminant), grid,
+                                primaries_by_name("srgb"));
         for (const auto& name : s.other_lights) {
-            const Colorimetry cl =
-                Colorimetry::make(obs, load_illuminant(s.data_dir, name), grid, primaries_by_name("srgb"));
+            const Colorimetry cl = Colorimetry::make(obs, load_illuminant(s.data_dir, name), grid,
+                                                     primaries_by_name("srgb"));
             lights.push_back({bradford_adaptation(cl.white_xyz, col.white_xyz) * cl.W});
             OtherLightReport lr;
             lr.light = name;
@@ -368,9 +383,10 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
         src = ImageSource::open(s.source, s.max_pixels);
         const SourceInfo& si = src->info();
         if (si.width != info.width || si.height != info.height)
-            throw Error(exr_path + ": data window " + std::to_string(info.width) + "x" + std::to_string(info.height) +
-                        " differs from the source's " + std::to_string(si.width) + "x" + std::to_string(si.height) +
-                        " (" + s.source + ")");
+            throw Error(exr_path + ": data window " + std::to_string(info.width) + "x" +
+                        std::to_string(info.height) + " differs from the source's " +
+                        std::to_string(si.width) + "x" + std::to_string(si.height) + " (" +
+                        s.source + ")");
         // The OCIO config: the one given, else the one the bake used when it is still there.
         std::string config = s.config;
         const std::string rec_config = recorded(provenance_key::kConfig),
@@ -386,12 +402,12 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
                                      ") is not there; using " + ocio_config_path(s.data_dir, ""));
             }
         } else if (!config.empty() && !rec_sum.empty() && config_checksum(config) != rec_sum) {
-            r.warnings.push_back("--config " + config + " differs from the config the file records (" + rec_config +
-                                 ")");
+            r.warnings.push_back("--config " + config +
+                                 " differs from the config the file records (" + rec_config + ")");
         }
         const std::string rec_space = recorded(provenance_key::kInputColorSpace);
-        ColourRequest req{s.data_dir, config, s.colorspace.empty() ? rec_space : s.colorspace, s.source,
-                          si.colorspace_hint};
+        ColourRequest req{s.data_dir, config, s.colorspace.empty() ? rec_space : s.colorspace,
+                          s.source, si.colorspace_hint};
         lin = Linearizer::make(req);
         if (!s.colorspace.empty() && !rec_space.empty() && lin.input_space() != rec_space)
             r.warnings.push_back("--colorspace '" + s.colorspace + "' ('" + lin.input_space() +
@@ -400,9 +416,10 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
         r.compared = true;
         r.source = s.source;
         r.source_colorspace = lin.input_space();
-        r.source_colorspace_how = s.colorspace.empty() && !rec_space.empty()
-                                      ? std::string("the file's ") + provenance_key::kInputColorSpace
-                                      : lin.how_chosen();
+        r.source_colorspace_how =
+            s.colorspace.empty() && !rec_space.empty()
+                ? std::string("the file's ") + provenance_key::kInputColorSpace
+                : lin.how_chosen();
         r.source_bits = si.bits;
         r.source_float = si.is_float;
         ctx.compare = true;
@@ -410,12 +427,15 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
         if (si.is_float) {
             r.code_match_note = "float source: no codes to match";
         } else if (si.bits != 8 && si.bits != 16) {
-            r.code_match_note = std::to_string(si.bits) + "-bit source: only 8- and 16-bit codes are checked";
+            r.code_match_note =
+                std::to_string(si.bits) + "-bit source: only 8- and 16-bit codes are checked";
         } else if (!lin.can_encode()) {
-            r.code_match_note = "the config cannot invert the transform of '" + lin.input_space() + "'";
+            r.code_match_note =
+                "the config cannot invert the transform of '" + lin.input_space() + "'";
         } else {
             ctx.encoder = &lin;
-            r.code_match_note = "re-encoded through the config's inverse transform to '" + lin.input_space() + "'";
+            r.code_match_note =
+                "re-encoded through the config's inverse transform to '" + lin.input_space() + "'";
         }
         r.code_match_available = ctx.encoder != nullptr;
         ctx.max_code = si.bits == 16 ? 65535.0 : 255.0;
@@ -423,8 +443,9 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
 
     try {
         const size_t w = static_cast<size_t>(info.width);
-        // Whole chunks (or tile rows) per band when they fit the budget, so that no chunk is decoded
-        // twice; for very wide files a band may be part of a chunk (OpenEXR keeps the decoded chunk).
+        // Whole chunks (or tile rows) per band when they fit the budget, so that no chunk is
+        // decoded twice; for very wide files a band may be part of a chunk (OpenEXR keeps the
+        // decoded chunk).
         const int band_rows = reader.band_rows(s.band_bytes);
         r.band_rows = band_rows;
 
@@ -450,20 +471,24 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
                 b.changed.resize(ctx.plane);
             }
         }
-        const PixelPolicy policy{src && src->info().alpha == AlphaKind::Associated, NanPolicy::Replace,
+        const PixelPolicy policy{src && src->info().alpha == AlphaKind::Associated,
+                                 NanPolicy::Replace,
                                  r.out_of_range == "keep" ? RangePolicy::Keep : RangePolicy::Clamp};
 
         auto read_band = [&](Band& b, int y0) {
             b.y0 = y0;
             b.rows = std::min(band_rows, info.height - y0);
-            reader.read_rows(y0, b.rows, b.planes.data(), ctx.plane, info.alpha ? b.alpha.data() : nullptr);
+            reader.read_rows(y0, b.rows, b.planes.data(), ctx.plane,
+                             info.alpha ? b.alpha.data() : nullptr);
             if (!src) return;
             const size_t n = w * static_cast<size_t>(b.rows);
             src->read_rgba(y0, y0 + b.rows, b.raw.data());
-            std::copy(b.raw.begin(), b.raw.begin() + static_cast<std::ptrdiff_t>(4 * n), b.lin.begin());
-            // The bake's policies, as the file records them: NaN/Inf -> 0 (a bake with --nan error had
-            // none), values outside [0, 1] clamped unless --out-of-range keep.
-            const PolicedCounts counts = police_rgba(b.lin.data(), n, lin, policy, r.source, w, y0, b.changed.data());
+            std::copy(b.raw.begin(), b.raw.begin() + static_cast<std::ptrdiff_t>(4 * n),
+                      b.lin.begin());
+            // The bake's policies, as the file records them: NaN/Inf -> 0 (a bake with --nan error
+            // had none), values outside [0, 1] clamped unless --out-of-range keep.
+            const PolicedCounts counts =
+                police_rgba(b.lin.data(), n, lin, policy, r.source, w, y0, b.changed.data());
             b.replaced = counts.replaced;
             b.clamped = counts.clamped;
         };
@@ -474,12 +499,16 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
 
         auto compute_band = [&](const Band& b) {
             const size_t n = w * static_cast<size_t>(b.rows);
-            const size_t per = (n + static_cast<size_t>(nthreads) - 1) / static_cast<size_t>(nthreads);
+            const size_t per =
+                (n + static_cast<size_t>(nthreads) - 1) / static_cast<size_t>(nthreads);
             std::vector<std::thread> pool;
             for (int t = 1; t < nthreads; ++t) {
-                const size_t begin = std::min(n, per * static_cast<size_t>(t)), end = std::min(n, begin + per);
+                const size_t begin = std::min(n, per * static_cast<size_t>(t)),
+                             end = std::min(n, begin + per);
                 if (begin < end)
-                    pool.emplace_back([&, begin, end, t] { compute_range(ctx, b, begin, end, stats[static_cast<size_t>(t)]); });
+                    pool.emplace_back([&, begin, end, t] {
+                        compute_range(ctx, b, begin, end, stats[static_cast<size_t>(t)]);
+                    });
             }
             compute_range(ctx, b, 0, std::min(n, per), stats[0]);
             for (auto& th : pool) th.join();
@@ -492,7 +521,8 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
             const int next = y0 + band_rows;
             std::future<void> pending;
             if (next < info.height)
-                pending = std::async(std::launch::async, [&, next, cur] { read_band(bands[1 - cur], next); });
+                pending = std::async(std::launch::async,
+                                     [&, next, cur] { read_band(bands[1 - cur], next); });
             try {
                 compute_band(bands[cur]);
             } catch (...) {
@@ -528,7 +558,9 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
                 const LightStats& L = st.lights[l];
                 T.pixels += L.pixels;
                 T.de_sum += L.de_sum;
-                if (L.de_max > T.de_max || (L.de_max == T.de_max && (L.de_y < T.de_y || (L.de_y == T.de_y && L.de_x < T.de_x))))
+                if (L.de_max > T.de_max ||
+                    (L.de_max == T.de_max &&
+                     (L.de_y < T.de_y || (L.de_y == T.de_y && L.de_x < T.de_x))))
                     T.de_max = L.de_max, T.de_x = L.de_x, T.de_y = L.de_y;
                 for (int c = 0; c < 3; ++c) {
                     T.rgb_min[c] = std::min(T.rgb_min[c], L.rgb_min[c]);
@@ -540,11 +572,14 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
             total.de_sum += st.de_sum;
             // Each thread keeps its first maximum; across threads, ties go to the first pixel in
             // reading order, so the reported location does not depend on the thread count.
-            auto earlier = [](int y, int x, int ty, int tx) { return y < ty || (y == ty && x < tx); };
+            auto earlier = [](int y, int x, int ty, int tx) {
+                return y < ty || (y == ty && x < tx);
+            };
             if (st.rgb_err_max > total.rgb_err_max ||
                 (st.rgb_err_max == total.rgb_err_max &&
                  earlier(st.rgb_err_y, st.rgb_err_x, total.rgb_err_y, total.rgb_err_x)))
-                total.rgb_err_max = st.rgb_err_max, total.rgb_err_x = st.rgb_err_x, total.rgb_err_y = st.rgb_err_y;
+                total.rgb_err_max = st.rgb_err_max, total.rgb_err_x = st.rgb_err_x,
+                total.rgb_err_y = st.rgb_err_y;
             if (st.de_max > total.de_max ||
                 (st.de_max == total.de_max && earlier(st.de_y, st.de_x, total.de_y, total.de_x)))
                 total.de_max = st.de_max, total.de_x = st.de_x, total.de_y = st.de_y;
@@ -636,8 +671,9 @@ std::vector<Gate> gates_of(const VerifyReport& r, const VerifyGates& g) {
     if (r.out_of_range != "keep") {
         const uint64_t n = r.below_tol + r.above_tol;
         out.push_back({"samples outside [0, 1] by more than 1e-6", "none", n == 0,
-                       std::to_string(n) + " (" + pct(n, r.samples) + "; " + std::to_string(r.below_tol) + " below, " +
-                           std::to_string(r.above_tol) + " above)"});
+                       std::to_string(n) + " (" + pct(n, r.samples) + "; " +
+                           std::to_string(r.below_tol) + " below, " + std::to_string(r.above_tol) +
+                           " above)"});
     }
     if (!r.compared) return out;
     const bool exact = r.method != "jakob-hanika";
@@ -645,30 +681,37 @@ std::vector<Gate> gates_of(const VerifyReport& r, const VerifyGates& g) {
     const bool plain_half = half && r.half_rounding != "colour";
     if (g.de || exact) {
         const double lim = g.de ? g.max_de : kDefaultMaxDe;
-        out.push_back({"CIEDE2000 max", "<= " + fmt(lim) + (g.de ? " (--max-de)" : ""), r.de_max <= lim,
-                       fmt(r.de_max) + " at (" + std::to_string(r.de_x) + ", " + std::to_string(r.de_y) + ")"});
+        out.push_back({"CIEDE2000 max", "<= " + fmt(lim) + (g.de ? " (--max-de)" : ""),
+                       r.de_max <= lim,
+                       fmt(r.de_max) + " at (" + std::to_string(r.de_x) + ", " +
+                           std::to_string(r.de_y) + ")"});
     }
     if (g.rgb) {
-        out.push_back({"linear RGB error max", "<= " + fmt(g.max_rgb) + " (--max-rgb-error)", r.rgb_error_max <= g.max_rgb,
+        out.push_back({"linear RGB error max", "<= " + fmt(g.max_rgb) + " (--max-rgb-error)",
+                       r.rgb_error_max <= g.max_rgb,
                        fmt(r.rgb_error_max) + " at (" + std::to_string(r.rgb_error_x) + ", " +
                            std::to_string(r.rgb_error_y) + ")"});
     }
-    const std::string share = r.code_match_available ? fmt(100.0 * r.code_match_share(), "%.6g") + "% (" +
-                                                           std::to_string(r.code_matched) + " of " +
-                                                           std::to_string(r.code_checked) + ")"
-                                                     : "n/a (" + r.code_match_note + ")";
+    const std::string share = r.code_match_available
+                                  ? fmt(100.0 * r.code_match_share(), "%.6g") + "% (" +
+                                        std::to_string(r.code_matched) + " of " +
+                                        std::to_string(r.code_checked) + ")"
+                                  : "n/a (" + r.code_match_note + ")";
     if (g.code) {
-        out.push_back({"pixels that re-encode to their codes", ">= " + fmt(g.min_code) + "% (--min-code-match)",
-                       r.code_match_available && 100.0 * r.code_match_share() >= g.min_code, share});
+        out.push_back({"pixels that re-encode to their codes",
+                       ">= " + fmt(g.min_code) + "% (--min-code-match)",
+                       r.code_match_available && 100.0 * r.code_match_share() >= g.min_code,
+                       share});
     } else if (exact && r.code_match_available && !(r.source_bits == 16 && half)) {
         const double need = plain_half ? 99.99 : 100.0;
-        out.push_back({"pixels that re-encode to their " + std::to_string(r.source_bits) + "-bit codes",
-                       ">= " + fmt(need) + "%" + (plain_half ? " (half with plain rounding)" : ""),
-                       100.0 * r.code_match_share() >= need, share});
+        out.push_back(
+            {"pixels that re-encode to their " + std::to_string(r.source_bits) + "-bit codes",
+             ">= " + fmt(need) + "%" + (plain_half ? " (half with plain rounding)" : ""),
+             100.0 * r.code_match_share() >= need, share});
     }
     if (exact && !g.rgb && r.source_bits == 16 && half && !r.source_float) {
-        // Half's step (up to 6e-5 in linear RGB once integrated) is coarser than 16-bit codes (down to
-        // 1.2e-6 near black): the colour error is gated instead of the codes.
+        // Half's step (up to 6e-5 in linear RGB once integrated) is coarser than 16-bit codes (down
+        // to 1.2e-6 near black): the colour error is gated instead of the codes.
         const double lim = plain_half ? 5e-4 : 1e-4;
         out.push_back({"linear RGB error max (half cannot keep 16-bit codes)", "<= " + fmt(lim),
                        r.rgb_error_max <= lim,

@@ -15,23 +15,26 @@ namespace spectex {
 // under the conditions it was made for without repeating them. A setting given here overrides the
 // file's, and the report says so (warnings).
 struct VerifySettings {
-    std::string source;                 // --source ("" = no comparison)
-    std::string illuminant;             // the light the file is checked under: name or CSV ("" = file's, else D65)
-    std::string observer;               // name or CSV ("" = file's, else cie1931-2)
-    std::string colorspace;             // of the source ("" = file's input colour space, else metadata, file rules)
-    std::string config;                 // OCIO config ("" = the file's when it is still there unchanged, else
-                                        // $OCIO, then the shipped config)
-    std::vector<std::string> other_lights;  // --illuminant: reported next to the check light, never gated
+    std::string source;  // --source ("" = no comparison)
+    std::string
+        illuminant;  // the light the file is checked under: name or CSV ("" = file's, else D65)
+    std::string observer;  // name or CSV ("" = file's, else cie1931-2)
+    std::string
+        colorspace;  // of the source ("" = file's input colour space, else metadata, file rules)
+    std::string config;  // OCIO config ("" = the file's when it is still there unchanged, else
+                         // $OCIO, then the shipped config)
+    std::vector<std::string>
+        other_lights;  // --illuminant: reported next to the check light, never gated
     std::string data_dir;
-    uint64_t max_pixels = 268435456;    // refuse larger sources (as bake does)
-    size_t band_bytes = 8u << 20;       // float spectral samples per band buffer (two buffers are used)
-    int threads = 0;                    // compute threads (0 = all cores)
+    uint64_t max_pixels = 268435456;  // refuse larger sources (as bake does)
+    size_t band_bytes = 8u << 20;  // float spectral samples per band buffer (two buffers are used)
+    int threads = 0;               // compute threads (0 = all cores)
 };
 
 // ΔE values are binned on a logarithmic scale (1000 bins per decade from 1e-8 to 1e4) so that a
 // percentile costs no per-pixel storage; its relative resolution is 0.23 %.
 class ErrorHistogram {
-public:
+  public:
     ErrorHistogram();
     void add(double v);
     void merge(const ErrorHistogram& o);
@@ -39,7 +42,7 @@ public:
     // Nearest-rank percentile p in (0, 100]: the upper edge of the bin holding it, at most `max`.
     double percentile(double p, double max) const;
 
-private:
+  private:
     std::vector<uint64_t> bins_;
     uint64_t n_ = 0;
 };
@@ -62,23 +65,25 @@ struct VerifyReport {
     uint64_t pixels = 0;
     int bins = 0;
     double lambda_min = 0, lambda_max = 0;
-    std::string wavelengths;           // WavelengthGrid::describe()
+    std::string wavelengths;  // WavelengthGrid::describe()
     std::string sample_type, compression, storage;
-    std::string alpha = "none";        // "none", "associated", "unassociated"
+    std::string alpha = "none";  // "none", "associated", "unassociated"
     std::string illuminant, observer;
     int band_rows = 0;
     // What the file records (spectex:*; "" when absent) and what was used.
-    std::string method;                // spectex:method ("" for other tools' files)
-    std::string out_of_range = "clamp", nan = "replace";  // the bake's policies (defaults when absent)
-    std::string half_rounding;         // spectex:halfRounding ("colour", "nearest", "n/a", "")
-    std::vector<std::string> warnings; // settings given that differ from the file's, config not found, ...
+    std::string method;  // spectex:method ("" for other tools' files)
+    std::string out_of_range = "clamp",
+                nan = "replace";  // the bake's policies (defaults when absent)
+    std::string half_rounding;    // spectex:halfRounding ("colour", "nearest", "n/a", "")
+    std::vector<std::string>
+        warnings;  // settings given that differ from the file's, config not found, ...
     std::vector<OtherLightReport> other_lights;
 
     // Spectral samples (pixels x bins), as stored.
     uint64_t samples = 0;
-    uint64_t below_zero = 0, above_one = 0;       // strictly outside [0, 1]
-    uint64_t below_tol = 0, above_tol = 0;        // < -1e-6 or > 1 + 1e-6
-    uint64_t nonfinite = 0;                       // NaN or Inf
+    uint64_t below_zero = 0, above_one = 0;  // strictly outside [0, 1]
+    uint64_t below_tol = 0, above_tol = 0;   // < -1e-6 or > 1 + 1e-6
+    uint64_t nonfinite = 0;                  // NaN or Inf
     // Integrated linear RGB (straight colour) over the pixels with finite values.
     double rgb_min[3] = {0, 0, 0}, rgb_max[3] = {0, 0, 0};
 
@@ -87,21 +92,23 @@ struct VerifyReport {
     std::string source, source_colorspace, source_colorspace_how;
     int source_bits = 0;
     bool source_float = false;
-    uint64_t compared_pixels = 0;      // pixels whose colour was compared
-    uint64_t transparent_pixels = 0;   // associated alpha with A <= 0: colour not recoverable, skipped
-    uint64_t nonfinite_pixels = 0;     // compared pixels whose integrated colour is not finite
+    uint64_t compared_pixels = 0;  // pixels whose colour was compared
+    uint64_t transparent_pixels =
+        0;                          // associated alpha with A <= 0: colour not recoverable, skipped
+    uint64_t nonfinite_pixels = 0;  // compared pixels whose integrated colour is not finite
     uint64_t source_clamped = 0, source_replaced = 0;  // as bake's default policies would report
     double rgb_error_max = 0, rgb_error_mean = 0;      // absolute, linear RGB, over pixels x 3
     int rgb_error_x = 0, rgb_error_y = 0;              // where the max is (data window coordinates)
     double de_max = 0, de_mean = 0, de_p99 = 0;        // CIEDE2000
     int de_x = 0, de_y = 0;
     bool code_match_available = false;
-    std::string code_match_note;       // why not available, or which encoding was used
-    uint64_t code_checked = 0;         // compared pixels the bake's policies left unchanged (not clamped,
-                                       // not replaced): only those can re-encode to their codes
-    uint64_t code_matched = 0;         // of code_checked
+    std::string code_match_note;  // why not available, or which encoding was used
+    uint64_t code_checked = 0;  // compared pixels the bake's policies left unchanged (not clamped,
+                                // not replaced): only those can re-encode to their codes
+    uint64_t code_matched = 0;  // of code_checked
     double code_match_share() const {
-        return code_checked ? static_cast<double>(code_matched) / static_cast<double>(code_checked) : 1.0;
+        return code_checked ? static_cast<double>(code_matched) / static_cast<double>(code_checked)
+                            : 1.0;
     }
 
     double seconds = 0;

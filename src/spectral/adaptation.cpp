@@ -12,7 +12,8 @@ Eigen::Matrix3d bradford_matrix() {
     return m;
 }
 
-Eigen::Matrix3d bradford_adaptation(const Eigen::Vector3d& src_white, const Eigen::Vector3d& dst_white) {
+Eigen::Matrix3d bradford_adaptation(const Eigen::Vector3d& src_white,
+                                    const Eigen::Vector3d& dst_white) {
     if (src_white == dst_white) return Eigen::Matrix3d::Identity();
     const Eigen::Matrix3d m = bradford_matrix();
     const Eigen::Vector3d s = m * src_white, d = m * dst_white;
@@ -25,6 +26,8 @@ double srgb_encode_clipped(double l) {
     return l <= 0.0031308 ? 12.92 * l : 1.055 * std::pow(l, 1.0 / 2.4) - 0.055;
 }
 
-int srgb8(double linear) { return static_cast<int>(std::lround(srgb_encode_clipped(linear) * 255.0)); }
+int srgb8(double linear) {
+    return static_cast<int>(std::lround(srgb_encode_clipped(linear) * 255.0));
+}
 
 }  // namespace spectex

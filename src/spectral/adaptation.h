@@ -11,7 +11,8 @@ Eigen::Matrix3d bradford_matrix();
 
 // Von Kries adaptation in Bradford space: M^-1 diag(M dst / M src) M, mapping src_white to
 // dst_white exactly. Returns the identity when both whites are equal (no rounding noise).
-Eigen::Matrix3d bradford_adaptation(const Eigen::Vector3d& src_white, const Eigen::Vector3d& dst_white);
+Eigen::Matrix3d bradford_adaptation(const Eigen::Vector3d& src_white,
+                                    const Eigen::Vector3d& dst_white);
 
 // IEC 61966-2-1 sRGB encoding of a linear value, clipped to [0, 1] first (NaN -> 0).
 double srgb_encode_clipped(double linear);

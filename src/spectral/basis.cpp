@@ -1,5 +1,7 @@
 #include "spectral/basis.h"
 
+#include <sys/stat.h>
+
 #include <cerrno>
 #include <cmath>
 #include <cstdint>
@@ -7,7 +9,6 @@
 #include <cstring>
 #include <ostream>
 #include <string>
-#include <sys/stat.h>
 
 #include "spectral/csv_table.h"
 #include "spectral/error.h"
@@ -66,7 +67,8 @@ Basis load_basis(const std::string& data_dir, const std::string& name_or_file) {
     if (::stat(name_or_file.c_str(), &st) == 0) return read_basis_csv(name_or_file, name_or_file);
     const int err = errno;
     // A name that looks like a path is a missing file, not an unknown name.
-    const bool path_like = name_or_file.find('/') != std::string::npos || name_or_file.find('.') != std::string::npos;
+    const bool path_like =
+        name_or_file.find('/') != std::string::npos || name_or_file.find('.') != std::string::npos;
     if (path_like)
         throw Error(name_or_file + ": cannot read the basis: " + std::strerror(err) +
                     " (--basis takes fit, mallett2019 or a wavelength,r,g,b CSV file)");
@@ -85,7 +87,8 @@ void check_basis_values(const Basis& b) {
             const double v = (*cols[c])[k];
             if (!std::isfinite(v) || v < -kBasisValueTolerance || v > 1 + kBasisValueTolerance) {
                 char buf[160];
-                std::snprintf(buf, sizeof buf, ": %c is %.9g at %.9g nm; a reflectance basis holds values in [0, 1]",
+                std::snprintf(buf, sizeof buf,
+                              ": %c is %.9g at %.9g nm; a reflectance basis holds values in [0, 1]",
                               names[c], v, b.lambda[k]);
                 throw Error("basis " + b.name + buf);
             }

@@ -7,8 +7,8 @@
 namespace spectex {
 
 struct Basis {
-    std::string name;                 // "mallett2019", a file path, or a fitted basis' description
-    std::vector<double> lambda;       // nm
+    std::string name;            // "mallett2019", a file path, or a fitted basis' description
+    std::vector<double> lambda;  // nm
     std::vector<double> r, g, b;
 
     size_t size() const { return lambda.size(); }

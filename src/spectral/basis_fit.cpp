@@ -45,8 +45,8 @@ Eigen::SparseMatrix<double> objective_matrix(FitObjective o, const WavelengthGri
 // Equality rows: colour of S_r and S_g (6 rows), then N sum-to-one rows. The colour rows of S_b
 // follow from these when the white is consistent (sum of the colour rows = RGB of the perfect
 // reflector = (1,1,1)), so they are left out: the 9 + N rows have rank N + 6 (DESIGN.md).
-void equality_rows(const Eigen::Matrix3Xd& R, int n, Eigen::SparseMatrix<double>* A, Eigen::VectorXd* b,
-                   bool all_nine) {
+void equality_rows(const Eigen::Matrix3Xd& R, int n, Eigen::SparseMatrix<double>* A,
+                   Eigen::VectorXd* b, bool all_nine) {
     const int colour_rows = all_nine ? 9 : 6;
     Triplets t;
     *b = Eigen::VectorXd::Zero(colour_rows + n);
@@ -115,9 +115,11 @@ FitCertificate certify_basis(const Basis& basis, const Colorimetry& c) {
             cert.active_lower += v == 0.0;
             cert.active_upper += v == 1.0;
         }
-        cert.sum_violation = std::max(cert.sum_violation, std::fabs(basis.r[i] + basis.g[i] + basis.b[i] - 1.0));
+        cert.sum_violation =
+            std::max(cert.sum_violation, std::fabs(basis.r[i] + basis.g[i] + basis.b[i] - 1.0));
     }
-    cert.stationarity = cert.complementarity = cert.dual_sign_violation = std::numeric_limits<double>::quiet_NaN();
+    cert.stationarity = cert.complementarity = cert.dual_sign_violation =
+        std::numeric_limits<double>::quiet_NaN();
     return cert;
 }
 
@@ -156,12 +158,14 @@ FitResult fit_basis(const FitRequest& req) {
         ls.A = Eigen::SparseMatrix<double>(m + n, 3 * n + m);
         ls.A.setFromTriplets(t.begin(), t.end());
         ls.b = b9;
-        // Minimise |r|^2, plus a tiny share of the objective to pick one basis among the minimisers.
+        // Minimise |r|^2, plus a tiny share of the objective to pick one basis among the
+        // minimisers.
         Eigen::SparseMatrix<double> P = objective_matrix(req.objective, g);
         Triplets pt;
         for (int k = 0; k < P.outerSize(); ++k)
             for (Eigen::SparseMatrix<double>::InnerIterator it(P, k); it; ++it)
-                pt.emplace_back(static_cast<int>(it.row()), static_cast<int>(it.col()), 1e-9 * it.value());
+                pt.emplace_back(static_cast<int>(it.row()), static_cast<int>(it.col()),
+                                1e-9 * it.value());
         for (int i = 0; i < m; ++i) pt.emplace_back(3 * n + i, 3 * n + i, 1.0);
         ls.P = Eigen::SparseMatrix<double>(3 * n + m, 3 * n + m);
         ls.P.setFromTriplets(pt.begin(), pt.end());
@@ -172,16 +176,20 @@ FitResult fit_basis(const FitRequest& req) {
         ls.upper.tail(m).setConstant(std::numeric_limits<double>::infinity());
         QpResult lr = solve_qp(ls);
         if (lr.status != QpStatus::Solved)
-            throw Error("basis fit: the least-squares phase failed (" + std::string(to_string(lr.status)) + ")");
+            throw Error("basis fit: the least-squares phase failed (" +
+                        std::string(to_string(lr.status)) + ")");
         Basis closest = to_basis(lr.x.head(3 * n), g, name + " (least-squares, infeasible)");
         FitCertificate cert = certify_basis(closest, c);
-        double worst = std::max({cert.colour_residual[0], cert.colour_residual[1], cert.colour_residual[2]});
+        double worst =
+            std::max({cert.colour_residual[0], cert.colour_residual[1], cert.colour_residual[2]});
         if (!req.allow_infeasible) {
             char buf[256];
-            std::snprintf(buf, sizeof buf,
-                          "no basis reproduces these primaries with 0 <= S <= 1 on this grid (infeasible: the "
-                          "closest basis misses by %.3g in linear RGB); --allow-infeasible writes it",
-                          worst);
+            std::snprintf(
+                buf, sizeof buf,
+                "no basis reproduces these primaries with 0 <= S <= 1 on this grid (infeasible: "
+                "the "
+                "closest basis misses by %.3g in linear RGB); --allow-infeasible writes it",
+                worst);
             throw Error(buf);
         }
         out.basis = closest;
@@ -191,7 +199,8 @@ FitResult fit_basis(const FitRequest& req) {
         r = lr;
         r.x.conservativeResize(3 * n);
     } else if (!feasible) {
-        throw Error(std::string("basis fit: the QP solver did not converge (") + to_string(r.status) + ")");
+        throw Error(std::string("basis fit: the QP solver did not converge (") +
+                    to_string(r.status) + ")");
     } else {
         out.basis = to_basis(r.x, g, name);
         out.certificate = certify_basis(out.basis, c);
@@ -209,14 +218,16 @@ FitResult fit_basis(const FitRequest& req) {
         out.certificate.stationarity = resid.cwiseAbs().maxCoeff() / scale;
         double comp = 0, sign = 0;
         for (int i = 0; i < 3 * n; ++i) {
-            comp = std::max({comp, std::fabs(r.z_lower(i) * x(i)), std::fabs(r.z_upper(i) * (1.0 - x(i)))});
+            comp = std::max(
+                {comp, std::fabs(r.z_lower(i) * x(i)), std::fabs(r.z_upper(i) * (1.0 - x(i)))});
             sign = std::max({sign, -r.z_lower(i), -r.z_upper(i)});
         }
         out.certificate.complementarity = comp;
         out.certificate.dual_sign_violation = sign;
         out.certificate.objective = 0.5 * x.dot(qp.P * x);
     }
-    out.certificate.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    out.certificate.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return out;
 }
 

@@ -14,7 +14,7 @@ FitObjective parse_objective(const std::string& name);  // "norm" | "smooth"
 std::string to_string(FitObjective o);
 
 struct FitRequest {
-    Colorimetry colorimetry;        // grid, weights and white-consistent matrix
+    Colorimetry colorimetry;  // grid, weights and white-consistent matrix
     FitObjective objective = FitObjective::Smooth;
     bool allow_infeasible = false;  // return the least-squares closest basis instead of failing
 };
@@ -26,10 +26,10 @@ struct FitCertificate {
     double colour_residual[3] = {0, 0, 0};  // per primary: max_c |RGB(S_k)_c - e_k,c|
     double bound_violation = 0;             // max(0, -min S, max S - 1)
     double sum_violation = 0;               // max |S_r + S_g + S_b - 1|
-    double stationarity = 0;                // ||P x + q - A'y - z_l + z_u||_inf (relative to ||P x||+||q||+1)
-    double complementarity = 0;             // max z_l·(S - 0), z_u·(1 - S)
-    double dual_sign_violation = 0;         // max(0, -min z)
-    int active_lower = 0, active_upper = 0; // bounds at 0 and at 1
+    double stationarity = 0;     // ||P x + q - A'y - z_l + z_u||_inf (relative to ||P x||+||q||+1)
+    double complementarity = 0;  // max z_l·(S - 0), z_u·(1 - S)
+    double dual_sign_violation = 0;          // max(0, -min z)
+    int active_lower = 0, active_upper = 0;  // bounds at 0 and at 1
     int iterations = 0;
     double seconds = 0;
     std::string solver_status;

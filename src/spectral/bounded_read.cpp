@@ -24,13 +24,14 @@ const char* file_kind(mode_t m) {
 
 namespace {
 
-void check_stat(const struct stat& st, const std::string& path, uint64_t max_bytes, const std::string& what) {
+void check_stat(const struct stat& st, const std::string& path, uint64_t max_bytes,
+                const std::string& what) {
     if (S_ISDIR(st.st_mode)) throw Error(path + ": is a directory, not " + what);
     if (!S_ISREG(st.st_mode))
         throw Error(path + ": " + what + " must be a regular file, not " + file_kind(st.st_mode));
     if (st.st_size < 0 || static_cast<uint64_t>(st.st_size) > max_bytes)
-        throw Error(path + ": " + format_bytes(static_cast<uint64_t>(st.st_size)) + " is over the " +
-                    format_bytes(max_bytes) + " limit for " + what);
+        throw Error(path + ": " + format_bytes(static_cast<uint64_t>(st.st_size)) +
+                    " is over the " + format_bytes(max_bytes) + " limit for " + what);
 }
 
 }  // namespace
@@ -97,13 +98,15 @@ std::string CheckedFile::read_all() {
         }
         if (n == 0) break;
         if (text.size() + static_cast<size_t>(n) > max_)
-            throw Error(path_ + ": grew past the " + format_bytes(max_) + " limit for " + what_ + " while being read");
+            throw Error(path_ + ": grew past the " + format_bytes(max_) + " limit for " + what_ +
+                        " while being read");
         text.append(buf, static_cast<size_t>(n));
     }
     return text;
 }
 
-std::string read_file_bounded(const std::string& path, uint64_t max_bytes, const std::string& what) {
+std::string read_file_bounded(const std::string& path, uint64_t max_bytes,
+                              const std::string& what) {
     CheckedFile f(path, max_bytes, what);
     return f.read_all();
 }

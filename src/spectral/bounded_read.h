@@ -47,7 +47,7 @@ constexpr uint64_t kImage = uint64_t{64} << 30;
 
 // A readable regular file, checked as above. Owns the descriptor.
 class CheckedFile {
-public:
+  public:
     // `what` names the role in messages: "OCIO config", "input list", ... Throws Error.
     CheckedFile(const std::string& path, uint64_t max_bytes, const std::string& what);
     ~CheckedFile();
@@ -61,7 +61,7 @@ public:
     // Reads the whole file; it may not grow past max_bytes while being read. Throws Error.
     std::string read_all();
 
-private:
+  private:
     std::string path_, what_;
     uint64_t max_ = 0, size_ = 0;
     int fd_ = -1;

@@ -29,7 +29,8 @@ double hue_deg(double b, double a) {
 }  // namespace
 
 Lab lab_from_xyz(const Eigen::Vector3d& xyz, const Eigen::Vector3d& white) {
-    const double fx = lab_f(xyz(0) / white(0)), fy = lab_f(xyz(1) / white(1)), fz = lab_f(xyz(2) / white(2));
+    const double fx = lab_f(xyz(0) / white(0)), fy = lab_f(xyz(1) / white(1)),
+                 fz = lab_f(xyz(2) / white(2));
     return {116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)};
 }
 
@@ -68,8 +69,9 @@ double ciede2000(const Lab& c1, const Lab& c2, double kL, double kC, double kH) 
         else
             hbarp = 0.5 * (hbarp - 360.0);
     }
-    const double T = 1.0 - 0.17 * std::cos((hbarp - 30.0) * kDeg) + 0.24 * std::cos(2.0 * hbarp * kDeg) +
-                     0.32 * std::cos((3.0 * hbarp + 6.0) * kDeg) - 0.20 * std::cos((4.0 * hbarp - 63.0) * kDeg);
+    const double T =
+        1.0 - 0.17 * std::cos((hbarp - 30.0) * kDeg) + 0.24 * std::cos(2.0 * hbarp * kDeg) +
+        0.32 * std::cos((3.0 * hbarp + 6.0) * kDeg) - 0.20 * std::cos((4.0 * hbarp - 63.0) * kDeg);
     const double dtheta = 30.0 * std::exp(-((hbarp - 275.0) / 25.0) * ((hbarp - 275.0) / 25.0));
     const double Cbarp7 = pow7(Cbarp);
     const double RC = 2.0 * std::sqrt(Cbarp7 / (Cbarp7 + k25pow7));

@@ -12,10 +12,12 @@ struct Lab {
 };
 
 // CIE 1976 L*a*b* of `xyz` relative to `white` (the XYZ of the reference white, any scale as long
-// as both use the same one). Uses the CIE's exact constants (epsilon = 216/24389, kappa = 24389/27).
+// as both use the same one). Uses the CIE's exact constants (epsilon = 216/24389, kappa =
+// 24389/27).
 Lab lab_from_xyz(const Eigen::Vector3d& xyz, const Eigen::Vector3d& white);
 
 // CIEDE2000 difference between two L*a*b* colours; kL = kC = kH = 1 by default. Symmetric.
-double ciede2000(const Lab& lab1, const Lab& lab2, double kL = 1.0, double kC = 1.0, double kH = 1.0);
+double ciede2000(const Lab& lab1, const Lab& lab2, double kL = 1.0, double kC = 1.0,
+                 double kH = 1.0);
 
 }  // namespace spectex

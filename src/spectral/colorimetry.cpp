@@ -1,11 +1,11 @@
 #include "spectral/colorimetry.h"
-#include "spectral/text.h"
 
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 
 #include "spectral/error.h"
+#include "spectral/text.h"
 
 namespace spectex {
 
@@ -28,18 +28,26 @@ RgbPrimaries primaries_by_name(const std::string& name) {
     while (*s) {
         char* end = nullptr;
         double d = std::strtod(s, &end);
-        if (end == s || !std::isfinite(d)) { v.clear(); break; }
+        if (end == s || !std::isfinite(d)) {
+            v.clear();
+            break;
+        }
         v.push_back(d);
         s = end;
-        if (*s == ',') ++s;
-        else if (*s) { v.clear(); break; }
+        if (*s == ',')
+            ++s;
+        else if (*s) {
+            v.clear();
+            break;
+        }
     }
     if (v.size() != 6)
         throw Error("unknown primaries '" + name +
                     "' (known: srgb, rec709, p3, rec2020, or xr,yr,xg,yg,xb,yb)");
     for (int i = 0; i < 6; i += 2)
         if (!(v[i] > 0 && v[i + 1] > 0 && v[i] + v[i + 1] <= 1))
-            throw Error("primaries '" + name + "': chromaticities must satisfy x, y > 0 and x + y <= 1");
+            throw Error("primaries '" + name +
+                        "': chromaticities must satisfy x, y > 0 and x + y <= 1");
     return {name, {v[0], v[1]}, {v[2], v[3]}, {v[4], v[5]}, kD65};
 }
 
@@ -58,8 +66,8 @@ Eigen::Matrix3d rgb_to_xyz_matrix(const RgbPrimaries& p, const Eigen::Vector3d& 
     return P * s.asDiagonal();
 }
 
-Colorimetry Colorimetry::make(const Observer& obs, const Spectrum& illuminant, const WavelengthGrid& grid,
-                              const RgbPrimaries& primaries) {
+Colorimetry Colorimetry::make(const Observer& obs, const Spectrum& illuminant,
+                              const WavelengthGrid& grid, const RgbPrimaries& primaries) {
     Colorimetry c;
     c.grid = grid;
     const size_t n = grid.size();
@@ -70,7 +78,9 @@ Colorimetry Colorimetry::make(const Observer& obs, const Spectrum& illuminant, c
         for (size_t k = 0; k < n; ++k)
             if (!std::isfinite(v[k]) || v[k] < 0 || v[k] > 1e12) {
                 char buf[160];
-                std::snprintf(buf, sizeof buf, " has the value %.9g at %s nm: values must be finite, not negative and below 1e12",
+                std::snprintf(buf, sizeof buf,
+                              " has the value %.9g at %s nm: values must be finite, not negative "
+                              "and below 1e12",
                               v[k], format_wavelength(grid.lambda[k]).c_str());
                 throw Error(what + buf);
             }
@@ -83,7 +93,8 @@ Colorimetry Colorimetry::make(const Observer& obs, const Spectrum& illuminant, c
     double norm = 0;
     for (size_t k = 0; k < n; ++k) norm += e[k] * y[k] * grid.weight[k];
     if (!(norm > 0))
-        throw Error("illuminant " + illuminant.name + " times the observer's y is zero on " + grid.describe());
+        throw Error("illuminant " + illuminant.name + " times the observer's y is zero on " +
+                    grid.describe());
     for (size_t k = 0; k < n; ++k) {
         double w = e[k] * grid.weight[k] / norm;
         c.W(0, k) = w * x[k];
@@ -91,10 +102,12 @@ Colorimetry Colorimetry::make(const Observer& obs, const Spectrum& illuminant, c
         c.W(2, k) = w * z[k];
     }
     c.white_xyz = c.W.rowwise().sum();
-    if (!(c.white_xyz.minCoeff() > 0)) throw Error("illuminant white has a non-positive XYZ component");
+    if (!(c.white_xyz.minCoeff() > 0))
+        throw Error("illuminant white has a non-positive XYZ component");
     c.rgb_to_xyz = rgb_to_xyz_matrix(primaries, c.white_xyz);
     c.xyz_to_rgb = c.rgb_to_xyz.inverse();
-    c.nominal_xyz_to_rgb = rgb_to_xyz_matrix(primaries, xyz_from_chromaticity(primaries.white)).inverse();
+    c.nominal_xyz_to_rgb =
+        rgb_to_xyz_matrix(primaries, xyz_from_chromaticity(primaries.white)).inverse();
     return c;
 }
 

@@ -30,14 +30,14 @@ Eigen::Vector3d xyz_from_chromaticity(Chromaticity c, double Y = 1.0);
 
 struct Colorimetry {
     WavelengthGrid grid;
-    Eigen::Matrix3Xd W;                 // 3×N: XYZ of a reflectance S is W·S; the perfect reflector has Y = 1
-    Eigen::Vector3d white_xyz;          // W·1
-    Eigen::Matrix3d rgb_to_xyz;         // white-consistent
+    Eigen::Matrix3Xd W;  // 3×N: XYZ of a reflectance S is W·S; the perfect reflector has Y = 1
+    Eigen::Vector3d white_xyz;   // W·1
+    Eigen::Matrix3d rgb_to_xyz;  // white-consistent
     Eigen::Matrix3d xyz_to_rgb;
-    Eigen::Matrix3d nominal_xyz_to_rgb; // from the colour space's nominal white, for reporting
+    Eigen::Matrix3d nominal_xyz_to_rgb;  // from the colour space's nominal white, for reporting
 
-    static Colorimetry make(const Observer& obs, const Spectrum& illuminant, const WavelengthGrid& grid,
-                            const RgbPrimaries& primaries);
+    static Colorimetry make(const Observer& obs, const Spectrum& illuminant,
+                            const WavelengthGrid& grid, const RgbPrimaries& primaries);
     // 3×N: linear RGB of a reflectance S is rgb_weights()·S.
     Eigen::Matrix3Xd rgb_weights() const { return xyz_to_rgb * W; }
 };

@@ -1,5 +1,4 @@
 #include "spectral/csv_table.h"
-#include "spectral/text.h"
 
 #include <cerrno>
 #include <cmath>
@@ -11,12 +10,13 @@
 
 #include "spectral/bounded_read.h"
 #include "spectral/error.h"
+#include "spectral/text.h"
 
 namespace spectex {
 
 namespace {
 
-constexpr size_t kMaxBytes = 64u << 20;   // a spectral table is kilobytes; refuse anything absurd
+constexpr size_t kMaxBytes = 64u << 20;  // a spectral table is kilobytes; refuse anything absurd
 constexpr size_t kMaxColumns = 4096;
 
 std::string trim(const std::string& s) {
@@ -25,7 +25,6 @@ std::string trim(const std::string& s) {
     size_t b = s.find_last_not_of(" \t\r");
     return s.substr(a, b - a + 1);
 }
-
 
 std::vector<std::string> split_commas(const std::string& line) {
     std::vector<std::string> out;
@@ -73,7 +72,8 @@ CsvTable parse_csv_table(const std::string& text, const std::string& source,
                     ok = lower_ascii(fields[i]) == lower_ascii(expected[i]);
                 if (!ok) {
                     std::string want;
-                    for (size_t i = 0; i < expected.size(); ++i) want += (i ? "," : "") + expected[i];
+                    for (size_t i = 0; i < expected.size(); ++i)
+                        want += (i ? "," : "") + expected[i];
                     throw Error(where + "header is '" + s + "', expected '" + want + "'");
                 }
             }
@@ -105,7 +105,8 @@ CsvTable parse_csv_table(const std::string& text, const std::string& source,
 CsvTable read_csv_table(const std::string& path, const std::vector<std::string>& expected) {
     // A regular file of bounded size, checked before it is read: never a device, FIFO or folder.
     static_assert(kMaxBytes == file_limits::kSpectralTable, "one limit for spectral tables");
-    return parse_csv_table(read_file_bounded(path, file_limits::kSpectralTable, "a spectral table"), path, expected);
+    return parse_csv_table(read_file_bounded(path, file_limits::kSpectralTable, "a spectral table"),
+                           path, expected);
 }
 
 void write_csv_table(std::ostream& out, const CsvTable& table) {

@@ -8,9 +8,9 @@
 namespace spectex {
 
 struct CsvTable {
-    std::vector<std::string> comments;            // provenance lines, without the leading '#'
-    std::vector<std::string> columns;             // header names
-    std::vector<std::vector<double>> data;        // data[column][row]
+    std::vector<std::string> comments;      // provenance lines, without the leading '#'
+    std::vector<std::string> columns;       // header names
+    std::vector<std::vector<double>> data;  // data[column][row]
 
     size_t rows() const { return data.empty() ? 0 : data[0].size(); }
 };

@@ -31,13 +31,15 @@ __attribute__((target("avx,f16c"))) void to_half_f16c(const float* in, uint16_t*
     size_t i = 0;
     for (; i + 8 <= n; i += 8)
         _mm_storeu_si128(reinterpret_cast<__m128i*>(out + i),
-                         _mm256_cvtps_ph(_mm256_loadu_ps(in + i), _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC));
+                         _mm256_cvtps_ph(_mm256_loadu_ps(in + i),
+                                         _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC));
     for (; i < n; ++i) out[i] = float_to_half(in[i]);
 }
 __attribute__((target("avx,f16c"))) void from_half_f16c(const uint16_t* in, float* out, size_t n) {
     size_t i = 0;
     for (; i + 8 <= n; i += 8)
-        _mm256_storeu_ps(out + i, _mm256_cvtph_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(in + i))));
+        _mm256_storeu_ps(
+            out + i, _mm256_cvtph_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(in + i))));
     for (; i < n; ++i) out[i] = half_to_float(in[i]);
 }
 bool have_f16c() {
@@ -61,12 +63,16 @@ void from_half_f16c(const uint16_t* in, float* out, size_t n) { from_half_scalar
 #endif
 
 void to_half(const float* in, uint16_t* out, size_t n) {
-    if (have_f16c()) to_half_f16c(in, out, n);
-    else to_half_scalar(in, out, n);
+    if (have_f16c())
+        to_half_f16c(in, out, n);
+    else
+        to_half_scalar(in, out, n);
 }
 void from_half(const uint16_t* in, float* out, size_t n) {
-    if (have_f16c()) from_half_f16c(in, out, n);
-    else from_half_scalar(in, out, n);
+    if (have_f16c())
+        from_half_f16c(in, out, n);
+    else
+        from_half_scalar(in, out, n);
 }
 
 }  // namespace
@@ -105,8 +111,10 @@ constexpr int kMaxFlips = 16;
 
 uint16_t other_side(uint16_t h, float v, float s) {
     // The neighbouring half of h on the side of s (h itself when v == s or at the range's edge).
-    if (v > s && (h & 0x7fffu) != 0) return (h & 0x8000u) ? static_cast<uint16_t>(h + 1) : static_cast<uint16_t>(h - 1);
-    if (v < s && (h & 0x7fffu) < 0x7bffu) return (h & 0x8000u) ? static_cast<uint16_t>(h - 1) : static_cast<uint16_t>(h + 1);
+    if (v > s && (h & 0x7fffu) != 0)
+        return (h & 0x8000u) ? static_cast<uint16_t>(h + 1) : static_cast<uint16_t>(h - 1);
+    if (v < s && (h & 0x7fffu) < 0x7bffu)
+        return (h & 0x8000u) ? static_cast<uint16_t>(h - 1) : static_cast<uint16_t>(h + 1);
     return h;
 }
 
@@ -119,21 +127,24 @@ struct FeedbackPlanes {
     FeedbackPlanes(const FeedbackPlanes&) = delete;
     FeedbackPlanes& operator=(const FeedbackPlanes&) = delete;
     explicit FeedbackPlanes(const ExpansionMatrix& m)
-        : bins(static_cast<size_t>(m.bins)), padded((bins + 7) & ~size_t{7}), data(6 * padded, 0.0f) {
+        : bins(static_cast<size_t>(m.bins)),
+          padded((bins + 7) & ~size_t{7}),
+          data(6 * padded, 0.0f) {
         for (size_t k = 0; k < bins; ++k)
             for (size_t c = 0; c < 3; ++c) {
                 data[c * padded + k] = m.coeff[3 * k + c];
                 data[(3 + c) * padded + k] = m.rgb_weight[3 * k + c];
             }
-        cr = data.data(), cg = cr + padded, cb = cg + padded, wr = cb + padded, wg = wr + padded, wb = wg + padded;
+        cr = data.data(), cg = cr + padded, cb = cg + padded, wr = cb + padded, wg = wr + padded,
+        wb = wg + padded;
     }
 };
 
-// A pixel's flips are held as delta[k], the value of other_side() minus the value of bin k's current
-// half. A bin that cannot flip has delta 0, whose "flip" leaves the squared error exactly as it is;
-// near or beyond the end of the half range (and for NaN) delta can be infinite or NaN, which makes
-// the squared error infinite or NaN. Only strictly smaller squared errors are taken, so neither is
-// ever chosen, and the F16C and scalar paths, which differ there, choose alike.
+// A pixel's flips are held as delta[k], the value of other_side() minus the value of bin k's
+// current half. A bin that cannot flip has delta 0, whose "flip" leaves the squared error exactly
+// as it is; near or beyond the end of the half range (and for NaN) delta can be infinite or NaN,
+// which makes the squared error infinite or NaN. Only strictly smaller squared errors are taken, so
+// neither is ever chosen, and the F16C and scalar paths, which differ there, choose alike.
 float squared(const float* e) { return e[0] * e[0] + e[1] * e[1] + e[2] * e[2]; }
 
 float exact(const FeedbackPlanes& p, size_t k, float r, float g, float b) {
@@ -150,7 +161,8 @@ size_t best_flip_scalar(const FeedbackPlanes& p, const float* delta, const float
     size_t best = p.bins;
     float best_e2 = squared(e);
     for (size_t k = 0; k < p.bins; ++k) {
-        const float x = e[0] + p.wr[k] * delta[k], y = e[1] + p.wg[k] * delta[k], z = e[2] + p.wb[k] * delta[k];
+        const float x = e[0] + p.wr[k] * delta[k], y = e[1] + p.wg[k] * delta[k],
+                    z = e[2] + p.wb[k] * delta[k];
         const float t = x * x + y * y + z * z;
         if (t < best_e2) best_e2 = t, best = k;
     }
@@ -159,7 +171,8 @@ size_t best_flip_scalar(const FeedbackPlanes& p, const float* delta, const float
 
 // Fills delta for a pixel none of whose bins has flipped yet (each holds round(s)); returns the
 // first flip to make.
-size_t find_flips_scalar(const FeedbackPlanes& p, float r, float g, float b, const float* e, float* delta) {
+size_t find_flips_scalar(const FeedbackPlanes& p, float r, float g, float b, const float* e,
+                         float* delta) {
     for (size_t k = 0; k < p.padded; ++k) {
         const float s = exact(p, k, r, g, b);
         delta[k] = flip_delta(float_to_half(s), s);
@@ -168,8 +181,9 @@ size_t find_flips_scalar(const FeedbackPlanes& p, float r, float g, float b, con
 }
 
 // Rounds every bin of len pixels to out and adds the colour error that makes to er, eg, eb.
-void round_block_scalar(const FeedbackPlanes& p, const float* r, const float* g, const float* b, size_t len,
-                        uint16_t* out, size_t plane_stride, float* er, float* eg, float* eb) {
+void round_block_scalar(const FeedbackPlanes& p, const float* r, const float* g, const float* b,
+                        size_t len, uint16_t* out, size_t plane_stride, float* er, float* eg,
+                        float* eb) {
     float tmp[kBlock], back[kBlock];
     for (size_t k = 0; k < p.bins; ++k) {
         uint16_t* dst = out + k * plane_stride;
@@ -192,12 +206,12 @@ constexpr size_t kBinRun = 16;
 
 // Bin k (coefficients c = cr, cg, cb, wr, wg, wb) of eight pixels: rounds s to dst and adds the
 // error to er, eg, eb.
-__attribute__((target("avx,f16c"), always_inline)) inline void round8(const __m256* c, const float* r, const float* g,
-                                                                      const float* b, uint16_t* dst, __m256& er,
-                                                                      __m256& eg, __m256& eb) {
-    const __m256 s = _mm256_add_ps(
-        _mm256_add_ps(_mm256_mul_ps(c[0], _mm256_loadu_ps(r)), _mm256_mul_ps(c[1], _mm256_loadu_ps(g))),
-        _mm256_mul_ps(c[2], _mm256_loadu_ps(b)));
+__attribute__((target("avx,f16c"), always_inline)) inline void round8(
+    const __m256* c, const float* r, const float* g, const float* b, uint16_t* dst, __m256& er,
+    __m256& eg, __m256& eb) {
+    const __m256 s = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(c[0], _mm256_loadu_ps(r)),
+                                                 _mm256_mul_ps(c[1], _mm256_loadu_ps(g))),
+                                   _mm256_mul_ps(c[2], _mm256_loadu_ps(b)));
     const __m128i h = _mm256_cvtps_ph(s, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
     _mm_storeu_si128(reinterpret_cast<__m128i*>(dst), h);
     const __m256 d = _mm256_sub_ps(_mm256_cvtph_ps(h), s);
@@ -206,14 +220,17 @@ __attribute__((target("avx,f16c"), always_inline)) inline void round8(const __m2
     eb = _mm256_add_ps(eb, _mm256_mul_ps(c[5], d));
 }
 
-__attribute__((target("avx,f16c"))) void round_block_f16c(const FeedbackPlanes& p, const float* r, const float* g,
-                                                          const float* b, size_t len, uint16_t* out,
-                                                          size_t plane_stride, float* er, float* eg, float* eb) {
+__attribute__((target("avx,f16c"))) void round_block_f16c(const FeedbackPlanes& p, const float* r,
+                                                          const float* g, const float* b,
+                                                          size_t len, uint16_t* out,
+                                                          size_t plane_stride, float* er, float* eg,
+                                                          float* eb) {
     const size_t len16 = len & ~size_t{15};
     for (size_t k0 = 0; k0 < p.bins; k0 += kBinRun) {
         const size_t k1 = std::min(p.bins, k0 + kBinRun);
         for (size_t i = 0; i < len16; i += 16) {
-            __m256 er0 = _mm256_loadu_ps(er + i), eg0 = _mm256_loadu_ps(eg + i), eb0 = _mm256_loadu_ps(eb + i);
+            __m256 er0 = _mm256_loadu_ps(er + i), eg0 = _mm256_loadu_ps(eg + i),
+                   eb0 = _mm256_loadu_ps(eb + i);
             __m256 er1 = _mm256_loadu_ps(er + i + 8), eg1 = _mm256_loadu_ps(eg + i + 8);
             __m256 eb1 = _mm256_loadu_ps(eb + i + 8);
             uint16_t* dst = out + k0 * plane_stride + i;
@@ -230,30 +247,33 @@ __attribute__((target("avx,f16c"))) void round_block_f16c(const FeedbackPlanes& 
         }
     }
     if (len16 < len)
-        round_block_scalar(p, r + len16, g + len16, b + len16, len - len16, out + len16, plane_stride, er + len16,
-                           eg + len16, eb + len16);
+        round_block_scalar(p, r + len16, g + len16, b + len16, len - len16, out + len16,
+                           plane_stride, er + len16, eg + len16, eb + len16);
 }
 
 // best_flip_scalar, eight bins at a time. Each lane keeps the first of its smallest squared errors
-// (minps is t < best ? t : best); the lowest bin among the lanes holding the overall smallest is the
-// first bin that has it. Selections use and/or rather than blendv: GCC 12 turns blendv into a vector
-// condition that it lowers lane by lane without AVX2.
+// (minps is t < best ? t : best); the lowest bin among the lanes holding the overall smallest is
+// the first bin that has it. Selections use and/or rather than blendv: GCC 12 turns blendv into a
+// vector condition that it lowers lane by lane without AVX2.
 struct BestFlip8 {
     __m256 ex, ey, ez, best, best_k, k;
 };
 
-__attribute__((target("avx"), always_inline)) inline BestFlip8 best_flip8_start(const float* e, float e2) {
-    return {_mm256_set1_ps(e[0]), _mm256_set1_ps(e[1]),   _mm256_set1_ps(e[2]),
+__attribute__((target("avx"), always_inline)) inline BestFlip8 best_flip8_start(const float* e,
+                                                                                float e2) {
+    return {_mm256_set1_ps(e[0]), _mm256_set1_ps(e[1]),  _mm256_set1_ps(e[2]),
             _mm256_set1_ps(e2),   _mm256_set1_ps(-1.0f), _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7)};
 }
 
 // Bins k..k+7 (the lanes' numbers in bf.k) with weights wr, wg, wb and deltas d.
-__attribute__((target("avx"), always_inline)) inline void best_flip8_step(BestFlip8& bf, __m256 wr, __m256 wg,
-                                                                          __m256 wb, __m256 d) {
+__attribute__((target("avx"), always_inline)) inline void best_flip8_step(BestFlip8& bf, __m256 wr,
+                                                                          __m256 wg, __m256 wb,
+                                                                          __m256 d) {
     const __m256 x = _mm256_add_ps(bf.ex, _mm256_mul_ps(wr, d));
     const __m256 y = _mm256_add_ps(bf.ey, _mm256_mul_ps(wg, d));
     const __m256 z = _mm256_add_ps(bf.ez, _mm256_mul_ps(wb, d));
-    const __m256 t = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(x, x), _mm256_mul_ps(y, y)), _mm256_mul_ps(z, z));
+    const __m256 t =
+        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(x, x), _mm256_mul_ps(y, y)), _mm256_mul_ps(z, z));
     const __m256 lt = _mm256_cmp_ps(t, bf.best, _CMP_LT_OQ);
     bf.best = _mm256_min_ps(t, bf.best);
     bf.best_k = _mm256_or_ps(_mm256_and_ps(lt, bf.k), _mm256_andnot_ps(lt, bf.best_k));
@@ -266,22 +286,24 @@ __attribute__((target("avx"), always_inline)) inline __m256 min8(__m256 v) {
     return _mm256_min_ps(v, _mm256_permute2f128_ps(v, v, 1));
 }
 
-__attribute__((target("avx"), always_inline)) inline size_t best_flip8_end(const BestFlip8& bf, float e2,
-                                                                           size_t none) {
+__attribute__((target("avx"), always_inline)) inline size_t best_flip8_end(const BestFlip8& bf,
+                                                                           float e2, size_t none) {
     // No lane is NaN unless e2 is, and then nothing is below it.
     const __m256 m = min8(bf.best);
     const __m256 at_m = _mm256_cmp_ps(bf.best, m, _CMP_EQ_OQ);
-    const __m256 k = min8(
-        _mm256_or_ps(_mm256_and_ps(at_m, bf.best_k), _mm256_andnot_ps(at_m, _mm256_set1_ps(static_cast<float>(none)))));
+    const __m256 k =
+        min8(_mm256_or_ps(_mm256_and_ps(at_m, bf.best_k),
+                          _mm256_andnot_ps(at_m, _mm256_set1_ps(static_cast<float>(none)))));
     return _mm256_cvtss_f32(m) < e2 ? static_cast<size_t>(_mm256_cvtss_f32(k)) : none;
 }
 
-__attribute__((target("avx"))) size_t best_flip_avx(const FeedbackPlanes& p, const float* delta, const float* e) {
+__attribute__((target("avx"))) size_t best_flip_avx(const FeedbackPlanes& p, const float* delta,
+                                                    const float* e) {
     const float e2 = squared(e);
     BestFlip8 bf = best_flip8_start(e, e2);
     for (size_t k = 0; k < p.padded; k += 8)
-        best_flip8_step(bf, _mm256_loadu_ps(p.wr + k), _mm256_loadu_ps(p.wg + k), _mm256_loadu_ps(p.wb + k),
-                        _mm256_loadu_ps(delta + k));
+        best_flip8_step(bf, _mm256_loadu_ps(p.wr + k), _mm256_loadu_ps(p.wg + k),
+                        _mm256_loadu_ps(p.wb + k), _mm256_loadu_ps(delta + k));
     return best_flip8_end(bf, e2, p.bins);
 }
 
@@ -291,36 +313,45 @@ __attribute__((target("avx"))) size_t best_flip_avx(const FeedbackPlanes& p, con
 // other_side() has no flip this gives delta 0 (s is a half) or, at the range's end, an infinite or
 // NaN one, except for -0, which other_side() does not move further down: a negative s that rounds
 // to -0 is masked to delta 0.
-__attribute__((target("avx,f16c"))) size_t find_flips_f16c(const FeedbackPlanes& p, float r, float g, float b,
-                                                           const float* e, float* delta) {
+__attribute__((target("avx,f16c"))) size_t find_flips_f16c(const FeedbackPlanes& p, float r,
+                                                           float g, float b, const float* e,
+                                                           float* delta) {
     const __m256 vr = _mm256_set1_ps(r), vg = _mm256_set1_ps(g), vb = _mm256_set1_ps(b);
     const __m256 zero = _mm256_setzero_ps();
     const float *cr = p.cr, *cg = p.cg, *cb = p.cb, *wr = p.wr, *wg = p.wg, *wb = p.wb;
     const float e2 = squared(e);
     BestFlip8 bf = best_flip8_start(e, e2);
     for (size_t k = 0; k < p.padded; k += 8) {
-        const __m256 s = _mm256_add_ps(
-            _mm256_add_ps(_mm256_mul_ps(_mm256_loadu_ps(cr + k), vr), _mm256_mul_ps(_mm256_loadu_ps(cg + k), vg)),
-            _mm256_mul_ps(_mm256_loadu_ps(cb + k), vb));
-        const __m256 v = _mm256_cvtph_ps(_mm256_cvtps_ph(s, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC));
-        const __m256 down = _mm256_cvtph_ps(_mm256_cvtps_ph(s, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC));
-        const __m256 up = _mm256_cvtph_ps(_mm256_cvtps_ph(s, _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC));
-        const __m256 below_zero = _mm256_and_ps(_mm256_cmp_ps(v, zero, _CMP_EQ_OQ), _mm256_cmp_ps(s, zero, _CMP_LT_OQ));
-        const __m256 d = _mm256_andnot_ps(below_zero, _mm256_add_ps(_mm256_sub_ps(down, v), _mm256_sub_ps(up, v)));
+        const __m256 s = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(_mm256_loadu_ps(cr + k), vr),
+                                                     _mm256_mul_ps(_mm256_loadu_ps(cg + k), vg)),
+                                       _mm256_mul_ps(_mm256_loadu_ps(cb + k), vb));
+        const __m256 v =
+            _mm256_cvtph_ps(_mm256_cvtps_ph(s, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC));
+        const __m256 down =
+            _mm256_cvtph_ps(_mm256_cvtps_ph(s, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC));
+        const __m256 up =
+            _mm256_cvtph_ps(_mm256_cvtps_ph(s, _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC));
+        const __m256 below_zero =
+            _mm256_and_ps(_mm256_cmp_ps(v, zero, _CMP_EQ_OQ), _mm256_cmp_ps(s, zero, _CMP_LT_OQ));
+        const __m256 d = _mm256_andnot_ps(
+            below_zero, _mm256_add_ps(_mm256_sub_ps(down, v), _mm256_sub_ps(up, v)));
         _mm256_storeu_ps(delta + k, d);
-        best_flip8_step(bf, _mm256_loadu_ps(wr + k), _mm256_loadu_ps(wg + k), _mm256_loadu_ps(wb + k), d);
+        best_flip8_step(bf, _mm256_loadu_ps(wr + k), _mm256_loadu_ps(wg + k),
+                        _mm256_loadu_ps(wb + k), d);
     }
     return best_flip8_end(bf, e2, p.bins);
 }
 #else
-void round_block_f16c(const FeedbackPlanes& p, const float* r, const float* g, const float* b, size_t len,
-                      uint16_t* out, size_t plane_stride, float* er, float* eg, float* eb) {
+void round_block_f16c(const FeedbackPlanes& p, const float* r, const float* g, const float* b,
+                      size_t len, uint16_t* out, size_t plane_stride, float* er, float* eg,
+                      float* eb) {
     round_block_scalar(p, r, g, b, len, out, plane_stride, er, eg, eb);
 }
 size_t best_flip_avx(const FeedbackPlanes& p, const float* delta, const float* e) {
     return best_flip_scalar(p, delta, e);
 }
-size_t find_flips_f16c(const FeedbackPlanes& p, float r, float g, float b, const float* e, float* delta) {
+size_t find_flips_f16c(const FeedbackPlanes& p, float r, float g, float b, const float* e,
+                       float* delta) {
     return find_flips_scalar(p, r, g, b, e, delta);
 }
 #endif
@@ -331,8 +362,8 @@ bool within_tolerance(const float* e) {
 
 // The greedy flips of the pixel (r, g, b) whose error e is over tolerance, from the first choice
 // best onwards; px points to its bin 0, and a flipped bin's delta is recomputed from its new half.
-void settle(const FeedbackPlanes& p, float* delta, size_t best, float* e, float r, float g, float b, uint16_t* px,
-            size_t plane_stride, bool avx) {
+void settle(const FeedbackPlanes& p, float* delta, size_t best, float* e, float r, float g, float b,
+            uint16_t* px, size_t plane_stride, bool avx) {
     for (int flip = 1; best < p.bins; ++flip) {
         uint16_t& h = px[best * plane_stride];
         const float s = exact(p, best, r, g, b);
@@ -346,8 +377,8 @@ void settle(const FeedbackPlanes& p, float* delta, size_t best, float* e, float 
     }
 }
 
-void expand_to_half_feedback(const ExpansionMatrix& m, const float* r, const float* g, const float* b, size_t n,
-                             uint16_t* out, size_t plane_stride) {
+void expand_to_half_feedback(const ExpansionMatrix& m, const float* r, const float* g,
+                             const float* b, size_t n, uint16_t* out, size_t plane_stride) {
     const bool f16c = have_f16c();
     const FeedbackPlanes p(m);
     std::vector<float> delta(p.padded);
@@ -358,8 +389,10 @@ void expand_to_half_feedback(const ExpansionMatrix& m, const float* r, const flo
         std::fill(er, er + len, 0.0f);
         std::fill(eg, eg + len, 0.0f);
         std::fill(eb, eb + len, 0.0f);
-        if (f16c) round_block_f16c(p, r + i0, g + i0, b + i0, len, out + i0, plane_stride, er, eg, eb);
-        else round_block_scalar(p, r + i0, g + i0, b + i0, len, out + i0, plane_stride, er, eg, eb);
+        if (f16c)
+            round_block_f16c(p, r + i0, g + i0, b + i0, len, out + i0, plane_stride, er, eg, eb);
+        else
+            round_block_scalar(p, r + i0, g + i0, b + i0, len, out + i0, plane_stride, er, eg, eb);
         // The pixels over tolerance, listed without a branch per pixel (often a quarter of them).
         size_t over = 0;
         for (size_t i = 0; i < len; ++i) {
@@ -381,9 +414,11 @@ void expand_to_half_feedback(const ExpansionMatrix& m, const float* r, const flo
 }  // namespace
 
 void round_spectra_to_half(const float* spectra, size_t spectra_stride, size_t n, size_t bins,
-                           const std::vector<float>* rgb_weight, uint16_t* out, size_t plane_stride) {
+                           const std::vector<float>* rgb_weight, uint16_t* out,
+                           size_t plane_stride) {
     if (!rgb_weight) {
-        for (size_t k = 0; k < bins; ++k) to_half(spectra + k * spectra_stride, out + k * plane_stride, n);
+        for (size_t k = 0; k < bins; ++k)
+            to_half(spectra + k * spectra_stride, out + k * plane_stride, n);
         return;
     }
     // The same rounding as the basis kernel's (round to nearest, then greedy flips of the pixels
@@ -417,12 +452,14 @@ void round_spectra_to_half(const float* spectra, size_t spectra_stride, size_t n
             if (within_tolerance(e)) continue;
             const float* s = spectra + i0 + i;
             uint16_t* px = out + i0 + i;
-            for (size_t k = 0; k < bins; ++k) delta[k] = flip_delta(px[k * plane_stride], s[k * spectra_stride]);
+            for (size_t k = 0; k < bins; ++k)
+                delta[k] = flip_delta(px[k * plane_stride], s[k * spectra_stride]);
             for (int flip = 1; flip <= kMaxFlips; ++flip) {
                 size_t best = bins;
                 float best_e2 = squared(e);
                 for (size_t k = 0; k < bins; ++k) {
-                    const float x = e[0] + w[0][k] * delta[k], y = e[1] + w[1][k] * delta[k], z = e[2] + w[2][k] * delta[k];
+                    const float x = e[0] + w[0][k] * delta[k], y = e[1] + w[1][k] * delta[k],
+                                z = e[2] + w[2][k] * delta[k];
                     const float t = x * x + y * y + z * z;
                     if (t < best_e2) best_e2 = t, best = k;
                 }
@@ -440,8 +477,8 @@ void round_spectra_to_half(const float* spectra, size_t spectra_stride, size_t n
     }
 }
 
-void expand_to_half(const ExpansionMatrix& m, const float* r, const float* g, const float* b, size_t n,
-                    uint16_t* out, size_t plane_stride) {
+void expand_to_half(const ExpansionMatrix& m, const float* r, const float* g, const float* b,
+                    size_t n, uint16_t* out, size_t plane_stride) {
     if (!m.rgb_weight.empty()) {
         expand_to_half_feedback(m, r, g, b, n, out, plane_stride);
         return;
@@ -451,20 +488,22 @@ void expand_to_half(const ExpansionMatrix& m, const float* r, const float* g, co
         const size_t len = std::min(kBlock, n - i0);
         for (int k = 0; k < m.bins; ++k) {
             const float cr = m.coeff[3 * k], cg = m.coeff[3 * k + 1], cb = m.coeff[3 * k + 2];
-            for (size_t i = 0; i < len; ++i) tmp[i] = cr * r[i0 + i] + cg * g[i0 + i] + cb * b[i0 + i];
+            for (size_t i = 0; i < len; ++i)
+                tmp[i] = cr * r[i0 + i] + cg * g[i0 + i] + cb * b[i0 + i];
             to_half(tmp, out + static_cast<size_t>(k) * plane_stride + i0, len);
         }
     }
 }
 
-void expand_to_float(const ExpansionMatrix& m, const float* r, const float* g, const float* b, size_t n,
-                     float* out, size_t plane_stride) {
+void expand_to_float(const ExpansionMatrix& m, const float* r, const float* g, const float* b,
+                     size_t n, float* out, size_t plane_stride) {
     for (size_t i0 = 0; i0 < n; i0 += kBlock) {
         const size_t len = std::min(kBlock, n - i0);
         for (int k = 0; k < m.bins; ++k) {
             const float cr = m.coeff[3 * k], cg = m.coeff[3 * k + 1], cb = m.coeff[3 * k + 2];
             float* dst = out + static_cast<size_t>(k) * plane_stride + i0;
-            for (size_t i = 0; i < len; ++i) dst[i] = cr * r[i0 + i] + cg * g[i0 + i] + cb * b[i0 + i];
+            for (size_t i = 0; i < len; ++i)
+                dst[i] = cr * r[i0 + i] + cg * g[i0 + i] + cb * b[i0 + i];
         }
     }
 }

@@ -21,20 +21,21 @@ struct ExpansionMatrix {
 
 // r, g, b: planes of n linear values. Bin k of pixel i goes to out[k * plane_stride + i].
 // Half: round to nearest even, or with colour error feedback when m.rgb_weight is set.
-void expand_to_half(const ExpansionMatrix& m, const float* r, const float* g, const float* b, size_t n,
-                    uint16_t* out, size_t plane_stride);
+void expand_to_half(const ExpansionMatrix& m, const float* r, const float* g, const float* b,
+                    size_t n, uint16_t* out, size_t plane_stride);
 // Block conversions (F16C when the CPU has it, else the scalar code of half.h: the same bits).
 void floats_to_half(const float* in, uint16_t* out, size_t n);
 void half_to_floats(const uint16_t* in, float* out, size_t n);
 bool expansion_uses_f16c();
 
-// Rounds n spectra (bin k of pixel i at spectra[k * spectra_stride + i]) to half, to nearest, or with
-// the colour error feedback of expand_to_half when rgb_weight (bins x 3) is given: the same rule
-// for any method's spectra.
+// Rounds n spectra (bin k of pixel i at spectra[k * spectra_stride + i]) to half, to nearest, or
+// with the colour error feedback of expand_to_half when rgb_weight (bins x 3) is given: the same
+// rule for any method's spectra.
 void round_spectra_to_half(const float* spectra, size_t spectra_stride, size_t n, size_t bins,
-                           const std::vector<float>* rgb_weight, uint16_t* out, size_t plane_stride);
+                           const std::vector<float>* rgb_weight, uint16_t* out,
+                           size_t plane_stride);
 
-void expand_to_float(const ExpansionMatrix& m, const float* r, const float* g, const float* b, size_t n,
-                     float* out, size_t plane_stride);
+void expand_to_float(const ExpansionMatrix& m, const float* r, const float* g, const float* b,
+                     size_t n, float* out, size_t plane_stride);
 
 }  // namespace spectex

@@ -10,7 +10,7 @@
 namespace spectex {
 
 class Fnv1a64 {
-public:
+  public:
     static constexpr uint64_t kOffset = 0xcbf29ce484222325ull;
     static constexpr uint64_t kPrime = 0x100000001b3ull;
 
@@ -29,7 +29,7 @@ public:
         return buf;
     }
 
-private:
+  private:
     uint64_t h_ = kOffset;
 };
 

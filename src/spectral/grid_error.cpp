@@ -22,15 +22,18 @@ Reconstruction parse_reconstruction(const std::string& name) {
 
 std::string to_string(Reconstruction r) {
     switch (r) {
-        case Reconstruction::Linear: return "linear";
-        case Reconstruction::Nearest: return "nearest";
-        case Reconstruction::Box: return "box";
+        case Reconstruction::Linear:
+            return "linear";
+        case Reconstruction::Nearest:
+            return "nearest";
+        case Reconstruction::Box:
+            return "box";
     }
     return "linear";
 }
 
-Eigen::MatrixXd reconstruction_matrix(const std::vector<double>& bins, const std::vector<double>& fine,
-                                      Reconstruction r) {
+Eigen::MatrixXd reconstruction_matrix(const std::vector<double>& bins,
+                                      const std::vector<double>& fine, Reconstruction r) {
     if (bins.empty()) throw Error("reconstruction of an empty grid");
     const Eigen::Index n = static_cast<Eigen::Index>(bins.size());
     Eigen::MatrixXd R = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(fine.size()), n);
@@ -43,7 +46,9 @@ Eigen::MatrixXd reconstruction_matrix(const std::vector<double>& bins, const std
             } else if (l >= bins.back()) {
                 R(row, n - 1) = 1;
             } else {
-                const size_t k = static_cast<size_t>(std::upper_bound(bins.begin(), bins.end(), l) - bins.begin()) - 1;
+                const size_t k = static_cast<size_t>(std::upper_bound(bins.begin(), bins.end(), l) -
+                                                     bins.begin()) -
+                                 1;
                 const double t = (l - bins[k]) / (bins[k + 1] - bins[k]);
                 R(row, static_cast<Eigen::Index>(k)) += 1 - t;
                 R(row, static_cast<Eigen::Index>(k) + 1) += t;
@@ -51,10 +56,12 @@ Eigen::MatrixXd reconstruction_matrix(const std::vector<double>& bins, const std
         } else if (r == Reconstruction::Nearest) {
             size_t best = 0;
             for (size_t k = 1; k < bins.size(); ++k)
-                if (std::fabs(bins[k] - l) < std::fabs(bins[best] - l)) best = k;  // a tie keeps the shorter bin
+                if (std::fabs(bins[k] - l) < std::fabs(bins[best] - l))
+                    best = k;  // a tie keeps the shorter bin
             R(row, static_cast<Eigen::Index>(best)) = 1;
         } else {
-            // Box k spans [edge_k, edge_{k+1}): edges halfway between centres, the outer ones infinite.
+            // Box k spans [edge_k, edge_{k+1}): edges halfway between centres, the outer ones
+            // infinite.
             const double lo = l - 0.5, hi = l + 0.5;
             for (size_t k = 0; k < bins.size(); ++k) {
                 const double e0 = k == 0 ? -INFINITY : 0.5 * (bins[k - 1] + bins[k]);
@@ -68,10 +75,12 @@ Eigen::MatrixXd reconstruction_matrix(const std::vector<double>& bins, const std
 }
 
 WavelengthGrid renderer_grid(double start, double end) {
-    if (!(std::isfinite(start) && std::isfinite(end)) || start != std::floor(start) || end != std::floor(end) ||
-        !(end > start)) {
+    if (!(std::isfinite(start) && std::isfinite(end)) || start != std::floor(start) ||
+        end != std::floor(end) || !(end > start)) {
         char buf[96];
-        std::snprintf(buf, sizeof buf, "the range %g:%g is not two whole wavelengths in nm, START < END", start, end);
+        std::snprintf(buf, sizeof buf,
+                      "the range %g:%g is not two whole wavelengths in nm, START < END", start,
+                      end);
         throw Error(buf);
     }
     return WavelengthGrid::uniform_grid(start, end, 1.0);
@@ -82,7 +91,8 @@ namespace {
 // Linear interpolation of a table at l; 0 outside it.
 double value_at(const Spectrum& s, double l) {
     if (s.lambda.empty() || l < s.lambda.front() || l > s.lambda.back()) return 0;
-    const size_t k = static_cast<size_t>(std::upper_bound(s.lambda.begin(), s.lambda.end(), l) - s.lambda.begin());
+    const size_t k = static_cast<size_t>(std::upper_bound(s.lambda.begin(), s.lambda.end(), l) -
+                                         s.lambda.begin());
     if (k >= s.lambda.size()) return s.value.back();
     if (k == 0) return s.value.front();
     const double t = (l - s.lambda[k - 1]) / (s.lambda[k] - s.lambda[k - 1]);
@@ -91,16 +101,20 @@ double value_at(const Spectrum& s, double l) {
 
 }  // namespace
 
-LightWeights light_weights(const Observer& observer, const Spectrum& light, const WavelengthGrid& fine) {
-    const double lo = std::max({observer.x.lambda.front(), observer.y.lambda.front(), observer.z.lambda.front()});
-    const double hi = std::min({observer.x.lambda.back(), observer.y.lambda.back(), observer.z.lambda.back()});
+LightWeights light_weights(const Observer& observer, const Spectrum& light,
+                           const WavelengthGrid& fine) {
+    const double lo =
+        std::max({observer.x.lambda.front(), observer.y.lambda.front(), observer.z.lambda.front()});
+    const double hi =
+        std::min({observer.x.lambda.back(), observer.y.lambda.back(), observer.z.lambda.back()});
     if (fine.lambda.front() < lo - 1e-9 || fine.lambda.back() > hi + 1e-9) {
         char buf[200];
-        std::snprintf(buf, sizeof buf, "observer %s covers %g to %g nm, not the range %g:%g", observer.name.c_str(), lo,
-                      hi, fine.lambda.front(), fine.lambda.back());
+        std::snprintf(buf, sizeof buf, "observer %s covers %g to %g nm, not the range %g:%g",
+                      observer.name.c_str(), lo, hi, fine.lambda.front(), fine.lambda.back());
         throw Error(buf);
     }
-    const std::vector<double> x = observer.x.sample(fine), y = observer.y.sample(fine), z = observer.z.sample(fine);
+    const std::vector<double> x = observer.x.sample(fine), y = observer.y.sample(fine),
+                              z = observer.z.sample(fine);
     LightWeights lw;
     lw.name = light.name;
     const Eigen::Index n = static_cast<Eigen::Index>(fine.size());
@@ -109,14 +123,17 @@ LightWeights light_weights(const Observer& observer, const Spectrum& light, cons
     for (Eigen::Index k = 0; k < n; ++k) {
         const double l = fine.lambda[static_cast<size_t>(k)];
         const double e = value_at(light, l);
-        if (!std::isfinite(e) || e < 0) throw Error("illuminant " + light.name + " has a negative or non-finite value");
-        if (light.lambda.empty() || l < light.lambda.front() || l > light.lambda.back()) lw.dark_nm += 1;
+        if (!std::isfinite(e) || e < 0)
+            throw Error("illuminant " + light.name + " has a negative or non-finite value");
+        if (light.lambda.empty() || l < light.lambda.front() || l > light.lambda.back())
+            lw.dark_nm += 1;
         lw.W(0, k) = e * x[static_cast<size_t>(k)];
         lw.W(1, k) = e * y[static_cast<size_t>(k)];
         lw.W(2, k) = e * z[static_cast<size_t>(k)];
         norm += lw.W(1, k);
     }
-    if (!(norm > 0)) throw Error("illuminant " + light.name + " times the observer's y is zero on the range");
+    if (!(norm > 0))
+        throw Error("illuminant " + light.name + " times the observer's y is zero on the range");
     lw.W /= norm;
     lw.white = lw.W.rowwise().sum();
     return lw;
@@ -189,7 +206,8 @@ ErrorStats stats_of(const DeltaEHistogram& h, const std::vector<std::array<uint8
     if (codes) {
         if (i < codes->size()) s.worst_code = {{(*codes)[i][0], (*codes)[i][1], (*codes)[i][2]}};
     } else {
-        s.worst_code = {{static_cast<int>((i >> 16) & 255), static_cast<int>((i >> 8) & 255), static_cast<int>(i & 255)}};
+        s.worst_code = {{static_cast<int>((i >> 16) & 255), static_cast<int>((i >> 8) & 255),
+                         static_cast<int>(i & 255)}};
     }
     return s;
 }
@@ -203,22 +221,26 @@ const std::array<double, 256>& srgb_code_table() {
     return table;
 }
 
-std::vector<ErrorStats> cube_error_linear(const std::vector<Eigen::Matrix3d>& cand, const Eigen::Matrix3d& ref,
-                                          const Eigen::Vector3d& white, int threads) {
+std::vector<ErrorStats> cube_error_linear(const std::vector<Eigen::Matrix3d>& cand,
+                                          const Eigen::Matrix3d& ref, const Eigen::Vector3d& white,
+                                          int threads) {
     const auto& lin = srgb_code_table();
     threads = std::max(1, std::min(threads, 256));
     std::vector<std::vector<DeltaEHistogram>> hist(static_cast<size_t>(threads),
-                                                  std::vector<DeltaEHistogram>(cand.size()));
+                                                   std::vector<DeltaEHistogram>(cand.size()));
     auto work = [&](int t) {
         auto& h = hist[static_cast<size_t>(t)];
         for (int r = t; r < 256; r += threads) {
             for (int g = 0; g < 256; ++g) {
-                const Eigen::Vector3d rg_ref = ref.col(0) * lin[static_cast<size_t>(r)] + ref.col(1) * lin[static_cast<size_t>(g)];
+                const Eigen::Vector3d rg_ref = ref.col(0) * lin[static_cast<size_t>(r)] +
+                                               ref.col(1) * lin[static_cast<size_t>(g)];
                 for (int b = 0; b < 256; ++b) {
                     const double vb = lin[static_cast<size_t>(b)];
-                    const Eigen::Vector3d rgb(lin[static_cast<size_t>(r)], lin[static_cast<size_t>(g)], vb);
+                    const Eigen::Vector3d rgb(lin[static_cast<size_t>(r)],
+                                              lin[static_cast<size_t>(g)], vb);
                     const Lab lr = lab_from_xyz(rg_ref + ref.col(2) * vb, white);
-                    const uint64_t index = (static_cast<uint64_t>(r) << 16) | (static_cast<uint64_t>(g) << 8) |
+                    const uint64_t index = (static_cast<uint64_t>(r) << 16) |
+                                           (static_cast<uint64_t>(g) << 8) |
                                            static_cast<uint64_t>(b);
                     for (size_t i = 0; i < cand.size(); ++i)
                         h[i].add(ciede2000(lr, lab_from_xyz(cand[i] * rgb, white)), index);
@@ -248,18 +270,22 @@ std::vector<std::array<uint8_t, 3>> code_sample(int stride) {
     for (int r : axis)
         for (int g : axis)
             for (int b : axis)
-                codes.push_back({{static_cast<uint8_t>(r), static_cast<uint8_t>(g), static_cast<uint8_t>(b)}});
+                codes.push_back(
+                    {{static_cast<uint8_t>(r), static_cast<uint8_t>(g), static_cast<uint8_t>(b)}});
     return codes;
 }
 
-std::vector<Eigen::Matrix3Xd> method_xyz(const SpectralMethod& m, const std::vector<Eigen::Matrix3Xd>& light_recon,
+std::vector<Eigen::Matrix3Xd> method_xyz(const SpectralMethod& m,
+                                         const std::vector<Eigen::Matrix3Xd>& light_recon,
                                          const std::vector<float>& r, const std::vector<float>& g,
                                          const std::vector<float>& b, bool half,
                                          const std::vector<float>* rgb_weight) {
     const size_t n = r.size(), bins = static_cast<size_t>(m.bins());
     for (const auto& lr : light_recon)
-        if (static_cast<size_t>(lr.cols()) != bins) throw Error("method_xyz: light weights do not match the bins");
-    std::vector<Eigen::Matrix3Xd> out(light_recon.size(), Eigen::Matrix3Xd(3, static_cast<Eigen::Index>(n)));
+        if (static_cast<size_t>(lr.cols()) != bins)
+            throw Error("method_xyz: light weights do not match the bins");
+    std::vector<Eigen::Matrix3Xd> out(light_recon.size(),
+                                      Eigen::Matrix3Xd(3, static_cast<Eigen::Index>(n)));
     constexpr size_t kChunk = 4096;
     std::vector<float> spectra(bins * kChunk);
     std::vector<uint16_t> halves(half ? bins * kChunk : 0);
@@ -267,15 +293,18 @@ std::vector<Eigen::Matrix3Xd> method_xyz(const SpectralMethod& m, const std::vec
     for (size_t i0 = 0; i0 < n; i0 += kChunk) {
         const size_t c = std::min(kChunk, n - i0);
         if (half) {
-            m.expand_half(r.data() + i0, g.data() + i0, b.data() + i0, c, halves.data(), kChunk, rgb_weight);
+            m.expand_half(r.data() + i0, g.data() + i0, b.data() + i0, c, halves.data(), kChunk,
+                          rgb_weight);
             for (size_t k = 0; k < bins; ++k)
-                for (size_t i = 0; i < c; ++i) S(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(i)) =
-                    half_to_float(halves[k * kChunk + i]);
+                for (size_t i = 0; i < c; ++i)
+                    S(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(i)) =
+                        half_to_float(halves[k * kChunk + i]);
         } else {
             m.expand_float(r.data() + i0, g.data() + i0, b.data() + i0, c, spectra.data(), kChunk);
             for (size_t k = 0; k < bins; ++k)
                 for (size_t i = 0; i < c; ++i)
-                    S(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(i)) = spectra[k * kChunk + i];
+                    S(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(i)) =
+                        spectra[k * kChunk + i];
         }
         for (size_t j = 0; j < light_recon.size(); ++j)
             out[j].middleCols(static_cast<Eigen::Index>(i0), static_cast<Eigen::Index>(c)) =
@@ -284,13 +313,14 @@ std::vector<Eigen::Matrix3Xd> method_xyz(const SpectralMethod& m, const std::vec
     return out;
 }
 
-DeltaEHistogram xyz_error(const Eigen::Matrix3Xd& cand, const Eigen::Matrix3Xd& ref, const Eigen::Vector3d& white,
-                         std::vector<double>* each) {
+DeltaEHistogram xyz_error(const Eigen::Matrix3Xd& cand, const Eigen::Matrix3Xd& ref,
+                          const Eigen::Vector3d& white, std::vector<double>* each) {
     if (cand.cols() != ref.cols()) throw Error("xyz_error: lists of different lengths");
     DeltaEHistogram h;
     if (each) each->resize(static_cast<size_t>(cand.cols()));
     for (Eigen::Index i = 0; i < cand.cols(); ++i) {
-        const double de = ciede2000(lab_from_xyz(ref.col(i), white), lab_from_xyz(cand.col(i), white));
+        const double de =
+            ciede2000(lab_from_xyz(ref.col(i), white), lab_from_xyz(cand.col(i), white));
         h.add(de, static_cast<uint64_t>(i));
         if (each) (*each)[static_cast<size_t>(i)] = de;
     }

@@ -34,8 +34,8 @@ std::string to_string(Reconstruction r);
 
 // fine.size() × bins.size(): the reconstructed value at fine[f] is Σ_k R(f, k)·s_k. Every row sums
 // to 1 (a constant spectrum stays constant).
-Eigen::MatrixXd reconstruction_matrix(const std::vector<double>& bins, const std::vector<double>& fine,
-                                      Reconstruction r);
+Eigen::MatrixXd reconstruction_matrix(const std::vector<double>& bins,
+                                      const std::vector<double>& fine, Reconstruction r);
 
 // The renderer's grid: every integer wavelength from start to end (both included; integers).
 // Throws Error when start/end are not integers or end <= start.
@@ -51,23 +51,25 @@ struct LightWeights {
     Eigen::Vector3d white;
     double dark_nm = 0;  // nm of the fine grid outside the light's table (taken as 0)
 };
-LightWeights light_weights(const Observer& observer, const Spectrum& light, const WavelengthGrid& fine);
+LightWeights light_weights(const Observer& observer, const Spectrum& light,
+                           const WavelengthGrid& fine);
 
 // The distribution of ΔE00 over a set of colours: worst (with its index), mean, and percentiles
 // from a histogram with 1000 bins per decade from 1e-9 to 1e3 (a percentile is reported as the
 // upper edge of its bin: at most 0.23 % above the exact value; values below 1e-9 count as 1e-9).
 class DeltaEHistogram {
-public:
+  public:
     DeltaEHistogram();
     void add(double de, uint64_t index);
     void merge(const DeltaEHistogram& o);
-    double percentile(double q) const;  // q in (0, 1]: the smallest v with at least q of the colours <= v
+    double percentile(
+        double q) const;  // q in (0, 1]: the smallest v with at least q of the colours <= v
     double worst() const { return worst_; }
     uint64_t worst_index() const { return worst_index_; }
     uint64_t count() const { return count_; }
     double mean() const { return count_ ? sum_ / static_cast<double>(count_) : 0; }
 
-private:
+  private:
     std::vector<uint64_t> bins_;
     double worst_ = 0, sum_ = 0;
     uint64_t worst_index_ = 0, count_ = 0;
@@ -78,16 +80,18 @@ struct ErrorStats {
     uint64_t colours = 0;
     std::array<int, 3> worst_code{{0, 0, 0}};  // 8-bit sRGB code of the worst colour
 };
-ErrorStats stats_of(const DeltaEHistogram& h, const std::vector<std::array<uint8_t, 3>>* codes = nullptr);
+ErrorStats stats_of(const DeltaEHistogram& h,
+                    const std::vector<std::array<uint8_t, 3>>* codes = nullptr);
 
 // The linear RGB of 8-bit sRGB code i (IEC 61966-2-1 decode), in double.
 const std::array<double, 256>& srgb_code_table();
 
 // For a linear method, over all 16,777,216 8-bit sRGB codes: ΔE00 between ref·rgb and cand[i]·rgb
-// (XYZ), relative to white, for every candidate at once (the reference's L*a*b* is computed once per
-// colour). Code (r, g, b) has index (r << 16) | (g << 8) | b. threads >= 1.
-std::vector<ErrorStats> cube_error_linear(const std::vector<Eigen::Matrix3d>& cand, const Eigen::Matrix3d& ref,
-                                          const Eigen::Vector3d& white, int threads);
+// (XYZ), relative to white, for every candidate at once (the reference's L*a*b* is computed once
+// per colour). Code (r, g, b) has index (r << 16) | (g << 8) | b. threads >= 1.
+std::vector<ErrorStats> cube_error_linear(const std::vector<Eigen::Matrix3d>& cand,
+                                          const Eigen::Matrix3d& ref, const Eigen::Vector3d& white,
+                                          int threads);
 
 // The dense sample of the cube: codes 0, stride, 2·stride, … and 255 on each axis (stride 4: 65
 // values, 274,625 colours, every face of the cube included).
@@ -96,13 +100,14 @@ std::vector<std::array<uint8_t, 3>> code_sample(int stride);
 // XYZ (3 × n) under each light of n linear RGB colours: spectra from m on its own grid (rounded to
 // half as a bake does when half is set, with rgb_weight as the colour-aware rounding's weights, or
 // nearest when it is null), times light_recon[j] = W_L·R_G (3 × bins). Works in chunks.
-std::vector<Eigen::Matrix3Xd> method_xyz(const SpectralMethod& m, const std::vector<Eigen::Matrix3Xd>& light_recon,
+std::vector<Eigen::Matrix3Xd> method_xyz(const SpectralMethod& m,
+                                         const std::vector<Eigen::Matrix3Xd>& light_recon,
                                          const std::vector<float>& r, const std::vector<float>& g,
                                          const std::vector<float>& b, bool half,
                                          const std::vector<float>* rgb_weight);
 
 // ΔE00 between two XYZ lists (3 × n each) relative to white; also a per-colour copy when `each`.
-DeltaEHistogram xyz_error(const Eigen::Matrix3Xd& cand, const Eigen::Matrix3Xd& ref, const Eigen::Vector3d& white,
-                         std::vector<double>* each = nullptr);
+DeltaEHistogram xyz_error(const Eigen::Matrix3Xd& cand, const Eigen::Matrix3Xd& ref,
+                          const Eigen::Vector3d& white, std::vector<double>* each = nullptr);
 
 }  // namespace spectex

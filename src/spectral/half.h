@@ -16,7 +16,7 @@ inline uint16_t float_to_half(float f) {
     // exponent); from 65536 up we can say so directly.
     if (x >= 0x47800000u) {
         o = x > 0x7f800000u ? 0x7e00u : 0x7c00u;  // NaN stays NaN (quiet), the rest is Inf
-    } else if (x < 0x38800000u) {              // below 2^-14: subnormal half or zero
+    } else if (x < 0x38800000u) {                 // below 2^-14: subnormal half or zero
         // Adding 0.5 aligns the mantissa so the FPU rounds to nearest even for us.
         const uint32_t magic_u = 0x3f000000u;  // 0.5f
         float magic, fx;
@@ -28,7 +28,7 @@ inline uint16_t float_to_half(float f) {
         o = u - magic_u;
     } else {
         const uint32_t mant_odd = (x >> 13) & 1u;
-        x += 0xc8000fffu;                      // rebias exponent (15-127)<<23, plus 0xfff rounding
+        x += 0xc8000fffu;  // rebias exponent (15-127)<<23, plus 0xfff rounding
         x += mant_odd;
         o = x >> 13;
     }

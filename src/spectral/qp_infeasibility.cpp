@@ -78,8 +78,7 @@ void repair_certificate(const SpMat& A, const Vec& l, const Vec& u, Vec& y) {
 // Phase 1: min 0.5||r||^2  s.t.  A x - r = b,  lower <= x <= upper  (always feasible). Its x
 // gives y = b - A x, checked as a Farkas certificate. Returns true (and fills `out`) if every
 // box point misses A x = b by more than the tolerance.
-bool prove_infeasible(const QpProblem& pr, const SpMat& Psym, const QpOptions& opt,
-                      QpResult& out) {
+bool prove_infeasible(const QpProblem& pr, const SpMat& Psym, const QpOptions& opt, QpResult& out) {
     const Index n = pr.q.size(), m = pr.b.size();
     if (m == 0) return false;
     QpProblem p1;
@@ -107,8 +106,7 @@ bool prove_infeasible(const QpProblem& pr, const SpMat& Psym, const QpOptions& o
     for (Index i = 0; i < n; ++i) x[i] = std::clamp(x[i], pr.lower[i], pr.upper[i]);
     Vec y = pr.b - pr.A * x;
     repair_certificate(pr.A, pr.lower, pr.upper, y);
-    const double scale =
-        std::max({1.0, norm_inf(pr.b), norm_inf(pr.A.cwiseAbs() * x.cwiseAbs())});
+    const double scale = std::max({1.0, norm_inf(pr.b), norm_inf(pr.A.cwiseAbs() * x.cwiseAbs())});
     // Proof: a Farkas bound above the tolerance. Failing that (free columns make exact
     // certificates fragile in floating point), a phase-1 optimum solved to `tolerance` whose
     // residual exceeds sqrt(tolerance): KKT accuracy eps bounds the residual's error by

@@ -100,8 +100,7 @@ SolveQuality InteriorPoint::newton_solve(const Vec& hd, const Vec& r1, const Vec
 // above kNewtonEta the factorisation may be too inaccurate (tiny pivots): refactorise with 100x
 // the regularisation and keep whichever direction is better (more regularisation can also slow
 // refinement down). A direction worse than kNewtonEtaMax is refused: it would wreck the iterate.
-bool InteriorPoint::direction_solve(const Vec& hd, const Vec& r1, const Vec& r2, Vec& dx,
-                                    Vec& dy) {
+bool InteriorPoint::direction_solve(const Vec& hd, const Vec& r1, const Vec& r2, Vec& dx, Vec& dy) {
     double best = newton_solve(hd, r1, r2, dx, dy).eta;
     if (best <= kNewtonEta) return true;
     Vec tdx, tdy;
@@ -125,9 +124,12 @@ bool InteriorPoint::initial_point() {
     // x0: minimiser of 0.5x'Px + q'x + 0.5||x - centre||^2 subject to Ax = b, pushed inside.
     Vec centre = Vec::Zero(n_);
     for (Index i = 0; i < n_; ++i) {
-        if (mL_[i] > 0 && mU_[i] > 0) centre[i] = 0.5 * (l0_[i] + u0_[i]);
-        else if (mL_[i] > 0) centre[i] = l0_[i] + 1.0;
-        else if (mU_[i] > 0) centre[i] = u0_[i] - 1.0;
+        if (mL_[i] > 0 && mU_[i] > 0)
+            centre[i] = 0.5 * (l0_[i] + u0_[i]);
+        else if (mL_[i] > 0)
+            centre[i] = l0_[i] + 1.0;
+        else if (mU_[i] > 0)
+            centre[i] = u0_[i] - 1.0;
     }
     const Vec ones = Vec::Ones(n_);
     if (!factor(ones)) return false;
@@ -198,12 +200,10 @@ Outcome InteriorPoint::run(bool watch_infeasibility) {
         const double comp =
             std::max(norm_inf(sl.cwiseProduct(zl_)), norm_inf(su.cwiseProduct(zu_)));
         const Vec ax = x_.cwiseAbs(), absPx = absP_ * ax;
-        const double rp_rel =
-            norm_inf(rp) / std::max({1.0, norm_inf(s_.b), norm_inf(absA_ * ax)});
-        const double rd_rel =
-            norm_inf(rd) / std::max({1.0, norm_inf(s_.q), norm_inf(absPx),
-                                     norm_inf(absA_.transpose() * y_.cwiseAbs()), norm_inf(zl_),
-                                     norm_inf(zu_)});
+        const double rp_rel = norm_inf(rp) / std::max({1.0, norm_inf(s_.b), norm_inf(absA_ * ax)});
+        const double rd_rel = norm_inf(rd) / std::max({1.0, norm_inf(s_.q), norm_inf(absPx),
+                                                       norm_inf(absA_.transpose() * y_.cwiseAbs()),
+                                                       norm_inf(zl_), norm_inf(zu_)});
         const double c_rel = comp / std::max({1.0, s_.q.cwiseAbs().dot(ax), ax.dot(absPx)});
         if (!std::isfinite(rp_rel + rd_rel + c_rel)) {
             if (iter_ > 0) x_ = prev_x_, y_ = prev_y_, zl_ = prev_zl_, zu_ = prev_zu_;

@@ -51,9 +51,7 @@ constexpr double kPolishEta = 1e-14;     // backward error after which no larger
 constexpr int kPolishRounds = 30;        // active-set corrections per polish attempt
 constexpr int kPolishPatience = 4;       // rounds without a new fewest-changes record
 
-inline double norm_inf(const Vec& v) {
-    return v.size() == 0 ? 0.0 : v.lpNorm<Eigen::Infinity>();
-}
+inline double norm_inf(const Vec& v) { return v.size() == 0 ? 0.0 : v.lpNorm<Eigen::Infinity>(); }
 
 // M restricted to the rows/columns whose map entry is >= 0, renumbered by the maps.
 SpMat extract(const SpMat& M, const std::vector<Index>& row_map, Index rows,
@@ -61,7 +59,7 @@ SpMat extract(const SpMat& M, const std::vector<Index>& row_map, Index rows,
 
 // ---- Residuals in the user's units -------------------------------------------------------------
 struct Metrics {
-    double eq = 0, viol = 0, dual = 0, comp = 0;  // absolute
+    double eq = 0, viol = 0, dual = 0, comp = 0;   // absolute
     double scale_p = 1, scale_d = 1, scale_c = 1;  // for the relative test
     bool meets(double tol) const {
         return std::isfinite(eq) && std::isfinite(dual) && std::isfinite(comp) && viol == 0.0 &&
@@ -139,7 +137,7 @@ enum class Outcome { Accepted, MaxIterations, NumericalError, SuspectInfeasible 
 
 // Mehrotra predictor-corrector IPM on the equilibrated problem, with the active-set polish.
 class InteriorPoint {
-public:
+  public:
     InteriorPoint(const Scaled& s, const QpOptions& opt, AcceptFn accept);
 
     Outcome run(bool watch_infeasibility);
@@ -149,7 +147,7 @@ public:
     const Vec& zl() const { return zl_; }
     const Vec& zu() const { return zu_; }
 
-private:
+  private:
     void build_pattern();
     bool factor(const Vec& hd);
     SolveQuality newton_solve(const Vec& hd, const Vec& r1, const Vec& r2, Vec& dx, Vec& dy) const;
@@ -167,10 +165,10 @@ private:
     double nb_ = 0;          // number of finite bounds
     Vec x_, y_, zl_, zu_;
     Vec prev_x_, prev_y_, prev_zl_, prev_zu_;  // restored if a step turns non-finite
-    SpMat absP_, absA_;  // |P|, |A|, for the relative accuracy measures
-    SpMat K_;            // lower triangle of [P + diag + reg, A'; A, -reg]
-    std::vector<Index> diag_pos_;  // positions of the diagonal entries in K_'s values
-    Vec pdiag_;                    // diagonal of P
+    SpMat absP_, absA_;                        // |P|, |A|, for the relative accuracy measures
+    SpMat K_;                                  // lower triangle of [P + diag + reg, A'; A, -reg]
+    std::vector<Index> diag_pos_;              // positions of the diagonal entries in K_'s values
+    Vec pdiag_;                                // diagonal of P
     Ldlt ldlt_;
     double reg_scale_ = 1.0;  // multiplies the regularisation; raised when a solve is poor
     bool started_ = false;
@@ -185,7 +183,6 @@ QpResult solve_impl(const QpProblem& pr, const QpOptions& opt, bool allow_phase1
 
 // Phase 1 and the Farkas certificate (qp_infeasibility.cpp): true, with `out` filled, if every
 // box point misses A x = b by more than the tolerance.
-bool prove_infeasible(const QpProblem& pr, const SpMat& Psym, const QpOptions& opt,
-                      QpResult& out);
+bool prove_infeasible(const QpProblem& pr, const SpMat& Psym, const QpOptions& opt, QpResult& out);
 
 }  // namespace spectex::qp_detail

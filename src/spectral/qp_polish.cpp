@@ -27,8 +27,10 @@ bool InteriorPoint::try_polish(double measure) {
         const double su = mU_[i] > 0 ? u0_[i] - x_[i] : kInf;
         const bool lo = mL_[i] > 0 && sl < zl_[i];
         const bool up = mU_[i] > 0 && su < zu_[i];
-        if (lo && (!up || sl <= su)) cls[i] = -1;
-        else if (up) cls[i] = 1;
+        if (lo && (!up || sl <= su))
+            cls[i] = -1;
+        else if (up)
+            cls[i] = 1;
     }
     last_measure_ = measure;
     return polish_from(std::move(cls));
@@ -61,8 +63,7 @@ bool InteriorPoint::polish_from(std::vector<signed char> cls) {
                 // A few ulps of overshoot are clipped below; more means "active".
                 if (mL_[i] > 0 && xp[i] < l0_[i] - 8 * kEps * std::max(1.0, std::abs(l0_[i])))
                     cls[i] = -1;
-                else if (mU_[i] > 0 &&
-                         xp[i] > u0_[i] + 8 * kEps * std::max(1.0, std::abs(u0_[i])))
+                else if (mU_[i] > 0 && xp[i] > u0_[i] + 8 * kEps * std::max(1.0, std::abs(u0_[i])))
                     cls[i] = 1;
             } else if (before < 0) {
                 zl[i] = g[i];
@@ -108,8 +109,10 @@ bool InteriorPoint::polish_from(std::vector<signed char> cls) {
             }
             return accept_(xp, yp, zl.cwiseMax(0.0), zu.cwiseMax(0.0), true);
         }
-        if (changes < best_changes) best_changes = changes, since_best = 0;
-        else if (++since_best >= kPolishPatience) return false;
+        if (changes < best_changes)
+            best_changes = changes, since_best = 0;
+        else if (++since_best >= kPolishPatience)
+            return false;
     }
     return false;
 }
@@ -126,8 +129,10 @@ bool InteriorPoint::solve_reduced(const std::vector<signed char>& cls, Vec& xp, 
     Index nf = 0, mr = 0;
     Vec xa = Vec::Zero(n_);
     for (Index i = 0; i < n_; ++i) {
-        if (cls[i] == 0) fpos[i] = nf++;
-        else xa[i] = cls[i] < 0 ? l0_[i] : u0_[i];
+        if (cls[i] == 0)
+            fpos[i] = nf++;
+        else
+            xa[i] = cls[i] < 0 ? l0_[i] : u0_[i];
     }
     std::vector<char> used(static_cast<size_t>(m_), 0);
     for (Index j = 0; j < n_; ++j)

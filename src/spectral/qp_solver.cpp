@@ -61,8 +61,10 @@ QpResult solve_impl(const QpProblem& pr, const QpOptions& opt, bool allow_phase1
     bool box_ok = true;
     for (Index i = 0; i < n; ++i) {
         const double l = pr.lower[i], u = pr.upper[i];
-        if (std::isnan(l) || std::isnan(u)) data_ok = false;
-        else if (l > u || l == kInf || u == -kInf) box_ok = false;
+        if (std::isnan(l) || std::isnan(u))
+            data_ok = false;
+        else if (l > u || l == kInf || u == -kInf)
+            box_ok = false;
         res.x[i] = std::isfinite(l) ? l : (std::isfinite(u) ? u : 0.0);
     }
     if (!data_ok) {
@@ -72,8 +74,8 @@ QpResult solve_impl(const QpProblem& pr, const QpOptions& opt, bool allow_phase1
     }
     const SpMat Psym = 0.5 * (pr.P + SpMat(pr.P.transpose()));  // exact if P is symmetric
     auto finish = [&](QpResult& r) {
-        const Metrics mt = evaluate(Psym, pr.q, A, pr.b, pr.lower, pr.upper, r.x, r.y,
-                                    r.z_lower, r.z_upper);
+        const Metrics mt =
+            evaluate(Psym, pr.q, A, pr.b, pr.lower, pr.upper, r.x, r.y, r.z_lower, r.z_upper);
         r.primal_residual = std::max(mt.eq, mt.viol);
         r.dual_residual = mt.dual;
         r.complementarity = mt.comp;
@@ -90,8 +92,10 @@ QpResult solve_impl(const QpProblem& pr, const QpOptions& opt, bool allow_phase1
     std::vector<Index> keep;
     Vec xfix = Vec::Zero(n);
     for (Index i = 0; i < n; ++i) {
-        if (pr.lower[i] == pr.upper[i]) xfix[i] = pr.lower[i];
-        else cmap[i] = static_cast<Index>(keep.size()), keep.push_back(i);
+        if (pr.lower[i] == pr.upper[i])
+            xfix[i] = pr.lower[i];
+        else
+            cmap[i] = static_cast<Index>(keep.size()), keep.push_back(i);
     }
     const Index nk = static_cast<Index>(keep.size());
     std::vector<Index> rows;
@@ -186,8 +190,10 @@ QpResult solve_impl(const QpProblem& pr, const QpOptions& opt, bool allow_phase1
         res.iterations = ipm.iterations();
         return res;
     }
-    if (nk > 0) unscale(ipm.x(), ipm.y(), ipm.zl(), ipm.zu());
-    else cand.x = xfix;
+    if (nk > 0)
+        unscale(ipm.x(), ipm.y(), ipm.zl(), ipm.zu());
+    else
+        cand.x = xfix;
     if (!(cand.x.allFinite() && cand.y.allFinite() && cand.z_lower.allFinite() &&
           cand.z_upper.allFinite())) {
         cand.x = res.x;
@@ -212,10 +218,14 @@ QpResult solve_qp(const QpProblem& problem, const QpOptions& options) {
 
 const char* to_string(QpStatus status) {
     switch (status) {
-        case QpStatus::Solved: return "solved";
-        case QpStatus::Infeasible: return "infeasible";
-        case QpStatus::MaxIterations: return "max iterations";
-        case QpStatus::NumericalError: return "numerical error";
+        case QpStatus::Solved:
+            return "solved";
+        case QpStatus::Infeasible:
+            return "infeasible";
+        case QpStatus::MaxIterations:
+            return "max iterations";
+        case QpStatus::NumericalError:
+            return "numerical error";
     }
     return "unknown";
 }

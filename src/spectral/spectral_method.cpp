@@ -6,8 +6,9 @@
 
 namespace spectex {
 
-void SpectralMethod::expand_half(const float* r, const float* g, const float* b, size_t n, uint16_t* out,
-                                 size_t plane_stride, const std::vector<float>* rgb_weight) const {
+void SpectralMethod::expand_half(const float* r, const float* g, const float* b, size_t n,
+                                 uint16_t* out, size_t plane_stride,
+                                 const std::vector<float>* rgb_weight) const {
     // Blocks small enough for their float spectra to stay in cache while they are rounded.
     constexpr size_t kBlock = 256;
     const size_t k_bins = static_cast<size_t>(bins());
@@ -15,12 +16,15 @@ void SpectralMethod::expand_half(const float* r, const float* g, const float* b,
     for (size_t i0 = 0; i0 < n; i0 += kBlock) {
         const size_t len = std::min(kBlock, n - i0);
         expand_float(r + i0, g + i0, b + i0, len, spectra.data(), kBlock);
-        round_spectra_to_half(spectra.data(), kBlock, len, k_bins, rgb_weight, out + i0, plane_stride);
+        round_spectra_to_half(spectra.data(), kBlock, len, k_bins, rgb_weight, out + i0,
+                              plane_stride);
     }
 }
 
 BasisMethod::BasisMethod(Basis basis, std::string source)
-    : basis_(std::move(basis)), source_(std::move(source)), m_(ExpansionMatrix::from_basis(basis_)) {}
+    : basis_(std::move(basis)),
+      source_(std::move(source)),
+      m_(ExpansionMatrix::from_basis(basis_)) {}
 
 std::vector<std::pair<std::string, std::string>> BasisMethod::provenance() const {
     return {{provenance_key::kMethod, "basis"},
@@ -34,8 +38,9 @@ void BasisMethod::expand_float(const float* r, const float* g, const float* b, s
     expand_to_float(m_, r, g, b, n, out, plane_stride);
 }
 
-void BasisMethod::expand_half(const float* r, const float* g, const float* b, size_t n, uint16_t* out,
-                              size_t plane_stride, const std::vector<float>* rgb_weight) const {
+void BasisMethod::expand_half(const float* r, const float* g, const float* b, size_t n,
+                              uint16_t* out, size_t plane_stride,
+                              const std::vector<float>* rgb_weight) const {
     // The basis' own kernel: the same rounding, with the exact values recomputed from the matrix.
     if (!rgb_weight) {
         expand_to_half(m_, r, g, b, n, out, plane_stride);

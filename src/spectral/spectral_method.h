@@ -16,7 +16,7 @@
 namespace spectex {
 
 class SpectralMethod {
-public:
+  public:
     virtual ~SpectralMethod() = default;
 
     virtual std::string name() const = 0;  // "basis", "lattice", "jakob-hanika"
@@ -38,13 +38,14 @@ public:
     // rounded to nearest, and where the integrated colour then misses by more than 6.1e-5 the
     // fewest bins move to their other neighbouring half. The default rounds what expand_float
     // gives; a method may do the same faster.
-    virtual void expand_half(const float* r, const float* g, const float* b, size_t n, uint16_t* out,
-                             size_t plane_stride, const std::vector<float>* rgb_weight) const;
+    virtual void expand_half(const float* r, const float* g, const float* b, size_t n,
+                             uint16_t* out, size_t plane_stride,
+                             const std::vector<float>* rgb_weight) const;
 };
 
 // The three-spectrum basis: spectrum = r·S_r + g·S_g + b·S_b.
 class BasisMethod : public SpectralMethod {
-public:
+  public:
     // source: how the basis was obtained, for the header ("fitted by spectex: ...", "file").
     BasisMethod(Basis basis, std::string source);
     const Basis& basis() const { return basis_; }
@@ -56,10 +57,10 @@ public:
     bool is_linear() const override { return true; }
     void expand_float(const float* r, const float* g, const float* b, size_t n, float* out,
                       size_t plane_stride) const override;
-    void expand_half(const float* r, const float* g, const float* b, size_t n, uint16_t* out, size_t plane_stride,
-                     const std::vector<float>* rgb_weight) const override;
+    void expand_half(const float* r, const float* g, const float* b, size_t n, uint16_t* out,
+                     size_t plane_stride, const std::vector<float>* rgb_weight) const override;
 
-private:
+  private:
     Basis basis_;
     std::string source_;
     ExpansionMatrix m_;

@@ -1,7 +1,8 @@
 #include "spectral/spectrum.h"
 
-#include <algorithm>
 #include <sys/stat.h>
+
+#include <algorithm>
 
 #include "spectral/csv_table.h"
 #include "spectral/error.h"
@@ -68,9 +69,10 @@ std::vector<std::string> shipped_observers() { return {"cie1931-2", "cie1964-10"
 
 std::vector<std::string> shipped_illuminants() {
     // D65 first (the default), then daylight, incandescent, fluorescent, LED.
-    return {"D65",    "D50",    "D55",    "D75",    "A",       "FL1",      "FL2",    "FL3",   "FL4",
-            "FL5",    "FL6",    "FL7",    "FL8",    "FL9",     "FL10",     "FL11",   "FL12",  "LED-B1",
-            "LED-B2", "LED-B3", "LED-B4", "LED-B5", "LED-BH1", "LED-RGB1", "LED-V1", "LED-V2"};
+    return {"D65",    "D50",     "D55",      "D75",    "A",      "FL1",    "FL2",
+            "FL3",    "FL4",     "FL5",      "FL6",    "FL7",    "FL8",    "FL9",
+            "FL10",   "FL11",    "FL12",     "LED-B1", "LED-B2", "LED-B3", "LED-B4",
+            "LED-B5", "LED-BH1", "LED-RGB1", "LED-V1", "LED-V2"};
 }
 
 std::string shipped_illuminants_list(const std::string& default_name) {

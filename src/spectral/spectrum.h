@@ -17,7 +17,7 @@ struct Spectrum {
 };
 
 struct Observer {
-    std::string name;            // "cie1931-2", "cie1964-10"
+    std::string name;  // "cie1931-2", "cie1964-10"
     Spectrum x, y, z;
 };
 

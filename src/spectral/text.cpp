@@ -11,15 +11,17 @@
 namespace spectex {
 
 bool ends_with_nocase(const std::string& s, const std::string& suffix) {
-    return s.size() >= suffix.size() && lower_ascii(s.substr(s.size() - suffix.size())) == lower_ascii(suffix);
+    return s.size() >= suffix.size() &&
+           lower_ascii(s.substr(s.size() - suffix.size())) == lower_ascii(suffix);
 }
 
 std::string quote_path(const std::string& path) {
     bool plain = !path.empty();
     for (unsigned char c : path)
-        if (c <= 0x20 || c == 0x7f || c == '\'' || c == '"' || c == '\\' || c == '`' || c == '$' || c == ';' ||
-            c == '&' || c == '|' || c == '<' || c == '>' || c == '(' || c == ')' || c == '*' || c == '?' ||
-            c == '[' || c == '#' || c == '~' || c == '!' || c == '{' || c == '}')
+        if (c <= 0x20 || c == 0x7f || c == '\'' || c == '"' || c == '\\' || c == '`' || c == '$' ||
+            c == ';' || c == '&' || c == '|' || c == '<' || c == '>' || c == '(' || c == ')' ||
+            c == '*' || c == '?' || c == '[' || c == '#' || c == '~' || c == '!' || c == '{' ||
+            c == '}')
             plain = false;
     if (path.find(": ") != std::string::npos) plain = false;
     if (plain) return path;
@@ -41,7 +43,11 @@ bool parse_finite(const std::string& s, double* out) {
 
 size_t utf8_sequence_length(const std::string& s, size_t i, uint32_t* cp) {
     const unsigned char c = static_cast<unsigned char>(s[i]);
-    const size_t len = c < 0x80 ? 1 : (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xe ? 3 : (c >> 3) == 0x1e ? 4 : 0;
+    const size_t len = c < 0x80           ? 1
+                       : (c >> 5) == 0x6  ? 2
+                       : (c >> 4) == 0xe  ? 3
+                       : (c >> 3) == 0x1e ? 4
+                                          : 0;
     if (len == 0 || i + len > s.size()) return 0;
     uint32_t v = len == 1 ? c : c & (0x7fu >> len);
     for (size_t k = 1; k < len; ++k) {
@@ -49,7 +55,8 @@ size_t utf8_sequence_length(const std::string& s, size_t i, uint32_t* cp) {
         if ((t >> 6) != 0x2) return 0;
         v = (v << 6) | (t & 0x3fu);
     }
-    static constexpr uint32_t kMinForLength[5] = {0, 0, 0x80, 0x800, 0x10000};  // shorter is overlong
+    static constexpr uint32_t kMinForLength[5] = {0, 0, 0x80, 0x800,
+                                                  0x10000};  // shorter is overlong
     if (v < kMinForLength[len] || v > 0x10ffff || (v >= 0xd800 && v <= 0xdfff)) return 0;
     if (cp) *cp = v;
     return len;
@@ -86,10 +93,10 @@ std::string one_line(const std::string& text) {
         // overrides, zero-width marks): those are written as \uXXXX. Anything else is \xNN.
         uint32_t cp = 0;
         const size_t len = utf8_sequence_length(text, i, &cp);
-        const bool hidden = len > 1 &&
-                            ((cp >= 0x80 && cp <= 0x9f) || (cp >= 0x200b && cp <= 0x200f) ||
-                             (cp >= 0x202a && cp <= 0x202e) || (cp >= 0x2060 && cp <= 0x2069) || cp == 0xfeff ||
-                             cp == 0x061c || cp == 0x2028 || cp == 0x2029);
+        const bool hidden =
+            len > 1 && ((cp >= 0x80 && cp <= 0x9f) || (cp >= 0x200b && cp <= 0x200f) ||
+                        (cp >= 0x202a && cp <= 0x202e) || (cp >= 0x2060 && cp <= 0x2069) ||
+                        cp == 0xfeff || cp == 0x061c || cp == 0x2028 || cp == 0x2029);
         if (c == '\t') {
             out += ' ';
             ++i;

@@ -22,8 +22,8 @@ bool parse_finite(const std::string& s, double* out);
 
 // The length (1 to 4) of the well-formed UTF-8 sequence starting at s[i], or 0 when none starts
 // there: a stray continuation byte, a truncated sequence, an overlong form, a UTF-16 surrogate or a
-// code point above U+10FFFF (file names and header text are bytes, not necessarily UTF-8). *cp, when
-// given, receives the code point of a well-formed sequence.
+// code point above U+10FFFF (file names and header text are bytes, not necessarily UTF-8). *cp,
+// when given, receives the code point of a well-formed sequence.
 size_t utf8_sequence_length(const std::string& s, size_t i, uint32_t* cp = nullptr);
 bool is_valid_utf8(const std::string& s);
 

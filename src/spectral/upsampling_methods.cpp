@@ -18,8 +18,12 @@ std::string number(double v) {
 
 }  // namespace
 
-LatticeMethod::LatticeMethod(SpectralLattice lattice, std::vector<double> lambda, std::string conditions, double blend)
-    : lattice_(std::move(lattice)), lambda_(std::move(lambda)), conditions_(std::move(conditions)), blend_(blend) {}
+LatticeMethod::LatticeMethod(SpectralLattice lattice, std::vector<double> lambda,
+                             std::string conditions, double blend)
+    : lattice_(std::move(lattice)),
+      lambda_(std::move(lambda)),
+      conditions_(std::move(conditions)),
+      blend_(blend) {}
 
 std::vector<std::pair<std::string, std::string>> LatticeMethod::provenance() const {
     std::string prior = to_string(lattice_.prior());
@@ -31,7 +35,8 @@ std::vector<std::pair<std::string, std::string>> LatticeMethod::provenance() con
             {provenance_key::kMethodChecksum, checksum()}};
 }
 
-JakobHanikaMethod::JakobHanikaMethod(JakobHanikaTable table, std::vector<double> lambda, std::string conditions)
+JakobHanikaMethod::JakobHanikaMethod(JakobHanikaTable table, std::vector<double> lambda,
+                                     std::string conditions)
     : table_(std::move(table)), lambda_(std::move(lambda)), conditions_(std::move(conditions)) {
     // FNV-1a over the resolution and every node's coefficients (little-endian IEEE doubles).
     uint64_t h = 0xcbf29ce484222325ull;
@@ -57,9 +62,10 @@ JakobHanikaMethod::JakobHanikaMethod(JakobHanikaTable table, std::vector<double>
 std::vector<std::pair<std::string, std::string>> JakobHanikaMethod::provenance() const {
     return {{provenance_key::kMethod, "jakob-hanika"},
             {provenance_key::kJhTableResolution, std::to_string(table_.res())},
-            {provenance_key::kMethodSource, "built by spectex: " + conditions_ +
-                                                " (not exact: largest linear RGB residual at the table's nodes " +
-                                                number(table_.max_rgb_residual) + ")"},
+            {provenance_key::kMethodSource,
+             "built by spectex: " + conditions_ +
+                 " (not exact: largest linear RGB residual at the table's nodes " +
+                 number(table_.max_rgb_residual) + ")"},
             {provenance_key::kMethodChecksum, checksum()}};
 }
 

@@ -16,8 +16,9 @@ namespace spectex {
 // built for, in [0, 1], piecewise linear in RGB (not linear: filtering RGB before expanding keeps
 // the colour under that light, not the spectrum). RGB outside [0, 1] is clamped.
 class LatticeMethod : public SpectralMethod {
-public:
-    LatticeMethod(SpectralLattice lattice, std::vector<double> lambda, std::string conditions, double blend);
+  public:
+    LatticeMethod(SpectralLattice lattice, std::vector<double> lambda, std::string conditions,
+                  double blend);
     const SpectralLattice& lattice() const { return lattice_; }
 
     std::string name() const override { return "lattice"; }
@@ -30,7 +31,7 @@ public:
         lattice_.expand(r, g, b, n, out, plane_stride);
     }
 
-private:
+  private:
     SpectralLattice lattice_;
     std::vector<double> lambda_;
     std::string conditions_;
@@ -40,7 +41,7 @@ private:
 // Jakob-Hanika 2019 sigmoids from pbrt-v4's coefficient table layout: smooth, in (0, 1), not
 // exact (max_rgb_residual says by how much at the table's nodes).
 class JakobHanikaMethod : public SpectralMethod {
-public:
+  public:
     JakobHanikaMethod(JakobHanikaTable table, std::vector<double> lambda, std::string conditions);
     const JakobHanikaTable& table() const { return table_; }
 
@@ -54,7 +55,7 @@ public:
         table_.expand(r, g, b, n, out, plane_stride);
     }
 
-private:
+  private:
     JakobHanikaTable table_;
     std::vector<double> lambda_;
     std::string conditions_, checksum_;

@@ -26,16 +26,18 @@ void check_names(const std::vector<double>& lambda, const std::string& label) {
     for (size_t k = 0; k < lambda.size(); ++k) {
         std::string name = reflective_channel_name(lambda[k]);
         double back = 0;
-        if (!parse_reflective_channel(name, &back) || std::fabs(back - lambda[k]) > kOnGridTolerance)
-            throw Error(label + ": wavelength " + std::to_string(lambda[k]) +
-                        " nm cannot be named as a channel (T.<nm>nm to 1e-6 nm; use 1e-6 to 1e9 nm)");
+        if (!parse_reflective_channel(name, &back) ||
+            std::fabs(back - lambda[k]) > kOnGridTolerance)
+            throw Error(
+                label + ": wavelength " + std::to_string(lambda[k]) +
+                " nm cannot be named as a channel (T.<nm>nm to 1e-6 nm; use 1e-6 to 1e9 nm)");
         if (name == prev)
             throw Error(label + ": wavelengths " + std::to_string(lambda[k - 1]) + " and " +
-                        std::to_string(lambda[k]) + " nm are closer than 1e-6 nm (one channel name)");
+                        std::to_string(lambda[k]) +
+                        " nm are closer than 1e-6 nm (one channel name)");
         prev = name;
     }
 }
-
 
 }  // namespace
 
@@ -109,8 +111,9 @@ WavelengthGrid WavelengthGrid::parse_exact(const std::string& spec) {
     parse_double(spec.substr(b + 1), &v[2]);
     // END must be a bin: silently stopping short (400:700:7 ending at 694) hides a typo.
     if (std::fabs(g.lambda.back() - v[1]) > kOnGridTolerance)
-        throw Error("wavelength grid '" + spec + "': END " + format_wavelength(v[1]) + " is not on the grid " +
-                    format_wavelength(v[0]) + " + k*" + format_wavelength(v[2]) + " (its last bin would be " +
+        throw Error("wavelength grid '" + spec + "': END " + format_wavelength(v[1]) +
+                    " is not on the grid " + format_wavelength(v[0]) + " + k*" +
+                    format_wavelength(v[2]) + " (its last bin would be " +
                     format_wavelength(g.lambda.back()) + "): use " + format_wavelength(v[0]) + ":" +
                     format_wavelength(g.lambda.back()) + ":" + format_wavelength(v[2]) +
                     ", or a STEP that divides END - START");
@@ -123,7 +126,8 @@ WavelengthGrid WavelengthGrid::from_list(std::vector<double> lambdas) {
         throw Error("wavelength list: more than " + std::to_string(kMaxBins) + " bins");
     for (size_t i = 0; i < lambdas.size(); ++i) {
         if (!std::isfinite(lambdas[i]) || lambdas[i] <= 0)
-            throw Error("wavelength list: entry " + std::to_string(i + 1) + " is not a positive number");
+            throw Error("wavelength list: entry " + std::to_string(i + 1) +
+                        " is not a positive number");
         if (i > 0 && !(lambdas[i] > lambdas[i - 1]))
             throw Error("wavelength list: wavelengths must be strictly increasing (entry " +
                         std::to_string(i + 1) + ")");
@@ -157,7 +161,8 @@ WavelengthGrid WavelengthGrid::from_list(std::vector<double> lambdas) {
 
 WavelengthGrid WavelengthGrid::from_file(const std::string& path) {
     // A regular file of bounded size, checked before it is read: never a device, FIFO or folder.
-    std::istringstream in(read_file_bounded(path, file_limits::kWavelengthFile, "a wavelength file"));
+    std::istringstream in(
+        read_file_bounded(path, file_limits::kWavelengthFile, "a wavelength file"));
     std::vector<double> values;
     std::string line;
     size_t lineno = 0;
@@ -169,7 +174,8 @@ WavelengthGrid WavelengthGrid::from_file(const std::string& path) {
         size_t b = line.find_last_not_of(" \t");
         double v;
         if (!parse_double(line.substr(a, b - a + 1), &v))
-            throw Error(path + ":" + std::to_string(lineno) + ": not a wavelength: '" + printable_excerpt(line, 60) + "'");
+            throw Error(path + ":" + std::to_string(lineno) + ": not a wavelength: '" +
+                        printable_excerpt(line, 60) + "'");
         values.push_back(v);
     }
     try {

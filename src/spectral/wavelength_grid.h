@@ -6,10 +6,10 @@
 namespace spectex {
 
 struct WavelengthGrid {
-    std::vector<double> lambda;   // nm, strictly increasing
-    std::vector<double> weight;   // integration weight of each bin, nm
+    std::vector<double> lambda;  // nm, strictly increasing
+    std::vector<double> weight;  // integration weight of each bin, nm
     bool uniform = true;
-    double step = 0.0;            // for uniform grids
+    double step = 0.0;  // for uniform grids
 
     size_t size() const { return lambda.size(); }
     // "380:780:5" for uniform grids, else "list of N wavelengths"
@@ -34,6 +34,7 @@ std::string reflective_channel_name(double lambda_nm);
 bool parse_reflective_channel(const std::string& name, double* lambda_nm);
 
 // Same wavelengths within tol nm.
-bool same_wavelengths(const std::vector<double>& a, const std::vector<double>& b, double tol = 1e-6);
+bool same_wavelengths(const std::vector<double>& a, const std::vector<double>& b,
+                      double tol = 1e-6);
 
 }  // namespace spectex

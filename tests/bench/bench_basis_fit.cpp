@@ -22,8 +22,8 @@ static void BM_FitBasis(benchmark::State& state) {
     }
     state.counters["bins"] = static_cast<double>(g.size());
     state.counters["qp_iterations"] = iterations;
-    state.counters["fraction_of_1s_floor"] = benchmark::Counter(1.0, benchmark::Counter::kIsIterationInvariantRate |
-                                                                          benchmark::Counter::kInvert);
+    state.counters["fraction_of_1s_floor"] = benchmark::Counter(
+        1.0, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 BENCHMARK(BM_FitBasis)->ArgsProduct({{100, 50, 10, 5}, {0, 1}})->Unit(benchmark::kMillisecond);
 

@@ -42,7 +42,8 @@ const Basis& basis_for(int bins) {
         WavelengthGrid g = WavelengthGrid::uniform_grid(380, 780, 1);
         Observer o = load_observer(SPECTEX_TEST_DATA_DIR, "cie1931-2");
         Spectrum d65 = load_illuminant(SPECTEX_TEST_DATA_DIR, "D65");
-        FitRequest req{Colorimetry::make(o, d65, g, primaries_by_name("srgb")), FitObjective::Smooth, false};
+        FitRequest req{Colorimetry::make(o, d65, g, primaries_by_name("srgb")),
+                       FitObjective::Smooth, false};
         return fit_basis(req).basis;
     }();
     return bins == 401 ? b401 : b81;
@@ -68,7 +69,8 @@ const Planes& planes() {
 
 // The naive reference: pixel-major, doubles from the Basis, one scalar conversion per sample.
 template <typename T>
-void naive(const Basis& B, const float* r, const float* g, const float* b, size_t n, T* out, size_t stride) {
+void naive(const Basis& B, const float* r, const float* g, const float* b, size_t n, T* out,
+           size_t stride) {
     const size_t bins = B.size();
     for (size_t i = 0; i < n; ++i)
         for (size_t k = 0; k < bins; ++k) {
@@ -109,13 +111,15 @@ void BM_Expand(benchmark::State& state) {
     double max_diff = 0;
     for (size_t i = 0; i < out.size(); ++i) {
         if constexpr (sizeof(T) == 2)
-            max_diff = std::max(max_diff, static_cast<double>(std::fabs(half_to_float(out[i]) - half_to_float(ref[i]))));
+            max_diff = std::max(max_diff, static_cast<double>(std::fabs(half_to_float(out[i]) -
+                                                                        half_to_float(ref[i]))));
         else
             max_diff = std::max(max_diff, static_cast<double>(std::fabs(out[i] - ref[i])));
     }
-    state.SetItemsProcessed(static_cast<int64_t>(state.iterations()) * static_cast<int64_t>(kPixels));
-    state.SetBytesProcessed(static_cast<int64_t>(state.iterations()) * static_cast<int64_t>(kPixels) * bins *
-                            static_cast<int64_t>(sizeof(T)));
+    state.SetItemsProcessed(static_cast<int64_t>(state.iterations()) *
+                            static_cast<int64_t>(kPixels));
+    state.SetBytesProcessed(static_cast<int64_t>(state.iterations()) *
+                            static_cast<int64_t>(kPixels) * bins * static_cast<int64_t>(sizeof(T)));
     state.counters["bins"] = bins;
     state.counters["speedup_vs_naive"] = kernel_s > 0 ? naive_s / kernel_s : 0;
     state.counters["naive_pixels_per_second"] =
@@ -129,16 +133,19 @@ void BM_Expand(benchmark::State& state) {
 ExpansionMatrix colour_matrix(int bins) {
     const double step = bins == 401 ? 1 : 5;
     const Basis B = bins == 401 ? basis_for(401)
-                                : load_basis(SPECTEX_TEST_DATA_DIR, std::string(SPECTEX_TEST_DATA_DIR) +
-                                                                        "/spectral/basis_fit_smooth_380-780-5.csv");
+                                : load_basis(SPECTEX_TEST_DATA_DIR,
+                                             std::string(SPECTEX_TEST_DATA_DIR) +
+                                                 "/spectral/basis_fit_smooth_380-780-5.csv");
     ExpansionMatrix m = ExpansionMatrix::from_basis(B);
-    const Colorimetry c = Colorimetry::make(load_observer(SPECTEX_TEST_DATA_DIR, "cie1931-2"),
-                                            load_illuminant(SPECTEX_TEST_DATA_DIR, "D65"),
-                                            WavelengthGrid::uniform_grid(380, 780, step), primaries_by_name("srgb"));
+    const Colorimetry c =
+        Colorimetry::make(load_observer(SPECTEX_TEST_DATA_DIR, "cie1931-2"),
+                          load_illuminant(SPECTEX_TEST_DATA_DIR, "D65"),
+                          WavelengthGrid::uniform_grid(380, 780, step), primaries_by_name("srgb"));
     const Eigen::Matrix3Xd R = c.rgb_weights();
     m.rgb_weight.resize(3 * static_cast<size_t>(m.bins));
     for (int k = 0; k < m.bins; ++k)
-        for (int ch = 0; ch < 3; ++ch) m.rgb_weight[3 * static_cast<size_t>(k) + ch] = static_cast<float>(R(ch, k));
+        for (int ch = 0; ch < 3; ++ch)
+            m.rgb_weight[3 * static_cast<size_t>(k) + ch] = static_cast<float>(R(ch, k));
     return m;
 }
 
@@ -149,7 +156,8 @@ struct SrgbPlanes {
         float lut[256];
         for (int c = 0; c < 256; ++c) {
             const double v = c / 255.0;
-            lut[c] = static_cast<float>(v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4));
+            lut[c] =
+                static_cast<float>(v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4));
         }
         uint32_t s = 2024;
         for (size_t i = 0; i < kPixels; ++i) {
@@ -188,14 +196,16 @@ void BM_ExpandColour(benchmark::State& state) {
     size_t samples_changed = 0;
     for (size_t i = 0; i < out.size(); ++i)
         if (out[i] != ref[i]) ++samples_changed, pixel_changed[i % kPixels] = true;
-    state.SetItemsProcessed(static_cast<int64_t>(state.iterations()) * static_cast<int64_t>(kPixels));
+    state.SetItemsProcessed(static_cast<int64_t>(state.iterations()) *
+                            static_cast<int64_t>(kPixels));
     state.counters["bins"] = bins;
     state.counters["plain_pixels_per_second"] =
         plain_s > 0 ? static_cast<double>(state.iterations()) * kPixels / plain_s : 0;
     state.counters["colour_cost_vs_plain"] = plain_s > 0 ? colour_s / plain_s : 0;
     state.counters["pixels_changed"] =
         static_cast<double>(std::count(pixel_changed.begin(), pixel_changed.end(), true)) / kPixels;
-    state.counters["samples_changed"] = static_cast<double>(samples_changed) / static_cast<double>(out.size());
+    state.counters["samples_changed"] =
+        static_cast<double>(samples_changed) / static_cast<double>(out.size());
     state.SetLabel("half, colour rounding");
 }
 
@@ -204,7 +214,8 @@ const Colorimetry& colorimetry_for(int bins) {
     static const auto make = [](double step) {
         return Colorimetry::make(load_observer(SPECTEX_TEST_DATA_DIR, "cie1931-2"),
                                  load_illuminant(SPECTEX_TEST_DATA_DIR, "D65"),
-                                 WavelengthGrid::uniform_grid(380, 780, step), primaries_by_name("srgb"));
+                                 WavelengthGrid::uniform_grid(380, 780, step),
+                                 primaries_by_name("srgb"));
     };
     static const Colorimetry c81 = make(5), c401 = make(1);
     return bins == 401 ? c401 : c81;
@@ -214,7 +225,8 @@ const Colorimetry& colorimetry_for(int bins) {
 // expand_to_float of the basis of the same bin count timed in every iteration too (so that load
 // on the machine falls on both): `ratio_vs_basis` = method time / basis time.
 template <class Expand>
-void expand_against_basis(benchmark::State& state, int bins, const Expand& expand, const char* label) {
+void expand_against_basis(benchmark::State& state, int bins, const Expand& expand,
+                          const char* label) {
     const ExpansionMatrix m = ExpansionMatrix::from_basis(basis_for(bins));
     const Planes& p = planes();
     std::vector<float> out(kPixels * static_cast<size_t>(bins)), ref(out.size());
@@ -233,7 +245,8 @@ void expand_against_basis(benchmark::State& state, int bins, const Expand& expan
         basis_s += std::chrono::duration<double>(t2 - t1).count();
         state.SetIterationTime(k);
     }
-    state.SetItemsProcessed(static_cast<int64_t>(state.iterations()) * static_cast<int64_t>(kPixels));
+    state.SetItemsProcessed(static_cast<int64_t>(state.iterations()) *
+                            static_cast<int64_t>(kPixels));
     state.counters["bins"] = bins;
     state.counters["ratio_vs_basis"] = basis_s > 0 ? method_s / basis_s : 0;
     state.counters["basis_pixels_per_second"] =
@@ -247,22 +260,24 @@ void BM_ExpandLattice(benchmark::State& state) {
     const int bins = static_cast<int>(state.range(0)), n = static_cast<int>(state.range(1));
     const SpectralLattice L = SpectralLattice::build(colorimetry_for(bins), n, VertexPrior::Smooth);
     state.counters["n"] = n;
-    expand_against_basis(state, bins,
-                         [&](const float* r, const float* g, const float* b, size_t k, float* out, size_t stride) {
-                             L.expand(r, g, b, k, out, stride);
-                         },
-                         "float, lattice");
+    expand_against_basis(
+        state, bins,
+        [&](const float* r, const float* g, const float* b, size_t k, float* out, size_t stride) {
+            L.expand(r, g, b, k, out, stride);
+        },
+        "float, lattice");
 }
 
 // BM_ExpandJakobHanika: the sigmoid table's expand (res 33).
 void BM_ExpandJakobHanika(benchmark::State& state) {
     const int bins = static_cast<int>(state.range(0));
     const JakobHanikaTable t = JakobHanikaTable::build(colorimetry_for(bins), 33);
-    expand_against_basis(state, bins,
-                         [&](const float* r, const float* g, const float* b, size_t k, float* out, size_t stride) {
-                             t.expand(r, g, b, k, out, stride);
-                         },
-                         "float, jakob-hanika table");
+    expand_against_basis(
+        state, bins,
+        [&](const float* r, const float* g, const float* b, size_t k, float* out, size_t stride) {
+            t.expand(r, g, b, k, out, stride);
+        },
+        "float, jakob-hanika table");
 }
 
 // Build times (one build per run; single thread): lattice at n breakpoints with each prior, and
@@ -297,7 +312,12 @@ void BM_BuildJakobHanikaTable(benchmark::State& state) {
 
 }  // namespace
 
-BENCHMARK(BM_ExpandLattice)->Args({81, 9})->Args({81, 17})->Args({401, 17})->UseManualTime()->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_ExpandLattice)
+    ->Args({81, 9})
+    ->Args({81, 17})
+    ->Args({401, 17})
+    ->UseManualTime()
+    ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_ExpandJakobHanika)->Arg(81)->Arg(401)->UseManualTime()->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_BuildLattice)
     ->ArgsProduct({{81, 401}, {9, 17}, {0, 1, 2}})
@@ -309,8 +329,16 @@ BENCHMARK(BM_BuildJakobHanikaTable)
     ->Iterations(1)
     ->UseManualTime()
     ->Unit(benchmark::kMillisecond);
-BENCHMARK_TEMPLATE(BM_Expand, uint16_t)->Arg(81)->Arg(401)->UseManualTime()->Unit(benchmark::kMicrosecond);
-BENCHMARK_TEMPLATE(BM_Expand, float)->Arg(81)->Arg(401)->UseManualTime()->Unit(benchmark::kMicrosecond);
+BENCHMARK_TEMPLATE(BM_Expand, uint16_t)
+    ->Arg(81)
+    ->Arg(401)
+    ->UseManualTime()
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK_TEMPLATE(BM_Expand, float)
+    ->Arg(81)
+    ->Arg(401)
+    ->UseManualTime()
+    ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_ExpandColour)->Arg(81)->Arg(401)->UseManualTime()->Unit(benchmark::kMicrosecond);
 
 BENCHMARK_MAIN();

@@ -54,7 +54,10 @@ namespace {
     std::exit(2);
 }
 
-double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
+double now() {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
+        .count();
+}
 
 struct Run {
     int status = -1;
@@ -84,7 +87,8 @@ Run run(const std::vector<std::string>& args, const std::string& scratch, bool r
     Run r;
     const double t0 = now();
     pid_t pid;
-    if (posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ) != 0) fail("cannot run " + full[0]);
+    if (posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ) != 0)
+        fail("cannot run " + full[0]);
     int st = 0;
     waitpid(pid, &st, 0);
     r.wall = now() - t0;
@@ -135,8 +139,9 @@ bool floor_one(const std::string& src, const std::string& exr) {
     exr_context_t ctx = nullptr;
     if (exr_start_read(&ctx, exr.c_str(), &init) != EXR_ERR_SUCCESS) return false;
     const exr_attribute_t* a = nullptr;
-    const bool ok = exr_get_attribute_by_name(ctx, 0, "spectex:settingsHash", &a) == EXR_ERR_SUCCESS && a &&
-                    a->type == EXR_ATTR_STRING;
+    const bool ok =
+        exr_get_attribute_by_name(ctx, 0, "spectex:settingsHash", &a) == EXR_ERR_SUCCESS && a &&
+        a->type == EXR_ATTR_STRING;
     exr_finish(&ctx);
     return ok;
 }
@@ -158,15 +163,26 @@ int main(int argc, char** argv) {
             if (i + 1 >= argc) fail("missing value for " + a);
             return argv[++i];
         };
-        if (a == "--files") files = std::stoi(val());
-        else if (a == "--info-files") info_files = std::stoi(val());
-        else if (a == "--repeat") repeat = std::stoi(val());
-        else if (a == "--spectex") spectex = val();
-        else if (a == "--dir") dir = val();
-        else if (a == "--keep") keep = true;
-        else if (a == "--json") json = true;
-        else if (a == "--check") check = true;
-        else fail("unknown option " + a + " (--files N --info-files M --repeat K --spectex PATH --dir DIR --keep --json --check)");
+        if (a == "--files")
+            files = std::stoi(val());
+        else if (a == "--info-files")
+            info_files = std::stoi(val());
+        else if (a == "--repeat")
+            repeat = std::stoi(val());
+        else if (a == "--spectex")
+            spectex = val();
+        else if (a == "--dir")
+            dir = val();
+        else if (a == "--keep")
+            keep = true;
+        else if (a == "--json")
+            json = true;
+        else if (a == "--check")
+            check = true;
+        else
+            fail("unknown option " + a +
+                 " (--files N --info-files M --repeat K --spectex PATH --dir DIR --keep --json "
+                 "--check)");
     }
     if (files < 1 || info_files < 0 || repeat < 1) fail("--files, --repeat must be >= 1");
     info_files = std::min(info_files, files);
@@ -189,7 +205,8 @@ int main(int argc, char** argv) {
         for (size_t k = 0; k < px.size(); ++k) px[k] = static_cast<unsigned char>(k * 37 + 11);
         auto out = OIIO::ImageOutput::create(png);
         OIIO::ImageSpec spec(w, h, 3, OIIO::TypeDesc::UINT8);
-        if (!out || !out->open(png, spec) || !out->write_image(OIIO::TypeDesc::UINT8, px.data()) || !out->close())
+        if (!out || !out->open(png, spec) || !out->write_image(OIIO::TypeDesc::UINT8, px.data()) ||
+            !out->close())
             fail("cannot write " + png);
     }
     const Run bake = run({spectex, "bake", "-q", png, "-o", exr}, dir);
@@ -204,7 +221,8 @@ int main(int argc, char** argv) {
     std::string list;
     std::vector<std::string> srcs, outs;
     for (int i = 0; i < files; ++i) {
-        const std::string s = src_dir + "/t" + std::to_string(i) + ".png", o = out_dir + "/t" + std::to_string(i) + ".exr";
+        const std::string s = src_dir + "/t" + std::to_string(i) + ".png",
+                          o = out_dir + "/t" + std::to_string(i) + ".exr";
         write_all(s, png_bytes);
         set_mtime(s, pst.st_mtim);
         write_all(o, exr_bytes);
@@ -222,16 +240,19 @@ int main(int argc, char** argv) {
     for (int pass = 0; pass < 2; ++pass) {
         const double t0 = now();
         for (int i = 0; i < files; ++i)
-            if (!floor_one(srcs[static_cast<size_t>(i)], outs[static_cast<size_t>(i)])) fail("floor: cannot read " + outs[static_cast<size_t>(i)]);
+            if (!floor_one(srcs[static_cast<size_t>(i)], outs[static_cast<size_t>(i)]))
+                fail("floor: cannot read " + outs[static_cast<size_t>(i)]);
         floor_s = now() - t0;
     }
     const double floor_ms = floor_s * 1000 / files;
 
     // The batch: every file must be reported up to date.
-    const Run batch = run({spectex, "bake", "--from-list", list_file, "--output-dir", out_dir, "--update"}, dir);
+    const Run batch =
+        run({spectex, "bake", "--from-list", list_file, "--output-dir", out_dir, "--update"}, dir);
     const std::string expect = "0 baked, " + std::to_string(files) + " up to date, 0 failed";
     if (batch.status != 0 || batch.err.find(expect) == std::string::npos)
-        fail("the batch did not skip every file (exit " + std::to_string(batch.status) + "): " + batch.err.substr(0, 2000));
+        fail("the batch did not skip every file (exit " + std::to_string(batch.status) +
+             "): " + batch.err.substr(0, 2000));
     const double batch_ms = batch.wall * 1000 / files;
 
     // One process per file: timed alone, then once through /usr/bin/time for the peak RSS.
@@ -262,28 +283,38 @@ int main(int argc, char** argv) {
     }
 
     const double batch_ratio = batch_ms / floor_ms, info_ratio = info_ms / floor_ms;
-    std::printf("bench_update_skip: %d up-to-date files (made in %.1f s), %s\n", files, make_s, spectex.c_str());
+    std::printf("bench_update_skip: %d up-to-date files (made in %.1f s), %s\n", files, make_s,
+                spectex.c_str());
     std::printf("| what | ms per file | x floor | peak RSS MB |\n|---|---|---|---|\n");
     std::printf("| floor: header (OpenEXR core) + stat, in process | %.4f | 1.0 | |\n", floor_ms);
-    std::printf("| bake --update, one process for all %d (%.2f s) | %.4f | %.1f | %.1f |\n", files, batch.wall,
-                batch_ms, batch_ratio, batch.max_rss_mb);
-    std::printf("| bake --update, one process per file (median of %d; best %.1f) | %.1f | %.0f | %.1f |\n", repeat,
-                *std::min_element(one.begin(), one.end()), median(one), median(one) / floor_ms, one_rss);
-    std::printf("| spectex --version (median of %d) | %.1f | | %.1f |\n", repeat, median(ver), ver_rss);
+    std::printf("| bake --update, one process for all %d (%.2f s) | %.4f | %.1f | %.1f |\n", files,
+                batch.wall, batch_ms, batch_ratio, batch.max_rss_mb);
+    std::printf(
+        "| bake --update, one process per file (median of %d; best %.1f) | %.1f | %.0f | %.1f |\n",
+        repeat, *std::min_element(one.begin(), one.end()), median(one), median(one) / floor_ms,
+        one_rss);
+    std::printf("| spectex --version (median of %d) | %.1f | | %.1f |\n", repeat, median(ver),
+                ver_rss);
     if (info_files > 0)
-        std::printf("| info, one process for %d files | %.4f | %.1f | %.1f |\n", info_files, info_ms, info_ratio, info_rss);
+        std::printf("| info, one process for %d files | %.4f | %.1f | %.1f |\n", info_files,
+                    info_ms, info_ratio, info_rss);
     const double projected_10k = batch_ms * 10000 / 1000;
     std::printf("10,000 skips would take %.1f s (target < 10 s)\n", projected_10k);
     if (json)
-        std::printf("{\"files\":%d,\"floor_ms\":%.5f,\"batch_s\":%.4f,\"batch_ms_per_file\":%.5f,\"batch_x_floor\":%.3f,"
-                    "\"batch_peak_rss_mb\":%.1f,\"one_skip_ms\":%.3f,\"one_skip_peak_rss_mb\":%.1f,\"version_ms\":%.3f,"
-                    "\"version_peak_rss_mb\":%.1f,\"info_files\":%d,\"info_ms_per_file\":%.5f,\"info_x_floor\":%.3f,"
-                    "\"info_peak_rss_mb\":%.1f}\n",
-                    files, floor_ms, batch.wall, batch_ms, batch_ratio, batch.max_rss_mb, median(one), one_rss,
-                    median(ver), ver_rss, info_files, info_ms, info_ratio, info_rss);
+        std::printf(
+            "{\"files\":%d,\"floor_ms\":%.5f,\"batch_s\":%.4f,\"batch_ms_per_file\":%.5f,\"batch_x_"
+            "floor\":%.3f,"
+            "\"batch_peak_rss_mb\":%.1f,\"one_skip_ms\":%.3f,\"one_skip_peak_rss_mb\":%.1f,"
+            "\"version_ms\":%.3f,"
+            "\"version_peak_rss_mb\":%.1f,\"info_files\":%d,\"info_ms_per_file\":%.5f,\"info_x_"
+            "floor\":%.3f,"
+            "\"info_peak_rss_mb\":%.1f}\n",
+            files, floor_ms, batch.wall, batch_ms, batch_ratio, batch.max_rss_mb, median(one),
+            one_rss, median(ver), ver_rss, info_files, info_ms, info_ratio, info_rss);
     if (!keep) {
         const std::string rm = "rm -rf '" + dir + "'";
-        if (std::system(rm.c_str()) != 0) std::fprintf(stderr, "bench_update_skip: could not remove %s\n", dir.c_str());
+        if (std::system(rm.c_str()) != 0)
+            std::fprintf(stderr, "bench_update_skip: could not remove %s\n", dir.c_str());
     }
     if (check) {
         bool ok = projected_10k < 10 && batch_ratio <= 5 && (info_files == 0 || info_ratio <= 10);

@@ -14,8 +14,8 @@
 //  - half output has 10 stored mantissa bits; the default colour-feedback rounding takes the
 //    nearest half or its neighbour, so at most one ulp: 2^-10 relative error (kHalfRel), and 2^-24
 //    absolute in the subnormal range.
-#include <gtest/gtest.h>
 #include <ImfOutputFile.h>
+#include <gtest/gtest.h>
 
 #include <array>
 #include <cmath>
@@ -52,24 +52,28 @@ double srgb16(int v) { return srgb_to_linear(v / 65535.0); }
 
 // Runs `spectex bake in -o out --basis mallett2019 extra...` (the expected spectra below are built
 // from the published table), throws (a test failure) unless it succeeds, reads the output.
-ExrImage bake_and_read(const std::string& in, const std::string& out, const std::vector<std::string>& extra = {}) {
+ExrImage bake_and_read(const std::string& in, const std::string& out,
+                       const std::vector<std::string>& extra = {}) {
     std::vector<std::string> args{"bake", in, "-o", out, "--basis", "mallett2019"};
     args.insert(args.end(), extra.begin(), extra.end());
     RunResult r = run_spectex(args);
     if (r.status != 0)
-        throw std::runtime_error("spectex bake " + in + " failed with status " + std::to_string(r.status) + ": " + r.err);
+        throw std::runtime_error("spectex bake " + in + " failed with status " +
+                                 std::to_string(r.status) + ": " + r.err);
     return read_exr(out);
 }
 
 // Every T channel of every pixel against expected_spectrum(lin(x, y)) within spectral_tol.
-// lin(x, y) gives the exact linear (r, g, b) that spectex should expand at data-window pixel (x, y),
-// already multiplied by alpha when the output is associated.
-::testing::AssertionResult spectra_match(const ExrImage& img, const std::function<Rgb(int, int)>& lin,
-                                         double lin_err, bool half) {
+// lin(x, y) gives the exact linear (r, g, b) that spectex should expand at data-window pixel (x,
+// y), already multiplied by alpha when the output is associated.
+::testing::AssertionResult spectra_match(const ExrImage& img,
+                                         const std::function<Rgb(int, int)>& lin, double lin_err,
+                                         bool half) {
     const TestBasis& basis = mallett_basis();
     auto chans = spectral_channels(img);
     if (chans.size() != basis.lambda.size())
-        return ::testing::AssertionFailure() << chans.size() << " spectral channels, expected " << basis.lambda.size();
+        return ::testing::AssertionFailure()
+               << chans.size() << " spectral channels, expected " << basis.lambda.size();
     int failures = 0;
     std::ostringstream msg;
     double worst = 0;
@@ -79,16 +83,18 @@ ExrImage bake_and_read(const std::string& in, const std::string& out, const std:
             std::vector<double> e = expected_spectrum(c[0], c[1], c[2]);
             for (size_t k = 0; k < chans.size(); ++k) {
                 double got = img.at(chans[k].second, x, y);
-                double tol = spectral_tol(e[k], basis.r[k] + basis.g[k] + basis.b[k], lin_err, half);
+                double tol =
+                    spectral_tol(e[k], basis.r[k] + basis.g[k] + basis.b[k], lin_err, half);
                 double err = std::fabs(got - e[k]);
                 worst = std::max(worst, err / tol);
                 if (!(err <= tol) && ++failures <= 5)
-                    msg << "\n  pixel (" << x << ", " << y << ") " << chans[k].second << ": got " << got
-                        << ", expected " << e[k] << " +- " << tol;
+                    msg << "\n  pixel (" << x << ", " << y << ") " << chans[k].second << ": got "
+                        << got << ", expected " << e[k] << " +- " << tol;
             }
         }
     if (failures)
-        return ::testing::AssertionFailure() << failures << " samples out of tolerance:" << msg.str();
+        return ::testing::AssertionFailure()
+               << failures << " samples out of tolerance:" << msg.str();
     return ::testing::AssertionSuccess() << "worst error " << worst << " of the tolerance";
 }
 
@@ -104,7 +110,8 @@ std::vector<int> read_stored(const std::string& path, OIIO::TypeDesc type) {
     auto in = OIIO::ImageInput::open(path, &config);
     if (!in) throw std::runtime_error("cannot reopen " + path + ": " + OIIO::geterror());
     const auto& s = in->spec();
-    size_t n = static_cast<size_t>(s.width) * static_cast<size_t>(s.height) * static_cast<size_t>(s.nchannels);
+    size_t n = static_cast<size_t>(s.width) * static_cast<size_t>(s.height) *
+               static_cast<size_t>(s.nchannels);
     std::vector<int> v(n);
     if (type == OIIO::TypeDesc::UINT8) {
         std::vector<uint8_t> b(n);
@@ -121,12 +128,14 @@ std::vector<int> read_stored(const std::string& path, OIIO::TypeDesc type) {
 
 // An 8-bit RGB test pattern: covers 0, 255, the linear toe (< 11) and everything in between.
 std::vector<uint8_t> pattern8(int w, int h, int nch = 3) {
-    std::vector<uint8_t> px(static_cast<size_t>(w) * static_cast<size_t>(h) * static_cast<size_t>(nch));
+    std::vector<uint8_t> px(static_cast<size_t>(w) * static_cast<size_t>(h) *
+                            static_cast<size_t>(nch));
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x)
             for (int c = 0; c < nch; ++c) {
                 int i = (y * w + x) * nch + c;
-                px[static_cast<size_t>(i)] = static_cast<uint8_t>((37 * x + 91 * y + 73 * c + 5 * x * y) % 256);
+                px[static_cast<size_t>(i)] =
+                    static_cast<uint8_t>((37 * x + 91 * y + 73 * c + 5 * x * y) % 256);
             }
     if (!px.empty()) px[0] = 0;
     if (px.size() > 1) px[1] = 255;
@@ -154,8 +163,8 @@ void expect_same_pixels(const ExrImage& a, const ExrImage& b) {
 
 // Writes a float RGB OpenEXR with the given data and display windows (OpenEXR directly: the
 // cli_util writer has no windows). pixel(x, y) gets absolute coordinates.
-void write_windowed_exr(const std::string& path, const Imath::Box2i& display, const Imath::Box2i& data,
-                        const std::function<Rgb(int, int)>& pixel) {
+void write_windowed_exr(const std::string& path, const Imath::Box2i& display,
+                        const Imath::Box2i& data, const std::function<Rgb(int, int)>& pixel) {
     Imf::Header h(display, data);
     for (const char* c : {"R", "G", "B"}) h.channels().insert(c, Imf::Channel(Imf::FLOAT));
     const int w = data.max.x - data.min.x + 1, ht = data.max.y - data.min.y + 1;
@@ -164,14 +173,17 @@ void write_windowed_exr(const std::string& path, const Imath::Box2i& display, co
     for (int y = 0; y < ht; ++y)
         for (int x = 0; x < w; ++x) {
             Rgb c = pixel(data.min.x + x, data.min.y + y);
-            for (int k = 0; k < 3; ++k) p[k][static_cast<size_t>(y * w + x)] = static_cast<float>(c[k]);
+            for (int k = 0; k < 3; ++k)
+                p[k][static_cast<size_t>(y * w + x)] = static_cast<float>(c[k]);
         }
     Imf::OutputFile out(path.c_str(), h);
     Imf::FrameBuffer fb;
     const char* names[3] = {"R", "G", "B"};
     for (int k = 0; k < 3; ++k) {
-        char* base = reinterpret_cast<char*>(p[k].data() - (static_cast<ptrdiff_t>(data.min.y) * w + data.min.x));
-        fb.insert(names[k], Imf::Slice(Imf::FLOAT, base, sizeof(float), sizeof(float) * static_cast<size_t>(w)));
+        char* base = reinterpret_cast<char*>(p[k].data() -
+                                             (static_cast<ptrdiff_t>(data.min.y) * w + data.min.x));
+        fb.insert(names[k], Imf::Slice(Imf::FLOAT, base, sizeof(float),
+                                       sizeof(float) * static_cast<size_t>(w)));
     }
     out.setFrameBuffer(fb);
     out.writePixels(ht);
@@ -210,7 +222,8 @@ TEST(BakeInputs, HeaderAttributesAndChannelNames) {
     // Channel names parse back to 380, 385, ..., 780 nm.
     auto chans = spectral_channels(img);
     ASSERT_EQ(chans.size(), 81u);
-    for (size_t k = 0; k < chans.size(); ++k) EXPECT_EQ(chans[k].first, 380.0 + 5.0 * static_cast<double>(k));
+    for (size_t k = 0; k < chans.size(); ++k)
+        EXPECT_EQ(chans[k].first, 380.0 + 5.0 * static_cast<double>(k));
     EXPECT_EQ(chans.front().second, "T.380nm");
     EXPECT_EQ(chans.back().second, "T.780nm");
 
@@ -255,7 +268,8 @@ TEST(BakeInputs, Rgba16PngAlphaIsExactFloat) {
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x) {
             int a = px[static_cast<size_t>((y * w + x) * 4 + 3)];
-            EXPECT_EQ(img.at("A", x, y), static_cast<float>(a) / 65535.0f) << "alpha " << a << " at " << x << "," << y;
+            EXPECT_EQ(img.at("A", x, y), static_cast<float>(a) / 65535.0f)
+                << "alpha " << a << " at " << x << "," << y;
         }
     // Associated (the default): spectrum of the straight colour times alpha.
     EXPECT_TRUE(spectra_match(
@@ -292,13 +306,19 @@ TEST(BakeInputs, Grey8PngExpandsToRgb) {
 TEST(BakeInputs, GreyAlpha8PngExpandsToRgba) {
     ScratchDir d;
     const int w = 4, h = 2;
-    std::vector<uint8_t> ga = {0, 255, 5, 128, 64, 1, 128, 0, 200, 77, 254, 254, 255, 255, 100, 200};
+    std::vector<uint8_t> ga = {0,   255, 5,   128, 64,  1,   128, 0,
+                               200, 77,  254, 254, 255, 255, 100, 200};
     std::vector<uint8_t> rgba;
-    for (size_t i = 0; i < ga.size(); i += 2) rgba.insert(rgba.end(), {ga[i], ga[i], ga[i], ga[i + 1]});
-    write_image(d / "ga.png", w, h, 2, OIIO::TypeDesc::UINT8, ga.data(), {{"oiio:UnassociatedAlpha", "1"}});
-    write_image(d / "rgba.png", w, h, 4, OIIO::TypeDesc::UINT8, rgba.data(), {{"oiio:UnassociatedAlpha", "1"}});
-    ASSERT_EQ(read_stored(d / "ga.png", OIIO::TypeDesc::UINT8), std::vector<int>(ga.begin(), ga.end()));
-    ASSERT_EQ(read_stored(d / "rgba.png", OIIO::TypeDesc::UINT8), std::vector<int>(rgba.begin(), rgba.end()));
+    for (size_t i = 0; i < ga.size(); i += 2)
+        rgba.insert(rgba.end(), {ga[i], ga[i], ga[i], ga[i + 1]});
+    write_image(d / "ga.png", w, h, 2, OIIO::TypeDesc::UINT8, ga.data(),
+                {{"oiio:UnassociatedAlpha", "1"}});
+    write_image(d / "rgba.png", w, h, 4, OIIO::TypeDesc::UINT8, rgba.data(),
+                {{"oiio:UnassociatedAlpha", "1"}});
+    ASSERT_EQ(read_stored(d / "ga.png", OIIO::TypeDesc::UINT8),
+              std::vector<int>(ga.begin(), ga.end()));
+    ASSERT_EQ(read_stored(d / "rgba.png", OIIO::TypeDesc::UINT8),
+              std::vector<int>(rgba.begin(), rgba.end()));
     ExrImage g = bake_and_read(d / "ga.png", d / "ga.exr");
     ExrImage c = bake_and_read(d / "rgba.png", d / "rgba.exr");
     ASSERT_TRUE(g.has("A"));
@@ -306,7 +326,8 @@ TEST(BakeInputs, GreyAlpha8PngExpandsToRgba) {
     expect_same_pixels(g, c);
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x)
-            EXPECT_EQ(std::lround(g.at("A", x, y) * 255.0), ga[static_cast<size_t>((y * w + x) * 2 + 1)]);
+            EXPECT_EQ(std::lround(g.at("A", x, y) * 255.0),
+                      ga[static_cast<size_t>((y * w + x) * 2 + 1)]);
     EXPECT_TRUE(spectra_match(
         g,
         [&](int x, int y) {
@@ -323,7 +344,9 @@ TEST(BakeInputs, FloatRgbExrIsLinear) {
     std::vector<float> px(static_cast<size_t>(w * h * 3));
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x)
-            for (int c = 0; c < 3; ++c) px[static_cast<size_t>((y * w + x) * 3 + c)] = static_cast<float>(lin_pattern(x, y, c));
+            for (int c = 0; c < 3; ++c)
+                px[static_cast<size_t>((y * w + x) * 3 + c)] =
+                    static_cast<float>(lin_pattern(x, y, c));
     write_image(d / "lin.exr", w, h, 3, OIIO::TypeDesc::FLOAT, px.data());
     auto lookup = [&](int x, int y) {
         const float* p = &px[static_cast<size_t>((y * w + x) * 3)];
@@ -361,9 +384,11 @@ void check_tiled_input(const std::string& ext, OIIO::TypeDesc format, bool srgb)
     }
     RunResult r = run_spectex({"bake", in, "-o", out, "--basis", "mallett2019"});
     EXPECT_EQ(r.status, 0) << "spectex bake " << in << " -o " << out << " (a tiled " << ext
-                           << "): status " << r.status << (r.status > 128 ? " (killed by a signal)" : "")
+                           << "): status " << r.status
+                           << (r.status > 128 ? " (killed by a signal)" : "")
                            << ", stderr: " << r.err;
-    EXPECT_TRUE(temp_files_in(d.path()).empty()) << "temporary file left behind: " << temp_files_in(d.path()).front();
+    EXPECT_TRUE(temp_files_in(d.path()).empty())
+        << "temporary file left behind: " << temp_files_in(d.path()).front();
     if (r.status != 0) return;
     ExrImage img = read_exr(out);
     EXPECT_EQ(img.width, w);
@@ -423,7 +448,8 @@ TEST(BakeInputs, Tga) {
     const int w = 7, h = 5;
     auto px = pattern8(w, h);
     write_image(d / "in.tga", w, h, 3, OIIO::TypeDesc::UINT8, px.data());
-    ASSERT_EQ(read_stored(d / "in.tga", OIIO::TypeDesc::UINT8), std::vector<int>(px.begin(), px.end()));
+    ASSERT_EQ(read_stored(d / "in.tga", OIIO::TypeDesc::UINT8),
+              std::vector<int>(px.begin(), px.end()));
     ExrImage img = bake_and_read(d / "in.tga", d / "out.exr");
     EXPECT_EQ(img.width, w);
     EXPECT_EQ(img.height, h);
@@ -435,14 +461,17 @@ TEST(BakeInputs, DataWindowDiffersFromDisplayWindow) {
         Imath::Box2i display, data;
     };
     const Case cases[] = {
-        {Imath::Box2i({0, 0}, {9, 7}), Imath::Box2i({3, 2}, {7, 5})},      // inside the display window
-        {Imath::Box2i({0, 0}, {4, 3}), Imath::Box2i({-2, -1}, {6, 2})},    // overscan, negative origin
+        {Imath::Box2i({0, 0}, {9, 7}), Imath::Box2i({3, 2}, {7, 5})},  // inside the display window
+        {Imath::Box2i({0, 0}, {4, 3}),
+         Imath::Box2i({-2, -1}, {6, 2})},  // overscan, negative origin
         {Imath::Box2i({10, 20}, {13, 22}), Imath::Box2i({11, 21}, {11, 21})},  // one pixel
     };
     for (const auto& c : cases) {
         ScratchDir d;
-        auto pixel = [](int x, int y) { return Rgb{lin_pattern(x + 50, y + 50, 0), lin_pattern(x + 50, y + 50, 1),
-                                                   lin_pattern(x + 50, y + 50, 2)}; };
+        auto pixel = [](int x, int y) {
+            return Rgb{lin_pattern(x + 50, y + 50, 0), lin_pattern(x + 50, y + 50, 1),
+                       lin_pattern(x + 50, y + 50, 2)};
+        };
         write_windowed_exr(d / "in.exr", c.display, c.data, pixel);
         ExrImage img = bake_and_read(d / "in.exr", d / "out.exr", {"--type", "float"});
         EXPECT_EQ(img.data_window.min, c.data.min);
@@ -451,7 +480,8 @@ TEST(BakeInputs, DataWindowDiffersFromDisplayWindow) {
         EXPECT_EQ(img.display_window.max, c.display.max);
         // Pixels stay at their absolute coordinates.
         EXPECT_TRUE(spectra_match(
-            img, [&](int x, int y) { return pixel(c.data.min.x + x, c.data.min.y + y); }, 0.0, false));
+            img, [&](int x, int y) { return pixel(c.data.min.x + x, c.data.min.y + y); }, 0.0,
+            false));
     }
 }
 
@@ -475,7 +505,8 @@ TEST(BakeInputs, Odd33x17) {
     auto px = pattern8(w, h);
     write_image(d / "in.png", w, h, 3, OIIO::TypeDesc::UINT8, px.data());
     for (const char* comp : {"zip", "piz"}) {  // 16- and 32-line chunks, neither divides 17
-        ExrImage img = bake_and_read(d / "in.png", d / (std::string(comp) + ".exr"), {"--compression", comp});
+        ExrImage img =
+            bake_and_read(d / "in.png", d / (std::string(comp) + ".exr"), {"--compression", comp});
         EXPECT_EQ(img.width, w);
         EXPECT_EQ(img.height, h);
         EXPECT_TRUE(spectra_match(img, srgb8_lookup(px, w), kOcioVsIec, true)) << comp;
@@ -492,7 +523,8 @@ const std::vector<uint8_t> kRgba = {200, 100, 50, 128, 10, 240, 90, 255};
 
 std::string write_rgba8(const ScratchDir& d) {
     std::string in = d / "rgba.png";
-    write_image(in, 2, 1, 4, OIIO::TypeDesc::UINT8, kRgba.data(), {{"oiio:UnassociatedAlpha", "1"}});
+    write_image(in, 2, 1, 4, OIIO::TypeDesc::UINT8, kRgba.data(),
+                {{"oiio:UnassociatedAlpha", "1"}});
     return in;
 }
 
@@ -557,7 +589,8 @@ TEST(BakeInputs, PreviewAddsRgb) {
     auto px = pattern8(w, h);
     write_image(d / "in.png", w, h, 3, OIIO::TypeDesc::UINT8, px.data());
     for (const char* type : {"half", "float"}) {
-        ExrImage img = bake_and_read(d / "in.png", d / (std::string(type) + ".exr"), {"--preview", "--type", type});
+        ExrImage img = bake_and_read(d / "in.png", d / (std::string(type) + ".exr"),
+                                     {"--preview", "--type", type});
         const bool half = std::string(type) == "half";
         EXPECT_EQ(img.channel_names.size(), 84u);
         for (const char* c : {"R", "G", "B"}) {
@@ -570,7 +603,8 @@ TEST(BakeInputs, PreviewAddsRgb) {
                 for (int c = 0; c < 3; ++c) {
                     double e = srgb8(px[static_cast<size_t>((y * w + x) * 3 + c)]);
                     double tol = spectral_tol(e, 1.0, kOcioVsIec, half);
-                    EXPECT_NEAR(img.at(std::string(1, "RGB"[c]), x, y), e, tol) << type << " " << x << "," << y;
+                    EXPECT_NEAR(img.at(std::string(1, "RGB"[c]), x, y), e, tol)
+                        << type << " " << x << "," << y;
                 }
         EXPECT_TRUE(spectra_match(img, srgb8_lookup(px, w), kOcioVsIec, half)) << type;
     }

@@ -36,7 +36,8 @@ void expect_plain_csv(const std::string& path) {
         for (std::string f; std::getline(row, f, ',');) {
             char* end = nullptr;
             std::strtod(f.c_str(), &end);
-            EXPECT_TRUE(!f.empty() && *end == 0) << path << ":" << i + 1 << ": '" << f << "' is not a number";
+            EXPECT_TRUE(!f.empty() && *end == 0)
+                << path << ":" << i + 1 << ": '" << f << "' is not a number";
             ++fields;
         }
         EXPECT_EQ(fields, 4) << path << ":" << i + 1;
@@ -53,7 +54,8 @@ std::string line_starting(const std::string& text, const std::string& prefix) {
 
 TEST(BasisCsv, HeaderRowFirstAndProvenanceInASidecar) {
     ScratchDir d;
-    const RunResult r = run_spectex({"basis", "-q", "--wavelengths", "400:700:10", "-o", d / "b.csv"});
+    const RunResult r =
+        run_spectex({"basis", "-q", "--wavelengths", "400:700:10", "-o", d / "b.csv"});
     ASSERT_EQ(r.status, 0) << r.err;
     expect_plain_csv(d / "b.csv");
     EXPECT_EQ(lines_of(read_file(d / "b.csv")).size(), 32u);  // header + 31 bins
@@ -70,12 +72,14 @@ TEST(BasisCsv, HeaderRowFirstAndProvenanceInASidecar) {
 }
 
 TEST(BasisCsv, ShippedDefaultBasisIsAPlainCsvAsTheToolWritesIt) {
-    const std::string shipped = std::string(SPECTEX_TEST_DATA_DIR) + "/spectral/basis_fit_smooth_380-780-5.csv";
+    const std::string shipped =
+        std::string(SPECTEX_TEST_DATA_DIR) + "/spectral/basis_fit_smooth_380-780-5.csv";
     expect_plain_csv(shipped);
     ScratchDir d;
     const RunResult r = run_spectex({"basis", "-q", "-o", d / "fresh.csv"});
     ASSERT_EQ(r.status, 0) << r.err;
-    EXPECT_EQ(read_file(shipped), read_file(d / "fresh.csv")) << "regenerate: spectex basis -q -o " << shipped;
+    EXPECT_EQ(read_file(shipped), read_file(d / "fresh.csv"))
+        << "regenerate: spectex basis -q -o " << shipped;
     const std::string checksum = line_starting(read_file(d / "fresh.csv.provenance"), "checksum: ");
     EXPECT_NE(checksum, "");
     EXPECT_EQ(line_starting(read_file(shipped + ".provenance"), "checksum: "), checksum);
@@ -93,11 +97,13 @@ TEST(BasisCsv, OlderFilesWithACommentPreambleStillLoad) {
     std::vector<unsigned char> px = {200, 30, 40, 10, 220, 90, 0, 0, 255, 128, 128, 128};
     write_image(d / "in.png", 2, 2, 3, OIIO::TypeDesc::UINT8, px.data());
     for (const char* b : {"old.csv", "new.csv"}) {
-        const RunResult r = run_spectex({"bake", d / "in.png", "-o", d / (std::string(b) + ".exr"), "--basis", d / b});
+        const RunResult r = run_spectex(
+            {"bake", d / "in.png", "-o", d / (std::string(b) + ".exr"), "--basis", d / b});
         EXPECT_EQ(r.status, 0) << b << ": " << r.err;
     }
     // Same table, same pixels.
-    const RunResult a = run_spectex({"sample", d / "old.csv.exr", "1,1"}), n = run_spectex({"sample", d / "new.csv.exr", "1,1"});
+    const RunResult a = run_spectex({"sample", d / "old.csv.exr", "1,1"}),
+                    n = run_spectex({"sample", d / "new.csv.exr", "1,1"});
     EXPECT_EQ(a.status, 0) << a.err;
     EXPECT_EQ(a.out, n.out);
 }

@@ -36,7 +36,8 @@ TEST(Batch, OutputDirAndTemplateAndFailuresDoNotStopOthers) {
     write_small_png(d / "a.png", 1);
     write_small_png(d / "b.png", 2);
     std::ofstream(d / "broken.png") << "not an image";
-    auto r = run_spectex({"bake", d / "a.png", d / "broken.png", d / "b.png", "--output-dir", d / "out", "--json", "-"});
+    auto r = run_spectex({"bake", d / "a.png", d / "broken.png", d / "b.png", "--output-dir",
+                          d / "out", "--json", "-"});
     EXPECT_EQ(r.status, 1) << r.err;  // one failed: the batch fails, the others are baked
     EXPECT_TRUE(file_exists(d / "out/a.exr"));
     EXPECT_TRUE(file_exists(d / "out/b.exr"));
@@ -46,7 +47,8 @@ TEST(Batch, OutputDirAndTemplateAndFailuresDoNotStopOthers) {
     EXPECT_EQ(count_lines(r.out, "\"status\":\"failed\""), 1u);
     EXPECT_TRUE(contains(r.err, "2 baked, 0 up to date, 1 failed of 3")) << r.err;
 
-    auto t = run_spectex({"bake", d / "a.png", d / "b.png", "-o", "{dir}/{stem}_{ext}.spectral.exr"});
+    auto t =
+        run_spectex({"bake", d / "a.png", d / "b.png", "-o", "{dir}/{stem}_{ext}.spectral.exr"});
     EXPECT_EQ(t.status, 0) << t.err;
     EXPECT_TRUE(file_exists(d / "a_png.spectral.exr"));
     EXPECT_TRUE(file_exists(d / "b_png.spectral.exr"));
@@ -61,7 +63,8 @@ TEST(Batch, FailFastStops) {
     ScratchDir d;
     std::ofstream(d / "0_broken.png") << "x";
     write_small_png(d / "1.png", 1);
-    auto r = run_spectex({"bake", d / "0_broken.png", d / "1.png", "--output-dir", d / "out", "--fail-fast"});
+    auto r = run_spectex(
+        {"bake", d / "0_broken.png", d / "1.png", "--output-dir", d / "out", "--fail-fast"});
     EXPECT_EQ(r.status, 1);
     EXPECT_FALSE(file_exists(d / "out/1.exr"));
     EXPECT_TRUE(contains(r.err, "not attempted")) << r.err;
@@ -76,7 +79,9 @@ TEST(Batch, UdimTilesAndListFromStdinFile) {
     auto names = list_dir(d / "out");
     EXPECT_EQ(std::set<std::string>(names.begin(), names.end()),
               (std::set<std::string>{"wood.1001.exr", "wood.1002.exr", "wood.1011.exr"}));
-    std::ofstream(d / "list.txt") << "# inputs\n" << (d / "wood.1001.png") << "\n\n" << (d / "wood.999.png") << "\n";
+    std::ofstream(d / "list.txt") << "# inputs\n"
+                                  << (d / "wood.1001.png") << "\n\n"
+                                  << (d / "wood.999.png") << "\n";
     auto l = run_spectex({"bake", "--from-list", d / "list.txt", "--output-dir", d / "out2"});
     EXPECT_EQ(l.status, 0) << l.err;
     EXPECT_EQ(list_dir(d / "out2").size(), 2u);
@@ -97,8 +102,8 @@ TEST(Batch, ShardsCoverEveryInputExactlyOnce) {
     for (int k = 1; k <= n; ++k) {
         std::vector<std::string> args{"bake"};
         args.insert(args.end(), inputs.rbegin(), inputs.rend());  // order given must not matter
-        args.insert(args.end(), {"--output-dir", d / "out", "--shard", std::to_string(k) + "/" + std::to_string(n),
-                                 "--json", "-"});
+        args.insert(args.end(), {"--output-dir", d / "out", "--shard",
+                                 std::to_string(k) + "/" + std::to_string(n), "--json", "-"});
         auto r = run_spectex(args);
         ASSERT_EQ(r.status, 0) << r.err;
         std::istringstream in(r.out);
@@ -110,8 +115,10 @@ TEST(Batch, ShardsCoverEveryInputExactlyOnce) {
     ASSERT_EQ(baked.size(), inputs.size());
     for (const auto& [in, times] : baked) EXPECT_EQ(times, 1) << in;
     EXPECT_EQ(list_dir(d / "out").size(), inputs.size());
-    EXPECT_EQ(run_spectex({"bake", inputs[0], "--output-dir", d / "o", "--shard", "4/3"}).status, 2);
-    EXPECT_EQ(run_spectex({"bake", inputs[0], "--output-dir", d / "o", "--shard", "0/3"}).status, 2);
+    EXPECT_EQ(run_spectex({"bake", inputs[0], "--output-dir", d / "o", "--shard", "4/3"}).status,
+              2);
+    EXPECT_EQ(run_spectex({"bake", inputs[0], "--output-dir", d / "o", "--shard", "0/3"}).status,
+              2);
 }
 
 TEST(Batch, UpdateSkipsOnlyWhatIsCurrent) {
@@ -119,29 +126,38 @@ TEST(Batch, UpdateSkipsOnlyWhatIsCurrent) {
     write_small_png(d / "a.png", 1);
     write_small_png(d / "b.png", 2);
     ASSERT_EQ(run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out"}).status, 0);
-    auto r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update", "--json", "-"});
+    auto r = run_spectex(
+        {"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update", "--json", "-"});
     EXPECT_EQ(r.status, 0);
     EXPECT_EQ(count_lines(r.out, "\"status\":\"skipped\""), 2u) << r.out;
     // A skipped record says why (issue 14, item 9).
-    EXPECT_EQ(count_lines(r.out, "\"reason\":\"up to date: same settings hash, source size and modification time"), 2u)
+    EXPECT_EQ(count_lines(
+                  r.out,
+                  "\"reason\":\"up to date: same settings hash, source size and modification time"),
+              2u)
         << r.out;
     // Threads and jobs do not change pixels: still up to date.
-    r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update", "--jobs", "2", "--threads",
-                     "1", "--json", "-"});
+    r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update",
+                     "--jobs", "2", "--threads", "1", "--json", "-"});
     EXPECT_EQ(count_lines(r.out, "\"status\":\"skipped\""), 2u) << r.out;
     // A setting that changes pixels rebuilds both.
-    r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update", "--type", "float", "--json", "-"});
+    r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update",
+                     "--type", "float", "--json", "-"});
     EXPECT_EQ(count_lines(r.out, "\"status\":\"ok\""), 2u) << r.out;
-    // A changed input rebuilds that one only, whatever its date (tests/cli/update_identity_test.cpp).
+    // A changed input rebuilds that one only, whatever its date
+    // (tests/cli/update_identity_test.cpp).
     write_small_png(d / "a.png", 3);
-    struct utimbuf past {946684800, 946684800};
+    struct utimbuf past {
+        946684800, 946684800
+    };
     utime((d / "a.png").c_str(), &past);
-    r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update", "--type", "float", "--json", "-"});
+    r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update",
+                     "--type", "float", "--json", "-"});
     EXPECT_EQ(count_lines(r.out, "\"status\":\"ok\""), 1u) << r.out;
     EXPECT_EQ(count_lines(r.out, "\"status\":\"skipped\""), 1u) << r.out;
     // --force rebuilds everything.
-    r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update", "--force", "--type", "float",
-                     "--json", "-"});
+    r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update",
+                     "--force", "--type", "float", "--json", "-"});
     EXPECT_EQ(count_lines(r.out, "\"status\":\"ok\""), 2u) << r.out;
 }
 
@@ -194,14 +210,17 @@ TEST(Batch, TwoTasksWritingOneOutputLeaveAValidFile) {
     std::vector<uint8_t> px(512 * 256 * 3);
     for (size_t i = 0; i < px.size(); ++i) px[i] = static_cast<uint8_t>((i * 7919) >> 3);
     write_image(d / "in.png", 512, 256, 3, OIIO::TypeDesc::UINT8, px.data());
-    std::string cmd = std::string(SPECTEX_BINARY) + " bake " + (d / "in.png") + " -o " + (d / "out.exr") + " -q";
+    std::string cmd =
+        std::string(SPECTEX_BINARY) + " bake " + (d / "in.png") + " -o " + (d / "out.exr") + " -q";
     int st = std::system(("(" + cmd + " & " + cmd + " & wait) ; exit 0").c_str());
     ASSERT_EQ(st, 0);
     auto names = list_dir(d.path());
-    EXPECT_EQ(std::set<std::string>(names.begin(), names.end()), (std::set<std::string>{"in.png", "out.exr"}));
+    EXPECT_EQ(std::set<std::string>(names.begin(), names.end()),
+              (std::set<std::string>{"in.png", "out.exr"}));
     auto info = run_spectex({"info", d / "out.exr"});
     EXPECT_EQ(info.status, 0) << info.err;
-    auto v = run_spectex({"verify", d / "out.exr", "--source", d / "in.png", "--min-code-match", "100"});
+    auto v =
+        run_spectex({"verify", d / "out.exr", "--source", d / "in.png", "--min-code-match", "100"});
     EXPECT_EQ(v.status, 0) << v.out << v.err;
 }
 
@@ -211,7 +230,8 @@ TEST(Batch, JsonReportsStagesAndTheWriter) {
     ScratchDir d;
     write_small_png(d / "a.png", 1);
     auto stages_of = [&](const std::vector<std::string>& extra) {
-        std::vector<std::string> args{"bake", d / "a.png", "-o", d / "a.exr", "--force", "--json", "-"};
+        std::vector<std::string> args{"bake",    d / "a.png", "-o", d / "a.exr",
+                                      "--force", "--json",    "-"};
         args.insert(args.end(), extra.begin(), extra.end());
         auto r = run_spectex(args);
         EXPECT_EQ(r.status, 0) << r.err;
@@ -219,8 +239,8 @@ TEST(Batch, JsonReportsStagesAndTheWriter) {
     };
     const std::string zip = stages_of({});
     EXPECT_TRUE(contains(zip, "\"stages\":{\"writer\":\"core\"")) << zip;
-    for (const char* k : {"read_s", "colour_s", "expand_s", "pack_s", "encoder_wait_s", "producer_wait_s",
-                          "compress_cpu_s", "finish_s"}) {
+    for (const char* k : {"read_s", "colour_s", "expand_s", "pack_s", "encoder_wait_s",
+                          "producer_wait_s", "compress_cpu_s", "finish_s"}) {
         const size_t at = zip.find(std::string("\"") + k + "\":");
         ASSERT_NE(at, std::string::npos) << k;
         EXPECT_GE(std::stod(zip.substr(at + std::strlen(k) + 3)), 0.0) << k;
@@ -240,7 +260,8 @@ TEST(Batch, ZipLevelChangesTheStreamNotThePixels) {
     for (size_t i = 0; i < px.size(); ++i) px[i] = static_cast<uint8_t>((i * i / 7 + i / 64) & 255);
     write_image(d / "a.png", 64, 64, 3, OIIO::TypeDesc::UINT8, px.data());
     ASSERT_EQ(run_spectex({"bake", d / "a.png", "-o", d / "l4.exr", "-q"}).status, 0);
-    ASSERT_EQ(run_spectex({"bake", d / "a.png", "-o", d / "l1.exr", "-q", "--zip-level", "1"}).status, 0);
+    ASSERT_EQ(
+        run_spectex({"bake", d / "a.png", "-o", d / "l1.exr", "-q", "--zip-level", "1"}).status, 0);
     ExrImage a = read_exr(d / "l4.exr"), b = read_exr(d / "l1.exr");
     EXPECT_EQ(a.attr("spectex:zipLevel"), "4");
     EXPECT_EQ(b.attr("spectex:zipLevel"), "1");
@@ -249,5 +270,7 @@ TEST(Batch, ZipLevelChangesTheStreamNotThePixels) {
     ASSERT_EQ(a.pixels.size(), b.pixels.size());
     for (const auto& [name, v] : a.pixels) EXPECT_EQ(v, b.pixels.at(name)) << name;
     for (const char* bad : {"0", "13", "x", ""})
-        EXPECT_EQ(run_spectex({"bake", d / "a.png", "-o", d / "x.exr", "--zip-level", bad}).status, 2) << bad;
+        EXPECT_EQ(run_spectex({"bake", d / "a.png", "-o", d / "x.exr", "--zip-level", bad}).status,
+                  2)
+            << bad;
 }

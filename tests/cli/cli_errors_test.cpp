@@ -25,7 +25,8 @@ void expect_no_output(const std::string& output) {
     struct stat st;
     EXPECT_NE(::lstat(output.c_str(), &st), 0) << output << " exists after a failed bake";
     EXPECT_TRUE(temp_files_in(dir_of(output)).empty())
-        << "temporary file left in " << dir_of(output) << ": " << temp_files_in(dir_of(output)).front();
+        << "temporary file left in " << dir_of(output) << ": "
+        << temp_files_in(dir_of(output)).front();
 }
 
 // A small valid sRGB PNG.
@@ -74,10 +75,12 @@ TEST(CliHelp, BakeHelpListsOptions) {
     RunResult r = run_spectex({"bake", "--help"});
     EXPECT_EQ(r.status, 0);
     EXPECT_TRUE(r.err.empty()) << r.err;
-    for (const char* opt : {"Usage: spectex bake", "--output", "--type", "--compression", "--preview", "--alpha",
-                            "--colorspace", "--config", "--out-of-range", "--nan", "--basis", "--wavelengths",
-                            "--threads", "--max-pixels", "--quiet", "--verbose"})
-        EXPECT_TRUE(contains(r.out, opt)) << "bake --help does not mention " << opt << ":\n" << r.out;
+    for (const char* opt :
+         {"Usage: spectex bake", "--output", "--type", "--compression", "--preview", "--alpha",
+          "--colorspace", "--config", "--out-of-range", "--nan", "--basis", "--wavelengths",
+          "--threads", "--max-pixels", "--quiet", "--verbose"})
+        EXPECT_TRUE(contains(r.out, opt)) << "bake --help does not mention " << opt << ":\n"
+                                          << r.out;
 }
 
 TEST(CliHelp, BakeHelpWinsOverOtherArguments) {
@@ -220,11 +223,13 @@ TEST(CliErrors, OutputFolderNotWritable) {
 
 TEST(CliErrors, OutputIsTheInput) {
     ScratchDir d;
-    std::string in = d / "in.exr";  // an .exr input: -o passes the name check, then the identity one
+    std::string in =
+        d / "in.exr";  // an .exr input: -o passes the name check, then the identity one
     write_png(in);
     const std::string before = read_file(in);
     RunResult r = run_spectex({"bake", in, "-o", in});
-    EXPECT_EQ(r.status, 2) << "naming an input as the output is a usage error, found before any work";
+    EXPECT_EQ(r.status, 2)
+        << "naming an input as the output is a usage error, found before any work";
     EXPECT_TRUE(contains(r.err, "spectex bake: " + in + ": ")) << r.err;
     EXPECT_TRUE(contains(r.err, "input")) << r.err;
     EXPECT_EQ(read_file(in), before) << "the input was modified";
@@ -302,7 +307,9 @@ void expect_usage_error(const std::vector<std::string>& extra, const std::string
 TEST(CliErrors, BadType) { expect_usage_error({"--type", "double"}, "--type"); }
 TEST(CliErrors, BadCompression) { expect_usage_error({"--compression", "lzma"}, "--compression"); }
 TEST(CliErrors, NegativeThreads) { expect_usage_error({"--threads", "-1"}, "--threads"); }
-TEST(CliErrors, WavelengthsWithoutStep) { expect_usage_error({"--wavelengths", "380:780"}, "--wavelengths"); }
+TEST(CliErrors, WavelengthsWithoutStep) {
+    expect_usage_error({"--wavelengths", "380:780"}, "--wavelengths");
+}
 TEST(CliErrors, UnknownOption) { expect_usage_error({"--frobnicate"}, "--frobnicate"); }
 TEST(CliErrors, BadAlpha) { expect_usage_error({"--alpha", "straight"}, "--alpha"); }
 TEST(CliErrors, OptionWithoutValue) { expect_usage_error({"--type"}, "--type"); }
@@ -334,7 +341,8 @@ TEST(CliErrors, WavelengthsNotOnTheBasisGrid) {
     std::string in = d / "in.png", out = d / "out.exr";
     write_png(in);
     // The published table exists on 380:780:5 only; the default fitted basis works on any grid.
-    RunResult r = run_spectex({"bake", in, "-o", out, "--wavelengths", "400:700:10", "--basis", "mallett2019"});
+    RunResult r = run_spectex(
+        {"bake", in, "-o", out, "--wavelengths", "400:700:10", "--basis", "mallett2019"});
     EXPECT_EQ(r.status, 2);
     EXPECT_EQ(r.err.rfind("spectex: ", 0), 0u) << r.err;
     EXPECT_TRUE(contains(r.err, "400:700:10")) << r.err;
@@ -363,7 +371,8 @@ TEST(CliErrors, InfoOnNonExr) {
     RunResult r = run_spectex({"info", in});
     EXPECT_EQ(r.status, 1);
     EXPECT_TRUE(contains(r.err, "spectex: " + in + ": ")) << r.err;
-    EXPECT_TRUE(contains(r.err, "not an OpenEXR file") || contains(r.err, "not a spectral")) << r.err;
+    EXPECT_TRUE(contains(r.err, "not an OpenEXR file") || contains(r.err, "not a spectral"))
+        << r.err;
 }
 
 TEST(CliErrors, InfoOnRgbExr) {
@@ -409,8 +418,9 @@ TEST(CliErrors, HostileExrHeadersAreRefusedBeforeOpenExrAllocates) {
     // OpenEXR 3.1 sizes its chunk tables from the header; the fuzzer found a header that made it
     // allocate past 2 GB. exr_preflight refuses such headers first (info and verify share it).
     ScratchDir d;
-    const std::string seed = std::string(SPECTEX_TEST_SOURCE_DIR) +
-                             "/tests/fuzz/corpus/fuzz_exr_header/regress_oom_header_without_datawindow";
+    const std::string seed =
+        std::string(SPECTEX_TEST_SOURCE_DIR) +
+        "/tests/fuzz/corpus/fuzz_exr_header/regress_oom_header_without_datawindow";
     RunResult r = run_spectex({"info", seed});
     EXPECT_EQ(r.status, 1);
     EXPECT_TRUE(contains(r.err, "corrupt OpenEXR header")) << r.err;
@@ -428,7 +438,8 @@ TEST(CliErrors, HostileExrHeadersAreRefusedBeforeOpenExrAllocates) {
     put32(20000630);
     put32(2 | 0x200);
     std::string box;
-    for (int32_t v : {0, 0, (1 << 20) - 1, (1 << 20) - 1}) box.append(reinterpret_cast<const char*>(&v), 4);
+    for (int32_t v : {0, 0, (1 << 20) - 1, (1 << 20) - 1})
+        box.append(reinterpret_cast<const char*>(&v), 4);
     std::string tiles;
     for (int32_t v : {1, 1}) tiles.append(reinterpret_cast<const char*>(&v), 4);
     tiles += '\0';

@@ -18,7 +18,7 @@ extern char** environ;
 namespace spectex_test {
 
 struct RunResult {
-    int status = -1;          // exit status, or 128+signal
+    int status = -1;  // exit status, or 128+signal
     std::string out, err;
 };
 
@@ -58,14 +58,17 @@ inline std::vector<std::string> environment_with(const std::vector<std::string>&
 // standard input from `stdin_path` ("" = this process's) and, when `stdout_path` is given, standard
 // output written there instead of captured (e.g. /dev/full).
 inline RunResult run_spectex_io(const std::vector<std::string>& args, const std::string& stdin_path,
-                                const std::string& stdout_path = "", const std::vector<std::string>& extra_env = {}) {
+                                const std::string& stdout_path = "",
+                                const std::vector<std::string>& extra_env = {}) {
     char tmpl[] = "/tmp/spectex-run-XXXXXX";
     std::string dir = mkdtemp(tmpl);
     std::string out = stdout_path.empty() ? dir + "/out" : stdout_path, err = dir + "/err";
     posix_spawn_file_actions_t fa;
     posix_spawn_file_actions_init(&fa);
-    if (!stdin_path.empty()) posix_spawn_file_actions_addopen(&fa, 0, stdin_path.c_str(), O_RDONLY, 0);
-    posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | (stdout_path.empty() ? O_TRUNC : 0), 0644);
+    if (!stdin_path.empty())
+        posix_spawn_file_actions_addopen(&fa, 0, stdin_path.c_str(), O_RDONLY, 0);
+    posix_spawn_file_actions_addopen(
+        &fa, 1, out.c_str(), O_WRONLY | O_CREAT | (stdout_path.empty() ? O_TRUNC : 0), 0644);
     posix_spawn_file_actions_addopen(&fa, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     std::vector<std::string> argv_s = spectex_argv(args), env_s = environment_with(extra_env);
     std::vector<char*> argv = c_array(argv_s), envp = c_array(env_s);
@@ -87,13 +90,14 @@ inline RunResult run_spectex_io(const std::vector<std::string>& args, const std:
     return r;
 }
 
-inline RunResult run_spectex(const std::vector<std::string>& args, const std::vector<std::string>& extra_env = {}) {
+inline RunResult run_spectex(const std::vector<std::string>& args,
+                             const std::vector<std::string>& extra_env = {}) {
     return run_spectex_io(args, "", "", extra_env);
 }
 
 // A scratch folder removed (with its files) at the end of the test.
 class ScratchDir {
-public:
+  public:
     ScratchDir() {
         char tmpl[] = "/tmp/spectex-test-XXXXXX";
         path_ = mkdtemp(tmpl);
@@ -102,13 +106,15 @@ public:
     const std::string& path() const { return path_; }
     std::string operator/(const std::string& name) const { return path_ + "/" + name; }
 
-private:
+  private:
     std::string path_;
 };
 
 // Writes an image with OpenImageIO: pixels are nchannels interleaved values of `format`.
-inline void write_image(const std::string& path, int w, int h, int nch, OIIO::TypeDesc format, const void* pixels,
-                        const std::vector<std::pair<std::string, std::string>>& attrs = {}, int tile = 0) {
+inline void write_image(const std::string& path, int w, int h, int nch, OIIO::TypeDesc format,
+                        const void* pixels,
+                        const std::vector<std::pair<std::string, std::string>>& attrs = {},
+                        int tile = 0) {
     OIIO::ImageSpec spec(w, h, nch, format);
     if (tile > 0) {
         spec.tile_width = tile;
@@ -152,7 +158,8 @@ inline std::vector<std::string> temp_files_in(const std::string& dir) {
     struct stat st;
     if (::stat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode)) return v;
     for (const auto& n : list_dir(dir))
-        if (n.find(".spectex-") != std::string::npos && n.size() >= 4 && n.compare(n.size() - 4, 4, ".tmp") == 0)
+        if (n.find(".spectex-") != std::string::npos && n.size() >= 4 &&
+            n.compare(n.size() - 4, 4, ".tmp") == 0)
             v.push_back(n);
     return v;
 }
@@ -161,7 +168,9 @@ inline std::vector<std::string> temp_files_in(const std::string& dir) {
 // FileTransform nested in a GroupTransform, resolved through `search_path`.
 inline std::string lut_config_text(const std::string& search_path, const std::string& lut_src) {
     return "ocio_profile_version: 2\n"
-           "search_path: \"" + search_path + "\"\n"
+           "search_path: \"" +
+           search_path +
+           "\"\n"
            "roles:\n  default: lin_srgb\n  scene_linear: lin_srgb\n"
            "file_rules:\n  - !<Rule> {name: Default, colorspace: lin_srgb}\n"
            "displays:\n  d:\n    - !<View> {name: v, colorspace: raw}\n"
@@ -170,7 +179,8 @@ inline std::string lut_config_text(const std::string& search_path, const std::st
            "  - !<ColorSpace>\n    name: lin_srgb\n"
            "  - !<ColorSpace>\n    name: lut_space\n"
            "    to_scene_reference: !<GroupTransform>\n      children:\n"
-           "        - !<FileTransform> {src: \"" + lut_src + "\", interpolation: linear}\n";
+           "        - !<FileTransform> {src: \"" +
+           lut_src + "\", interpolation: linear}\n";
 }
 
 }  // namespace spectex_test

@@ -5,9 +5,9 @@
 // About SIGKILL: it cannot be caught, so the temporary file (<output>.spectex-XXXXXX.tmp) of a
 // killed run stays behind in the output folder. The guarantee is only that the final name never
 // holds a partial file (and that a previous file under that name is untouched).
-#include <gtest/gtest.h>
 #include <ImfAttribute.h>
 #include <ImfIO.h>
+#include <gtest/gtest.h>
 #include <sys/mount.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
@@ -46,13 +46,16 @@ struct ChildOptions {
     rlim_t fsize_limit = RLIM_INFINITY;
 };
 
-Child start_spectex(const ScratchDir& io, const std::vector<std::string>& args, const ChildOptions& opt = {}) {
+Child start_spectex(const ScratchDir& io, const std::vector<std::string>& args,
+                    const ChildOptions& opt = {}) {
     Child c;
     c.out_path = io / "child.out";
     c.err_path = io / "child.err";
     std::vector<std::string> argv_s = spectex_argv(args);
     std::vector<char*> argv = c_array(argv_s);
-    struct rlimit lim {opt.fsize_limit, opt.fsize_limit};
+    struct rlimit lim {
+        opt.fsize_limit, opt.fsize_limit
+    };
     c.pid = fork();
     if (c.pid == 0) {
         int fo = ::open(c.out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0666);
@@ -106,8 +109,9 @@ void write_noise_png(const std::string& path, int w, int h, unsigned seed = 42) 
 
 // Starts a bake of a large input and sends `sig` once its temporary file holds more than
 // `min_bytes`. Returns the finished child; *tmp_seen is the temporary file's name.
-Child bake_and_kill(const ScratchDir& d, const std::string& in, const std::string& out, int sig, off_t min_bytes,
-                    std::string* tmp_seen, off_t* tmp_size_at_kill, bool final_absent = true) {
+Child bake_and_kill(const ScratchDir& d, const std::string& in, const std::string& out, int sig,
+                    off_t min_bytes, std::string* tmp_seen, off_t* tmp_size_at_kill,
+                    bool final_absent = true) {
     ScratchDir io;
     Child c = start_spectex(io, {"bake", in, "-o", out, "--compression", "none", "--threads", "1"});
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
@@ -126,7 +130,8 @@ Child bake_and_kill(const ScratchDir& d, const std::string& in, const std::strin
                 *tmp_seen = tmp.front();
                 *tmp_size_at_kill = sz;
                 // The final name must not exist while the temporary file is being written.
-                if (final_absent) EXPECT_FALSE(file_exists(out)) << "final name exists during the write";
+                if (final_absent)
+                    EXPECT_FALSE(file_exists(out)) << "final name exists during the write";
                 kill(c.pid, sig);
                 sent = true;
                 break;
@@ -136,7 +141,8 @@ Child bake_and_kill(const ScratchDir& d, const std::string& in, const std::strin
     }
     if (!sent && c.pid > 0) kill(c.pid, SIGKILL);
     finish(c);
-    EXPECT_TRUE(sent) << "the temporary file never grew past " << min_bytes << " bytes; stderr:\n" << c.err;
+    EXPECT_TRUE(sent) << "the temporary file never grew past " << min_bytes << " bytes; stderr:\n"
+                      << c.err;
     return c;
 }
 
@@ -157,9 +163,10 @@ TEST(DataSafety, SigtermMidWriteLeavesNothing) {
     EXPECT_NE(c.status, 0) << "killed bake reported success";
     EXPECT_FALSE(file_exists(out)) << "a file exists under the final name after SIGTERM";
     auto left = temp_files_in(d.path());
-    EXPECT_TRUE(left.empty()) << "temporary file left after SIGTERM: " << (left.empty() ? "" : left.front());
-    std::printf("  SIGTERM at %lld bytes of %s: status %d, stderr: %s\n", static_cast<long long>(at), tmp.c_str(),
-                c.status, c.err.c_str());
+    EXPECT_TRUE(left.empty()) << "temporary file left after SIGTERM: "
+                              << (left.empty() ? "" : left.front());
+    std::printf("  SIGTERM at %lld bytes of %s: status %d, stderr: %s\n",
+                static_cast<long long>(at), tmp.c_str(), c.status, c.err.c_str());
 }
 
 TEST(DataSafety, SigkillMidWriteNeverTouchesTheFinalName) {
@@ -188,7 +195,8 @@ TEST(DataSafety, SigtermKeepsAPreviousOutputIntact) {
         off_t at = 0;
         Child c = bake_and_kill(d, in, out, sig, 4 << 20, &tmp, &at, false);
         EXPECT_NE(c.status, 0) << strsignal(sig);
-        EXPECT_EQ(read_file(out), before) << "previous output changed by a bake killed with " << strsignal(sig);
+        EXPECT_EQ(read_file(out), before)
+            << "previous output changed by a bake killed with " << strsignal(sig);
         if (sig != SIGKILL) EXPECT_TRUE(temp_files_in(d.path()).empty()) << strsignal(sig);
         for (const auto& t : temp_files_in(d.path())) ::unlink((d / t).c_str());
     }
@@ -201,8 +209,8 @@ TEST(DataSafety, EverySignalThatEndsTheProcessRemovesTheTemporaryFile) {
     ScratchDir d;
     const std::string in = d / "big.png", out = d / "big.exr";
     write_noise_png(in, 4096, 1024);
-    for (int sig : {SIGPIPE, SIGUSR1, SIGUSR2, SIGALRM, SIGVTALRM, SIGXCPU, SIGPROF, SIGIO, SIGPWR, SIGSYS,
-                    SIGTRAP, SIGSTKFLT, SIGRTMIN, SIGRTMAX, SIGXFSZ}) {
+    for (int sig : {SIGPIPE, SIGUSR1, SIGUSR2, SIGALRM, SIGVTALRM, SIGXCPU, SIGPROF, SIGIO, SIGPWR,
+                    SIGSYS, SIGTRAP, SIGSTKFLT, SIGRTMIN, SIGRTMAX, SIGXFSZ}) {
         std::string tmp;
         off_t at = 0;
         Child c = bake_and_kill(d, in, out, sig, 1 << 20, &tmp, &at);
@@ -210,9 +218,11 @@ TEST(DataSafety, EverySignalThatEndsTheProcessRemovesTheTemporaryFile) {
         if (sig == SIGXFSZ)
             EXPECT_EQ(c.status, 0) << "SIGXFSZ is ignored; the bake goes on: " << c.err;
         else
-            EXPECT_EQ(c.status, 128 + sig) << strsignal(sig) << " did not end the run with its own status: " << c.err;
+            EXPECT_EQ(c.status, 128 + sig)
+                << strsignal(sig) << " did not end the run with its own status: " << c.err;
         auto left = temp_files_in(d.path());
-        EXPECT_TRUE(left.empty()) << "temporary file left after " << strsignal(sig) << ": " << left.front();
+        EXPECT_TRUE(left.empty()) << "temporary file left after " << strsignal(sig) << ": "
+                                  << left.front();
         for (const auto& t : left) ::unlink((d / t).c_str());
         ::unlink(out.c_str());
     }
@@ -221,9 +231,11 @@ TEST(DataSafety, EverySignalThatEndsTheProcessRemovesTheTemporaryFile) {
 TEST(DataSafety, AClosedStandardOutputLeavesNoTemporaryFile) {
     // `spectex bake ... --json - | head -c 1`: the reader goes away while files are still baking.
     ScratchDir d;
-    std::vector<std::string> args = {"bake", "--json", "-", "--jobs", "2", "-o", d.path() + "/{stem}.exr"};
+    std::vector<std::string> args = {
+        "bake", "--json", "-", "--jobs", "2", "-o", d.path() + "/{stem}.exr"};
     for (int i = 0; i < 6; ++i) {
-        write_noise_png(d / ("in" + std::to_string(i) + ".png"), 1024, 512, 7 + static_cast<unsigned>(i));
+        write_noise_png(d / ("in" + std::to_string(i) + ".png"), 1024, 512,
+                        7 + static_cast<unsigned>(i));
         args.push_back(d / ("in" + std::to_string(i) + ".png"));
     }
     std::vector<std::string> argv_s = spectex_argv(args);
@@ -248,7 +260,8 @@ TEST(DataSafety, AClosedStandardOutputLeavesNoTemporaryFile) {
     int st = 0;
     ASSERT_EQ(waitpid(pid, &st, 0), pid);
     EXPECT_TRUE(WIFSIGNALED(st) && WTERMSIG(st) == SIGPIPE) << "status " << st;
-    EXPECT_TRUE(temp_files_in(d.path()).empty()) << "temporary file left: " << temp_files_in(d.path()).front();
+    EXPECT_TRUE(temp_files_in(d.path()).empty())
+        << "temporary file left: " << temp_files_in(d.path()).front();
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -320,7 +333,8 @@ TEST(DataSafety, AReportThatDoesNotFitIsAFailure) {
         std::string p;
         ~Unmount() { ::umount2(p.c_str(), MNT_DETACH); }
     } unmount{mnt};
-    std::vector<std::string> args = {"bake", "-q", "--json", mnt + "/report.jsonl", "-o", d.path() + "/{stem}.exr"};
+    std::vector<std::string> args = {
+        "bake", "-q", "--json", mnt + "/report.jsonl", "-o", d.path() + "/{stem}.exr"};
     for (int i = 0; i < 24; ++i) {  // 24 records of about 600 bytes: more than the 4 kB filesystem
         const std::string in = d / ("in" + std::to_string(i) + ".png");
         write_noise_png(in, 4, 4, static_cast<unsigned>(i));
@@ -337,7 +351,8 @@ TEST(DataSafety, AReportThatDoesNotFitIsAFailure) {
 // Umask.
 
 TEST(DataSafety, OutputModeFollowsTheUmask) {
-    const std::pair<int, mode_t> cases[] = {{027, 0640}, {022, 0644}, {077, 0600}, {002, 0664}, {0, 0666}};
+    const std::pair<int, mode_t> cases[] = {
+        {027, 0640}, {022, 0644}, {077, 0600}, {002, 0664}, {0, 0666}};
     for (auto [mask, want] : cases) {
         ScratchDir d;
         const std::string in = d / "in.png", out = d / "out.exr";
@@ -348,7 +363,8 @@ TEST(DataSafety, OutputModeFollowsTheUmask) {
         ASSERT_EQ(c.status, 0) << c.err;
         struct stat st;
         ASSERT_EQ(::stat(out.c_str(), &st), 0);
-        EXPECT_EQ(st.st_mode & 07777, want) << "umask " << std::oct << mask << " gave " << (st.st_mode & 07777);
+        EXPECT_EQ(st.st_mode & 07777, want)
+            << "umask " << std::oct << mask << " gave " << (st.st_mode & 07777);
     }
 }
 
@@ -359,14 +375,14 @@ namespace {
 
 // An Imf::OStream into a string, to compare attribute values of any type.
 class StringOStream : public Imf::OStream {
-public:
+  public:
     StringOStream() : Imf::OStream("memory") {}
     void write(const char c[], int n) override { s_.append(c, static_cast<size_t>(n)); }
     uint64_t tellp() override { return s_.size(); }
     void seekp(uint64_t) override {}
     const std::string& str() const { return s_; }
 
-private:
+  private:
     std::string s_;
 };
 
@@ -387,7 +403,8 @@ void expect_same_exr_except_command_line(const std::string& pa, const std::strin
         EXPECT_EQ(a.types.at(n), b.types.at(n)) << n;
         const auto &va = a.pixels.at(n), &vb = b.pixels.at(n);
         ASSERT_EQ(va.size(), vb.size());
-        EXPECT_EQ(std::memcmp(va.data(), vb.data(), va.size() * sizeof(float)), 0) << "channel " << n << " differs";
+        EXPECT_EQ(std::memcmp(va.data(), vb.data(), va.size() * sizeof(float)), 0)
+            << "channel " << n << " differs";
     }
     std::vector<std::string> names_a, names_b;
     for (auto it = a.header.begin(); it != a.header.end(); ++it) names_a.push_back(it.name());
@@ -396,10 +413,12 @@ void expect_same_exr_except_command_line(const std::string& pa, const std::strin
     for (auto it = a.header.begin(); it != a.header.end(); ++it) {
         const std::string name = it.name();
         if (name == "spectex:commandLine") continue;
-        const Imf::Attribute* other = b.header.find(name) == b.header.end() ? nullptr : &b.header[name];
+        const Imf::Attribute* other =
+            b.header.find(name) == b.header.end() ? nullptr : &b.header[name];
         if (!other) continue;
         EXPECT_STREQ(it.attribute().typeName(), other->typeName()) << name;
-        EXPECT_EQ(attribute_bytes(it.attribute()), attribute_bytes(*other)) << "attribute " << name << " differs";
+        EXPECT_EQ(attribute_bytes(it.attribute()), attribute_bytes(*other))
+            << "attribute " << name << " differs";
     }
 }
 
@@ -419,7 +438,8 @@ TEST(DataSafety, SameCommandTwiceIsByteIdentical) {
     write_rgba16(d / "in.png", 301, 257);
     for (const char* comp : {"zip", "piz", "none"}) {
         for (const char* threads : {"1", "2"}) {
-            std::vector<std::string> args{"bake", "in.png", "-o", "out.exr", "--compression", comp, "--threads", threads};
+            std::vector<std::string> args{"bake",          "in.png", "-o",        "out.exr",
+                                          "--compression", comp,     "--threads", threads};
             ChildOptions opt;
             opt.cwd = d.path();
             Child a = run(args, opt);
@@ -428,7 +448,8 @@ TEST(DataSafety, SameCommandTwiceIsByteIdentical) {
             Child b = run(args, opt);
             ASSERT_EQ(b.status, 0) << b.err;
             EXPECT_TRUE(read_file(d / "first.exr") == read_file(d / "out.exr"))
-                << "two runs of the same command differ (" << comp << ", --threads " << threads << ")";
+                << "two runs of the same command differ (" << comp << ", --threads " << threads
+                << ")";
         }
     }
 }
@@ -438,15 +459,16 @@ TEST(DataSafety, ThreadCountDoesNotChangeTheOutput) {
     // the arguments). As "--threads 1" and "--threads 2" have the same length, the files are also
     // byte-identical once that text is patched.
     ScratchDir d;
-    write_rgba16(d / "in.png", 1031, 517);  // several strips and chunks with zip (16 lines) and piz (32)
+    write_rgba16(d / "in.png", 1031,
+                 517);  // several strips and chunks with zip (16 lines) and piz (32)
     for (const char* comp : {"zip", "piz", "dwaa"}) {
         std::vector<std::string> files;
         for (const char* threads : {"1", "2", "4"}) {
             const std::string name = std::string("t") + threads + ".exr";
             ChildOptions opt;
             opt.cwd = d.path();
-            Child c = run({"bake", "in.png", "-o", "out.exr", "--compression", comp, "--threads", threads,
-                           "--preview"},
+            Child c = run({"bake", "in.png", "-o", "out.exr", "--compression", comp, "--threads",
+                           threads, "--preview"},
                           opt);
             ASSERT_EQ(c.status, 0) << c.err;
             ASSERT_EQ(::rename((d / "out.exr").c_str(), (d / name).c_str()), 0);
@@ -459,6 +481,7 @@ TEST(DataSafety, ThreadCountDoesNotChangeTheOutput) {
         size_t at = t1.find("--threads 1");
         ASSERT_NE(at, std::string::npos) << "spectex:commandLine does not hold the arguments";
         t1.replace(at, 11, "--threads 2");
-        EXPECT_TRUE(t1 == t2) << "--threads 1 and --threads 2 differ beyond spectex:commandLine (" << comp << ")";
+        EXPECT_TRUE(t1 == t2) << "--threads 1 and --threads 2 differ beyond spectex:commandLine ("
+                              << comp << ")";
     }
 }

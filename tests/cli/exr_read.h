@@ -10,10 +10,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <cstring>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -27,14 +27,15 @@ struct ExrImage {
     Imf::Header header;
     Imath::Box2i data_window, display_window;
     int width = 0, height = 0;
-    std::vector<std::string> channel_names;            // in the file's (alphabetical) order
+    std::vector<std::string> channel_names;  // in the file's (alphabetical) order
     std::map<std::string, Imf::PixelType> types;
     std::map<std::string, std::vector<float>> pixels;  // width*height, rows of the data window
 
     bool has(const std::string& c) const { return types.count(c) != 0; }
     // x, y relative to the data window's origin.
     float at(const std::string& c, int x, int y) const {
-        return pixels.at(c)[static_cast<size_t>(y) * static_cast<size_t>(width) + static_cast<size_t>(x)];
+        return pixels.at(
+            c)[static_cast<size_t>(y) * static_cast<size_t>(width) + static_cast<size_t>(x)];
     }
     // A string attribute's value; "" when absent or not a string.
     std::string attr(const std::string& name) const {
@@ -65,17 +66,21 @@ inline ExrImage read_exr(const std::string& path) {
         auto& v = img.pixels[name];
         v.assign(n, -12345.0f);
         char* base = reinterpret_cast<char*>(v.data()) -
-                     (static_cast<ptrdiff_t>(dw.min.y) * img.width + dw.min.x) * static_cast<ptrdiff_t>(sizeof(float));
-        fb.insert(name, Imf::Slice(Imf::FLOAT, base, sizeof(float), sizeof(float) * static_cast<size_t>(img.width)));
+                     (static_cast<ptrdiff_t>(dw.min.y) * img.width + dw.min.x) *
+                         static_cast<ptrdiff_t>(sizeof(float));
+        fb.insert(name, Imf::Slice(Imf::FLOAT, base, sizeof(float),
+                                   sizeof(float) * static_cast<size_t>(img.width)));
     }
     in.setFrameBuffer(fb);
     in.readPixels(dw.min.y, dw.max.y);
     return img;
 }
 
-// "T.<λ>nm" (dot or comma decimal separator, Fichet 2021) -> λ; false when not a reflective channel.
+// "T.<λ>nm" (dot or comma decimal separator, Fichet 2021) -> λ; false when not a reflective
+// channel.
 inline bool parse_t_channel(const std::string& name, double* lambda) {
-    if (name.size() < 5 || name.compare(0, 2, "T.") != 0 || name.compare(name.size() - 2, 2, "nm") != 0)
+    if (name.size() < 5 || name.compare(0, 2, "T.") != 0 ||
+        name.compare(name.size() - 2, 2, "nm") != 0)
         return false;
     std::string num = name.substr(2, name.size() - 4);
     for (char& c : num)
@@ -111,7 +116,10 @@ inline TestBasis read_test_basis(const std::string& path) {
     bool header = false;
     while (std::getline(in, line)) {
         if (line.empty() || line[0] == '#') continue;
-        if (!header) { header = true; continue; }
+        if (!header) {
+            header = true;
+            continue;
+        }
         std::stringstream ss(line);
         std::string f[4];
         for (auto& s : f) std::getline(ss, s, ',');
@@ -124,21 +132,26 @@ inline TestBasis read_test_basis(const std::string& path) {
 }
 
 inline const TestBasis& mallett_basis() {
-    static const TestBasis b = read_test_basis(std::string(SPECTEX_TEST_DATA_DIR) + "/spectral/basis_mallett2019.csv");
+    static const TestBasis b =
+        read_test_basis(std::string(SPECTEX_TEST_DATA_DIR) + "/spectral/basis_mallett2019.csv");
     return b;
 }
 
 // IEC 61966-2-1 sRGB decoding, in double.
-inline double srgb_to_linear(double v) { return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4); }
+inline double srgb_to_linear(double v) {
+    return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4);
+}
 
 // Expected spectrum of linear Rec.709 (r, g, b) under the basis, in double.
-inline std::vector<double> expected_spectrum(double r, double g, double b, const TestBasis& basis = mallett_basis()) {
+inline std::vector<double> expected_spectrum(double r, double g, double b,
+                                             const TestBasis& basis = mallett_basis()) {
     std::vector<double> s(basis.lambda.size());
     for (size_t k = 0; k < s.size(); ++k) s[k] = r * basis.r[k] + g * basis.g[k] + b * basis.b[k];
     return s;
 }
 
-// FNV-1a 64 over the little-endian IEEE bytes of lambda, r, g, b (spectex:basisChecksum's definition).
+// FNV-1a 64 over the little-endian IEEE bytes of lambda, r, g, b (spectex:basisChecksum's
+// definition).
 inline std::string basis_fnv1a64(const TestBasis& t) {
     uint64_t h = 0xcbf29ce484222325ull;
     for (const auto* v : {&t.lambda, &t.r, &t.g, &t.b})

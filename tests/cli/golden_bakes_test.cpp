@@ -66,7 +66,8 @@ Parsed hash_exr(const std::string& bytes) {
         r.why = why;
         return r;
     };
-    if (bytes.size() < 8 || std::memcmp(bytes.data(), "\x76\x2f\x31\x01", 4) != 0) return fail("not OpenEXR");
+    if (bytes.size() < 8 || std::memcmp(bytes.data(), "\x76\x2f\x31\x01", 4) != 0)
+        return fail("not OpenEXR");
     size_t p = 8;
     auto cstr = [&](std::string& out) {
         const size_t z = bytes.find('\0', p);
@@ -79,11 +80,13 @@ Parsed hash_exr(const std::string& bytes) {
         std::string name, type;
         if (!cstr(name)) return fail("header runs past the end");
         if (name.empty()) break;
-        if (!cstr(type) || p + 4 > bytes.size()) return fail("attribute " + name + " runs past the end");
+        if (!cstr(type) || p + 4 > bytes.size())
+            return fail("attribute " + name + " runs past the end");
         int32_t size = 0;
         std::memcpy(&size, bytes.data() + p, 4);
         p += 4;
-        if (size < 0 || p + static_cast<size_t>(size) > bytes.size()) return fail("attribute " + name + " has a bad size");
+        if (size < 0 || p + static_cast<size_t>(size) > bytes.size())
+            return fail("attribute " + name + " has a bad size");
         r.attributes.push_back(name);
         if (!kLocal.count(name)) {
             r.hash = fnv1a(r.hash, name.c_str(), name.size() + 1);
@@ -96,7 +99,8 @@ Parsed hash_exr(const std::string& bytes) {
     uint64_t first = 0;
     std::memcpy(&first, bytes.data() + p, 8);
     // The table runs from p to the first chunk; every entry must point past it, inside the file.
-    if (first <= p || first >= bytes.size() || (first - p) % 8 != 0) return fail("bad first offset");
+    if (first <= p || first >= bytes.size() || (first - p) % 8 != 0)
+        return fail("bad first offset");
     for (size_t e = p; e < first; e += 8) {
         uint64_t off = 0;
         std::memcpy(&off, bytes.data() + e, 8);
@@ -113,7 +117,9 @@ std::string hex(uint64_t h) {
     return buf;
 }
 
-std::string list_path() { return std::string(SPECTEX_TEST_SOURCE_DIR) + "/tests/cli/golden_bakes.txt"; }
+std::string list_path() {
+    return std::string(SPECTEX_TEST_SOURCE_DIR) + "/tests/cli/golden_bakes.txt";
+}
 
 std::map<std::string, std::string> read_list() {
     std::map<std::string, std::string> m;
@@ -137,7 +143,10 @@ void make_inputs(const ScratchDir& d) {
         for (int x = 0; x < w; ++x) {
             const size_t i = static_cast<size_t>(y * w + x);
             for (int c = 0; c < 3; ++c) {
-                const uint32_t v = (static_cast<uint32_t>(x) * 37u + static_cast<uint32_t>(y) * 101u + static_cast<uint32_t>(c) * 71u) * 2654435761u;
+                const uint32_t v =
+                    (static_cast<uint32_t>(x) * 37u + static_cast<uint32_t>(y) * 101u +
+                     static_cast<uint32_t>(c) * 71u) *
+                    2654435761u;
                 p8[i * 3 + c] = static_cast<uint8_t>(v >> 24);
                 p8a[i * 4 + c] = static_cast<uint8_t>(v >> 24);
                 p16[i * 3 + c] = static_cast<uint16_t>(v >> 16);
@@ -169,12 +178,19 @@ std::vector<Bake> bakes() {
         {"png8-400-700-10-preview", "rgb8.png", {"--wavelengths", "400:700:10", "--preview"}},
         {"png8-nearest-rounding", "rgb8.png", {"--half-rounding", "nearest"}},
         {"png8-tiled-mipmap", "rgb8.png", {"--tile", "16", "--mipmap"}},
-        {"png8-norm-d50", "rgb8.png", {"--objective", "norm", "--illuminant", "D50", "--wavelengths", "400:700:10"}},
-        {"png8-1964-allow-infeasible", "rgb8.png",
+        {"png8-norm-d50",
+         "rgb8.png",
+         {"--objective", "norm", "--illuminant", "D50", "--wavelengths", "400:700:10"}},
+        {"png8-1964-allow-infeasible",
+         "rgb8.png",
          {"--observer", "cie1964-10", "--wavelengths", "400:700:10", "--allow-infeasible"}},
         {"png8-nonuniform-file", "rgb8.png", {"--wavelengths-file", "@grid.txt"}},
-        {"png8-lattice", "rgb8.png", {"--method", "lattice", "--lattice-size", "5", "--wavelengths", "400:700:10"}},
-        {"png8-jakob-hanika", "rgb8.png", {"--method", "jakob-hanika", "--jh-resolution", "9", "--wavelengths", "400:700:10"}},
+        {"png8-lattice",
+         "rgb8.png",
+         {"--method", "lattice", "--lattice-size", "5", "--wavelengths", "400:700:10"}},
+        {"png8-jakob-hanika",
+         "rgb8.png",
+         {"--method", "jakob-hanika", "--jh-resolution", "9", "--wavelengths", "400:700:10"}},
         {"rgba8-associated", "rgba8.png", {}},
         {"rgba8-unassociated", "rgba8.png", {"--alpha", "unassociated"}},
         {"tif16-default", "rgb16.tif", {}},
@@ -193,7 +209,8 @@ TEST(GoldenBakes, TheHashReaderSeesHeaderAndChunks) {
     const Parsed a = hash_exr(bytes);
     ASSERT_TRUE(a.ok) << a.why;
     // The reader found the attributes a spectral EXR must have (so it parsed the header right).
-    for (const char* n : {"channels", "compression", "dataWindow", "spectralLayoutVersion", "spectex:settingsHash"})
+    for (const char* n :
+         {"channels", "compression", "dataWindow", "spectralLayoutVersion", "spectex:settingsHash"})
         EXPECT_NE(std::find(a.attributes.begin(), a.attributes.end(), n), a.attributes.end()) << n;
     // A flipped byte in the last chunk changes the hash; so does a changed kept attribute.
     std::string flipped = bytes;
@@ -220,11 +237,14 @@ TEST(GoldenBakes, FixedBakesGiveTheCommittedBytes) {
     const std::map<std::string, std::string> want = read_list();
     if (!update) ASSERT_FALSE(want.empty()) << list_path() << " is missing or empty";
     std::ostringstream out;
-    out << "# Hashes of the bakes in tests/cli/golden_bakes_test.cpp (header minus where/when, and all\n"
-           "# chunks). Regenerate only for an intended change of output: SPECTEX_GOLDEN_UPDATE=1.\n";
+    out << "# Hashes of the bakes in tests/cli/golden_bakes_test.cpp (header minus where/when, and "
+           "all\n"
+           "# chunks). Regenerate only for an intended change of output: "
+           "SPECTEX_GOLDEN_UPDATE=1.\n";
     for (const Bake& b : bakes()) {
         std::vector<std::string> args = {"bake", d / b.input, "-o", d / (b.name + ".exr")};
-        for (const std::string& o : b.options) args.push_back(o[0] == '@' ? d / o.substr(1) : o);  // @name: a file in d
+        for (const std::string& o : b.options)
+            args.push_back(o[0] == '@' ? d / o.substr(1) : o);  // @name: a file in d
         const RunResult r = run_spectex(args);
         ASSERT_EQ(r.status, 0) << b.name << ": " << r.err;
         const Parsed p = hash_exr(read_file(d / (b.name + ".exr")));
@@ -233,8 +253,12 @@ TEST(GoldenBakes, FixedBakesGiveTheCommittedBytes) {
         if (update) continue;
         const auto it = want.find(b.name);
         ASSERT_NE(it, want.end()) << b.name << " is not in " << list_path();
-        EXPECT_EQ(hex(p.hash), it->second) << b.name << ": the output bytes changed (" << r.err << ")";
+        EXPECT_EQ(hex(p.hash), it->second)
+            << b.name << ": the output bytes changed (" << r.err << ")";
     }
-    if (update) std::ofstream(list_path()) << out.str();
-    else EXPECT_EQ(want.size(), bakes().size()) << list_path() << " lists bakes the test no longer makes";
+    if (update)
+        std::ofstream(list_path()) << out.str();
+    else
+        EXPECT_EQ(want.size(), bakes().size())
+            << list_path() << " lists bakes the test no longer makes";
 }

@@ -7,10 +7,10 @@
 //   default policies, and notes/counts on stderr where the input needed them.
 //
 // The table of failing cases is in BrokenFiles below; shapes, values and colour metadata follow.
-#include <gtest/gtest.h>
 #include <ImfChannelList.h>
 #include <ImfHeader.h>
 #include <ImfOutputFile.h>
+#include <gtest/gtest.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/syscall.h>
@@ -83,7 +83,7 @@ struct MaxRssLauncher {
 // A child process with its peak memory and, optionally, another user.
 
 struct ChildResult {
-    int status = -1;   // exit status, or 128+signal
+    int status = -1;  // exit status, or 128+signal
     long maxrss_kb = 0;
     double seconds = 0;
     std::string out, err;
@@ -99,9 +99,9 @@ ChildResult run_child(const std::vector<std::string>& args, int as_uid = -1) {
     argv_s.push_back(SPECTEX_BINARY);
     argv_s.insert(argv_s.end(), args.begin(), args.end());
     std::vector<char*> argv = c_array(argv_s);
-    std::vector<std::string> env_s =
-        environment_with(as_uid < 0 ? std::vector<std::string>{"SPECTEX_TEST_MAXRSS_OUT=" + rss_file}
-                                    : std::vector<std::string>{});
+    std::vector<std::string> env_s = environment_with(
+        as_uid < 0 ? std::vector<std::string>{"SPECTEX_TEST_MAXRSS_OUT=" + rss_file}
+                   : std::vector<std::string>{});
     std::vector<char*> envp = c_array(env_s);
     const auto t0 = std::chrono::steady_clock::now();
     pid_t pid = fork();
@@ -115,7 +115,8 @@ ChildResult run_child(const std::vector<std::string>& args, int as_uid = -1) {
         if (as_uid >= 0) {
             // Raw syscalls: the child has one thread, and glibc's set*id wrappers are not
             // async-signal-safe.
-            if (syscall(SYS_setgroups, 0, nullptr) != 0 || syscall(SYS_setresgid, as_uid, as_uid, as_uid) != 0 ||
+            if (syscall(SYS_setgroups, 0, nullptr) != 0 ||
+                syscall(SYS_setresgid, as_uid, as_uid, as_uid) != 0 ||
                 syscall(SYS_setresuid, as_uid, as_uid, as_uid) != 0)
                 _exit(124);
         }
@@ -159,7 +160,8 @@ uint32_t crc32_of(const std::string& s) {
 }
 
 std::string be32(uint32_t v) {
-    return {static_cast<char>(v >> 24), static_cast<char>(v >> 16), static_cast<char>(v >> 8), static_cast<char>(v)};
+    return {static_cast<char>(v >> 24), static_cast<char>(v >> 16), static_cast<char>(v >> 8),
+            static_cast<char>(v)};
 }
 
 std::string png_chunk(const std::string& type, const std::string& data) {
@@ -217,10 +219,12 @@ std::string palette_png(int w, int h, int depth, const std::vector<uint8_t>& pal
            png_chunk("PLTE", plte) + png_chunk("IDAT", zlib_stored(raw)) + png_chunk("IEND", "");
 }
 
-// A PNG whose IHDR claims w x h RGB8 with one row of (stored) data: enormous on paper, tiny on disk.
+// A PNG whose IHDR claims w x h RGB8 with one row of (stored) data: enormous on paper, tiny on
+// disk.
 std::string lying_png(uint32_t w, uint32_t h) {
     std::string row(1 + 3 * std::min<uint32_t>(w, 4096), '\0');
-    return kPngSignature + png_ihdr(w, h, 8, 2) + png_chunk("IDAT", zlib_stored(row)) + png_chunk("IEND", "");
+    return kPngSignature + png_ihdr(w, h, 8, 2) + png_chunk("IDAT", zlib_stored(row)) +
+           png_chunk("IEND", "");
 }
 
 // An OpenEXR whose header claims w x h (half RGB) and whose pixels were never written.
@@ -245,8 +249,8 @@ void write_rgb8(const std::string& path, int w, int h, unsigned seed = 1) {
 }
 
 // The checks made after every failure.
-void expect_clean_failure(const std::string& what, int status, const std::string& err, const std::string& input,
-                          const std::string& output) {
+void expect_clean_failure(const std::string& what, int status, const std::string& err,
+                          const std::string& input, const std::string& output) {
     SCOPED_TRACE(what);
     EXPECT_EQ(status, 1) << err;
     EXPECT_EQ(err.rfind("spectex: ", 0), 0u) << "stderr does not start with 'spectex: ':\n" << err;
@@ -276,8 +280,8 @@ bool same_pixels(const ExrImage& a, const ExrImage& b, std::string* why) {
         const auto &pa = a.pixels.at(n), &pb = b.pixels.at(n);
         for (size_t i = 0; i < pa.size(); ++i)
             if (std::memcmp(&pa[i], &pb[i], sizeof(float)) != 0) {
-                *why = n + " differs at sample " + std::to_string(i) + ": " + std::to_string(pa[i]) + " vs " +
-                       std::to_string(pb[i]);
+                *why = n + " differs at sample " + std::to_string(i) + ": " +
+                       std::to_string(pa[i]) + " vs " + std::to_string(pb[i]);
                 return false;
             }
     }
@@ -296,33 +300,54 @@ struct BrokenCase {
     // Makes the input in `dir` and returns its path.
     std::function<std::string(const ScratchDir& dir)> make;
     std::vector<std::string> extra_args;
-    std::vector<std::string> err_must_contain;   // besides "spectex: " and the input's path
+    std::vector<std::string> err_must_contain;  // besides "spectex: " and the input's path
 };
 
-std::string truncated_copy(const ScratchDir& d, const std::string& full, const std::string& cut, double keep) {
+std::string truncated_copy(const ScratchDir& d, const std::string& full, const std::string& cut,
+                           double keep) {
     std::string bytes = read_file(full);
-    write_bytes(cut, bytes.substr(0, static_cast<size_t>(static_cast<double>(bytes.size()) * keep)));
+    write_bytes(cut,
+                bytes.substr(0, static_cast<size_t>(static_cast<double>(bytes.size()) * keep)));
     return cut;
 }
 
 std::vector<BrokenCase> broken_cases() {
     return {
         {"zero_bytes_png",
-         [](const ScratchDir& d) { write_bytes(d / "empty.png", ""); return d / "empty.png"; }, {}, {"empty"}},
+         [](const ScratchDir& d) {
+             write_bytes(d / "empty.png", "");
+             return d / "empty.png";
+         },
+         {},
+         {"empty"}},
         {"zero_bytes_exr",
-         [](const ScratchDir& d) { write_bytes(d / "empty.exr", ""); return d / "empty.exr"; }, {}, {"empty"}},
+         [](const ScratchDir& d) {
+             write_bytes(d / "empty.exr", "");
+             return d / "empty.exr";
+         },
+         {},
+         {"empty"}},
         {"truncated_png_half",
-         [](const ScratchDir& d) { write_rgb8(d / "full.png", 64, 64); return truncated_copy(d, d / "full.png", d / "cut.png", 0.5); },
-         {}, {}},
+         [](const ScratchDir& d) {
+             write_rgb8(d / "full.png", 64, 64);
+             return truncated_copy(d, d / "full.png", d / "cut.png", 0.5);
+         },
+         {},
+         {}},
         {"truncated_png_header_only",
-         [](const ScratchDir& d) { write_rgb8(d / "full.png", 64, 64); return truncated_copy(d, d / "full.png", d / "cut.png", 0.02); },
-         {}, {}},
+         [](const ScratchDir& d) {
+             write_rgb8(d / "full.png", 64, 64);
+             return truncated_copy(d, d / "full.png", d / "cut.png", 0.02);
+         },
+         {},
+         {}},
         {"truncated_jpeg_half",
          [](const ScratchDir& d) {
              write_rgb8(d / "full.jpg", 64, 64);
              return truncated_copy(d, d / "full.jpg", d / "cut.jpg", 0.5);
          },
-         {}, {}},
+         {},
+         {}},
         {"truncated_exr_half",
          [](const ScratchDir& d) {
              std::vector<float> px(64 * 64 * 3);
@@ -331,7 +356,8 @@ std::vector<BrokenCase> broken_cases() {
              write_image(d / "full.exr", 64, 64, 3, OIIO::TypeDesc::FLOAT, px.data());
              return truncated_copy(d, d / "full.exr", d / "cut.exr", 0.5);
          },
-         {}, {}},
+         {},
+         {}},
         {"truncated_exr_in_header",
          [](const ScratchDir& d) {
              std::vector<float> px(16 * 16 * 3, 0.5f);
@@ -340,37 +366,65 @@ std::vector<BrokenCase> broken_cases() {
              write_bytes(d / "cut.exr", b.substr(0, 40));
              return d / "cut.exr";
          },
-         {}, {}},
+         {},
+         {}},
         {"text_named_png",
          [](const ScratchDir& d) {
              write_bytes(d / "notes.png", "This is not an image.\nJust some text.\n");
              return d / "notes.png";
          },
-         {}, {}},
+         {},
+         {}},
         {"png_signature_then_garbage",
          [](const ScratchDir& d) {
              write_bytes(d / "sig.png", kPngSignature + std::string(200, '\x42'));
              return d / "sig.png";
          },
-         {}, {}},
+         {},
+         {}},
         {"directory",
-         [](const ScratchDir& d) { ::mkdir((d / "folder.png").c_str(), 0755); return d / "folder.png"; }, {},
+         [](const ScratchDir& d) {
+             ::mkdir((d / "folder.png").c_str(), 0755);
+             return d / "folder.png";
+         },
+         {},
          {"directory"}},
         {"missing_file", [](const ScratchDir& d) { return d / "nope.png"; }, {}, {"No such file"}},
         {"path_through_a_file",
          // "a.png/b.png": a component of the path is a regular file (ENOTDIR).
-         [](const ScratchDir& d) { write_rgb8(d / "a.png", 2, 2); return d / "a.png/b.png"; }, {}, {}},
+         [](const ScratchDir& d) {
+             write_rgb8(d / "a.png", 2, 2);
+             return d / "a.png/b.png";
+         },
+         {},
+         {}},
         {"header_claims_100000x100000_png",
-         [](const ScratchDir& d) { write_bytes(d / "huge.png", lying_png(100000, 100000)); return d / "huge.png"; },
-         {}, {"--max-pixels"}},
+         [](const ScratchDir& d) {
+             write_bytes(d / "huge.png", lying_png(100000, 100000));
+             return d / "huge.png";
+         },
+         {},
+         {"--max-pixels"}},
         {"header_claims_100000x100000_exr",
-         [](const ScratchDir& d) { lying_exr(d / "huge.exr", 100000, 100000); return d / "huge.exr"; }, {},
+         [](const ScratchDir& d) {
+             lying_exr(d / "huge.exr", 100000, 100000);
+             return d / "huge.exr";
+         },
+         {},
          {"--max-pixels"}},
         {"header_claims_2147483647x2_png",
-         [](const ScratchDir& d) { write_bytes(d / "wide.png", lying_png(0x7fffffffu, 2)); return d / "wide.png"; },
-         {}, {}},
+         [](const ScratchDir& d) {
+             write_bytes(d / "wide.png", lying_png(0x7fffffffu, 2));
+             return d / "wide.png";
+         },
+         {},
+         {}},
         {"max_pixels_100_on_20x20",
-         [](const ScratchDir& d) { write_rgb8(d / "20.png", 20, 20); return d / "20.png"; }, {"--max-pixels", "100"},
+         [](const ScratchDir& d) {
+             write_rgb8(d / "20.png", 20, 20);
+             return d / "20.png";
+         },
+         {"--max-pixels", "100"},
          {"--max-pixels"}},
         {"nan_error",
          [](const ScratchDir& d) {
@@ -379,7 +433,8 @@ std::vector<BrokenCase> broken_cases() {
              write_image(d / "nan.exr", 4, 3, 3, OIIO::TypeDesc::FLOAT, px.data());
              return d / "nan.exr";
          },
-         {"--nan", "error"}, {"(1, 1)"}},
+         {"--nan", "error"},
+         {"(1, 1)"}},
         {"inf_error",
          [](const ScratchDir& d) {
              std::vector<float> px(4 * 3 * 3, 0.5f);
@@ -387,7 +442,8 @@ std::vector<BrokenCase> broken_cases() {
              write_image(d / "inf.exr", 4, 3, 3, OIIO::TypeDesc::FLOAT, px.data());
              return d / "inf.exr";
          },
-         {"--nan", "error"}, {"(2, 1)"}},
+         {"--nan", "error"},
+         {"(2, 1)"}},
         {"out_of_range_error_above_1",
          [](const ScratchDir& d) {
              std::vector<float> px(4 * 3 * 3, 0.5f);
@@ -395,7 +451,8 @@ std::vector<BrokenCase> broken_cases() {
              write_image(d / "hot.exr", 4, 3, 3, OIIO::TypeDesc::FLOAT, px.data());
              return d / "hot.exr";
          },
-         {"--out-of-range", "error"}, {"(3, 2)", "--out-of-range"}},
+         {"--out-of-range", "error"},
+         {"(3, 2)", "--out-of-range"}},
         {"out_of_range_error_negative",
          [](const ScratchDir& d) {
              std::vector<float> px(4 * 3 * 3, 0.5f);
@@ -403,7 +460,8 @@ std::vector<BrokenCase> broken_cases() {
              write_image(d / "neg.exr", 4, 3, 3, OIIO::TypeDesc::FLOAT, px.data());
              return d / "neg.exr";
          },
-         {"--out-of-range", "error"}, {"(0, 0)"}},
+         {"--out-of-range", "error"},
+         {"(0, 0)"}},
     };
 }
 
@@ -429,17 +487,19 @@ TEST(HardInputs, BrokenFilesFailCleanly) {
         ChildResult r = run_child(args);
         const std::string what = std::string(c.name) + " (" + in + ")";
         expect_clean_failure(what, r.status, r.err, in, out);
-        for (const auto& s : c.err_must_contain) EXPECT_TRUE(contains(r.err, s)) << what << ": no '" << s << "' in\n" << r.err;
+        for (const auto& s : c.err_must_contain)
+            EXPECT_TRUE(contains(r.err, s)) << what << ": no '" << s << "' in\n" << r.err;
         // Hostile headers must be refused before any allocation: well under 200 MB (a plain run
         // peaks near 135 MB, mostly libraries and the basis fit), quickly. Under AddressSanitizer
         // (tests/sanitize/run.sh sets ASAN_OPTIONS) shadow memory and quarantine triple that.
         const long limit_kb = (std::getenv("ASAN_OPTIONS") ? 600 : 200) * 1024;
         EXPECT_LT(r.maxrss_kb, limit_kb) << what << ": peak memory " << r.maxrss_kb << " kB";
-        EXPECT_LT(r.maxrss_kb, baseline_kb + 64 * 1024) << what << ": peak memory " << r.maxrss_kb << " kB, "
-                                                        << baseline_kb << " kB for a clean bake";
+        EXPECT_LT(r.maxrss_kb, baseline_kb + 64 * 1024)
+            << what << ": peak memory " << r.maxrss_kb << " kB, " << baseline_kb
+            << " kB for a clean bake";
         EXPECT_LT(r.seconds, 30.0) << what;
-        std::printf("  %-34s exit %d, %5ld kB peak, %.2f s: %s", c.name, r.status, r.maxrss_kb, r.seconds,
-                    r.err.empty() ? "(no message)\n" : r.err.c_str());
+        std::printf("  %-34s exit %d, %5ld kB peak, %.2f s: %s", c.name, r.status, r.maxrss_kb,
+                    r.seconds, r.err.empty() ? "(no message)\n" : r.err.c_str());
     }
 }
 
@@ -459,7 +519,8 @@ TEST(HardInputs, UnreadableFile) {
         return;
     }
     ChildResult probe = run_child({"--version"}, 65534);
-    if (probe.status != 0) GTEST_SKIP() << "spectex cannot run as uid 65534 here (" << probe.status << ")";
+    if (probe.status != 0)
+        GTEST_SKIP() << "spectex cannot run as uid 65534 here (" << probe.status << ")";
     ChildResult r = run_child({"bake", in, "-o", out}, 65534);
     expect_clean_failure("unreadable", r.status, r.err, in, out);
     EXPECT_TRUE(contains(r.err, "Permission denied")) << r.err;
@@ -494,8 +555,8 @@ TEST(HardInputs, MisspeltColourSpaceSuggests) {
 
 namespace {
 
-ExrImage bake_ok(const std::string& in, const std::string& out, const std::vector<std::string>& extra = {},
-                 std::string* err = nullptr) {
+ExrImage bake_ok(const std::string& in, const std::string& out,
+                 const std::vector<std::string>& extra = {}, std::string* err = nullptr) {
     std::vector<std::string> args{"bake", in, "-o", out};
     args.insert(args.end(), extra.begin(), extra.end());
     RunResult r = run_spectex(args);
@@ -509,7 +570,8 @@ ExrImage bake_ok(const std::string& in, const std::string& out, const std::vecto
 }  // namespace
 
 TEST(HardInputs, SmallAndOddShapes) {
-    const std::pair<int, int> shapes[] = {{1, 1}, {1, 37}, {37, 1}, {3, 5}, {33, 17}, {257, 3}, {1, 1025}};
+    const std::pair<int, int> shapes[] = {{1, 1},   {1, 37},  {37, 1},  {3, 5},
+                                          {33, 17}, {257, 3}, {1, 1025}};
     for (auto [w, h] : shapes) {
         ScratchDir d;
         const std::string in = d / "in.png", out = d / "out.exr";
@@ -536,7 +598,8 @@ TEST(HardInputs, ExrDataWindowDiffersFromDisplayWindow) {
     std::vector<float> px(5 * 3 * 3);
     for (size_t i = 0; i < px.size(); ++i) px[i] = static_cast<float>(i % 7) / 7.0f;
     auto o = OIIO::ImageOutput::create(in);
-    ASSERT_TRUE(o && o->open(in, spec) && o->write_image(OIIO::TypeDesc::FLOAT, px.data()) && o->close());
+    ASSERT_TRUE(o && o->open(in, spec) && o->write_image(OIIO::TypeDesc::FLOAT, px.data()) &&
+                o->close());
     ExrImage img = bake_ok(in, out);
     EXPECT_EQ(img.data_window.min.x, -2);
     EXPECT_EQ(img.data_window.min.y, 7);
@@ -550,7 +613,8 @@ TEST(HardInputs, ExrDataWindowDiffersFromDisplayWindow) {
 
 TEST(HardInputs, MultiSubimageTiffTakesTheFirst) {
     ScratchDir d;
-    const std::string in = d / "multi.tif", out = d / "out.exr", first = d / "first.tif", ref = d / "ref.exr";
+    const std::string in = d / "multi.tif", out = d / "out.exr", first = d / "first.tif",
+                      ref = d / "ref.exr";
     auto o = OIIO::ImageOutput::create(in);
     ASSERT_TRUE(o && o->supports("multiimage"));
     OIIO::ImageSpec specs[2] = {OIIO::ImageSpec(6, 4, 3, OIIO::TypeDesc::UINT8),
@@ -574,7 +638,8 @@ TEST(HardInputs, MultiSubimageTiffTakesTheFirst) {
 
 TEST(HardInputs, MipMappedExrTakesTheFirstLevel) {
     ScratchDir d;
-    const std::string in = d / "mip.exr", out = d / "out.exr", top = d / "top.exr", ref = d / "ref.exr";
+    const std::string in = d / "mip.exr", out = d / "out.exr", top = d / "top.exr",
+                      ref = d / "ref.exr";
     auto o = OIIO::ImageOutput::create(in);
     ASSERT_TRUE(o && o->supports("mipmap"));
     std::vector<std::vector<float>> levels;
@@ -587,7 +652,8 @@ TEST(HardInputs, MipMappedExrTakesTheFirstLevel) {
     ASSERT_TRUE(o->open(in, spec));
     for (int level = 0; w >= 1 && h >= 1; ++level) {
         std::vector<float> px(static_cast<size_t>(w * h * 3));
-        for (size_t i = 0; i < px.size(); ++i) px[i] = static_cast<float>((i * 7 + level) % 11) / 11.0f;
+        for (size_t i = 0; i < px.size(); ++i)
+            px[i] = static_cast<float>((i * 7 + level) % 11) / 11.0f;
         if (level > 0) {
             OIIO::ImageSpec s(w, h, 3, OIIO::TypeDesc::HALF);
             s.tile_width = s.tile_height = 8;
@@ -608,7 +674,8 @@ TEST(HardInputs, MipMappedExrTakesTheFirstLevel) {
     {
         OIIO::ImageSpec s(16, 8, 3, OIIO::TypeDesc::HALF);
         auto t = OIIO::ImageOutput::create(top);
-        ASSERT_TRUE(t && t->open(top, s) && t->write_image(OIIO::TypeDesc::FLOAT, levels[0].data()) && t->close());
+        ASSERT_TRUE(t && t->open(top, s) &&
+                    t->write_image(OIIO::TypeDesc::FLOAT, levels[0].data()) && t->close());
     }
     std::string err;
     ExrImage img = bake_ok(in, out, {}, &err);
@@ -622,9 +689,10 @@ TEST(HardInputs, MipMappedExrTakesTheFirstLevel) {
 }
 
 TEST(HardInputs, PalettePngMatchesTheSameColoursAsRgb) {
-    // Palette PNGs are made by hand (OIIO writes none): 8-bit indices and 4-bit packed indices on an
-    // odd width. Each must bake exactly like the RGB PNG of the same colours.
-    const std::vector<uint8_t> palette = {255, 0, 0, 0, 255, 0, 0, 0, 255, 128, 128, 128, 10, 200, 30};
+    // Palette PNGs are made by hand (OIIO writes none): 8-bit indices and 4-bit packed indices on
+    // an odd width. Each must bake exactly like the RGB PNG of the same colours.
+    const std::vector<uint8_t> palette = {255, 0,   0,   0,   255, 0,   0, 0,
+                                          255, 128, 128, 128, 10,  200, 30};
     for (int depth : {8, 4, 2}) {
         ScratchDir d;
         const int w = 7, h = 3;
@@ -647,8 +715,8 @@ TEST(HardInputs, PalettePngMatchesTheSameColoursAsRgb) {
 }
 
 TEST(HardInputs, SampleTypesAndChannelCounts) {
-    // 8/16-bit PNG, half and float EXR, with 1 to 4 channels: all bake, spectra in [0, 1], A present
-    // exactly when the input has alpha.
+    // 8/16-bit PNG, half and float EXR, with 1 to 4 channels: all bake, spectra in [0, 1], A
+    // present exactly when the input has alpha.
     struct T {
         const char* ext;
         OIIO::TypeDesc type;
@@ -667,7 +735,8 @@ TEST(HardInputs, SampleTypesAndChannelCounts) {
         const std::string in = d / (std::string("in.") + c.ext), out = d / "out.exr";
         OIIO::ImageSpec spec(w, h, c.nch, c.type);
         auto o = OIIO::ImageOutput::create(in);
-        ASSERT_TRUE(o && o->open(in, spec) && o->write_image(OIIO::TypeDesc::FLOAT, px.data()) && o->close());
+        ASSERT_TRUE(o && o->open(in, spec) && o->write_image(OIIO::TypeDesc::FLOAT, px.data()) &&
+                    o->close());
         ExrImage img = bake_ok(in, out);
         SCOPED_TRACE(std::string(c.ext) + " " + c.type.c_str() + " x" + std::to_string(c.nch));
         EXPECT_EQ(img.width, w);
@@ -683,10 +752,11 @@ namespace {
 
 // 8 pixels of float RGB: (0.5 grey), NaN, +Inf, -Inf, negative, >1, denormal, 0.25 grey.
 std::vector<float> hostile_values() {
-    const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+    const float nan = std::numeric_limits<float>::quiet_NaN(),
+                inf = std::numeric_limits<float>::infinity();
     const float den = std::numeric_limits<float>::denorm_min() * 12345.0f;
-    return {0.5f, 0.5f, 0.5f,  nan,  0.2f, 0.3f, 0.1f, inf,  0.3f,  0.2f, 0.3f, -inf,
-            -0.5f, 0.2f, 0.3f, 2.0f, 3.0f, 4.0f, den,  -den, den,   0.25f, 0.25f, 0.25f};
+    return {0.5f,  0.5f, 0.5f, nan,  0.2f, 0.3f, 0.1f, inf,  0.3f, 0.2f,  0.3f,  -inf,
+            -0.5f, 0.2f, 0.3f, 2.0f, 3.0f, 4.0f, den,  -den, den,  0.25f, 0.25f, 0.25f};
 }
 
 }  // namespace
@@ -709,7 +779,8 @@ TEST(HardInputs, HostileValuesDefaultPolicies) {
     EXPECT_EQ(err.find("clamped"), err.rfind("clamped")) << err;
     // The NaN/Inf pixels came out as if the bad channel were 0: no sample is NaN.
     // The >1 pixel clamps to white: a flat spectrum at 1 (within half/fit rounding).
-    for (const auto& [l, name] : spectral_channels(img)) EXPECT_NEAR(img.at(name, 5, 0), 1.0f, 1e-5) << name;
+    for (const auto& [l, name] : spectral_channels(img))
+        EXPECT_NEAR(img.at(name, 5, 0), 1.0f, 1e-5) << name;
 }
 
 TEST(HardInputs, OutOfRangeKeepKeepsValues) {
@@ -743,13 +814,15 @@ TEST(HardInputs, NanReplaceWithOutOfRangeKeepStillFinite) {
 TEST(HardInputs, HalfInputWithInfinities) {
     ScratchDir d;
     const std::string in = d / "h.exr", out = d / "out.exr";
-    std::vector<float> px = {65504.0f, 0.0f, 0.0f, std::numeric_limits<float>::infinity(), 0.1f, 0.1f,
-                             6.0e-8f,  6.0e-8f, 6.0e-8f};  // max half, +Inf, half denormal
+    std::vector<float> px = {65504.0f, 0.0f, 0.0f,    std::numeric_limits<float>::infinity(),
+                             0.1f,     0.1f, 6.0e-8f, 6.0e-8f,
+                             6.0e-8f};  // max half, +Inf, half denormal
     // Written through float: OIIO converts to half.
     {
         OIIO::ImageSpec s(3, 1, 3, OIIO::TypeDesc::HALF);
         auto o = OIIO::ImageOutput::create(in);
-        ASSERT_TRUE(o && o->open(in, s) && o->write_image(OIIO::TypeDesc::FLOAT, px.data()) && o->close());
+        ASSERT_TRUE(o && o->open(in, s) && o->write_image(OIIO::TypeDesc::FLOAT, px.data()) &&
+                    o->close());
     }
     std::string err;
     ExrImage img = bake_ok(in, out, {}, &err);
@@ -771,7 +844,8 @@ TEST(HardInputs, AcesCgSaturatedGreenIsClamped) {
     EXPECT_TRUE(contains(err, "2 pixels had linear values outside [0, 1] and were clamped")) << err;
     expect_spectra_in(img, 0.0f, 1.0f);
     // With --out-of-range keep the green is wider than Rec.709's: some samples go below 0.
-    ExrImage kept = bake_ok(in, d / "kept.exr", {"--colorspace", "acescg", "--out-of-range", "keep"});
+    ExrImage kept =
+        bake_ok(in, d / "kept.exr", {"--colorspace", "acescg", "--out-of-range", "keep"});
     float lo = 1.0f;
     for (const auto& [l, name] : spectral_channels(kept)) lo = std::min(lo, kept.at(name, 0, 0));
     EXPECT_LT(lo, 0.0f) << "ACEScg green kept should leave [0, 1]";
@@ -798,7 +872,8 @@ TEST(HardInputs, UnknownFileColourSpaceFallsBackToFileRules) {
     ScratchDir d;
     auto px = noise8(6 * 4 * 3, 5);
     write_image(d / "plain.png", 6, 4, 3, OIIO::TypeDesc::UINT8, px.data());
-    write_image(d / "odd.png", 6, 4, 3, OIIO::TypeDesc::UINT8, px.data(), {{"oiio:ColorSpace", "Martian Gamut 7"}});
+    write_image(d / "odd.png", 6, 4, 3, OIIO::TypeDesc::UINT8, px.data(),
+                {{"oiio:ColorSpace", "Martian Gamut 7"}});
     ExrImage a = bake_ok(d / "plain.png", d / "plain.exr");
     std::string err;
     ExrImage b = bake_ok(d / "odd.png", d / "odd.exr", {}, &err);
@@ -809,7 +884,8 @@ TEST(HardInputs, UnknownFileColourSpaceFallsBackToFileRules) {
     std::vector<float> f(6 * 4 * 3);
     for (size_t i = 0; i < f.size(); ++i) f[i] = static_cast<float>(px[i]) / 255.0f;
     write_image(d / "plain.exr", 6, 4, 3, OIIO::TypeDesc::FLOAT, f.data());
-    write_image(d / "odd.exr", 6, 4, 3, OIIO::TypeDesc::FLOAT, f.data(), {{"oiio:ColorSpace", "Martian Gamut 7"}});
+    write_image(d / "odd.exr", 6, 4, 3, OIIO::TypeDesc::FLOAT, f.data(),
+                {{"oiio:ColorSpace", "Martian Gamut 7"}});
     ExrImage c = bake_ok(d / "plain.exr", d / "plain_out.exr");
     ExrImage e = bake_ok(d / "odd.exr", d / "odd_out.exr");
     EXPECT_TRUE(same_pixels(c, e, &why)) << why;

@@ -10,10 +10,10 @@
 // Every run goes through run_limited(): a child with a 2 GiB address-space limit (so that a
 // regression allocating without bound fails fast instead of taking the machine's memory), killed
 // after kTimeout seconds and reported as "hung".
-#include <gtest/gtest.h>
 #include <ImfChannelList.h>
 #include <ImfHeader.h>
 #include <ImfOutputFile.h>
+#include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
@@ -57,7 +57,8 @@ constexpr bool kSanitized = false;
 std::vector<std::string> limited_environment(const std::vector<std::string>& extra) {
     std::vector<std::string> env = environment_with(extra);
     if (!kSanitized) return env;
-    const std::string bound = "hard_rss_limit_mb=2048:max_allocation_size_mb=2048:allocator_may_return_null=1";
+    const std::string bound =
+        "hard_rss_limit_mb=2048:max_allocation_size_mb=2048:allocator_may_return_null=1";
     bool found = false;
     for (auto& e : env)
         if (e.rfind("ASAN_OPTIONS=", 0) == 0) {
@@ -98,7 +99,8 @@ struct Limited {
 
 // Runs spectex with args; extra_env "NAME=value" entries; stdin from `stdin_path` (default
 // /dev/null). Kills it after kTimeout seconds.
-Limited run_limited(const std::vector<std::string>& args, const std::vector<std::string>& extra_env = {},
+Limited run_limited(const std::vector<std::string>& args,
+                    const std::vector<std::string>& extra_env = {},
                     const std::string& stdin_path = "/dev/null") {
     ScratchDir io;
     const std::string out = io / "out", err = io / "err";
@@ -130,7 +132,8 @@ Limited run_limited(const std::vector<std::string>& args, const std::vector<std:
     for (;;) {
         pid_t w = wait4(pid, &st, WNOHANG, &ru);
         if (w == pid) break;
-        if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > kTimeout) {
+        if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() >
+            kTimeout) {
             kill(pid, SIGKILL);
             wait4(pid, &st, 0, &ru);
             r.hung = true;
@@ -148,23 +151,28 @@ Limited run_limited(const std::vector<std::string>& args, const std::vector<std:
 
 // The checks after a hostile read: not hung, exit `status`, first line "spectex: <file>: ...",
 // at most the batch summary after it, no output, no temporary file.
-void expect_refused(const std::string& what, const Limited& r, const std::string& file, const std::string& output,
-                    const std::string& cause = "", int status = 1) {
+void expect_refused(const std::string& what, const Limited& r, const std::string& file,
+                    const std::string& output, const std::string& cause = "", int status = 1) {
     SCOPED_TRACE(what);
     ASSERT_FALSE(r.hung) << "hung: killed after " << kTimeout << " s";
     EXPECT_EQ(r.status, status) << r.err;
-    EXPECT_EQ(r.first_line().rfind("spectex: " + file + ": ", 0), 0u) << "stderr does not start with 'spectex: " << file
-                                                                      << ": ':\n" << r.err;
-    if (!cause.empty()) EXPECT_TRUE(contains(r.first_line(), cause)) << "no '" << cause << "' in:\n" << r.err;
+    EXPECT_EQ(r.first_line().rfind("spectex: " + file + ": ", 0), 0u)
+        << "stderr does not start with 'spectex: " << file << ": ':\n"
+        << r.err;
+    if (!cause.empty())
+        EXPECT_TRUE(contains(r.first_line(), cause)) << "no '" << cause << "' in:\n" << r.err;
     // One line, then perhaps the batch summary ("spectex: 0 baked, ... failed of 1 ...") and, after
     // a failed run, the command to rerun ("spectex: the command was: ..."): nothing else.
     std::string rest = r.err.substr(std::min(r.err.size(), r.err.find('\n') + 1));
     auto drop_line = [&rest](const std::string& prefix) {
-        if (rest.rfind(prefix, 0) == 0) rest = rest.substr(std::min(rest.size(), rest.find('\n') + 1));
+        if (rest.rfind(prefix, 0) == 0)
+            rest = rest.substr(std::min(rest.size(), rest.find('\n') + 1));
     };
     drop_line("spectex: 0 baked");
     if (r.status == 1) {
-        EXPECT_EQ(rest.rfind("spectex: the command was: ", 0), 0u) << "a failed run ends with its command:\n" << r.err;
+        EXPECT_EQ(rest.rfind("spectex: the command was: ", 0), 0u)
+            << "a failed run ends with its command:\n"
+            << r.err;
         drop_line("spectex: the command was: ");
     }
     EXPECT_TRUE(rest.empty()) << "more than one message line:\n" << r.err;
@@ -175,29 +183,33 @@ void expect_refused(const std::string& what, const Limited& r, const std::string
         auto tmp = temp_files_in(dir_of(output));
         EXPECT_TRUE(tmp.empty()) << "temporary file left: " << (tmp.empty() ? "" : tmp.front());
     }
-    std::printf("  %-58s exit %d, %.2f s, %ld kB: %s\n", what.c_str(), r.status, r.seconds, r.maxrss_kb,
-                r.first_line().c_str());
+    std::printf("  %-58s exit %d, %.2f s, %ld kB: %s\n", what.c_str(), r.status, r.seconds,
+                r.maxrss_kb, r.first_line().c_str());
 }
 
 void write_rgb_exr(const std::string& path, int w = 8, int h = 6) {
     std::vector<float> px(static_cast<size_t>(w * h * 3));
-    for (size_t i = 0; i < px.size(); ++i) px[i] = 0.05f + 0.9f * static_cast<float>((i * 37) % 101) / 100.0f;
+    for (size_t i = 0; i < px.size(); ++i)
+        px[i] = 0.05f + 0.9f * static_cast<float>((i * 37) % 101) / 100.0f;
     write_image(path, w, h, 3, OIIO::TypeDesc::FLOAT, px.data());
 }
 
 // An OpenEXR with exactly these channels (half), values in (0, 1), `alpha` an exception: the
 // channel named so gets 0.5 everywhere. Written with OpenEXR directly: no reordering, no defaults.
-void write_named_exr(const std::string& path, const std::vector<std::string>& names, int w = 8, int h = 6,
-                     const std::vector<std::vector<float>>* values = nullptr) {
+void write_named_exr(const std::string& path, const std::vector<std::string>& names, int w = 8,
+                     int h = 6, const std::vector<std::vector<float>>* values = nullptr) {
     Imf::Header hdr(w, h);
     for (const auto& n : names) hdr.channels().insert(n.c_str(), Imf::Channel(Imf::FLOAT));
-    std::vector<std::vector<float>> planes(names.size(), std::vector<float>(static_cast<size_t>(w * h)));
+    std::vector<std::vector<float>> planes(names.size(),
+                                           std::vector<float>(static_cast<size_t>(w * h)));
     Imf::FrameBuffer fb;
     for (size_t c = 0; c < names.size(); ++c) {
         for (size_t i = 0; i < planes[c].size(); ++i)
-            planes[c][i] = values ? (*values)[c][i] : 0.1f + 0.8f * static_cast<float>((i * 7 + c * 13) % 17) / 17.0f;
-        fb.insert(names[c].c_str(), Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(planes[c].data()), sizeof(float),
-                                               sizeof(float) * static_cast<size_t>(w)));
+            planes[c][i] = values ? (*values)[c][i]
+                                  : 0.1f + 0.8f * static_cast<float>((i * 7 + c * 13) % 17) / 17.0f;
+        fb.insert(names[c].c_str(),
+                  Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(planes[c].data()), sizeof(float),
+                             sizeof(float) * static_cast<size_t>(w)));
     }
     Imf::OutputFile f(path.c_str(), hdr);
     f.setFrameBuffer(fb);
@@ -206,12 +218,14 @@ void write_named_exr(const std::string& path, const std::vector<std::string>& na
 
 std::string mkfifo_in(const ScratchDir& d, const std::string& name) {
     const std::string p = d / name;
-    if (::mkfifo(p.c_str(), 0644) != 0) throw std::runtime_error("mkfifo " + p + ": " + std::strerror(errno));
+    if (::mkfifo(p.c_str(), 0644) != 0)
+        throw std::runtime_error("mkfifo " + p + ": " + std::strerror(errno));
     return p;
 }
 
 // A small OCIO v2 config whose colour space "lut_space" reads `lut` through a FileTransform.
-std::string lut_config(const ScratchDir& d, const std::string& lut, const std::string& name = "c.ocio") {
+std::string lut_config(const ScratchDir& d, const std::string& lut,
+                       const std::string& name = "c.ocio") {
     const std::string p = d / name;
     write_bytes(p, lut_config_text(".", lut));
     return p;
@@ -226,71 +240,96 @@ struct Slot {
 
 std::vector<Slot> slots() {
     return {
-        {"bake --config", [](const std::string& f, const ScratchDir& d) {
+        {"bake --config",
+         [](const std::string& f, const ScratchDir& d) {
              write_rgb_exr(d / "in.exr");
-             return std::vector<std::string>{"bake", d / "in.exr", "-o", d / "out.exr", "--config", f};
+             return std::vector<std::string>{"bake",        d / "in.exr", "-o",
+                                             d / "out.exr", "--config",   f};
          }},
-        {"bake with OCIO=", [](const std::string&, const ScratchDir& d) {
+        {"bake with OCIO=",
+         [](const std::string&, const ScratchDir& d) {
              write_rgb_exr(d / "in.exr");
              return std::vector<std::string>{"bake", d / "in.exr", "-o", d / "out.exr"};
-         }, true},
-        {"bake --from-list", [](const std::string& f, const ScratchDir& d) {
+         },
+         true},
+        {"bake --from-list",
+         [](const std::string& f, const ScratchDir& d) {
              return std::vector<std::string>{"bake", "-o", d / "out.exr", "--from-list", f};
          }},
-        {"bake --wavelengths-file", [](const std::string& f, const ScratchDir& d) {
+        {"bake --wavelengths-file",
+         [](const std::string& f, const ScratchDir& d) {
              write_rgb_exr(d / "in.exr");
-             return std::vector<std::string>{"bake", d / "in.exr", "-o", d / "out.exr", "--wavelengths-file", f};
+             return std::vector<std::string>{"bake",        d / "in.exr",         "-o",
+                                             d / "out.exr", "--wavelengths-file", f};
          }},
-        {"bake --basis", [](const std::string& f, const ScratchDir& d) {
+        {"bake --basis",
+         [](const std::string& f, const ScratchDir& d) {
              write_rgb_exr(d / "in.exr");
-             return std::vector<std::string>{"bake", d / "in.exr", "-o", d / "out.exr", "--basis", f};
+             return std::vector<std::string>{"bake",        d / "in.exr", "-o",
+                                             d / "out.exr", "--basis",    f};
          }},
-        {"bake --observer", [](const std::string& f, const ScratchDir& d) {
+        {"bake --observer",
+         [](const std::string& f, const ScratchDir& d) {
              write_rgb_exr(d / "in.exr");
-             return std::vector<std::string>{"bake", d / "in.exr", "-o", d / "out.exr", "--observer", f};
+             return std::vector<std::string>{"bake",        d / "in.exr", "-o",
+                                             d / "out.exr", "--observer", f};
          }},
-        {"bake --illuminant", [](const std::string& f, const ScratchDir& d) {
+        {"bake --illuminant",
+         [](const std::string& f, const ScratchDir& d) {
              write_rgb_exr(d / "in.exr");
-             return std::vector<std::string>{"bake", d / "in.exr", "-o", d / "out.exr", "--illuminant", f};
+             return std::vector<std::string>{"bake",        d / "in.exr",   "-o",
+                                             d / "out.exr", "--illuminant", f};
          }},
-        {"bake INPUT", [](const std::string& f, const ScratchDir& d) {
+        {"bake INPUT",
+         [](const std::string& f, const ScratchDir& d) {
              return std::vector<std::string>{"bake", f, "-o", d / "out.exr"};
          }},
-        {"verify --source", [](const std::string& f, const ScratchDir& d) {
+        {"verify --source",
+         [](const std::string& f, const ScratchDir& d) {
              write_rgb_exr(d / "in.exr");
              run_spectex({"bake", d / "in.exr", "-o", d / "baked.exr"});
              return std::vector<std::string>{"verify", d / "baked.exr", "--source", f};
          }},
-        {"verify EXR", [](const std::string& f, const ScratchDir&) {
+        {"verify EXR",
+         [](const std::string& f, const ScratchDir&) {
              return std::vector<std::string>{"verify", f};
          }},
-        {"info EXR", [](const std::string& f, const ScratchDir&) {
+        {"info EXR",
+         [](const std::string& f, const ScratchDir&) {
              return std::vector<std::string>{"info", f};
          }},
-        {"basis --observer", [](const std::string& f, const ScratchDir& d) {
+        {"basis --observer",
+         [](const std::string& f, const ScratchDir& d) {
              return std::vector<std::string>{"basis", "-o", d / "basis.csv", "--observer", f};
          }},
-        {"basis --illuminant", [](const std::string& f, const ScratchDir& d) {
+        {"basis --illuminant",
+         [](const std::string& f, const ScratchDir& d) {
              return std::vector<std::string>{"basis", "-o", d / "basis.csv", "--illuminant", f};
          }},
-        {"basis --wavelengths-file", [](const std::string& f, const ScratchDir& d) {
-             return std::vector<std::string>{"basis", "-o", d / "basis.csv", "--wavelengths-file", f};
+        {"basis --wavelengths-file",
+         [](const std::string& f, const ScratchDir& d) {
+             return std::vector<std::string>{"basis", "-o", d / "basis.csv", "--wavelengths-file",
+                                             f};
          }},
     };
 }
 
-void refuse_in_every_slot(const std::string& label, const std::function<std::string(const ScratchDir&)>& make,
+void refuse_in_every_slot(const std::string& label,
+                          const std::function<std::string(const ScratchDir&)>& make,
                           const std::string& cause) {
     for (const auto& s : slots()) {
         ScratchDir d;
         const std::string file = make(d);
         auto args = s.args(file, d);
-        Limited r = run_limited(args, s.env ? std::vector<std::string>{"OCIO=" + file} : std::vector<std::string>{});
-        const std::string out = std::string(s.name).rfind("basis", 0) == 0 ? d / "basis.csv" : d / "out.exr";
+        Limited r = run_limited(
+            args, s.env ? std::vector<std::string>{"OCIO=" + file} : std::vector<std::string>{});
+        const std::string out =
+            std::string(s.name).rfind("basis", 0) == 0 ? d / "basis.csv" : d / "out.exr";
         // bake's settings the same for every file (config, grid, tables) are checked once, before
         // any input: a usage error, exit 2; an input, a list, a source or an EXR is work: exit 1.
         const std::string n = s.name;
-        const bool setting = n.rfind("bake", 0) == 0 && n != "bake INPUT" && n != "bake --from-list";
+        const bool setting =
+            n.rfind("bake", 0) == 0 && n != "bake INPUT" && n != "bake --from-list";
         expect_refused(n + " " + label, r, file, out, cause, setting ? 2 : 1);
     }
 }
@@ -307,8 +346,8 @@ TEST(HostileReads, AlphaOnlyExrIsRefused) {
     for (const auto& extra : std::vector<std::vector<std::string>>{{}, {"--tile", "16"}}) {
         std::vector<std::string> args{"bake", in, "-o", d / "out.exr"};
         args.insert(args.end(), extra.begin(), extra.end());
-        expect_refused(extra.empty() ? "bake A-only" : "bake --tile A-only", run_limited(args), in, d / "out.exr",
-                       "no colour channels");
+        expect_refused(extra.empty() ? "bake A-only" : "bake --tile A-only", run_limited(args), in,
+                       d / "out.exr", "no colour channels");
     }
     // verify --source reads its source the same way.
     const std::string rgb = d / "rgb.exr", baked = d / "baked.exr";
@@ -323,23 +362,30 @@ TEST(HostileReads, AlphaOnlyExrIsRefused) {
 // 2. Files that are not regular files, wherever a file is named.
 
 TEST(HostileReads, DevZeroIsRefusedEverywhere) {
-    refuse_in_every_slot("/dev/zero", [](const ScratchDir&) { return std::string("/dev/zero"); }, "character device");
+    refuse_in_every_slot(
+        "/dev/zero", [](const ScratchDir&) { return std::string("/dev/zero"); },
+        "character device");
 }
 
 TEST(HostileReads, DevUrandomIsRefusedEverywhere) {
-    refuse_in_every_slot("/dev/urandom", [](const ScratchDir&) { return std::string("/dev/urandom"); },
-                         "character device");
+    refuse_in_every_slot(
+        "/dev/urandom", [](const ScratchDir&) { return std::string("/dev/urandom"); },
+        "character device");
 }
 
 TEST(HostileReads, FifoWithoutWriterDoesNotBlock) {
-    refuse_in_every_slot("FIFO", [](const ScratchDir& d) { return mkfifo_in(d, "pipe.csv"); }, "FIFO");
+    refuse_in_every_slot(
+        "FIFO", [](const ScratchDir& d) { return mkfifo_in(d, "pipe.csv"); }, "FIFO");
 }
 
 TEST(HostileReads, FolderIsRefusedEverywhere) {
-    refuse_in_every_slot("folder", [](const ScratchDir& d) {
-        ::mkdir((d / "folder.csv").c_str(), 0755);
-        return d / "folder.csv";
-    }, "directory");
+    refuse_in_every_slot(
+        "folder",
+        [](const ScratchDir& d) {
+            ::mkdir((d / "folder.csv").c_str(), 0755);
+            return d / "folder.csv";
+        },
+        "directory");
 }
 
 TEST(HostileReads, OcioLutFileMustBeRegular) {
@@ -347,13 +393,24 @@ TEST(HostileReads, OcioLutFileMustBeRegular) {
     struct Case {
         const char* name;
         std::function<std::string(const ScratchDir&)> lut;  // returns the src written in the config
-        std::string resolved;                                // "" = d / src
+        std::string resolved;                               // "" = d / src
     };
     const std::vector<Case> cases = {
         {"LUT /dev/zero", [](const ScratchDir&) { return std::string("/dev/zero"); }, "/dev/zero"},
-        {"LUT /dev/urandom", [](const ScratchDir&) { return std::string("/dev/urandom"); }, "/dev/urandom"},
-        {"LUT FIFO (search path)", [](const ScratchDir& d) { mkfifo_in(d, "lut.cube"); return std::string("lut.cube"); }, ""},
-        {"LUT folder", [](const ScratchDir& d) { ::mkdir((d / "lut.cube").c_str(), 0755); return std::string("lut.cube"); }, ""},
+        {"LUT /dev/urandom", [](const ScratchDir&) { return std::string("/dev/urandom"); },
+         "/dev/urandom"},
+        {"LUT FIFO (search path)",
+         [](const ScratchDir& d) {
+             mkfifo_in(d, "lut.cube");
+             return std::string("lut.cube");
+         },
+         ""},
+        {"LUT folder",
+         [](const ScratchDir& d) {
+             ::mkdir((d / "lut.cube").c_str(), 0755);
+             return std::string("lut.cube");
+         },
+         ""},
     };
     for (const auto& c : cases) {
         ScratchDir d;
@@ -361,18 +418,21 @@ TEST(HostileReads, OcioLutFileMustBeRegular) {
         const std::string cfg = lut_config(d, src);
         const std::string lut = c.resolved.empty() ? d / src : c.resolved;
         write_rgb_exr(d / "in.exr");
-        Limited r = run_limited({"bake", d / "in.exr", "-o", d / "out.exr", "--config", cfg, "--colorspace", "lut_space"});
+        Limited r = run_limited({"bake", d / "in.exr", "-o", d / "out.exr", "--config", cfg,
+                                 "--colorspace", "lut_space"});
         expect_refused(std::string(c.name) + " via --config", r, lut, d / "out.exr", "LUT file", 2);
         // The same config through $OCIO, run from another folder: the search path is the config's.
-        r = run_limited({"bake", d / "in.exr", "-o", d / "out.exr", "--colorspace", "lut_space"}, {"OCIO=" + cfg});
+        r = run_limited({"bake", d / "in.exr", "-o", d / "out.exr", "--colorspace", "lut_space"},
+                        {"OCIO=" + cfg});
         expect_refused(std::string(c.name) + " via OCIO=", r, lut, d / "out.exr", "LUT file", 2);
     }
-    // Control: the same config with a real LUT bakes (relative src resolved from the config's folder).
+    // Control: the same config with a real LUT bakes (relative src resolved from the config's
+    // folder).
     ScratchDir d;
     write_bytes(d / "lut.cube", "LUT_1D_SIZE 2\n0 0 0\n1 1 1\n");
     write_rgb_exr(d / "in.exr");
-    RunResult ok = run_spectex({"bake", d / "in.exr", "-o", d / "out.exr", "--config", lut_config(d, "lut.cube"),
-                                "--colorspace", "lut_space"});
+    RunResult ok = run_spectex({"bake", d / "in.exr", "-o", d / "out.exr", "--config",
+                                lut_config(d, "lut.cube"), "--colorspace", "lut_space"});
     EXPECT_EQ(ok.status, 0) << ok.err;
 }
 
@@ -387,12 +447,14 @@ TEST(HostileReads, OversizedFilesAreRefusedBeforeReading) {
         {"config over 64 MiB", (off_t{64} << 20) + 1,
          [](const std::string& f, const ScratchDir& d) {
              write_rgb_exr(d / "in.exr");
-             return std::vector<std::string>{"bake", d / "in.exr", "-o", d / "out.exr", "--config", f};
+             return std::vector<std::string>{"bake",        d / "in.exr", "-o",
+                                             d / "out.exr", "--config",   f};
          }},
         {"wavelength file over 16 MiB", (off_t{16} << 20) + 1,
          [](const std::string& f, const ScratchDir& d) {
              write_rgb_exr(d / "in.exr");
-             return std::vector<std::string>{"bake", d / "in.exr", "-o", d / "out.exr", "--wavelengths-file", f};
+             return std::vector<std::string>{"bake",        d / "in.exr",         "-o",
+                                             d / "out.exr", "--wavelengths-file", f};
          }},
         {"input list over 256 MiB", (off_t{256} << 20) + 1,
          [](const std::string& f, const ScratchDir& d) {
@@ -407,7 +469,8 @@ TEST(HostileReads, OversizedFilesAreRefusedBeforeReading) {
         ASSERT_EQ(::ftruncate(fd, c.size), 0);
         ::close(fd);
         Limited r = run_limited(c.args(f, d));
-        expect_refused(c.name, r, f, d / "out.exr", "limit", std::string(c.name).rfind("input list", 0) == 0 ? 1 : 2);
+        expect_refused(c.name, r, f, d / "out.exr", "limit",
+                       std::string(c.name).rfind("input list", 0) == 0 ? 1 : 2);
         EXPECT_LT(r.seconds, 5.0);
     }
 }
@@ -423,16 +486,20 @@ TEST(HostileReads, InputListContentIsChecked) {
     };
     const std::vector<Case> cases = {
         {"NUL on line 3", std::string("a.png\nb.png\nc\0d.png\n", 16), "line 3: NUL byte"},
-        {"control byte on line 2", "a.png\n\x01\x02\x03garbage\n", "line 2: control character 0x01"},
-        {"random bytes", [] {
+        {"control byte on line 2", "a.png\n\x01\x02\x03garbage\n",
+         "line 2: control character 0x01"},
+        {"random bytes",
+         [] {
              std::mt19937 rng(7);
              std::string s(4096, '\0');
              for (auto& c : s) c = static_cast<char>(rng() & 0xff);
              s[0] = 'x';
              s[1] = '\x02';
              return s;
-         }(), "line 1: control character"},
-        {"line longer than PATH_MAX", "a.png\n" + std::string(PATH_MAX + 10, 'x') + "\n", "line 2: longer than PATH_MAX"},
+         }(),
+         "line 1: control character"},
+        {"line longer than PATH_MAX", "a.png\n" + std::string(PATH_MAX + 10, 'x') + "\n",
+         "line 2: longer than PATH_MAX"},
         {"empty list", "", "names no files"},
         {"comments only", "# nothing\n\n# here\n", "names no files"},
     };
@@ -448,8 +515,8 @@ TEST(HostileReads, InputListContentIsChecked) {
     for (const char* dev : {"/dev/zero", "/dev/urandom"}) {
         ScratchDir d;
         Limited r = run_limited({"bake", "-o", d / "out.exr", "--from-list", "-"}, {}, dev);
-        expect_refused(std::string("--from-list - < ") + dev, r, "standard input (--from-list -)", d / "out.exr",
-                       "line 1");
+        expect_refused(std::string("--from-list - < ") + dev, r, "standard input (--from-list -)",
+                       d / "out.exr", "line 1");
     }
     // Control: a list on stdin still works, with CRLF line ends.
     ScratchDir d;
@@ -474,7 +541,8 @@ TEST(HostileReads, ExrWithoutColourChannelsIsRefusedWithItsChannels) {
     for (int l = 380; l <= 780; l += 5) spectral.push_back("T." + std::to_string(l) + "nm");
     spectral.push_back("A");
     for (const char* s : {"S0", "S1", "S2", "S3"})
-        for (int l = 400; l <= 700; l += 100) polarised.push_back(std::string(s) + "." + std::to_string(l) + "nm");
+        for (int l = 400; l <= 700; l += 100)
+            polarised.push_back(std::string(s) + "." + std::to_string(l) + "nm");
     for (int i = 0; i < 1000; ++i) thousand.push_back("c" + std::to_string(1000 + i));
     const std::vector<Case> cases = {
         {"spectral T.*nm + A", spectral, {"T.380nm", "channels)"}},
@@ -488,9 +556,12 @@ TEST(HostileReads, ExrWithoutColourChannelsIsRefusedWithItsChannels) {
         const std::string in = d / "in.exr";
         write_named_exr(in, c.channels, 4, 3);
         Limited r = run_limited({"bake", in, "-o", d / "out.exr"});
-        expect_refused(std::string("channels: ") + c.name, r, in, d / "out.exr", "no colour channels");
-        for (const auto& s : c.must_contain) EXPECT_TRUE(contains(r.first_line(), s)) << c.name << ": " << r.err;
-        EXPECT_LT(r.first_line().size(), 400u) << "the channel list is not truncated: " << r.first_line().size();
+        expect_refused(std::string("channels: ") + c.name, r, in, d / "out.exr",
+                       "no colour channels");
+        for (const auto& s : c.must_contain)
+            EXPECT_TRUE(contains(r.first_line(), s)) << c.name << ": " << r.err;
+        EXPECT_LT(r.first_line().size(), 400u)
+            << "the channel list is not truncated: " << r.first_line().size();
     }
 }
 
@@ -526,8 +597,8 @@ TEST(HostileReads, DepthIsNeverAlpha) {
 TEST(HostileReads, LayersAndGreyAreChosenByName) {
     ScratchDir d;
     // No plain R, G, B: the first layer (by name) with .R/.G/.B, its own alpha, and a note.
-    write_named_exr(d / "layers.exr", {"specular.R", "specular.G", "specular.B", "diffuse.R", "diffuse.G",
-                                       "diffuse.B", "diffuse.A", "Z", "T.500nm"});
+    write_named_exr(d / "layers.exr", {"specular.R", "specular.G", "specular.B", "diffuse.R",
+                                       "diffuse.G", "diffuse.B", "diffuse.A", "Z", "T.500nm"});
     RunResult r = run_spectex({"bake", d / "layers.exr", "-o", d / "layers_out.exr"});
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_TRUE(contains(r.err, "layer 'diffuse'")) << r.err;
@@ -581,7 +652,9 @@ TEST(HostileReads, TruncatedImagesOfEveryFormatFail) {
         for (const auto& [k, v] : f.attrs) spec.attribute(k, std::atoi(v.c_str()));
         if (f.tile) spec.tile_width = spec.tile_height = f.tile;
         auto o = OIIO::ImageOutput::create(full);
-        ASSERT_TRUE(o && o->open(full, spec) && o->write_image(OIIO::TypeDesc::FLOAT, px.data()) && o->close()) << f.name;
+        ASSERT_TRUE(o && o->open(full, spec) && o->write_image(OIIO::TypeDesc::FLOAT, px.data()) &&
+                    o->close())
+            << f.name;
         // Control: the whole file bakes.
         RunResult ok = run_spectex({"bake", full, "-o", d / "whole_baked.exr"});
         ASSERT_EQ(ok.status, 0) << f.name << ": " << ok.err;
@@ -592,7 +665,8 @@ TEST(HostileReads, TruncatedImagesOfEveryFormatFail) {
             const std::string cut = d / (std::string("cut.") + f.ext), out = d / "cut_baked.exr";
             write_bytes(cut, bytes.substr(0, keep));
             Limited r = run_limited({"bake", cut, "-o", out});
-            expect_refused(std::string(f.name) + " cut at " + std::to_string(keep) + "/" + std::to_string(bytes.size()),
+            expect_refused(std::string(f.name) + " cut at " + std::to_string(keep) + "/" +
+                               std::to_string(bytes.size()),
                            r, cut, out);
         }
     }

@@ -24,7 +24,9 @@ using namespace spectex_test;
 
 namespace {
 
-bool has(const std::string& text, const std::string& what) { return text.find(what) != std::string::npos; }
+bool has(const std::string& text, const std::string& what) {
+    return text.find(what) != std::string::npos;
+}
 
 std::string make_png(const ScratchDir& d, const std::string& name, int w = 16, int h = 8) {
     std::vector<uint8_t> px(static_cast<size_t>(w) * h * 3);
@@ -37,11 +39,15 @@ std::string make_png(const ScratchDir& d, const std::string& name, int w = 16, i
 // A copy of the shipped data folder, so that a broken check could only harm the copy.
 std::string data_copy(const ScratchDir& d) {
     const std::string dd = d / "data";
-    EXPECT_EQ(std::system(("cp -r '" + std::string(SPECTEX_TEST_DATA_DIR) + "' '" + dd + "'").c_str()), 0);
+    EXPECT_EQ(
+        std::system(("cp -r '" + std::string(SPECTEX_TEST_DATA_DIR) + "' '" + dd + "'").c_str()),
+        0);
     return dd;
 }
 
-void expect_unchanged(const std::string& path, const std::string& before) { EXPECT_EQ(read_file(path), before) << path; }
+void expect_unchanged(const std::string& path, const std::string& before) {
+    EXPECT_EQ(read_file(path), before) << path;
+}
 
 }  // namespace
 
@@ -49,10 +55,12 @@ TEST(HostileRound3, TheShippedTablesAreNeverOutputs) {
     ScratchDir d;
     const std::string png = make_png(d, "in.png"), dd = data_copy(d);
     const std::vector<std::string> env = {"SPECTEX_DATA_DIR=" + dd};
-    const std::string obs = dd + "/spectral/observer_cie1931-2.csv", d65 = dd + "/spectral/illuminant_D65.csv",
-                      mal = dd + "/spectral/basis_mallett2019.csv", ill_a = dd + "/spectral/illuminant_A.csv";
-    const std::string before_obs = read_file(obs), before_d65 = read_file(d65), before_mal = read_file(mal),
-                      before_a = read_file(ill_a);
+    const std::string obs = dd + "/spectral/observer_cie1931-2.csv",
+                      d65 = dd + "/spectral/illuminant_D65.csv",
+                      mal = dd + "/spectral/basis_mallett2019.csv",
+                      ill_a = dd + "/spectral/illuminant_A.csv";
+    const std::string before_obs = read_file(obs), before_d65 = read_file(d65),
+                      before_mal = read_file(mal), before_a = read_file(ill_a);
     const std::vector<std::vector<std::string>> cases = {
         {"bake", png, "-o", d / "a.exr", "--json", obs},
         {"bake", png, "-o", d / "a.exr", "--basis", "mallett2019", "--json", mal},
@@ -86,16 +94,21 @@ TEST(HostileRound3, VerifyNeverWritesASourceOrLutItReads) {
     expect_unchanged(png, before);
 
     // A config whose colour space loads a LUT: neither may be verify's report.
-    std::ofstream(d / "lut.spi1d") << "Version 1\nFrom 0.0 1.0\nLength 2\nComponents 1\n{\n0.0\n1.0\n}\n";
+    std::ofstream(d / "lut.spi1d")
+        << "Version 1\nFrom 0.0 1.0\nLength 2\nComponents 1\n{\n0.0\n1.0\n}\n";
     const std::string cfg = d / "lut.ocio";
     std::ofstream(cfg) << lut_config_text(d.path(), "lut.spi1d");
     const std::string lin = d / "lin.exr";
     std::vector<float> px(16 * 8 * 3, 0.25f);
     write_image(lin, 16, 8, 3, OIIO::TypeDesc::FLOAT, px.data());
     const std::string baked = d / "b.exr";
-    ASSERT_EQ(run_spectex({"bake", lin, "-o", baked, "--config", cfg, "--colorspace", "lut_space", "-q"}).status, 0);
+    ASSERT_EQ(
+        run_spectex({"bake", lin, "-o", baked, "--config", cfg, "--colorspace", "lut_space", "-q"})
+            .status,
+        0);
     const std::string lut_before = read_file(d / "lut.spi1d"), cfg_before = read_file(cfg);
-    RunResult l = run_spectex({"verify", baked, "--source", lin, "--config", cfg, "--json", d / "lut.spi1d"});
+    RunResult l =
+        run_spectex({"verify", baked, "--source", lin, "--config", cfg, "--json", d / "lut.spi1d"});
     EXPECT_EQ(l.status, 2) << l.err;
     EXPECT_TRUE(has(l.err, "a LUT file of")) << l.err;
     // And the config the header records, when none is given.
@@ -110,12 +123,14 @@ TEST(HostileRound3, AListRedirectedIntoStandardInputIsARead) {
     const std::string png = make_png(d, "in.png"), list = d / "list.txt";
     std::ofstream(list) << png << "\n";
     const std::string before = read_file(list);
-    RunResult b = run_spectex_io({"bake", "--from-list", "-", "-o", d / "z.exr", "--json", list}, list);
+    RunResult b =
+        run_spectex_io({"bake", "--from-list", "-", "-o", d / "z.exr", "--json", list}, list);
     EXPECT_EQ(b.status, 2) << b.err;
     EXPECT_TRUE(has(b.err, "standard input")) << b.err;
     expect_unchanged(list, before);
     ASSERT_EQ(run_spectex({"bake", png, "-o", d / "z.exr", "-q"}).status, 0);
-    std::ofstream(list) << d / "z.exr" << "\n";
+    std::ofstream(list) << d / "z.exr"
+                        << "\n";
     const std::string before2 = read_file(list);
     RunResult v = run_spectex_io({"verify", "--from-list", "-", "--json", list}, list);
     EXPECT_EQ(v.status, 2) << v.err;
@@ -127,15 +142,16 @@ TEST(HostileRound3, DevicesFifosAndLinksToThemAreNeverReplaced) {
     const std::string png = make_png(d, "in.png");
     const std::string fifo = d / "fifo.exr", dev = d / "null.exr", link = d / "link.exr";
     ASSERT_EQ(::mkfifo(fifo.c_str(), 0644), 0);
-    const bool made_device = ::mknod(dev.c_str(), S_IFCHR | 0666, makedev(1, 3)) == 0;  // /dev/null's numbers (root)
+    const bool made_device =
+        ::mknod(dev.c_str(), S_IFCHR | 0666, makedev(1, 3)) == 0;  // /dev/null's numbers (root)
     ASSERT_EQ(::symlink("/dev/null", link.c_str()), 0);
     std::vector<std::string> targets = {fifo, link};
     if (made_device) targets.push_back(dev);
     for (const auto& t : targets) {
-        for (const auto& args : std::vector<std::vector<std::string>>{
-                 {"bake", png, "-o", t},
-                 {"bake", png, "-o", d / "ok.exr", "--json", t},
-                 {"basis", "-q", "-o", t}}) {
+        for (const auto& args :
+             std::vector<std::vector<std::string>>{{"bake", png, "-o", t},
+                                                   {"bake", png, "-o", d / "ok.exr", "--json", t},
+                                                   {"basis", "-q", "-o", t}}) {
             RunResult r = run_spectex(args);
             EXPECT_EQ(r.status, 2) << args[0] << " -> " << t << ": " << r.err;
             EXPECT_TRUE(has(r.err, "refusing to replace it")) << r.err;
@@ -165,9 +181,13 @@ TEST(HostileRound3, OutputThatNeverReachedStandardOutputIsAFailure) {
     ScratchDir d;
     const std::string png = make_png(d, "in.png"), exr = d / "a.exr";
     ASSERT_EQ(run_spectex({"bake", png, "-o", exr, "-q"}).status, 0);
-    for (const auto& args : std::vector<std::vector<std::string>>{
-             {"info", exr}, {"basis", "-q", "-o", "-"}, {"verify", exr}, {"verify", exr, "--json", "-"},
-             {"bake", png, "-o", d / "b.exr", "--json", "-"}, {"--help"}}) {
+    for (const auto& args :
+         std::vector<std::vector<std::string>>{{"info", exr},
+                                               {"basis", "-q", "-o", "-"},
+                                               {"verify", exr},
+                                               {"verify", exr, "--json", "-"},
+                                               {"bake", png, "-o", d / "b.exr", "--json", "-"},
+                                               {"--help"}}) {
         RunResult r = run_spectex_io(args, "/dev/null", "/dev/full");
         EXPECT_EQ(r.status, 1) << args[0] << ": " << r.err;
         EXPECT_TRUE(has(r.err, "standard output")) << r.err;
@@ -183,7 +203,8 @@ TEST(HostileRound3, NamesTooLongAreRefusedBeforeAnyWork) {
     EXPECT_TRUE(has(r.err, "256 bytes, longer than the 255")) << r.err;
     RunResult t = run_spectex({"bake", png, "-o", d / (std::string(250, 't') + "{stem}.exr")});
     EXPECT_EQ(t.status, 2) << t.err;
-    RunResult j = run_spectex({"bake", png, "-o", d / "a.exr", "--json", d / std::string(256, 'j')});
+    RunResult j =
+        run_spectex({"bake", png, "-o", d / "a.exr", "--json", d / std::string(256, 'j')});
     EXPECT_EQ(j.status, 2) << j.err;
     EXPECT_FALSE(file_exists(d / "a.exr"));
     EXPECT_TRUE(temp_files_in(d.path()).empty());
@@ -195,11 +216,17 @@ TEST(HostileRound3, InvisibleAndInvalidCharactersNeverReachTheTerminalRaw) {
         std::string raw, shown;
     };
     const std::vector<Case> cases = {
-        {"c1\xc2\x9b" "31m", "c1\\u009b31m"},             // C1 control: 8-bit CSI
-        {"bidi\xe2\x80\xae" "gpj", "bidi\\u202egpj"},     // right-to-left override
-        {"zw\xe2\x80\x8b" "sp", "zw\\u200bsp"},           // zero-width space
-        {"sur\xed\xa0\x80", "sur\\xed\\xa0\\x80"},        // a UTF-16 surrogate in UTF-8: invalid
-        {"over\xc0\xaf", "over\\xc0\\xaf"},               // overlong '/'
+        {"c1\xc2\x9b"
+         "31m",
+         "c1\\u009b31m"},  // C1 control: 8-bit CSI
+        {"bidi\xe2\x80\xae"
+         "gpj",
+         "bidi\\u202egpj"},  // right-to-left override
+        {"zw\xe2\x80\x8b"
+         "sp",
+         "zw\\u200bsp"},                            // zero-width space
+        {"sur\xed\xa0\x80", "sur\\xed\\xa0\\x80"},  // a UTF-16 surrogate in UTF-8: invalid
+        {"over\xc0\xaf", "over\\xc0\\xaf"},         // overlong '/'
     };
     for (const auto& c : cases) {
         const std::string path = d / (c.raw + ".exr");
@@ -246,11 +273,13 @@ TEST(HostileRound3, JsonRecordsStayValidForNamesThatAreNotUtf8) {
     // U+FFFD for each stray byte (valid for every JSON parser), the exact bytes in hex beside it
     // (json_names_test.cpp parses the records); schema 1's \udcXX was refused by strict parsers.
     EXPECT_TRUE(has(r.out, "odd\xef\xbf\xbd\xef\xbf\xbd.png\",\"input_bytes_hex\":\"")) << r.out;
-    EXPECT_TRUE(has(r.out, "6f6464fffe2e706e67\",\"output\":")) << r.out;  // ...o d d 0xff 0xfe . p n g
+    EXPECT_TRUE(has(r.out, "6f6464fffe2e706e67\",\"output\":"))
+        << r.out;  // ...o d d 0xff 0xfe . p n g
     // A valid UTF-8 name passes as it is.
     const std::string ok = d / "caf\xc3\xa9.png";
     ASSERT_EQ(std::rename(odd.c_str(), ok.c_str()), 0);
-    RunResult u = run_spectex({"bake", ok, "--output-dir", d / "out", "--json", "-", "-q", "--force"});
+    RunResult u =
+        run_spectex({"bake", ok, "--output-dir", d / "out", "--json", "-", "-q", "--force"});
     EXPECT_TRUE(has(u.out, "caf\xc3\xa9.png")) << u.out;
 }
 
@@ -326,7 +355,9 @@ TEST(HostileRound3, LuminanceChromaIsRefusedNotBakedGrey) {
         Imf::FrameBuffer fb;
         const char* src[3] = {"R", "G", "B"};
         const char* dst[3] = {"Y", "RY", "BY"};
-        for (int c = 0; c < 3; ++c) fb.insert(dst[c], Imf::Slice::Make(Imf::FLOAT, img.pixels[src[c]].data(), img.data_window));
+        for (int c = 0; c < 3; ++c)
+            fb.insert(dst[c],
+                      Imf::Slice::Make(Imf::FLOAT, img.pixels[src[c]].data(), img.data_window));
         out.setFrameBuffer(fb);
         out.writePixels(img.height);
     }
@@ -340,7 +371,8 @@ TEST(HostileRound3, LuminanceChromaIsRefusedNotBakedGrey) {
 TEST(HostileRound3, MistypedOptionsAndEmptyArguments) {
     RunResult r = run_spectex({"bake", "x.png", "-o", "y.exr", "--wavelenghts", "400:700:5"});
     EXPECT_EQ(r.status, 2);
-    EXPECT_TRUE(has(r.err, "unknown option '--wavelenghts' (did you mean --wavelengths?)")) << r.err;
+    EXPECT_TRUE(has(r.err, "unknown option '--wavelenghts' (did you mean --wavelengths?)"))
+        << r.err;
     RunResult v = run_spectex({"verify", "--sorce", "a.png", "a.exr"});
     EXPECT_EQ(v.status, 2);
     EXPECT_TRUE(has(v.err, "(did you mean --source?)")) << v.err;

@@ -19,7 +19,9 @@ const std::vector<std::string> kShipped = {
     "FL5",    "FL6",    "FL7",    "FL8",    "FL9",     "FL10",     "FL11",   "FL12",  "LED-B1",
     "LED-B2", "LED-B3", "LED-B4", "LED-B5", "LED-BH1", "LED-RGB1", "LED-V1", "LED-V2"};
 
-bool contains(const std::string& s, const std::string& sub) { return s.find(sub) != std::string::npos; }
+bool contains(const std::string& s, const std::string& sub) {
+    return s.find(sub) != std::string::npos;
+}
 
 // The --illuminant entry of a command's help, its wrapped lines joined with single spaces.
 std::string illuminant_help(const std::string& command) {
@@ -75,14 +77,15 @@ TEST(Illuminants, BakeUnderD50IsExactUnderD50) {
     ScratchDir d;
     std::string png = make_png(d, "in.png", 8, 4);
     std::string exr = d / "out.exr";
-    RunResult b = run_spectex({"bake", png, "-o", exr, "--type", "float", "-q", "--illuminant", "D50"});
+    RunResult b =
+        run_spectex({"bake", png, "-o", exr, "--type", "float", "-q", "--illuminant", "D50"});
     ASSERT_EQ(b.status, 0) << b.err;
     ExrImage img = read_exr(exr);
     EXPECT_EQ(img.attr("spectex:illuminant"), "D50");
     EXPECT_EQ(spectral_channels(img).size(), 81u);
     // The basis was fitted under D50: integrated under D50 every pixel is the source colour.
-    RunResult v = run_spectex({"verify", exr, "--source", png, "--illuminant", "D50", "--max-de", "0.01",
-                               "--min-code-match", "100"});
+    RunResult v = run_spectex({"verify", exr, "--source", png, "--illuminant", "D50", "--max-de",
+                               "0.01", "--min-code-match", "100"});
     EXPECT_EQ(v.status, 0) << v.out << v.err;
 }
 

@@ -5,11 +5,10 @@
 
 #include <cstdio>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "cli/cli_util.h"
 
@@ -46,7 +45,8 @@ std::string from_hex(const json& hex) {
     const std::string h = hex.get<std::string>();
     EXPECT_EQ(h.size() % 2, 0u) << h;
     std::string out;
-    for (size_t i = 0; i + 1 < h.size(); i += 2) out += static_cast<char>(std::stoi(h.substr(i, 2), nullptr, 16));
+    for (size_t i = 0; i + 1 < h.size(); i += 2)
+        out += static_cast<char>(std::stoi(h.substr(i, 2), nullptr, 16));
     return out;
 }
 
@@ -56,7 +56,8 @@ void expect_name(const json& object, const std::string& field, const std::string
     ASSERT_TRUE(object.contains(field + "_bytes_hex")) << field << " in " << object.dump();
     EXPECT_EQ(from_hex(object[field + "_bytes_hex"]), bytes) << field;
     std::string shown = bytes;
-    for (size_t at; (at = shown.find('\xe9')) != std::string::npos;) shown.replace(at, 1, kReplacement);
+    for (size_t at; (at = shown.find('\xe9')) != std::string::npos;)
+        shown.replace(at, 1, kReplacement);
     EXPECT_EQ(object[field].get<std::string>(), shown) << field;
 }
 
@@ -70,7 +71,8 @@ bool has_bytes_hex_field(const json& j) {
 
 TEST(JsonNames, BakeReportOfALatin1NameParsesAndGivesTheNameBack) {
     ScratchDir d;
-    const std::string odd = d / "caf\xe9\x01.png", plain = d / "plain.png", missing = d / "gone\xe9.png";
+    const std::string odd = d / "caf\xe9\x01.png", plain = d / "plain.png",
+                      missing = d / "gone\xe9.png";
     write_png(odd);
     write_png(plain);
     for (const bool to_file : {false, true}) {
@@ -96,10 +98,12 @@ TEST(JsonNames, BakeReportOfALatin1NameParsesAndGivesTheNameBack) {
                 EXPECT_EQ(j["status"], "failed") << j.dump();
                 expect_name(j, "input", missing);
                 ASSERT_TRUE(j.contains("error_bytes_hex")) << j.dump();
-                EXPECT_NE(from_hex(j["error_bytes_hex"]).find(missing), std::string::npos) << j.dump();
+                EXPECT_NE(from_hex(j["error_bytes_hex"]).find(missing), std::string::npos)
+                    << j.dump();
             } else {
                 EXPECT_EQ(input, plain);
-                EXPECT_FALSE(has_bytes_hex_field(j)) << "only for names that are not UTF-8: " << j.dump();
+                EXPECT_FALSE(has_bytes_hex_field(j))
+                    << "only for names that are not UTF-8: " << j.dump();
             }
         }
     }
@@ -123,7 +127,9 @@ TEST(JsonNames, InfoVerifyAndSampleOfALatin1NameParseAndGiveTheNameBack) {
         source_seen = true;
         ASSERT_TRUE(a.contains("value_bytes_hex")) << a.dump();
         const std::string value = from_hex(a["value_bytes_hex"]);
-        EXPECT_EQ(value.substr(value.size() - std::string("caf\xe9\x01.png").size()), "caf\xe9\x01.png") << value;
+        EXPECT_EQ(value.substr(value.size() - std::string("caf\xe9\x01.png").size()),
+                  "caf\xe9\x01.png")
+            << value;
     }
     EXPECT_TRUE(source_seen) << info.out;
 
@@ -158,8 +164,8 @@ TEST(JsonNames, PlanOfALightTableWithALatin1NameParses) {
     ScratchDir d;
     const std::string light = d / "lamp\xe9.csv";
     std::ofstream(light) << "wavelength,value\n360,1\n830,1\n";
-    RunResult r = run_spectex({"plan", "--lights", light, "--grids", "380:780:20", "--colours", "sample",
-                               "--max-de", "100", "--json", "-"});
+    RunResult r = run_spectex({"plan", "--lights", light, "--grids", "380:780:20", "--colours",
+                               "sample", "--max-de", "100", "--json", "-"});
     ASSERT_EQ(r.status, 0) << r.err;
     const std::vector<json> lines = parse_lines(r.out);
     ASSERT_EQ(lines.size(), 1u) << r.out;

@@ -30,7 +30,8 @@ void expect_clean_stderr(const RunResult& r, const std::string& context) {
     for (const auto& l : lines(r.err)) {
         EXPECT_TRUE(l.rfind("spectex", 0) == 0 || l.rfind("Try 'spectex", 0) == 0)
             << context << ": a line that is not ours: " << l;
-        for (unsigned char c : l) EXPECT_FALSE(c < 0x20 || c == 0x7f) << context << ": raw control byte in: " << l;
+        for (unsigned char c : l)
+            EXPECT_FALSE(c < 0x20 || c == 0x7f) << context << ": raw control byte in: " << l;
     }
 }
 
@@ -64,7 +65,9 @@ TEST(Messages, LibraryErrorsAreOneLineWithOurPrefix) {
     std::string ihdr = png;
     ihdr[16] = '\xff';  // width 0xff000040: "Image width exceeds user limit" / CRC error
     write_bytes(d / "ihdr.png", ihdr);
-    write_bytes(d / "garbage.png", png.substr(0, 8) + std::string("\x00\x01\x02\x1b[2J\xff\xfe\x07", 10) + png.substr(40));
+    write_bytes(
+        d / "garbage.png",
+        png.substr(0, 8) + std::string("\x00\x01\x02\x1b[2J\xff\xfe\x07", 10) + png.substr(40));
     std::string j = jpg;
     for (size_t i = 20; i < 60 && i < j.size(); ++i) j[i] = static_cast<char>(i * 37);
     write_bytes(d / "header.jpg", j);
@@ -91,18 +94,21 @@ TEST(Messages, OcioInfoAndDebugNeverReachStderrButWarningsDo) {
     // OCIO logs through its own function (to std::cerr), at the level $OCIO_LOGGING_LEVEL asks:
     // our config and a bake give no warning, and info and debug chatter is not shown.
     for (const std::string level : {"debug", "info", "warning"}) {
-        RunResult r = run_spectex({"bake", d / "in.png", "-o", d / "o.exr"}, {"OCIO_LOGGING_LEVEL=" + level});
+        RunResult r =
+            run_spectex({"bake", d / "in.png", "-o", d / "o.exr"}, {"OCIO_LOGGING_LEVEL=" + level});
         EXPECT_EQ(r.status, 0) << level << ": " << r.err;
         EXPECT_FALSE(contains(r.err, "OpenColorIO")) << level << ":\n" << r.err;
         expect_clean_stderr(r, "OCIO_LOGGING_LEVEL=" + level);
     }
     // A warning does reach the log, once, marked as the library's: OCIO complains about a bad
     // level on std::cerr directly, at its first use.
-    RunResult bogus = run_spectex({"bake", d / "in.png", "-o", d / "o.exr"}, {"OCIO_LOGGING_LEVEL=bogus"});
+    RunResult bogus =
+        run_spectex({"bake", d / "in.png", "-o", d / "o.exr"}, {"OCIO_LOGGING_LEVEL=bogus"});
     EXPECT_EQ(bogus.status, 0) << bogus.err;
     expect_clean_stderr(bogus, "OCIO_LOGGING_LEVEL=bogus");
     size_t shown = 0;
-    for (const auto& l : lines(bogus.err)) shown += l.rfind("spectex: library: [OpenColorIO Warning]", 0) == 0;
+    for (const auto& l : lines(bogus.err))
+        shown += l.rfind("spectex: library: [OpenColorIO Warning]", 0) == 0;
     EXPECT_EQ(shown, 1u) << bogus.err;
     // SPECTEX_LIBRARY_MESSAGES=0 drops it; =1 shows everything, debug included.
     RunResult none = run_spectex({"bake", d / "in.png", "-o", d / "o.exr"},
@@ -123,8 +129,9 @@ TEST(Messages, AFailedRunEndsWithTheCommandToRerun) {
     auto ls = lines(r.err);
     ASSERT_FALSE(ls.empty());
     // Last, once, shell-quoted so it can be pasted back.
-    EXPECT_EQ(ls.back(), "spectex: the command was: spectex bake " + d / "in.png" + " '" + missing + "' --output-dir " +
-                             d / "out") << r.err;
+    EXPECT_EQ(ls.back(), "spectex: the command was: spectex bake " + d / "in.png" + " '" + missing +
+                             "' --output-dir " + d / "out")
+        << r.err;
     size_t n = 0;
     for (const auto& l : ls) n += l.rfind("spectex: the command was:", 0) == 0;
     EXPECT_EQ(n, 1u) << r.err;
@@ -151,7 +158,9 @@ TEST(Messages, PathsAShellWouldSplitAreQuotedInMessages) {
     for (const char* cmd : {"info", "verify"}) {
         RunResult c = run_spectex({cmd, d / "no such.exr"});
         EXPECT_EQ(c.status, 1) << cmd << ": " << c.err;
-        EXPECT_EQ(lines(c.err).front(), "spectex: '" + d / "no such.exr" + "': No such file or directory") << cmd;
+        EXPECT_EQ(lines(c.err).front(),
+                  "spectex: '" + d / "no such.exr" + "': No such file or directory")
+            << cmd;
     }
     // A baked file's verbose lines quote it too.
     std::vector<uint8_t> px(4 * 4 * 3, 100);

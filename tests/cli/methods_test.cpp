@@ -69,9 +69,11 @@ TEST(Methods, TheHeaderAndTheSettingsHashRecordTheMethod) {
         EXPECT_EQ(img.attr("spectex:method"), c.method);
         EXPECT_EQ(img.attr("spectex:latticeSize"), c.size);
         EXPECT_EQ(img.attr("spectex:vertexPrior"), c.prior);
-        const std::string sum = c.method == "basis" ? img.attr("spectex:basisChecksum") : img.attr("spectex:methodChecksum");
+        const std::string sum = c.method == "basis" ? img.attr("spectex:basisChecksum")
+                                                    : img.attr("spectex:methodChecksum");
         EXPECT_EQ(sum.rfind("fnv1a64:", 0), 0u) << sum;
-        if (c.method == "jakob-hanika") EXPECT_TRUE(contains(img.attr("spectex:methodSource"), "not exact"));
+        if (c.method == "jakob-hanika")
+            EXPECT_TRUE(contains(img.attr("spectex:methodSource"), "not exact"));
         hashes.push_back(img.attr("spectex:settingsHash"));
         checksums.push_back(sum);
         // info shows what the header records.
@@ -84,8 +86,10 @@ TEST(Methods, TheHeaderAndTheSettingsHashRecordTheMethod) {
             EXPECT_NE(checksums[i], checksums[j]) << i << " " << j;
         }
     // --update rebuilds when only the method changed.
-    ASSERT_EQ(run_spectex({"bake", d / "in.png", "-o", d / "u.exr", "--method", "lattice"}).status, 0);
-    RunResult same = run_spectex({"bake", d / "in.png", "-o", d / "u.exr", "--method", "lattice", "--update", "-v"});
+    ASSERT_EQ(run_spectex({"bake", d / "in.png", "-o", d / "u.exr", "--method", "lattice"}).status,
+              0);
+    RunResult same = run_spectex(
+        {"bake", d / "in.png", "-o", d / "u.exr", "--method", "lattice", "--update", "-v"});
     EXPECT_TRUE(contains(same.err, "up to date")) << same.err;
     RunResult other = run_spectex({"bake", d / "in.png", "-o", d / "u.exr", "--update", "-v"});
     EXPECT_FALSE(contains(other.err, "up to date")) << other.err;
@@ -96,8 +100,8 @@ TEST(Methods, ALatticeVertexWithoutAnExactSpectrumIsAClearFailure) {
     // 380:780:40 has no exact bounded spectrum for some colours of the cube (as for the basis).
     ScratchDir d;
     write_png(d / "in.png");
-    RunResult r = run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--method", "lattice", "--wavelengths",
-                               "380:780:40"});
+    RunResult r = run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--method", "lattice",
+                               "--wavelengths", "380:780:40"});
     EXPECT_EQ(r.status, 2) << r.err;  // a setting of every file: checked once, before any input
     EXPECT_TRUE(contains(r.err, "vertex")) << r.err;
     EXPECT_TRUE(contains(r.err, "380:780:40")) << r.err;

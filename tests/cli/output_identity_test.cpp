@@ -25,7 +25,9 @@ void write_png(const std::string& path, uint8_t v = 90) {
     write_image(path, 4, 4, 3, OIIO::TypeDesc::UINT8, px.data());
 }
 
-std::string shipped(const std::string& name) { return std::string(SPECTEX_TEST_DATA_DIR) + "/" + name; }
+std::string shipped(const std::string& name) {
+    return std::string(SPECTEX_TEST_DATA_DIR) + "/" + name;
+}
 
 void copy_file(const std::string& from, const std::string& to) {
     std::ofstream(to, std::ios::binary) << read_file(from);
@@ -46,7 +48,8 @@ TEST(OutputIdentity, NoOutputIsAFileTheCommandReads) {
     const std::string in = d / "in.png";
     write_png(in);
     ASSERT_EQ(::link(in.c_str(), (d / "hard.png").c_str()), 0);
-    const std::string list = d / "list.txt", config = d / "my.ocio", wl = d / "wl.txt", basis = d / "b.csv";
+    const std::string list = d / "list.txt", config = d / "my.ocio", wl = d / "wl.txt",
+                      basis = d / "b.csv";
     std::ofstream(list) << in << "\n";
     copy_file(shipped("spectex.ocio"), config);
     {
@@ -66,21 +69,31 @@ TEST(OutputIdentity, NoOutputIsAFileTheCommandReads) {
                                         d.path() + "//" + base, d.path() + "/./" + base};
     };
     for (const auto& alias : spellings(in)) {
-        expect_usage_error(run_spectex({"bake", in, "-o", d / "out.exr", "--json", alias}), "--json");
+        expect_usage_error(run_spectex({"bake", in, "-o", d / "out.exr", "--json", alias}),
+                           "--json");
         expect_usage_error(run_spectex({"bake", in, "-o", alias + ".exr", "--json", alias}), "");
     }
-    expect_usage_error(run_spectex({"bake", in, "-o", d / "out.exr", "--json", d / "hard.png"}), "hard.png");
+    expect_usage_error(run_spectex({"bake", in, "-o", d / "out.exr", "--json", d / "hard.png"}),
+                       "hard.png");
     for (const auto& alias : spellings(list))
-        expect_usage_error(run_spectex({"bake", "--from-list", list, "-o", d / "o.exr", "--json", alias}), "--from-list");
+        expect_usage_error(
+            run_spectex({"bake", "--from-list", list, "-o", d / "o.exr", "--json", alias}),
+            "--from-list");
     for (const auto& alias : spellings(config))
-        expect_usage_error(run_spectex({"bake", in, "--config", config, "-o", d / "o.exr", "--json", alias}), "OCIO config");
+        expect_usage_error(
+            run_spectex({"bake", in, "--config", config, "-o", d / "o.exr", "--json", alias}),
+            "OCIO config");
     for (const auto& alias : spellings(wl))
-        expect_usage_error(run_spectex({"bake", in, "--wavelengths-file", wl, "-o", d / "o.exr", "--json", alias}),
-                           "--wavelengths-file");
+        expect_usage_error(
+            run_spectex({"bake", in, "--wavelengths-file", wl, "-o", d / "o.exr", "--json", alias}),
+            "--wavelengths-file");
     for (const auto& alias : spellings(basis))
-        expect_usage_error(run_spectex({"bake", in, "--basis", basis, "-o", d / "o.exr", "--json", alias}), "--basis");
+        expect_usage_error(
+            run_spectex({"bake", in, "--basis", basis, "-o", d / "o.exr", "--json", alias}),
+            "--basis");
     // $OCIO is read too.
-    expect_usage_error(run_spectex({"bake", in, "-o", d / "o.exr", "--json", d / "link/my.ocio"}, {"OCIO=" + config}),
+    expect_usage_error(run_spectex({"bake", in, "-o", d / "o.exr", "--json", d / "link/my.ocio"},
+                                   {"OCIO=" + config}),
                        "OCIO config");
     // An .exr input and an output spelt through the link.
     ASSERT_EQ(run_spectex({"bake", in, "-o", d / "src.exr"}).status, 0);
@@ -88,7 +101,8 @@ TEST(OutputIdentity, NoOutputIsAFileTheCommandReads) {
     expect_usage_error(run_spectex({"bake", d / "src.exr", "-o", d / "link/src.exr"}), "src.exr");
     EXPECT_EQ(read_file(d / "src.exr"), exr_before);
 
-    for (size_t i = 0; i < files.size(); ++i) EXPECT_EQ(read_file(files[i]), before[i]) << files[i] << " changed";
+    for (size_t i = 0; i < files.size(); ++i)
+        EXPECT_EQ(read_file(files[i]), before[i]) << files[i] << " changed";
     EXPECT_TRUE(temp_files_in(d.path()).empty());
 }
 
@@ -103,14 +117,17 @@ TEST(OutputIdentity, BasisOutputIsNeverItsObserverIlluminantOrGrid) {
     }
     const std::string obs0 = read_file(obs), ill0 = read_file(ill), wl0 = read_file(wl);
     expect_usage_error(run_spectex({"basis", "-o", obs, "--observer", obs}), "--observer");
-    expect_usage_error(run_spectex({"basis", "-o", d.path() + "/./obs.csv", "--observer", obs}), "--observer");
+    expect_usage_error(run_spectex({"basis", "-o", d.path() + "/./obs.csv", "--observer", obs}),
+                       "--observer");
     expect_usage_error(run_spectex({"basis", "-o", ill, "--illuminant", ill}), "--illuminant");
-    expect_usage_error(run_spectex({"basis", "-o", wl, "--wavelengths-file", wl}), "--wavelengths-file");
+    expect_usage_error(run_spectex({"basis", "-o", wl, "--wavelengths-file", wl}),
+                       "--wavelengths-file");
     EXPECT_EQ(read_file(obs), obs0);
     EXPECT_EQ(read_file(ill), ill0);
     EXPECT_EQ(read_file(wl), wl0);
     // The same tables as inputs with a different output work.
-    RunResult ok = run_spectex({"basis", "-q", "-o", d / "b.csv", "--observer", obs, "--illuminant", ill});
+    RunResult ok =
+        run_spectex({"basis", "-q", "-o", d / "b.csv", "--observer", obs, "--illuminant", ill});
     EXPECT_EQ(ok.status, 0) << ok.err;
 }
 
@@ -138,7 +155,8 @@ TEST(OutputIdentity, TwoInputsNeverBakeIntoOneOutput) {
     write_png(d / "dir/b.png", 10);
     ASSERT_EQ(run_spectex({"bake", d / "dir/a.png", "-o", d / "dir/a.exr"}).status, 0);
     ASSERT_EQ(::link((d / "dir/a.exr").c_str(), (d / "dir/b.exr").c_str()), 0);
-    RunResult r = run_spectex({"bake", "-q", d / "dir/a.png", d / "dir/b.png", "-o", "{dir}/{stem}.exr"});
+    RunResult r =
+        run_spectex({"bake", "-q", d / "dir/a.png", d / "dir/b.png", "-o", "{dir}/{stem}.exr"});
     EXPECT_EQ(r.status, 1) << r.err;
     EXPECT_TRUE(contains(r.err, "not baked twice")) << r.err;
 }
@@ -151,7 +169,8 @@ TEST(OutputIdentity, ATemplateNeverClimbsOutOfItsFolder) {
     write_png(d / "in/...png");  // stem ".."
     write_png(d / "in/..png");   // stem "."
     for (const auto& name : {"...png", "..png"}) {
-        RunResult r = run_spectex({"bake", d.path() + "/in/" + name, "-o", d.path() + "/out/x/{stem}/y.exr"});
+        RunResult r =
+            run_spectex({"bake", d.path() + "/in/" + name, "-o", d.path() + "/out/x/{stem}/y.exr"});
         expect_usage_error(r, "leave the folder");
         EXPECT_FALSE(file_exists(d / "out/y.exr")) << name;
         EXPECT_FALSE(file_exists(d / "out/x/y.exr")) << name;
@@ -167,16 +186,22 @@ TEST(OutputIdentity, OutputsAndGridsAreCheckedBeforeAnyWork) {
     write_png(d / "in.png");
     ASSERT_EQ(::mkdir((d / "out").c_str(), 0755), 0);
     expect_usage_error(run_spectex({"bake", d / "in.png", "-o", d / "out"}), "is a folder");
-    expect_usage_error(run_spectex({"bake", d / "in.png", "-o", d.path() + "/out/"}), "is a folder");
-    expect_usage_error(run_spectex({"bake", d / "in.png", "-o", d / "x.png"}), "does not end in .exr");
+    expect_usage_error(run_spectex({"bake", d / "in.png", "-o", d.path() + "/out/"}),
+                       "is a folder");
+    expect_usage_error(run_spectex({"bake", d / "in.png", "-o", d / "x.png"}),
+                       "does not end in .exr");
     RunResult tok = run_spectex({"bake", d / "in.png", "-o", d.path() + "/out/{name}.exr"});
     expect_usage_error(tok, "{name}");
     EXPECT_TRUE(contains(tok.err, "{dir}, {reldir}, {stem}, {ext}")) << tok.err;
-    RunResult grid = run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--wavelengths", "400:700:7"});
+    RunResult grid =
+        run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--wavelengths", "400:700:7"});
     expect_usage_error(grid, "400:694:7");
-    expect_usage_error(run_spectex({"basis", "-o", d / "b.csv", "--wavelengths", "380:780:30"}), "380:770:30");
-    expect_usage_error(run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--json", d / "out"}), "is a folder");
-    for (const std::string opt : {"--colorspace", "--config", "--json", "--basis", "--observer", "--wavelengths"})
+    expect_usage_error(run_spectex({"basis", "-o", d / "b.csv", "--wavelengths", "380:780:30"}),
+                       "380:770:30");
+    expect_usage_error(run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--json", d / "out"}),
+                       "is a folder");
+    for (const std::string opt :
+         {"--colorspace", "--config", "--json", "--basis", "--observer", "--wavelengths"})
         expect_usage_error(run_spectex({"bake", d / "in.png", "-o", d / "o.exr", opt, ""}), opt);
     for (const auto& n : list_dir(d / "out")) ADD_FAILURE() << "written into out/: " << n;
     for (const auto& n : list_dir(d.path()))
@@ -186,7 +211,8 @@ TEST(OutputIdentity, OutputsAndGridsAreCheckedBeforeAnyWork) {
 TEST(OutputIdentity, LongOutputNamesKeepTheirTemporaryWithinTheNameLimit) {
     ScratchDir d;
     write_png(d / "in.png");
-    for (size_t len : {236u, 237u, 249u, 255u}) {  // 236 + 19 = 255: the first that needed shortening is 237
+    for (size_t len :
+         {236u, 237u, 249u, 255u}) {  // 236 + 19 = 255: the first that needed shortening is 237
         const std::string name = std::string(len - 4, 'n') + ".exr";
         RunResult r = run_spectex({"bake", d / "in.png", "-o", d / name});
         EXPECT_EQ(r.status, 0) << len << ": " << r.err;
@@ -211,16 +237,16 @@ TEST(OutputIdentity, NoOutputIsALutFileOfTheConfig) {
     write_png(d / "in.png");
     const std::string before = read_file(lut);
     for (const std::string& alias : {lut, d.path() + "/luts/../luts/curve.cube"}) {
-        expect_usage_error(run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--config", cfg, "--colorspace",
-                                        "lut_space", "--json", alias}),
+        expect_usage_error(run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--config", cfg,
+                                        "--colorspace", "lut_space", "--json", alias}),
                            "LUT file");
-        expect_usage_error(run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--colorspace", "lut_space", "--json",
-                                        alias},
+        expect_usage_error(run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--colorspace",
+                                        "lut_space", "--json", alias},
                                        {"OCIO=" + cfg}),
                            "LUT file");
     }
     EXPECT_EQ(read_file(lut), before);
-    RunResult ok = run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--config", cfg, "--colorspace", "lut_space",
-                                "--json", d / "report.jsonl"});
+    RunResult ok = run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--config", cfg,
+                                "--colorspace", "lut_space", "--json", d / "report.jsonl"});
     EXPECT_EQ(ok.status, 0) << ok.err;
 }

@@ -13,7 +13,8 @@ using namespace spectex_test;
 namespace {
 
 // Three grids under D65 alone (about 1.2, 0.27 and 0.07 ΔE00 worst, README table): fast enough.
-const std::vector<std::string> kThree = {"--lights", "D65", "--grids", "380:780:20,380:780:10,380:780:5"};
+const std::vector<std::string> kThree = {"--lights", "D65", "--grids",
+                                         "380:780:20,380:780:10,380:780:5"};
 
 std::vector<std::string> with(std::vector<std::string> a, const std::vector<std::string>& more) {
     a.insert(a.end(), more.begin(), more.end());
@@ -43,13 +44,15 @@ TEST(Plan, BudgetPicksTheCheapestGridThatMeetsIt) {
     // The chosen grid is checked on all 8-bit colours; the others are on the sample.
     EXPECT_NE(r.out.find("380:780:10         41     82  0.62 cube"), std::string::npos) << r.out;
 
-    RunResult tight = run_spectex(with(with({"plan"}, kThree), {"--max-de", "0.15", "--colours", "sample"}));
+    RunResult tight =
+        run_spectex(with(with({"plan"}, kThree), {"--max-de", "0.15", "--colours", "sample"}));
     ASSERT_EQ(tight.status, 0) << tight.err;
     EXPECT_NE(tight.out.find("* 380:780:5 "), std::string::npos) << tight.out;
 }
 
 TEST(Plan, ImpossibleBudgetIsAnErrorWithTheBestAchievable) {
-    RunResult r = run_spectex(with(with({"plan"}, kThree), {"--max-de", "0.001", "--colours", "sample"}));
+    RunResult r =
+        run_spectex(with(with({"plan"}, kThree), {"--max-de", "0.001", "--colours", "sample"}));
     EXPECT_EQ(r.status, 1);
     EXPECT_NE(r.err.find("spectex: no candidate grid meets 0.001"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("the best achievable is 0.0"), std::string::npos) << r.err;
@@ -57,24 +60,29 @@ TEST(Plan, ImpossibleBudgetIsAnErrorWithTheBestAchievable) {
     // A range the observer does not cover is a clear error too.
     RunResult range = run_spectex(with(with({"plan"}, kThree), {"--range", "300:900"}));
     EXPECT_EQ(range.status, 1);
-    EXPECT_NE(range.err.find("observer cie1931-2 covers 360 to 830 nm"), std::string::npos) << range.err;
+    EXPECT_NE(range.err.find("observer cie1931-2 covers 360 to 830 nm"), std::string::npos)
+        << range.err;
 }
 
 TEST(Plan, JsonParses) {
     ScratchDir d;
-    RunResult r = run_spectex(with(with({"plan"}, kThree), {"--colours", "sample", "--json", d / "plan.json"}));
+    RunResult r = run_spectex(
+        with(with({"plan"}, kThree), {"--colours", "sample", "--json", d / "plan.json"}));
     ASSERT_EQ(r.status, 0) << r.err;
     const std::string json = read_file(d / "plan.json");
     EXPECT_NE(json.find("\"chosen\":\"380:780:10\""), std::string::npos) << json;
     EXPECT_NE(json.find("\"bytes_per_pixel\":82"), std::string::npos) << json;
     // An independent parser when there is one (python3 is on every Debian).
     if (std::system("python3 -c '' 2>/dev/null") == 0) {
-        const std::string check = "python3 -c 'import json,sys; d=json.load(open(sys.argv[1])); "
-                                  "assert d[\"chosen\"]==\"380:780:10\" and len(d[\"grids\"])==3 and "
-                                  "all(len(g[\"lights\"])==1 for g in d[\"grids\"])' '" + d / "plan.json" + "'";
+        const std::string check =
+            "python3 -c 'import json,sys; d=json.load(open(sys.argv[1])); "
+            "assert d[\"chosen\"]==\"380:780:10\" and len(d[\"grids\"])==3 and "
+            "all(len(g[\"lights\"])==1 for g in d[\"grids\"])' '" +
+            d / "plan.json" + "'";
         EXPECT_EQ(std::system(check.c_str()), 0) << json;
     }
-    RunResult out = run_spectex(with(with({"plan"}, kThree), {"--colours", "sample", "--json", "-"}));
+    RunResult out =
+        run_spectex(with(with({"plan"}, kThree), {"--colours", "sample", "--json", "-"}));
     ASSERT_EQ(out.status, 0) << out.err;
     EXPECT_EQ(out.out.rfind("{\"schema_version\":1,", 0), 0u) << out.out;
 }
@@ -91,8 +99,9 @@ TEST(Plan, UsageErrors) {
 TEST(Plan, BakeAutoRecordsTheChoiceAndUpdateTreatsItAsSettings) {
     ScratchDir d;
     write_png(d / "in.png");
-    const std::vector<std::string> bake = {"bake", d / "in.png", "-o", d / "out.exr", "--wavelengths", "auto",
-                                           "--lights", "D65", "--grids", "380:780:20,380:780:10,380:780:5"};
+    const std::vector<std::string> bake = {
+        "bake", d / "in.png", "-o",  d / "out.exr", "--wavelengths",
+        "auto", "--lights",   "D65", "--grids",     "380:780:20,380:780:10,380:780:5"};
     RunResult r = run_spectex(with(bake, {"--max-de", "0.5"}));
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_NE(r.err.find("--wavelengths auto: 380:780:10 (41 bins)"), std::string::npos) << r.err;
@@ -106,7 +115,8 @@ TEST(Plan, BakeAutoRecordsTheChoiceAndUpdateTreatsItAsSettings) {
     EXPECT_GT(worst, 0.2);  // 0.29 on the full cube under D65 (README)
     EXPECT_LT(worst, 0.5);
 
-    // Same settings: skipped. Another budget that picks the same grid: rebuilt (the budget is a setting).
+    // Same settings: skipped. Another budget that picks the same grid: rebuilt (the budget is a
+    // setting).
     r = run_spectex(with(bake, {"--max-de", "0.5", "--update", "--json", "-"}));
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_EQ(count(r.out, "\"status\":\"skipped\""), 1u) << r.out;
@@ -117,30 +127,35 @@ TEST(Plan, BakeAutoRecordsTheChoiceAndUpdateTreatsItAsSettings) {
     EXPECT_EQ(img.attr("spectex:wavelengths"), "380:780:10");
     EXPECT_EQ(img.attr("spectex:planMaxDe"), "0.45");
     // Another reconstruction is another setting too.
-    r = run_spectex(with(bake, {"--max-de", "0.45", "--reconstruction", "box", "--update", "--json", "-"}));
+    r = run_spectex(
+        with(bake, {"--max-de", "0.45", "--reconstruction", "box", "--update", "--json", "-"}));
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_EQ(count(r.out, "\"status\":\"ok\""), 1u) << r.out;
     EXPECT_EQ(read_exr(d / "out.exr").attr("spectex:planReconstruction"), "box");
 
     // A budget no grid meets: exit 1, the best achievable, no file written.
-    r = run_spectex({"bake", d / "in.png", "-o", d / "none.exr", "--wavelengths", "auto", "--lights", "D65",
-                     "--max-de", "0.001", "--grids", "380:780:20,380:780:10"});
+    r = run_spectex({"bake", d / "in.png", "-o", d / "none.exr", "--wavelengths", "auto",
+                     "--lights", "D65", "--max-de", "0.001", "--grids", "380:780:20,380:780:10"});
     EXPECT_EQ(r.status, 2);  // a setting of every file: checked once, before any input
     EXPECT_NE(r.err.find("the best achievable is"), std::string::npos) << r.err;
     EXPECT_FALSE(file_exists(d / "none.exr"));
     // auto needs its lights and budget; they mean nothing without auto.
-    EXPECT_EQ(run_spectex({"bake", d / "in.png", "-o", d / "x.exr", "--wavelengths", "auto", "--lights", "A"}).status, 2);
+    EXPECT_EQ(run_spectex({"bake", d / "in.png", "-o", d / "x.exr", "--wavelengths", "auto",
+                           "--lights", "A"})
+                  .status,
+              2);
     EXPECT_EQ(run_spectex({"bake", d / "in.png", "-o", d / "x.exr", "--max-de", "0.5"}).status, 2);
 }
 
-// --nonuniform (issue 13, item 3): under D65 and FL11 at 0.5 the search finds a grid with fewer bins
-// than the uniform candidates (20 against 31 when this was written), the plan's own evaluation on the
-// dense sample confirms it, --grid-file writes it for bake --wavelengths-file, and bake --wavelengths
-// auto --nonuniform records it and treats --nonuniform as a setting. Slow: about 30 CPU-s.
+// --nonuniform (issue 13, item 3): under D65 and FL11 at 0.5 the search finds a grid with fewer
+// bins than the uniform candidates (20 against 31 when this was written), the plan's own evaluation
+// on the dense sample confirms it, --grid-file writes it for bake --wavelengths-file, and bake
+// --wavelengths auto --nonuniform records it and treats --nonuniform as a setting. Slow: about 30
+// CPU-s.
 TEST(PlanSlow, NonuniformGridNeedsFewerBinsAndBakes) {
     ScratchDir d;
-    const std::vector<std::string> scene = {"--lights", "D65,FL11", "--max-de", "0.5", "--grids",
-                                            "400:700:10,380:780:10,400:700:20"};
+    const std::vector<std::string> scene = {
+        "--lights", "D65,FL11", "--max-de", "0.5", "--grids", "400:700:10,380:780:10,400:700:20"};
     RunResult r = run_spectex(with(with({"plan", "--nonuniform", "--colours", "sample"}, scene),
                                    {"--json", d / "plan.json", "--grid-file", d / "grid.txt"}));
     ASSERT_EQ(r.status, 0) << r.err;
@@ -148,18 +163,22 @@ TEST(PlanSlow, NonuniformGridNeedsFewerBinsAndBakes) {
     // The chosen row is non-uniform, has fewer bins than every uniform row that passes, meets the
     // budget under each light, and the grid file holds exactly its wavelengths.
     const std::string check =
-        "python3 -c 'import json,sys; d=json.load(open(sys.argv[1])); g=[r for r in d[\"grids\"] if r[\"chosen\"]][0]; "
+        "python3 -c 'import json,sys; d=json.load(open(sys.argv[1])); g=[r for r in d[\"grids\"] "
+        "if r[\"chosen\"]][0]; "
         "u=[r[\"bins\"] for r in d[\"grids\"] if r[\"uniform\"] and r[\"passes\"]]; "
         "assert d[\"nonuniform\"] and not g[\"uniform\"] and g[\"step\"] is None, g; "
         "assert u and g[\"bins\"] < min(u), (g[\"bins\"], u); "
-        "assert all(l[\"worst\"] <= 0.5 for l in g[\"lights\"]) and g[\"bins\"] == len(g[\"wavelengths\"]), g; "
+        "assert all(l[\"worst\"] <= 0.5 for l in g[\"lights\"]) and g[\"bins\"] == "
+        "len(g[\"wavelengths\"]), g; "
         "w=[float(x) for x in open(sys.argv[2]) if not x.startswith(\"#\")]; "
-        "assert w == [float(x) for x in g[\"wavelengths\"]], (w, g[\"wavelengths\"]); print(g[\"bins\"])' '" +
+        "assert w == [float(x) for x in g[\"wavelengths\"]], (w, g[\"wavelengths\"]); "
+        "print(g[\"bins\"])' '" +
         d / "plan.json" + "' '" + d / "grid.txt" + "'";
     ASSERT_EQ(std::system(check.c_str()), 0) << read_file(d / "plan.json");
 
     write_png(d / "in.png");
-    r = run_spectex({"bake", d / "in.png", "-o", d / "listed.exr", "--wavelengths-file", d / "grid.txt"});
+    r = run_spectex(
+        {"bake", d / "in.png", "-o", d / "listed.exr", "--wavelengths-file", d / "grid.txt"});
     ASSERT_EQ(r.status, 0) << r.err;
     const auto listed = spectral_channels(read_exr(d / "listed.exr"));
     std::ifstream grid(d / "grid.txt");
@@ -170,7 +189,8 @@ TEST(PlanSlow, NonuniformGridNeedsFewerBinsAndBakes) {
     for (size_t k = 0; k < want.size(); ++k) EXPECT_NEAR(listed[k].first, want[k], 1e-9);
 
     // bake --wavelengths auto --nonuniform: the same choice, recorded; --nonuniform is a setting.
-    std::vector<std::string> a = with({"bake", d / "in.png", "-o", d / "auto.exr", "--wavelengths", "auto"}, scene);
+    std::vector<std::string> a =
+        with({"bake", d / "in.png", "-o", d / "auto.exr", "--wavelengths", "auto"}, scene);
     r = run_spectex(with(a, {"--nonuniform"}));
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_NE(r.err.find("--wavelengths auto: non-uniform "), std::string::npos) << r.err;
@@ -192,14 +212,18 @@ TEST(Plan, NonuniformUsageErrors) {
     write_png(d / "in.png");
     EXPECT_EQ(run_spectex({"plan", "--nonuniform", "--method", "lattice"}).status, 2);
     EXPECT_EQ(run_spectex({"bake", d / "in.png", "-o", d / "x.exr", "--nonuniform"}).status, 2);
-    EXPECT_EQ(run_spectex({"bake", d / "in.png", "-o", d / "x.exr", "--wavelengths", "auto", "--lights", "A",
-                           "--max-de", "0.5", "--nonuniform", "--method", "jakob-hanika"})
-                  .status,
-              2);
+    EXPECT_EQ(
+        run_spectex({"bake", d / "in.png", "-o", d / "x.exr", "--wavelengths", "auto", "--lights",
+                     "A", "--max-de", "0.5", "--nonuniform", "--method", "jakob-hanika"})
+            .status,
+        2);
     // plan's outputs are never a file it reads: a light table given as a file.
     std::ofstream(d / "light.csv") << "wavelength,value\n360,1\n830,1\n";
-    EXPECT_EQ(run_spectex({"plan", "--lights", d / "light.csv", "--json", d / "light.csv"}).status, 2);
-    EXPECT_EQ(run_spectex({"plan", "--lights", d / "light.csv", "--grid-file", d / "light.csv"}).status, 2);
+    EXPECT_EQ(run_spectex({"plan", "--lights", d / "light.csv", "--json", d / "light.csv"}).status,
+              2);
+    EXPECT_EQ(
+        run_spectex({"plan", "--lights", d / "light.csv", "--grid-file", d / "light.csv"}).status,
+        2);
     EXPECT_EQ(read_file(d / "light.csv"), "wavelength,value\n360,1\n830,1\n");
 }
 
@@ -218,13 +242,16 @@ TEST(Plan, TextureColoursDecide) {
         px[4 * static_cast<size_t>(i) + 3] = hole ? 0 : 255;
     }
     write_image(d / "grey.png", 16, 16, 4, OIIO::TypeDesc::UINT8, px.data());
-    const std::vector<std::string> grids = {"--lights", "D65,A", "--max-de", "0.05", "--grids",
-                                            "400:700:20,400:700:10,400:700:5,380:780:5"};
-    RunResult r = run_spectex(with(with({"plan", "--texture", d / "grey.png"}, grids), {"--json", "-"}));
+    const std::vector<std::string> grids = {
+        "--lights", "D65,A",   "--max-de",
+        "0.05",     "--grids", "400:700:20,400:700:10,400:700:5,380:780:5"};
+    RunResult r =
+        run_spectex(with(with({"plan", "--texture", d / "grey.png"}, grids), {"--json", "-"}));
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_NE(r.out.find("\"chosen\":\"400:700:20\""), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("\"colours\":\"texture\""), std::string::npos) << r.out;
-    EXPECT_NE(r.out.find("240 colours of "), std::string::npos) << r.out;  // 256 pixels, 16 with alpha 0
+    EXPECT_NE(r.out.find("240 colours of "), std::string::npos)
+        << r.out;  // 256 pixels, 16 with alpha 0
     EXPECT_NE(r.out.find("16 with alpha 0 left out"), std::string::npos) << r.out;
     // The same budget over the cube's sample needs more bins.
     r = run_spectex(with(with({"plan", "--colours", "sample"}, grids), {"--json", "-"}));
@@ -238,6 +265,7 @@ TEST(Plan, TextureColoursDecide) {
     EXPECT_NE(r.err.find("missing.png"), std::string::npos) << r.err;
     EXPECT_EQ(run_spectex({"plan", "--colorspace", "srgb_tx"}).status, 2);
     const std::string before = read_file(d / "grey.png");
-    EXPECT_EQ(run_spectex({"plan", "--texture", d / "grey.png", "--json", d / "grey.png"}).status, 2);
+    EXPECT_EQ(run_spectex({"plan", "--texture", d / "grey.png", "--json", d / "grey.png"}).status,
+              2);
     EXPECT_EQ(read_file(d / "grey.png"), before);
 }

@@ -1,6 +1,8 @@
 // The spectex:* header attributes a bake writes are exactly the keys of
 // src/spectral/provenance_keys.h: none written under a name the readers (info, verify, --update) do
 // not know, and no constant that no bake writes.
+#include "spectral/provenance_keys.h"
+
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
 #include <gtest/gtest.h>
@@ -12,7 +14,6 @@
 #include <vector>
 
 #include "cli/cli_util.h"
-#include "spectral/provenance_keys.h"
 
 using namespace spectex_test;
 namespace key = spectex::provenance_key;
@@ -31,8 +32,8 @@ std::set<std::string> spectex_attributes(const std::string& path) {
 
 TEST(ProvenanceKeys, EveryKeyABakeWritesIsAConstant) {
     ScratchDir d;
-    const std::vector<uint8_t> px = {255, 0, 0, 255, 0, 255, 0, 128,
-                                     0, 0, 255, 0, 128, 64, 32, 200};  // RGBA: spectex:alpha too
+    const std::vector<uint8_t> px = {255, 0,   0, 255, 0,  255, 0,  128, 0,
+                                     0,   255, 0, 128, 64, 32,  200};  // RGBA: spectex:alpha too
     write_image(d / "in.png", 2, 2, 4, OIIO::TypeDesc::UINT8, px.data());
     // Each method, and a grid chosen by --wavelengths auto (the plan's keys).
     const std::vector<std::vector<std::string>> bakes = {

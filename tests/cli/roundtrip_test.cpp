@@ -1,5 +1,6 @@
 // Round trip: sRGB codes -> spectex bake -> spectral EXR -> independent integration under D65 with
-// CIE 1931 2° on the file's bins -> linear sRGB, compared with the IEC formula's decoding of the codes.
+// CIE 1931 2° on the file's bins -> linear sRGB, compared with the IEC formula's decoding of the
+// codes.
 #include <ImfOutputFile.h>
 #include <OpenColorIO/OpenColorIO.h>
 #include <gtest/gtest.h>
@@ -81,26 +82,30 @@ Stats check(const std::string& exr, const std::function<std::array<int, 3>(int, 
     return st;
 }
 
-void write_codes_png(const std::string& path, int w, int h, const std::function<std::array<int, 3>(int, int)>& f) {
+void write_codes_png(const std::string& path, int w, int h,
+                     const std::function<std::array<int, 3>(int, int)>& f) {
     std::vector<uint8_t> px(static_cast<size_t>(w) * h * 3);
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x) {
             auto c = f(x, y);
-            for (int i = 0; i < 3; ++i) px[(static_cast<size_t>(y) * w + x) * 3 + i] = static_cast<uint8_t>(c[i]);
+            for (int i = 0; i < 3; ++i)
+                px[(static_cast<size_t>(y) * w + x) * 3 + i] = static_cast<uint8_t>(c[i]);
         }
     write_image(path, w, h, 3, OIIO::TypeDesc::UINT8, px.data(), {{"png:compressionLevel", "1"}});
 }
 
 std::array<int, 3> all_colours(int x, int y) {
     uint32_t i = static_cast<uint32_t>(y) * 4096u + static_cast<uint32_t>(x);
-    return {static_cast<int>(i >> 16), static_cast<int>((i >> 8) & 255u), static_cast<int>(i & 255u)};
+    return {static_cast<int>(i >> 16), static_cast<int>((i >> 8) & 255u),
+            static_cast<int>(i & 255u)};
 }
 
 // A 256x256 sample spread over the whole cube (an odd multiplier visits codes far apart).
 std::array<int, 3> sample_colours(int x, int y) {
     uint32_t i = (static_cast<uint32_t>(y) * 256u + static_cast<uint32_t>(x)) * 2654435761u;
     i &= 0xffffffu;
-    return {static_cast<int>(i >> 16), static_cast<int>((i >> 8) & 255u), static_cast<int>(i & 255u)};
+    return {static_cast<int>(i >> 16), static_cast<int>((i >> 8) & 255u),
+            static_cast<int>(i & 255u)};
 }
 
 // Writes a basis CSV derived from the published one by `edit(r, g, b)` per row.
@@ -125,17 +130,20 @@ std::string edited_basis(const ScratchDir& dir, const std::string& name,
 TEST(RoundTripSlow, EveryEightBitColourHalfPublishedBasis) {
     ScratchDir dir;
     write_codes_png(dir / "all.png", 4096, 4096, all_colours);
-    auto r = run_spectex({"bake", dir / "all.png", "-o", dir / "all.exr", "--compression", "none", "--basis",
-                          "mallett2019"});
+    auto r = run_spectex({"bake", dir / "all.png", "-o", dir / "all.exr", "--compression", "none",
+                          "--basis", "mallett2019"});
     ASSERT_EQ(r.status, 0) << r.err;
     Stats st = check(dir / "all.exr", all_colours);
     EXPECT_EQ(st.pixels, 16777216u);
     EXPECT_EQ(st.over_bound, 0u);
-    std::printf("round trip, 16777216 colours, mallett2019, half: max |err| %.3g, mean %.3g, per-pixel bound <= %.3g, "
-                "8-bit codes re-encoded exactly: %llu (%.6f%%)\n",
-                st.max_err, st.sum_err / (3.0 * st.pixels), st.max_bound,
-                static_cast<unsigned long long>(st.code_match), 100.0 * st.code_match / st.pixels);
-    // Half rounding may move a colour by one code at most in a handful of cases; not more than 1e-4.
+    std::printf(
+        "round trip, 16777216 colours, mallett2019, half: max |err| %.3g, mean %.3g, per-pixel "
+        "bound <= %.3g, "
+        "8-bit codes re-encoded exactly: %llu (%.6f%%)\n",
+        st.max_err, st.sum_err / (3.0 * st.pixels), st.max_bound,
+        static_cast<unsigned long long>(st.code_match), 100.0 * st.code_match / st.pixels);
+    // Half rounding may move a colour by one code at most in a handful of cases; not more than
+    // 1e-4.
     EXPECT_GT(st.code_match, st.pixels - st.pixels / 10000);
 }
 
@@ -147,9 +155,12 @@ TEST(RoundTripSlow, EveryEightBitColourHalfFittedBasis) {
     auto r = run_spectex({"bake", dir / "all.png", "-o", dir / "all.exr", "--compression", "none"});
     ASSERT_EQ(r.status, 0) << r.err;
     Stats st = check(dir / "all.exr", all_colours);
-    std::printf("round trip, 16777216 colours, fitted smooth basis, half: max |err| %.3g, mean %.3g, bound <= %.3g, "
-                "codes exact: %llu of %llu\n", st.max_err, st.sum_err / (3.0 * st.pixels), st.max_bound,
-                static_cast<unsigned long long>(st.code_match), static_cast<unsigned long long>(st.pixels));
+    std::printf(
+        "round trip, 16777216 colours, fitted smooth basis, half: max |err| %.3g, mean %.3g, bound "
+        "<= %.3g, "
+        "codes exact: %llu of %llu\n",
+        st.max_err, st.sum_err / (3.0 * st.pixels), st.max_bound,
+        static_cast<unsigned long long>(st.code_match), static_cast<unsigned long long>(st.pixels));
     EXPECT_EQ(st.over_bound, 0u);
     // Plain rounding leaves one colour of the 16,777,216 a code off; the default colour-error
     // feedback rounding keeps every one exact (issue 4).
@@ -160,13 +171,16 @@ TEST(RoundTripSlow, EveryEightBitColourHalfNearestRoundingIsMeasured) {
     // Plain round-to-nearest, for the record: within the bound, and nearly every code exact.
     ScratchDir dir;
     write_codes_png(dir / "all.png", 4096, 4096, all_colours);
-    auto r = run_spectex({"bake", dir / "all.png", "-o", dir / "all.exr", "--compression", "none", "--half-rounding",
-                          "nearest"});
+    auto r = run_spectex({"bake", dir / "all.png", "-o", dir / "all.exr", "--compression", "none",
+                          "--half-rounding", "nearest"});
     ASSERT_EQ(r.status, 0) << r.err;
     Stats st = check(dir / "all.exr", all_colours);
-    std::printf("round trip, 16777216 colours, fitted smooth basis, half, nearest rounding: max |err| %.3g, mean %.3g, "
-                "codes exact: %llu of %llu\n", st.max_err, st.sum_err / (3.0 * st.pixels),
-                static_cast<unsigned long long>(st.code_match), static_cast<unsigned long long>(st.pixels));
+    std::printf(
+        "round trip, 16777216 colours, fitted smooth basis, half, nearest rounding: max |err| "
+        "%.3g, mean %.3g, "
+        "codes exact: %llu of %llu\n",
+        st.max_err, st.sum_err / (3.0 * st.pixels), static_cast<unsigned long long>(st.code_match),
+        static_cast<unsigned long long>(st.pixels));
     EXPECT_EQ(st.over_bound, 0u);
     EXPECT_GT(st.code_match, st.pixels - st.pixels / 10000);
 }
@@ -175,19 +189,23 @@ TEST(RoundTripSlow, EveryEightBitColourHalfNearestRoundingIsMeasured) {
 // the linear value that went in (OCIO's decoding of its code): within the float bound (see
 // check(): the float rounding of each bin and of the expansion through the weights, ~3e-7), below
 // 1e-6, and every code re-encoding exactly.
-static void expect_every_colour_exact_in_float(const std::vector<std::string>& extra, const char* label) {
+static void expect_every_colour_exact_in_float(const std::vector<std::string>& extra,
+                                               const char* label) {
     ScratchDir dir;
     write_codes_png(dir / "all.png", 4096, 4096, all_colours);
-    std::vector<std::string> args = {"bake", dir / "all.png", "-o", dir / "all.exr", "--compression", "none",
-                                     "--type", "float"};
+    std::vector<std::string> args = {"bake",          dir / "all.png", "-o",     dir / "all.exr",
+                                     "--compression", "none",          "--type", "float"};
     args.insert(args.end(), extra.begin(), extra.end());
     auto r = run_spectex(args);
     ASSERT_EQ(r.status, 0) << r.err;
     auto table = ocio_decode_table();
     Stats st = check(dir / "all.exr", all_colours, &table, 0.0);
-    std::printf("round trip, 16777216 colours, %s, float: max |err| %.3g, mean %.3g, bound <= %.3g, codes exact: "
-                "%llu\n", label, st.max_err, st.sum_err / (3.0 * st.pixels), st.max_bound,
-                static_cast<unsigned long long>(st.code_match));
+    std::printf(
+        "round trip, 16777216 colours, %s, float: max |err| %.3g, mean %.3g, bound <= %.3g, codes "
+        "exact: "
+        "%llu\n",
+        label, st.max_err, st.sum_err / (3.0 * st.pixels), st.max_bound,
+        static_cast<unsigned long long>(st.code_match));
     EXPECT_EQ(st.over_bound, 0u);
     EXPECT_LT(st.max_err, 1e-6);
     EXPECT_EQ(st.code_match, st.pixels);
@@ -203,7 +221,8 @@ TEST(RoundTrip, SampleOfColoursFloatAndHalf) {
     write_codes_png(dir / "s.png", 256, 256, sample_colours);
     for (const char* type : {"half", "float"}) {
         std::string out = dir / (std::string("s_") + type + ".exr");
-        auto r = run_spectex({"bake", dir / "s.png", "-o", out, "--type", type, "--basis", "mallett2019"});
+        auto r = run_spectex(
+            {"bake", dir / "s.png", "-o", out, "--type", type, "--basis", "mallett2019"});
         ASSERT_EQ(r.status, 0) << r.err;
         Stats st = check(out, sample_colours);
         EXPECT_EQ(st.over_bound, 0u) << type << " max err " << st.max_err;
@@ -219,7 +238,8 @@ TEST(RoundTrip, CheckFailsWhenTheBasisIsPerturbedOrSwapped) {
     ScratchDir dir;
     write_codes_png(dir / "s.png", 256, 256, sample_colours);
     auto perturbed = edited_basis(dir, "p.csv", [](double& r, double&, double&) { r *= 1.01; });
-    auto swapped = edited_basis(dir, "w.csv", [](double& r, double&, double& b) { std::swap(r, b); });
+    auto swapped =
+        edited_basis(dir, "w.csv", [](double& r, double&, double& b) { std::swap(r, b); });
     for (const auto& basis : {perturbed, swapped}) {
         auto r = run_spectex({"bake", dir / "s.png", "-o", dir / "bad.exr", "--basis", basis});
         ASSERT_EQ(r.status, 0) << r.err;
@@ -231,7 +251,10 @@ TEST(RoundTrip, CheckFailsWhenTheBasisIsPerturbedOrSwapped) {
 TEST(RoundTrip, CheckFailsWhenAChannelIsDropped) {
     ScratchDir dir;
     write_codes_png(dir / "s.png", 256, 256, sample_colours);
-    ASSERT_EQ(run_spectex({"bake", dir / "s.png", "-o", dir / "ok.exr", "--type", "float", "--basis", "mallett2019"}).status, 0);
+    ASSERT_EQ(run_spectex({"bake", dir / "s.png", "-o", dir / "ok.exr", "--type", "float",
+                           "--basis", "mallett2019"})
+                  .status,
+              0);
     ASSERT_EQ(check(dir / "ok.exr", sample_colours).over_bound, 0u);
     // Copy every channel but T.550nm with OpenEXR.
     Imf::InputFile in((dir / "ok.exr").c_str());
@@ -243,10 +266,13 @@ TEST(RoundTrip, CheckFailsWhenAChannelIsDropped) {
     Imf::FrameBuffer fb_in, fb_out;
     for (auto& c : chans) {
         planes.emplace_back(static_cast<size_t>(w) * hgt);
-        fb_in.insert(c.second, Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(planes.back().data()), 4, 4 * w));
+        fb_in.insert(c.second, Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(planes.back().data()),
+                                          4, 4 * w));
         if (c.second != "T.550nm") {
             h2.channels().insert(c.second, Imf::Channel(Imf::FLOAT));
-            fb_out.insert(c.second, Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(planes.back().data()), 4, 4 * w));
+            fb_out.insert(
+                c.second,
+                Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(planes.back().data()), 4, 4 * w));
         }
     }
     in.setFrameBuffer(fb_in);
@@ -268,12 +294,16 @@ TEST(RoundTrip, CheckFailsWhenAChannelIsDropped) {
 TEST(RoundTripSlow, EveryEightBitColourHalfLattice) {
     ScratchDir dir;
     write_codes_png(dir / "all.png", 4096, 4096, all_colours);
-    auto r = run_spectex({"bake", dir / "all.png", "-o", dir / "all.exr", "--compression", "none", "--method", "lattice"});
+    auto r = run_spectex({"bake", dir / "all.png", "-o", dir / "all.exr", "--compression", "none",
+                          "--method", "lattice"});
     ASSERT_EQ(r.status, 0) << r.err;
     Stats st = check(dir / "all.exr", all_colours);
-    std::printf("round trip, 16777216 colours, lattice 9 (jakob-hanika prior), half: max |err| %.3g, mean %.3g, "
-                "bound <= %.3g, codes exact: %llu of %llu\n", st.max_err, st.sum_err / (3.0 * st.pixels), st.max_bound,
-                static_cast<unsigned long long>(st.code_match), static_cast<unsigned long long>(st.pixels));
+    std::printf(
+        "round trip, 16777216 colours, lattice 9 (jakob-hanika prior), half: max |err| %.3g, mean "
+        "%.3g, "
+        "bound <= %.3g, codes exact: %llu of %llu\n",
+        st.max_err, st.sum_err / (3.0 * st.pixels), st.max_bound,
+        static_cast<unsigned long long>(st.code_match), static_cast<unsigned long long>(st.pixels));
     EXPECT_EQ(st.over_bound, 0u);
     EXPECT_EQ(st.code_match, st.pixels);  // the colour-aware rounding works on any method's spectra
 }
@@ -290,16 +320,14 @@ TEST(RoundTrip, LatticeSamplesExactOnOtherGridsObserversAndSizes) {
     ScratchDir dir;
     write_codes_png(dir / "s.png", 256, 256, sample_colours);
     const std::vector<std::vector<std::string>> cases = {
-        {"--lattice-size", "5"},
-        {"--lattice-size", "17", "--vertex-prior", "smooth"},
-        {"--vertex-prior", "blend"},
-        {"--wavelengths", "360:830:1"},
+        {"--lattice-size", "5"},         {"--lattice-size", "17", "--vertex-prior", "smooth"},
+        {"--vertex-prior", "blend"},     {"--wavelengths", "360:830:1"},
         {"--wavelengths", "380:780:20"},
     };
     auto table = ocio_decode_table();
     for (const auto& extra : cases) {
-        std::vector<std::string> args = {"bake", dir / "s.png", "-o", dir / "s.exr", "--type", "float", "--method",
-                                          "lattice"};
+        std::vector<std::string> args = {"bake",   dir / "s.png", "-o",       dir / "s.exr",
+                                         "--type", "float",       "--method", "lattice"};
         args.insert(args.end(), extra.begin(), extra.end());
         auto r = run_spectex(args);
         ASSERT_EQ(r.status, 0) << extra.back() << ": " << r.err;
@@ -314,13 +342,17 @@ TEST(RoundTrip, JakobHanikaIsMeasuredNotExact) {
     // (the header says so too), so this test pins that it is small but not zero.
     ScratchDir dir;
     write_codes_png(dir / "s.png", 256, 256, sample_colours);
-    auto r = run_spectex({"bake", dir / "s.png", "-o", dir / "s.exr", "--type", "float", "--method", "jakob-hanika"});
+    auto r = run_spectex({"bake", dir / "s.png", "-o", dir / "s.exr", "--type", "float", "--method",
+                          "jakob-hanika"});
     ASSERT_EQ(r.status, 0) << r.err;
     auto table = ocio_decode_table();
     Stats st = check(dir / "s.exr", sample_colours, &table, 0.0);
-    std::printf("jakob-hanika, 65536 sampled colours, float: max |err| %.3g, mean %.3g, codes exact %llu of %llu\n",
-                st.max_err, st.sum_err / (3.0 * st.pixels), static_cast<unsigned long long>(st.code_match),
-                static_cast<unsigned long long>(st.pixels));
+    std::printf(
+        "jakob-hanika, 65536 sampled colours, float: max |err| %.3g, mean %.3g, codes exact %llu "
+        "of %llu\n",
+        st.max_err, st.sum_err / (3.0 * st.pixels), static_cast<unsigned long long>(st.code_match),
+        static_cast<unsigned long long>(st.pixels));
     EXPECT_GT(st.over_bound, 0u);
-    EXPECT_LT(st.max_err, 0.05);  // the table's interpolation error: 0.0077 max between nodes at res 33
+    EXPECT_LT(st.max_err,
+              0.05);  // the table's interpolation error: 0.0077 max between nodes at res 33
 }

@@ -25,7 +25,8 @@ void write_text(const std::string& path, const std::string& text) {
     out << text;
 }
 
-const std::string kChart = std::string(SPECTEX_TEST_SOURCE_DIR) + "/examples/textures/colour_chart.png";
+const std::string kChart =
+    std::string(SPECTEX_TEST_SOURCE_DIR) + "/examples/textures/colour_chart.png";
 
 // A w x h 8-bit sRGB chart of random codes (fixed seed) with white, black and the primaries first.
 std::vector<uint8_t> chart_codes(int w, int h) {
@@ -73,7 +74,8 @@ const std::string& chart_exr() {
 }
 
 // Runs python3 with a script and arguments; returns {exit status, stdout}. Status 127: no python3.
-std::pair<int, std::string> run_python(const std::string& script, const std::vector<std::string>& args) {
+std::pair<int, std::string> run_python(const std::string& script,
+                                       const std::vector<std::string>& args) {
     ScratchDir d;
     write_text(d / "s.py", script);
     std::string cmd = "python3 '" + (d / "s.py") + "'";
@@ -89,7 +91,8 @@ std::map<long, std::vector<double>> read_table(const std::string& path) {
     std::map<long, std::vector<double>> t;
     std::string line;
     while (std::getline(in, line)) {
-        if (line.empty() || line[0] == '#' || !(std::isdigit(static_cast<unsigned char>(line[0])))) continue;
+        if (line.empty() || line[0] == '#' || !(std::isdigit(static_cast<unsigned char>(line[0]))))
+            continue;
         std::stringstream ss(line);
         std::string f;
         std::vector<double> v;
@@ -125,7 +128,8 @@ struct Reference {
                 const long key = std::lround(l[k] * 1000);
                 const double p = ill.at(key)[0];
                 const auto& o = obs.at(key);
-                for (int i = 0; i < 3; ++i) w(i, static_cast<Eigen::Index>(k)) = p * o[static_cast<size_t>(i)];
+                for (int i = 0; i < 3; ++i)
+                    w(i, static_cast<Eigen::Index>(k)) = p * o[static_cast<size_t>(i)];
                 norm += p * o[1];
             }
             return Eigen::Matrix3Xd(w / norm);
@@ -137,7 +141,8 @@ struct Reference {
         // sRGB primaries scaled so that RGB 1,1,1 is D65's white on this grid.
         const double xy[3][2] = {{0.64, 0.33}, {0.30, 0.60}, {0.15, 0.06}};
         Eigen::Matrix3d P;
-        for (int i = 0; i < 3; ++i) P.col(i) << xy[i][0] / xy[i][1], 1.0, (1 - xy[i][0] - xy[i][1]) / xy[i][1];
+        for (int i = 0; i < 3; ++i)
+            P.col(i) << xy[i][0] / xy[i][1], 1.0, (1 - xy[i][0] - xy[i][1]) / xy[i][1];
         const Eigen::Vector3d s = P.inverse() * white_d65;
         xyz_to_rgb = (P * s.asDiagonal()).inverse();
         Eigen::Matrix3d m;
@@ -146,7 +151,8 @@ struct Reference {
         bradford = m.inverse() * ratio.asDiagonal() * m;
     }
     std::array<int, 3> codes(const std::vector<double>& spectrum, bool adapt) const {
-        Eigen::VectorXd sv = Eigen::Map<const Eigen::VectorXd>(spectrum.data(), static_cast<Eigen::Index>(spectrum.size()));
+        Eigen::VectorXd sv = Eigen::Map<const Eigen::VectorXd>(
+            spectrum.data(), static_cast<Eigen::Index>(spectrum.size()));
         Eigen::Vector3d xyz = w_light * sv;
         Eigen::Vector3d rgb = xyz_to_rgb * (adapt ? Eigen::Vector3d(bradford * xyz) : xyz);
         return {encode8(rgb(0)), encode8(rgb(1)), encode8(rgb(2))};
@@ -154,7 +160,8 @@ struct Reference {
 };
 
 // The spectrum of pixel (x, y) of an EXR read with OpenEXR, and its wavelengths.
-std::vector<double> exr_spectrum(const ExrImage& img, int x, int y, std::vector<double>* lambda = nullptr) {
+std::vector<double> exr_spectrum(const ExrImage& img, int x, int y,
+                                 std::vector<double>* lambda = nullptr) {
     std::vector<double> s;
     if (lambda) lambda->clear();
     for (const auto& [l, name] : spectral_channels(img)) {
@@ -200,7 +207,8 @@ TEST(Sample, PrintsTheStoredSpectrumAndTheSourceCodesUnderD65) {
         if (line[0] == '#') {
             int x, y;
             char under[8] = {0};
-            if (std::sscanf(line.c_str(), "# pixel %d,%d under %3s", &x, &y, under) == 3 && std::string(under) == "D65")
+            if (std::sscanf(line.c_str(), "# pixel %d,%d under %3s", &x, &y, under) == 3 &&
+                std::string(under) == "D65")
                 d65_line[{x, y}] = line;
             continue;
         }
@@ -217,33 +225,38 @@ TEST(Sample, PrintsTheStoredSpectrumAndTheSourceCodesUnderD65) {
         ASSERT_EQ(got.size(), want.size());
         for (size_t k = 0; k < want.size(); ++k) {
             EXPECT_DOUBLE_EQ(got[k].first, lambda[k]);
-            EXPECT_FLOAT_EQ(static_cast<float>(got[k].second), static_cast<float>(want[k])) << x << "," << y;
+            EXPECT_FLOAT_EQ(static_cast<float>(got[k].second), static_cast<float>(want[k]))
+                << x << "," << y;
         }
         // The D65 colour re-encodes to the source's codes.
         ASSERT_TRUE(d65_line.count({x, y})) << r.out;
         int c[3];
-        ASSERT_EQ(std::sscanf(one_attr_after(d65_line[{x, y}], "sRGB 8-bit ").c_str(), "%d %d %d", &c[0], &c[1], &c[2]),
+        ASSERT_EQ(std::sscanf(one_attr_after(d65_line[{x, y}], "sRGB 8-bit ").c_str(), "%d %d %d",
+                              &c[0], &c[1], &c[2]),
                   3)
             << d65_line[{x, y}];
         const uint8_t* src = &px[(static_cast<size_t>(y) * w + x) * 3];
         for (int i = 0; i < 3; ++i) EXPECT_EQ(c[i], src[i]) << x << "," << y << " channel " << i;
     }
     // The white pixel: L* 100 under D65.
-    EXPECT_NEAR(std::strtod(one_attr_after(d65_line[{0, 0}], "L*a*b* ").c_str(), nullptr), 100.0, 0.01)
+    EXPECT_NEAR(std::strtod(one_attr_after(d65_line[{0, 0}], "L*a*b* ").c_str(), nullptr), 100.0,
+                0.01)
         << d65_line[{0, 0}];
 }
 
 TEST(Sample, OtherLightsAndJsonAgreeWithTheIndependentIntegration) {
     const std::string& exr = chart_exr();
     ExrImage img = read_exr(exr);
-    RunResult r = run_spectex({"sample", exr, "--json", "--illuminant", "A,FL11", "300,250", "10,200"});
+    RunResult r =
+        run_spectex({"sample", exr, "--json", "--illuminant", "A,FL11", "300,250", "10,200"});
     ASSERT_EQ(r.status, 0) << r.err;
     auto [st, out] = run_python(
         "import json,sys\n"
         "j=json.loads(open(sys.argv[1]).read())\n"
         "assert [l['name'] for l in j['illuminants']]==['D65','A','FL11']\n"
         "for p in j['pixels']:\n"
-        "  print(p['x'],p['y'],' '.join(' '.join(map(str,c['srgb8']))+' '+' '.join(map(str,c['srgb8_unadapted'])) for c in p['colours']))\n",
+        "  print(p['x'],p['y'],' '.join(' '.join(map(str,c['srgb8']))+' '+' "
+        "'.join(map(str,c['srgb8_unadapted'])) for c in p['colours']))\n",
         {[&] {
             static ScratchDir jd;
             write_text(jd / "s.json", r.out);
@@ -264,7 +277,8 @@ TEST(Sample, OtherLightsAndJsonAgreeWithTheIndependentIntegration) {
         auto a = ref_a.codes(s, true), a_raw = ref_a.codes(s, false), f = ref_f.codes(s, true);
         for (int k = 0; k < 3; ++k) {
             EXPECT_NEAR(c[6 + k], a[static_cast<size_t>(k)], 1) << "A, pixel " << x << "," << y;
-            EXPECT_NEAR(c[9 + k], a_raw[static_cast<size_t>(k)], 1) << "A unadapted, pixel " << x << "," << y;
+            EXPECT_NEAR(c[9 + k], a_raw[static_cast<size_t>(k)], 1)
+                << "A unadapted, pixel " << x << "," << y;
             EXPECT_NEAR(c[12 + k], f[static_cast<size_t>(k)], 1) << "FL11, pixel " << x << "," << y;
         }
     }
@@ -279,7 +293,8 @@ TEST(Sample, ErrorsNameThePixelTheWindowOrTheFile) {
 
     RunResult r = run_spectex({"sample", d / "in.exr", "1,1", "5,2"});
     EXPECT_EQ(r.status, 1);
-    EXPECT_NE(r.err.find("spectex: " + (d / "in.exr") + ": pixel 5,2 is outside the data window 0,0 - 4,3"),
+    EXPECT_NE(r.err.find("spectex: " + (d / "in.exr") +
+                         ": pixel 5,2 is outside the data window 0,0 - 4,3"),
               std::string::npos)
         << r.err;
     r = run_spectex({"sample", d / "in.exr", "--", "-1,0"});
@@ -290,14 +305,16 @@ TEST(Sample, ErrorsNameThePixelTheWindowOrTheFile) {
         EXPECT_NE(r.err.find("is not a pixel X,Y"), std::string::npos) << r.err;
     }
     EXPECT_EQ(run_spectex({"sample", d / "in.exr"}).status, 2);
-    EXPECT_EQ(run_spectex({"sample", d / "in.exr", "1,1", "--illuminant", "nosuchlight"}).status, 1);
+    EXPECT_EQ(run_spectex({"sample", d / "in.exr", "1,1", "--illuminant", "nosuchlight"}).status,
+              1);
 
     // Not spectral: an RGB OpenEXR, and a PNG.
     std::vector<float> rgb(static_cast<size_t>(w) * h * 3, 0.5f);
     write_image(d / "rgb.exr", w, h, 3, OIIO::TypeDesc::FLOAT, rgb.data());
     r = run_spectex({"sample", d / "rgb.exr", "1,1"});
     EXPECT_EQ(r.status, 1);
-    EXPECT_NE(r.err.find("spectex: " + (d / "rgb.exr") + ": not a spectral"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("spectex: " + (d / "rgb.exr") + ": not a spectral"), std::string::npos)
+        << r.err;
     r = run_spectex({"sample", d / "in.png", "1,1"});
     EXPECT_EQ(r.status, 1);
     EXPECT_NE(r.err.find("not an OpenEXR file"), std::string::npos) << r.err;
@@ -315,12 +332,17 @@ TEST(InfoLevels, ShowsTilesAndMipLevelsAndJsonHoldsTheWholeHeader) {
     const int w = 40, h = 24;
     auto px = chart_codes(w, h);
     write_image(d / "in.png", w, h, 3, OIIO::TypeDesc::UINT8, px.data());
-    ASSERT_EQ(run_spectex({"bake", d / "in.png", "-o", d / "m.exr", "--mipmap", "--tile", "16", "-q"}).status, 0);
+    ASSERT_EQ(
+        run_spectex({"bake", d / "in.png", "-o", d / "m.exr", "--mipmap", "--tile", "16", "-q"})
+            .status,
+        0);
     RunResult r = run_spectex({"info", d / "m.exr"});
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_NE(r.out.find("storage:         tiled 16x16"), std::string::npos) << r.out;
-    EXPECT_NE(r.out.find("levels:          mipmap, 6 levels (rounding down): 40x24, 20x12, 10x6, 5x3, 2x1, 1x1"),
-              std::string::npos)
+    EXPECT_NE(
+        r.out.find(
+            "levels:          mipmap, 6 levels (rounding down): 40x24, 20x12, 10x6, 5x3, 2x1, 1x1"),
+        std::string::npos)
         << r.out;
 
     r = run_spectex({"info", "--json", d / "m.exr"});
@@ -329,17 +351,23 @@ TEST(InfoLevels, ShowsTilesAndMipLevelsAndJsonHoldsTheWholeHeader) {
     auto [st, out] = run_python(
         "import json,sys\n"
         "j=json.loads(open(sys.argv[1]).read())\n"
-        "assert j['bins']==81 and len(j['wavelengths'])==81 and j['wavelengths'][0]==380, j['wavelengths'][:3]\n"
+        "assert j['bins']==81 and len(j['wavelengths'])==81 and j['wavelengths'][0]==380, "
+        "j['wavelengths'][:3]\n"
         "assert j['tiles']=={'width':16,'height':16}, j['tiles']\n"
-        "assert j['levels']['mode']=='mipmap' and j['levels']['count']==6 and j['levels']['sizes'][3]==[5,3]\n"
+        "assert j['levels']['mode']=='mipmap' and j['levels']['count']==6 and "
+        "j['levels']['sizes'][3]==[5,3]\n"
         "assert j['alpha']=='none' and j['sample_type']=='half' and j['compression']=='zip'\n"
         "a={x['name']:x for x in j['attributes']}\n"
-        "for k in ['channels','compression','dataWindow','displayWindow','lineOrder','tiles','spectralLayoutVersion',"
+        "for k in "
+        "['channels','compression','dataWindow','displayWindow','lineOrder','tiles','"
+        "spectralLayoutVersion',"
         "'spectex:version','spectex:commandLine']:\n"
         "  assert k in a, k\n"
         "assert a['dataWindow']['value']=='0,0 - 39,23', a['dataWindow']\n"
-        "assert a['tiles']['type']=='tiledesc' and a['tiles']['value'].startswith('16x16, mipmap'), a['tiles']\n"
-        "assert 'T.380nm half' in a['channels']['value'] or 'T.380,000000nm half' in a['channels']['value'], a['channels']['value'][:80]\n"
+        "assert a['tiles']['type']=='tiledesc' and a['tiles']['value'].startswith('16x16, "
+        "mipmap'), a['tiles']\n"
+        "assert 'T.380nm half' in a['channels']['value'] or 'T.380,000000nm half' in "
+        "a['channels']['value'], a['channels']['value'][:80]\n"
         "print('ok')\n",
         {d / "info.json"});
     if (st == 127) GTEST_SKIP() << "no python3";
@@ -351,8 +379,10 @@ TEST(InfoLevels, ShowsTilesAndMipLevelsAndJsonHoldsTheWholeHeader) {
     EXPECT_EQ(r.out.find("levels:"), std::string::npos) << r.out;
     r = run_spectex({"info", "--json", d / "s.exr"});
     EXPECT_NE(r.out.find("\"tiles\":null"), std::string::npos);
-    EXPECT_NE(r.out.find("\"levels\":{\"mode\":\"one\",\"rounding\":\"down\",\"count\":1,\"sizes\":[[40,24]]}"),
-              std::string::npos)
+    EXPECT_NE(
+        r.out.find(
+            "\"levels\":{\"mode\":\"one\",\"rounding\":\"down\",\"count\":1,\"sizes\":[[40,24]]}"),
+        std::string::npos)
         << r.out;
 }
 
@@ -370,7 +400,8 @@ TEST(Render, UnderD65ABakeGivesBackTheSourceCodes) {
     int worst = 0;
     for (int y = 0; y < src.h; ++y)
         for (int x = 0; x < src.w; ++x)
-            for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(int(out.at(x, y)[c]) - int(src.at(x, y)[c])));
+            for (int c = 0; c < 3; ++c)
+                worst = std::max(worst, std::abs(int(out.at(x, y)[c]) - int(src.at(x, y)[c])));
     EXPECT_LE(worst, 1);
     EXPECT_TRUE(temp_files_in(d.path()).empty());
 }
@@ -379,22 +410,28 @@ TEST(Render, UnderAMatchesAnIndependentIntegrationWithinOneCode) {
     ScratchDir d;
     const std::string& exr = chart_exr();
     ASSERT_EQ(run_spectex({"render", exr, "--illuminant", "A", "-o", d / "a.png", "-q"}).status, 0);
-    ASSERT_EQ(run_spectex({"render", exr, "--illuminant", "A", "--no-adapt", "-o", d / "a_raw.png", "-q"}).status, 0);
+    ASSERT_EQ(
+        run_spectex({"render", exr, "--illuminant", "A", "--no-adapt", "-o", d / "a_raw.png", "-q"})
+            .status,
+        0);
     Png a = read_png(d / "a.png"), raw = read_png(d / "a_raw.png");
     ExrImage img = read_exr(exr);
     std::vector<double> lambda;
     exr_spectrum(img, 0, 0, &lambda);
     Reference ref(lambda, "A");
     // Hue sweep, greys, primaries, ColorChecker-like patches: tolerance 1 code (rounding at .5).
-    const std::vector<std::pair<int, int>> pixels = {{5, 5},    {100, 40},  {256, 64}, {400, 100}, {30, 150},
-                                                     {120, 150}, {470, 170}, {40, 200}, {200, 230}, {480, 250}};
+    const std::vector<std::pair<int, int>> pixels = {{5, 5},     {100, 40},  {256, 64},  {400, 100},
+                                                     {30, 150},  {120, 150}, {470, 170}, {40, 200},
+                                                     {200, 230}, {480, 250}};
     int differing = 0;
     for (auto [x, y] : pixels) {
         std::vector<double> s = exr_spectrum(img, x, y);
         auto want = ref.codes(s, true), want_raw = ref.codes(s, false);
         for (int c = 0; c < 3; ++c) {
-            EXPECT_NEAR(a.at(x, y)[c], want[static_cast<size_t>(c)], 1) << "adapted " << x << "," << y << " ch " << c;
-            EXPECT_NEAR(raw.at(x, y)[c], want_raw[static_cast<size_t>(c)], 1) << "raw " << x << "," << y << " ch " << c;
+            EXPECT_NEAR(a.at(x, y)[c], want[static_cast<size_t>(c)], 1)
+                << "adapted " << x << "," << y << " ch " << c;
+            EXPECT_NEAR(raw.at(x, y)[c], want_raw[static_cast<size_t>(c)], 1)
+                << "raw " << x << "," << y << " ch " << c;
             differing += a.at(x, y)[c] != raw.at(x, y)[c];
         }
     }
@@ -407,13 +444,14 @@ TEST(Render, UnderAMatchesAnIndependentIntegrationWithinOneCode) {
 TEST(Render, SeveralLightsMakeALabelledSheet) {
     ScratchDir d;
     const std::string& exr = chart_exr();
-    ASSERT_EQ(run_spectex({"render", exr, "--illuminant", "D65,A", "--illuminant", "FL11", "-o", d / "sheet.png",
-                           "-q"})
+    ASSERT_EQ(run_spectex({"render", exr, "--illuminant", "D65,A", "--illuminant", "FL11", "-o",
+                           d / "sheet.png", "-q"})
                   .status,
               0);
     ASSERT_EQ(run_spectex({"render", exr, "-o", d / "d65.png", "-q"}).status, 0);
     Png s = read_png(d / "sheet.png"), one = read_png(d / "d65.png");
-    // Layout (man page): scale = clamp(w / 128, 1, 4); panels 4*scale apart under a strip 11*scale high.
+    // Layout (man page): scale = clamp(w / 128, 1, 4); panels 4*scale apart under a strip 11*scale
+    // high.
     const int w = 512, h = 256, scale = 4, gap = 4 * scale, strip = 11 * scale;
     ASSERT_EQ(s.w, 3 * w + 2 * gap);
     ASSERT_EQ(s.h, h + strip);
@@ -448,9 +486,10 @@ TEST(Render, RefusesToOverwriteItsInputAndBadArguments) {
     EXPECT_TRUE(read_file(d / "a.exr") == before);
     EXPECT_TRUE(temp_files_in(d.path()).empty());
 
-    EXPECT_EQ(run_spectex({"render", d / "a.exr"}).status, 2);                                    // no -o
-    EXPECT_EQ(run_spectex({"render", d / "a.exr", "-o", d / "x.jpg"}).status, 2);                  // not .png
-    EXPECT_EQ(run_spectex({"render", d / "a.exr", "-o", d / "x.png", "--illuminant", "A,"}).status, 2);
+    EXPECT_EQ(run_spectex({"render", d / "a.exr"}).status, 2);                     // no -o
+    EXPECT_EQ(run_spectex({"render", d / "a.exr", "-o", d / "x.jpg"}).status, 2);  // not .png
+    EXPECT_EQ(run_spectex({"render", d / "a.exr", "-o", d / "x.png", "--illuminant", "A,"}).status,
+              2);
     r = run_spectex({"render", d / "a.exr", "-o", d / "x.png", "--max-pixels", "1000"});
     EXPECT_EQ(r.status, 1);
     EXPECT_NE(r.err.find("(--max-pixels)"), std::string::npos) << r.err;
@@ -468,8 +507,8 @@ TEST(Render, RefusesToOverwriteItsInputAndBadArguments) {
 TEST(Plot, WritesValidSvgWithOnePathPerPixelAxesAndLegend) {
     ScratchDir d;
     const std::string& exr = chart_exr();
-    RunResult r = run_spectex({"plot", exr, "--pixel", "40,200", "--pixel", "0,0", "--pixel", "300,250", "--light",
-                               "A", "-o", d / "p.svg"});
+    RunResult r = run_spectex({"plot", exr, "--pixel", "40,200", "--pixel", "0,0", "--pixel",
+                               "300,250", "--light", "A", "-o", d / "p.svg"});
     ASSERT_EQ(r.status, 0) << r.err;
     auto [st, out] = run_python(
         "import sys, xml.etree.ElementTree as E\n"
@@ -491,9 +530,11 @@ TEST(Plot, WritesValidSvgWithOnePathPerPixelAxesAndLegend) {
     char hex[3][16];
     int i = 0;
     for (auto [x, y] : std::vector<std::pair<int, int>>{{40, 200}, {0, 0}, {300, 250}}) {
-        std::snprintf(hex[i++], 16, "#%02x%02x%02x", src.at(x, y)[0], src.at(x, y)[1], src.at(x, y)[2]);
+        std::snprintf(hex[i++], 16, "#%02x%02x%02x", src.at(x, y)[0], src.at(x, y)[1],
+                      src.at(x, y)[2]);
     }
-    EXPECT_NE(out.find(std::string(hex[0]) + " " + hex[1] + " " + hex[2]), std::string::npos) << out;
+    EXPECT_NE(out.find(std::string(hex[0]) + " " + hex[1] + " " + hex[2]), std::string::npos)
+        << out;
     EXPECT_NE(out.find("Wavelength (nm)"), std::string::npos);
     EXPECT_NE(out.find("Reflectance"), std::string::npos);
     EXPECT_NE(out.find("|400|"), std::string::npos) << out;
@@ -503,7 +544,9 @@ TEST(Plot, WritesValidSvgWithOnePathPerPixelAxesAndLegend) {
 
     r = run_spectex({"plot", exr, "--pixel", "9999,1", "-o", d / "q.svg"});
     EXPECT_EQ(r.status, 1);
-    EXPECT_NE(r.err.find("pixel 9999,1 is outside the data window 0,0 - 511,255"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("pixel 9999,1 is outside the data window 0,0 - 511,255"),
+              std::string::npos)
+        << r.err;
     EXPECT_FALSE(file_exists(d / "q.svg"));
     EXPECT_EQ(run_spectex({"plot", exr, "--pixel", "1x1", "-o", d / "q.svg"}).status, 2);
     EXPECT_EQ(run_spectex({"plot", exr, "-o", d / "q.svg"}).status, 2);
@@ -518,10 +561,12 @@ TEST(Render, PremultipliedSpectraAreDividedByAlphaAndAlphaIsKept) {
     const int w = 17, h = 9;
     std::mt19937 rng(5);
     std::vector<uint8_t> px(static_cast<size_t>(w) * h * 4);
-    for (size_t i = 0; i < px.size(); ++i) px[i] = static_cast<uint8_t>(i % 4 == 3 ? 128 + (rng() & 127) : rng() & 255);
+    for (size_t i = 0; i < px.size(); ++i)
+        px[i] = static_cast<uint8_t>(i % 4 == 3 ? 128 + (rng() & 127) : rng() & 255);
     px[3] = 0;  // pixel 0,0 fully transparent
     write_image(d / "in.png", w, h, 4, OIIO::TypeDesc::UINT8, px.data());
-    ASSERT_EQ(run_spectex({"bake", d / "in.png", "-o", d / "in.exr", "-q"}).status, 0);  // associated (default)
+    ASSERT_EQ(run_spectex({"bake", d / "in.png", "-o", d / "in.exr", "-q"}).status,
+              0);                    // associated (default)
     px = read_png(d / "in.png").px;  // the codes as stored (OIIO's writer may have altered them)
 
     RunResult r = run_spectex({"render", d / "in.exr", "-o", d / "out.png", "-q"});
@@ -547,12 +592,17 @@ TEST(Render, PremultipliedSpectraAreDividedByAlphaAndAlphaIsKept) {
     EXPECT_NE(r.out.find("# pixel 0,0: A 0: transparent"), std::string::npos) << r.out;
     EXPECT_EQ(r.out.find("# pixel 0,0 under"), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("# pixel 5,4: A "), std::string::npos) << r.out;
-    EXPECT_NE(r.out.find("(premultiplied): the colours are of the spectrum divided by A"), std::string::npos);
+    EXPECT_NE(r.out.find("(premultiplied): the colours are of the spectrum divided by A"),
+              std::string::npos);
     int c[3];
-    ASSERT_EQ(std::sscanf(one_attr_after(r.out, "# pixel 5,4 under D65: ").c_str(), "linear Rec.709 %*f %*f %*f"), 0);
-    ASSERT_EQ(std::sscanf(one_attr_after(r.out.substr(r.out.find("# pixel 5,4 under D65")), "sRGB 8-bit ").c_str(),
-                          "%d %d %d", &c[0], &c[1], &c[2]),
-              3);
+    ASSERT_EQ(std::sscanf(one_attr_after(r.out, "# pixel 5,4 under D65: ").c_str(),
+                          "linear Rec.709 %*f %*f %*f"),
+              0);
+    ASSERT_EQ(
+        std::sscanf(one_attr_after(r.out.substr(r.out.find("# pixel 5,4 under D65")), "sRGB 8-bit ")
+                        .c_str(),
+                    "%d %d %d", &c[0], &c[1], &c[2]),
+        3);
     const uint8_t* s = &px[(static_cast<size_t>(4) * w + 5) * 4];
     for (int i = 0; i < 3; ++i) EXPECT_NEAR(c[i], s[i], 1);
 }

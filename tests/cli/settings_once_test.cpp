@@ -31,7 +31,8 @@ std::vector<std::string> twenty_inputs(const ScratchDir& d) {
     return in;
 }
 
-RunResult bake_all(const ScratchDir& d, const std::vector<std::string>& inputs, std::vector<std::string> extra) {
+RunResult bake_all(const ScratchDir& d, const std::vector<std::string>& inputs,
+                   std::vector<std::string> extra) {
     std::vector<std::string> args = {"bake"};
     args.insert(args.end(), inputs.begin(), inputs.end());
     args.push_back("--output-dir");
@@ -75,7 +76,8 @@ TEST(SettingsOnce, AMissingBasisFileIsNamedAsSuch) {
     const auto in = twenty_inputs(d);
     RunResult r = run_spectex({"bake", in[0], "-o", d / "o.exr", "--basis", "nosuch.csv"});
     EXPECT_EQ(r.status, 2);
-    EXPECT_TRUE(r.err.find("nosuch.csv: cannot read the basis: No such file or directory") != std::string::npos)
+    EXPECT_TRUE(r.err.find("nosuch.csv: cannot read the basis: No such file or directory") !=
+                std::string::npos)
         << r.err;
     EXPECT_TRUE(r.err.find("unknown basis") == std::string::npos) << r.err;
     RunResult n = run_spectex({"bake", in[0], "-o", d / "o.exr", "--basis", "nosuch"});
@@ -94,7 +96,9 @@ TEST(SettingsOnce, ABasisCsvBringsItsGrid) {
     EXPECT_EQ(img.attr("spectex:wavelengths"), "400:700:10");
     EXPECT_TRUE(img.has("T.400nm") && img.has("T.700nm") && !img.has("T.380nm"));
     // Given, --wavelengths must still agree with the basis.
-    RunResult other = run_spectex({"bake", in[0], "-o", exr, "--basis", csv, "--wavelengths", "380:780:5"});
+    RunResult other =
+        run_spectex({"bake", in[0], "-o", exr, "--basis", csv, "--wavelengths", "380:780:5"});
     EXPECT_EQ(other.status, 2) << other.err;
-    EXPECT_TRUE(other.err.find("not on the output grid 380:780:5") != std::string::npos) << other.err;
+    EXPECT_TRUE(other.err.find("not on the output grid 380:780:5") != std::string::npos)
+        << other.err;
 }

@@ -2,11 +2,11 @@
 // An independent reader and colorimeter for spectral EXRs, for the end-to-end tests. It shares
 // nothing with spectex's spectral code: its own CSV parsing, interpolation, CIE integration,
 // RGB<->XYZ matrix and 3x3 inverse, and OpenEXR's C++ API for the pixels.
+#include <Imath/half.h>
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
-#include <Imath/half.h>
 
 #include <algorithm>
 #include <array>
@@ -24,7 +24,8 @@ namespace spectex_test {
 using Mat3 = std::array<std::array<double, 3>, 3>;
 
 inline Mat3 inverse3(const Mat3& m) {
-    double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+    double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+                 m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
                  m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
     Mat3 r;
     r[0][0] = (m[1][1] * m[2][2] - m[1][2] * m[2][1]) / det;
@@ -98,7 +99,8 @@ struct Colorimeter {
         }
         Mat3 Pi = inverse3(P);
         double s[3];
-        for (int i = 0; i < 3; ++i) s[i] = Pi[i][0] * white[0] + Pi[i][1] * white[1] + Pi[i][2] * white[2];
+        for (int i = 0; i < 3; ++i)
+            s[i] = Pi[i][0] * white[0] + Pi[i][1] * white[1] + Pi[i][2] * white[2];
         Mat3 M;
         for (int i = 0; i < 3; ++i)
             for (int j = 0; j < 3; ++j) M[i][j] = P[i][j] * s[j];
@@ -106,7 +108,8 @@ struct Colorimeter {
         rgb_weight.resize(lambda.size());
         for (size_t k = 0; k < lambda.size(); ++k)
             for (int i = 0; i < 3; ++i)
-                rgb_weight[k][i] = Mi[i][0] * xyz[k][0] + Mi[i][1] * xyz[k][1] + Mi[i][2] * xyz[k][2];
+                rgb_weight[k][i] =
+                    Mi[i][0] * xyz[k][0] + Mi[i][1] * xyz[k][1] + Mi[i][2] * xyz[k][2];
     }
 };
 
@@ -126,9 +129,9 @@ inline std::vector<std::pair<double, std::string>> spectral_channels(const Imf::
 }
 
 // Calls fn(x, y, spectrum, alpha) for every pixel, reading `band` rows at a time as float.
-inline void for_each_spectrum(const std::string& path,
-                              const std::function<void(int, int, const std::vector<float>&, float)>& fn,
-                              int band = 64) {
+inline void for_each_spectrum(
+    const std::string& path,
+    const std::function<void(int, int, const std::vector<float>&, float)>& fn, int band = 64) {
     Imf::InputFile file(path.c_str());
     const auto& h = file.header();
     auto chans = spectral_channels(h);
@@ -143,8 +146,9 @@ inline void for_each_spectrum(const std::string& path,
         const size_t plane = static_cast<size_t>(w) * band;
         for (size_t k = 0; k <= chans.size(); ++k) {
             if (k == chans.size() && !has_a) break;
-            char* base = reinterpret_cast<char*>(buf.data() + k * plane) -
-                         (static_cast<ptrdiff_t>(y0) * w + dw.min.x) * static_cast<ptrdiff_t>(sizeof(float));
+            char* base =
+                reinterpret_cast<char*>(buf.data() + k * plane) -
+                (static_cast<ptrdiff_t>(y0) * w + dw.min.x) * static_cast<ptrdiff_t>(sizeof(float));
             fb.insert(k < chans.size() ? chans[k].second : "A",
                       Imf::Slice(Imf::FLOAT, base, sizeof(float), sizeof(float) * w));
         }
@@ -159,7 +163,9 @@ inline void for_each_spectrum(const std::string& path,
     }
 }
 
-inline double iec_srgb_to_linear(double v) { return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4); }
+inline double iec_srgb_to_linear(double v) {
+    return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4);
+}
 inline int iec_linear_to_code(double l) {
     double v = l <= 0.0031308 ? 12.92 * l : 1.055 * std::pow(l, 1 / 2.4) - 0.055;
     return static_cast<int>(std::lround(std::min(1.0, std::max(0.0, v)) * 255.0));

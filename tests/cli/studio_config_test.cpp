@@ -131,19 +131,21 @@ std::vector<std::string> lines_with(const std::string& err, const std::string& n
 TEST(StudioConfig, HeaderRecordsTheConfigAndHowTheSpaceWasChosen) {
     Studio s;
     write_tiff16(s.d / "albedo.tif");
-    RunResult r = run_spectex({"bake", s.d / "albedo.tif", "-o", s.d / "albedo.exr"}, {"OCIO=" + s.config});
+    RunResult r =
+        run_spectex({"bake", s.d / "albedo.tif", "-o", s.d / "albedo.exr"}, {"OCIO=" + s.config});
     ASSERT_EQ(r.status, 0) << r.err;
     ExrImage img = read_exr(s.d / "albedo.exr");
     EXPECT_EQ(img.attr("spectex:inputColorSpace"), "ACES2065-1");
     EXPECT_EQ(img.attr("spectex:inputColorSpaceFrom"), "config file rule 'Default'");
     EXPECT_EQ(img.attr("spectex:config"), s.config);
     EXPECT_EQ(img.attr("spectex:configFrom"), "$OCIO");
-    EXPECT_EQ(img.attr("spectex:configName"), "studio-test: A small ACES-style studio config for spectex's tests");
+    EXPECT_EQ(img.attr("spectex:configName"),
+              "studio-test: A small ACES-style studio config for spectex's tests");
     EXPECT_EQ(img.attr("spectex:configChecksum"), fnv1a64_file(s.config));
 
     // --config, and the shipped config, say so; --colorspace is how the space was chosen.
-    ASSERT_EQ(run_spectex({"bake", s.d / "albedo.tif", "-o", s.d / "given.exr", "--config", s.config, "--colorspace",
-                           "sRGB Encoded Rec.709 (sRGB)"})
+    ASSERT_EQ(run_spectex({"bake", s.d / "albedo.tif", "-o", s.d / "given.exr", "--config",
+                           s.config, "--colorspace", "sRGB Encoded Rec.709 (sRGB)"})
                   .status,
               0);
     ExrImage given = read_exr(s.d / "given.exr");
@@ -162,7 +164,10 @@ TEST(StudioConfig, HeaderRecordsTheConfigAndHowTheSpaceWasChosen) {
     EXPECT_EQ(shipped.attr("spectex:inputColorSpaceFrom"), "config file rule 'Default'");
 
     // $OCIO and --config of the same file give the same pixels: only provenance differs.
-    ASSERT_EQ(run_spectex({"bake", s.d / "albedo.tif", "-o", s.d / "flag.exr", "--config", s.config}).status, 0);
+    ASSERT_EQ(
+        run_spectex({"bake", s.d / "albedo.tif", "-o", s.d / "flag.exr", "--config", s.config})
+            .status,
+        0);
     ExrImage flag = read_exr(s.d / "flag.exr");
     ASSERT_EQ(flag.pixels.size(), img.pixels.size());
     for (const auto& [name, values] : img.pixels) EXPECT_EQ(flag.pixels.at(name), values) << name;
@@ -178,8 +183,8 @@ TEST(StudioConfig, DefaultRuleToSceneLinearWarnsOncePerBatch) {
     write_tiff16(s.d / "b.tif", 30000);
     write_tiff16(s.d / "c_lin.tif");
     write_float_exr(s.d / "d.exr");
-    RunResult r = run_spectex({"bake", s.d / "a.tif", s.d / "b.tif", s.d / "c_lin.tif", s.d / "d.exr", "--output-dir",
-                               s.d / "out", "--jobs", "2"},
+    RunResult r = run_spectex({"bake", s.d / "a.tif", s.d / "b.tif", s.d / "c_lin.tif",
+                               s.d / "d.exr", "--output-dir", s.d / "out", "--jobs", "2"},
                               {"OCIO=" + s.config});
     ASSERT_EQ(r.status, 0) << r.err;
     const auto warnings = lines_with(r.err, "warning:");
@@ -198,25 +203,30 @@ TEST(StudioConfig, DefaultRuleToSceneLinearWarnsOncePerBatch) {
     EXPECT_TRUE(has(w, "--colorspace 'sRGB Encoded Rec.709 (sRGB)'")) << w;
 
     // The summary: every file with its colour space and how it was chosen, one line per space and
-    // way, in input order (the float EXR says it is linear: OIIO's "Linear" is the scene_linear role).
+    // way, in input order (the float EXR says it is linear: OIIO's "Linear" is the scene_linear
+    // role).
     const auto spaces = lines_with(r.err, "colour space '");
     ASSERT_EQ(spaces.size(), 3u) << r.err;
-    EXPECT_TRUE(has(spaces[0], "colour space 'ACES2065-1' (config file rule 'Default'): " + s.d / "a.tif" + ", " +
-                                   s.d / "b.tif"))
+    EXPECT_TRUE(has(spaces[0], "colour space 'ACES2065-1' (config file rule 'Default'): " +
+                                   s.d / "a.tif" + ", " + s.d / "b.tif"))
         << spaces[0];
-    EXPECT_TRUE(has(spaces[1], "colour space 'ACES2065-1' (config file rule 'LinearTiffs'): " + s.d / "c_lin.tif"))
+    EXPECT_TRUE(has(spaces[1], "colour space 'ACES2065-1' (config file rule 'LinearTiffs'): " +
+                                   s.d / "c_lin.tif"))
         << spaces[1];
-    EXPECT_TRUE(has(spaces[2], "colour space 'ACES2065-1' (file metadata (Linear)): " + s.d / "d.exr")) << spaces[2];
+    EXPECT_TRUE(
+        has(spaces[2], "colour space 'ACES2065-1' (file metadata (Linear)): " + s.d / "d.exr"))
+        << spaces[2];
 
     // --colorspace: no warning; -q: no warning and no summary.
-    RunResult given = run_spectex({"bake", s.d / "a.tif", s.d / "b.tif", "--output-dir", s.d / "given",
-                                   "--colorspace", "sRGB Encoded Rec.709 (sRGB)"},
+    RunResult given = run_spectex({"bake", s.d / "a.tif", s.d / "b.tif", "--output-dir",
+                                   s.d / "given", "--colorspace", "sRGB Encoded Rec.709 (sRGB)"},
                                   {"OCIO=" + s.config});
     ASSERT_EQ(given.status, 0) << given.err;
     EXPECT_FALSE(has(given.err, "warning")) << given.err;
     EXPECT_EQ(count(given.err, "(--colorspace)"), 1u) << given.err;
-    RunResult quiet = run_spectex({"bake", s.d / "a.tif", s.d / "b.tif", "--output-dir", s.d / "quiet", "-q"},
-                                  {"OCIO=" + s.config});
+    RunResult quiet =
+        run_spectex({"bake", s.d / "a.tif", s.d / "b.tif", "--output-dir", s.d / "quiet", "-q"},
+                    {"OCIO=" + s.config});
     ASSERT_EQ(quiet.status, 0) << quiet.err;
     EXPECT_EQ(quiet.err, "");
 }
@@ -231,9 +241,11 @@ TEST(StudioConfig, OneFileAndTheCasesThatDoNotWarn) {
     RunResult one = run_spectex({"bake", s.d / "a.tif", "-o", s.d / "a.exr"}, {"OCIO=" + s.config});
     ASSERT_EQ(one.status, 0) << one.err;
     EXPECT_EQ(count(one.err, "warning:"), 1u) << one.err;
-    EXPECT_TRUE(has(one.err, "1 integer (display-referred) file was read as 'ACES2065-1'")) << one.err;
+    EXPECT_TRUE(has(one.err, "1 integer (display-referred) file was read as 'ACES2065-1'"))
+        << one.err;
     for (const char* f : {"c_lin.tif", "d.exr"}) {
-        RunResult r = run_spectex({"bake", s.d / f, "-o", s.d / (std::string(f) + ".exr")}, {"OCIO=" + s.config});
+        RunResult r = run_spectex({"bake", s.d / f, "-o", s.d / (std::string(f) + ".exr")},
+                                  {"OCIO=" + s.config});
         ASSERT_EQ(r.status, 0) << r.err;
         EXPECT_FALSE(has(r.err, "warning")) << f << ": " << r.err;
     }

@@ -18,12 +18,13 @@ TEST(Texture, FilteredLookupsEqualTheExpansionOfTheRgbLookup) {
     for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x)
             for (int c = 0; c < 3; ++c)
-                px[(static_cast<size_t>(y) * w + x) * 3 + c] =
-                    static_cast<uint8_t>(127.5 + 127.5 * std::sin(0.11 * x * (c + 1) + 0.07 * y * (3 - c)));
+                px[(static_cast<size_t>(y) * w + x) * 3 + c] = static_cast<uint8_t>(
+                    127.5 + 127.5 * std::sin(0.11 * x * (c + 1) + 0.07 * y * (3 - c)));
     write_image(d / "tex.png", w, h, 3, OIIO::TypeDesc::UINT8, px.data());
-    const std::string basis = std::string(SPECTEX_TEST_DATA_DIR) + "/spectral/basis_fit_smooth_380-780-5.csv";
-    auto r = run_spectex({"bake", d / "tex.png", "-o", d / "tex.exr", "--mipmap", "--tile", "32", "--preview", "--type",
-                          "float", "--basis", basis});
+    const std::string basis =
+        std::string(SPECTEX_TEST_DATA_DIR) + "/spectral/basis_fit_smooth_380-780-5.csv";
+    auto r = run_spectex({"bake", d / "tex.png", "-o", d / "tex.exr", "--mipmap", "--tile", "32",
+                          "--preview", "--type", "float", "--basis", basis});
     ASSERT_EQ(r.status, 0) << r.err;
     auto cols = read_columns(basis);
 
@@ -38,7 +39,8 @@ TEST(Texture, FilteredLookupsEqualTheExpansionOfTheRgbLookup) {
     ASSERT_EQ(gc, rc + 1);
     ASSERT_EQ(bc, rc + 2);
     const char* fmt = nullptr;
-    ASSERT_TRUE(ts->get_texture_info(file, 0, OIIO::ustring("textureformat"), OIIO::TypeDesc::STRING, &fmt));
+    ASSERT_TRUE(ts->get_texture_info(file, 0, OIIO::ustring("textureformat"),
+                                     OIIO::TypeDesc::STRING, &fmt));
     EXPECT_STREQ(fmt, "Plain Texture");
 
     OIIO::TextureOpt opt;
@@ -46,13 +48,14 @@ TEST(Texture, FilteredLookupsEqualTheExpansionOfTheRgbLookup) {
     opt.interpmode = OIIO::TextureOpt::InterpBilinear;
     int checked = 0;
     double worst = 0, spread = 0;
-    for (double footprint : {0.004, 0.013, 0.03, 0.07, 0.2}) {  // ~1 to ~40 texels: fractional levels 0..5
+    for (double footprint :
+         {0.004, 0.013, 0.03, 0.07, 0.2}) {  // ~1 to ~40 texels: fractional levels 0..5
         for (int i = 0; i < 7; ++i) {
             float s = 0.1f + 0.12f * i, t = 0.15f + 0.1f * i;
             float rgb[3];
             opt.firstchannel = rc;
-            ASSERT_TRUE(ts->texture(file, opt, s, t, static_cast<float>(footprint), 0, 0, static_cast<float>(footprint),
-                                    3, rgb));
+            ASSERT_TRUE(ts->texture(file, opt, s, t, static_cast<float>(footprint), 0, 0,
+                                    static_cast<float>(footprint), 3, rgb));
             for (size_t k = 0; k < cols[0].size(); ++k) {
                 std::string name = "T." + std::to_string(static_cast<int>(cols[0][k])) + "nm";
                 int ch = spec->channelindex(name);

@@ -4,8 +4,8 @@
 // process used (peak RSS, page faults: robust on a loaded machine, where times are not) and by
 // taking the module away (SPECTEX_MODULE_DIR naming an empty folder). tests/bench/bench_update_skip
 // measures the times.
-#include <gtest/gtest.h>
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <spawn.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
@@ -49,7 +49,8 @@ struct Usage {
 // Runs spectex with extra environment entries; its exit status, stderr and resource usage. The
 // usage is measured by /usr/bin/time, which forks the command from its own small process: a peak
 // RSS read by wait4 here would include this test's own (exec keeps the spawner's high-water mark).
-Usage run_measured(const std::vector<std::string>& args, const std::vector<std::string>& extra_env = {}) {
+Usage run_measured(const std::vector<std::string>& args,
+                   const std::vector<std::string>& extra_env = {}) {
     ScratchDir tmp;
     const std::string err = tmp / "err", usage = tmp / "usage";
     posix_spawn_file_actions_t fa;
@@ -75,11 +76,13 @@ Usage run_measured(const std::vector<std::string>& args, const std::vector<std::
     while (std::getline(in, line))
         if (!line.empty()) last = line;
     long kb = 0;
-    if (std::sscanf(last.c_str(), "%ld %ld", &kb, &u.minor_faults) == 2) u.max_rss_mb = static_cast<double>(kb) / 1024.0;
+    if (std::sscanf(last.c_str(), "%ld %ld", &kb, &u.minor_faults) == 2)
+        u.max_rss_mb = static_cast<double>(kb) / 1024.0;
     return u;
 }
 
-void copy_file(const std::string& from, const std::string& to, const struct timespec* mtime = nullptr) {
+void copy_file(const std::string& from, const std::string& to,
+               const struct timespec* mtime = nullptr) {
     const std::string bytes = read_file(from);
     FILE* f = std::fopen(to.c_str(), "wb");
     ASSERT_NE(f, nullptr) << to;
@@ -110,9 +113,10 @@ TEST(UpdateCost, StartingTheToolLoadsNoImageLibrary) {
     // OpenImageIO's ~260 libraries made this 132 MB and 12,600 page faults.
     EXPECT_LT(v.max_rss_mb, 40 * kCostScale) << "spectex --version";
     EXPECT_LT(v.minor_faults, 3000 * kCostScale) << "spectex --version";
-    for (const std::vector<std::string>& args :
-         {std::vector<std::string>{"info", d / "a.exr"}, {"basis", "-q", "-o", d / "b.csv"},
-          {"verify", d / "a.exr", "--report-only"}, {"sample", d / "a.exr", "1,1"}}) {
+    for (const std::vector<std::string>& args : {std::vector<std::string>{"info", d / "a.exr"},
+                                                 {"basis", "-q", "-o", d / "b.csv"},
+                                                 {"verify", d / "a.exr", "--report-only"},
+                                                 {"sample", d / "a.exr", "1,1"}}) {
         const Usage u = run_measured(args, {no_module});
         EXPECT_EQ(u.status, 0) << args[0] << ": " << u.err;
         EXPECT_LT(u.max_rss_mb, 60 * kCostScale) << args[0];
@@ -145,7 +149,8 @@ TEST(UpdateCost, AnUpToDateBatchReadsHeadersAndBuildsNothing) {
         std::fputs(list.c_str(), f);
         std::fclose(f);
     }
-    const std::vector<std::string> args = {"bake", "--from-list", d / "list.txt", "--output-dir", d / "out", "--update"};
+    const std::vector<std::string> args = {"bake",         "--from-list", d / "list.txt",
+                                           "--output-dir", d / "out",     "--update"};
     // Without the module: nothing needs it.
     const Usage u = run_measured(args, {"SPECTEX_MODULE_DIR=" + d.path()});
     ASSERT_EQ(u.status, 0) << u.err;
@@ -164,7 +169,8 @@ TEST(UpdateCost, AnUpToDateBatchReadsHeadersAndBuildsNothing) {
     }
     const Usage missing = run_measured(args, {"SPECTEX_MODULE_DIR=" + d.path()});
     EXPECT_EQ(missing.status, 1);
-    EXPECT_NE(missing.err.find("cannot load spectex's image module"), std::string::npos) << missing.err;
+    EXPECT_NE(missing.err.find("cannot load spectex's image module"), std::string::npos)
+        << missing.err;
     // ... and with it, bakes that one only.
     const Usage with = run_measured(args);
     EXPECT_EQ(with.status, 0) << with.err;
@@ -175,8 +181,9 @@ TEST(UpdateCost, AnUpToDateFileIsCheckedBeforeTheMethodIsBuilt) {
     ScratchDir d;
     write_png(d / "a.png");
     // A Jakob-Hanika table takes seconds to build: a skip must not build it.
-    const std::vector<std::string> bake = {"bake", d / "a.png", "-o", d / "a.exr", "--method", "jakob-hanika",
-                                           "--jh-resolution", "16", "-v"};
+    const std::vector<std::string> bake = {
+        "bake",         d / "a.png",       "-o", d / "a.exr", "--method",
+        "jakob-hanika", "--jh-resolution", "16", "-v"};
     const RunResult first = run_spectex(bake);
     ASSERT_EQ(first.status, 0) << first.err;
     EXPECT_NE(first.err.find("built in"), std::string::npos) << first.err;
@@ -187,8 +194,9 @@ TEST(UpdateCost, AnUpToDateFileIsCheckedBeforeTheMethodIsBuilt) {
     EXPECT_EQ(second.err.find("built in"), std::string::npos) << second.err;
     EXPECT_NE(second.err.find("up to date"), std::string::npos) << second.err;
     // Another setting of the method is another recipe: rebuilt.
-    std::vector<std::string> other = {"bake", d / "a.png", "-o", d / "a.exr", "--method", "jakob-hanika",
-                                      "--jh-resolution", "17", "--update", "--json", "-"};
+    std::vector<std::string> other = {
+        "bake", d / "a.png", "-o",     d / "a.exr", "--method", "jakob-hanika", "--jh-resolution",
+        "17",   "--update",  "--json", "-"};
     const RunResult third = run_spectex(other);
     ASSERT_EQ(third.status, 0) << third.err;
     EXPECT_NE(third.out.find("\"status\":\"ok\""), std::string::npos) << third.out;

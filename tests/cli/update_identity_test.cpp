@@ -2,8 +2,8 @@
 // spectex:sourceSize, spectex:sourceMtime and spectex:sourceHash (FNV-1a 64 of the source's bytes,
 // computed here independently). A source replaced by an older-dated file is rebuilt; a source
 // touched without a change is not.
-#include <gtest/gtest.h>
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <sys/stat.h>
 
 #include <cstdint>
@@ -31,7 +31,8 @@ std::string mtime_of(const std::string& path) {
     struct stat st;
     if (::stat(path.c_str(), &st) != 0) return "";
     char buf[48];
-    std::snprintf(buf, sizeof buf, "%lld.%09ld", static_cast<long long>(st.st_mtim.tv_sec), st.st_mtim.tv_nsec);
+    std::snprintf(buf, sizeof buf, "%lld.%09ld", static_cast<long long>(st.st_mtim.tv_sec),
+                  st.st_mtim.tv_nsec);
     return buf;
 }
 
@@ -42,7 +43,8 @@ void set_mtime(const std::string& path, time_t sec, long nsec = 0) {
 
 void write_png(const std::string& path, int seed, int w = 8, int h = 8) {
     std::vector<uint8_t> px(static_cast<size_t>(w * h * 3));
-    for (size_t i = 0; i < px.size(); ++i) px[i] = static_cast<uint8_t>((i * 37 + static_cast<size_t>(seed) * 11) & 255);
+    for (size_t i = 0; i < px.size(); ++i)
+        px[i] = static_cast<uint8_t>((i * 37 + static_cast<size_t>(seed) * 11) & 255);
     write_image(path, w, h, 3, OIIO::TypeDesc::UINT8, px.data());
 }
 
@@ -97,10 +99,12 @@ TEST(UpdateIdentity, ASourceReplacedByAnOlderDatedFileIsRebuilt) {
     write_png(d / "a.png", 1);
     ASSERT_EQ(run_spectex({"bake", d / "a.png", "-o", d / "a.exr"}).status, 0);
     const std::string before = read_exr(d / "a.exr").attr("spectex:sourceHash");
-    // A restore (or rsync -t, a checkout) puts other bytes in place with a date older than the output.
+    // A restore (or rsync -t, a checkout) puts other bytes in place with a date older than the
+    // output.
     write_png(d / "a.png", 2);
     set_mtime(d / "a.png", 946684800);  // 2000-01-01
-    const RunResult r = run_spectex({"bake", d / "a.png", "-o", d / "a.exr", "--update", "--json", "-"});
+    const RunResult r =
+        run_spectex({"bake", d / "a.png", "-o", d / "a.exr", "--update", "--json", "-"});
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_EQ(count(r.out, "\"status\":\"ok\""), 1u) << r.out;
     const ExrImage img = read_exr(d / "a.exr");
@@ -116,7 +120,8 @@ TEST(UpdateIdentity, AReplacementOfTheSameSizeAndAnOlderDateIsRebuilt) {
     write_ppm(d / "a.ppm", 2);
     ASSERT_EQ(read_file(d / "a.ppm").size(), 59u);
     set_mtime(d / "a.ppm", 946684800);
-    const RunResult r = run_spectex({"bake", d / "a.ppm", "-o", d / "a.exr", "--update", "--json", "-"});
+    const RunResult r =
+        run_spectex({"bake", d / "a.ppm", "-o", d / "a.exr", "--update", "--json", "-"});
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_EQ(count(r.out, "\"status\":\"ok\""), 1u) << r.out;
     EXPECT_EQ(read_exr(d / "a.exr").attr("spectex:sourceSize"), "59");
@@ -128,14 +133,20 @@ TEST(UpdateIdentity, ATouchedSourceWithTheSameBytesIsUpToDate) {
     write_png(d / "a.png", 1);
     write_png(d / "b.png", 2);
     ASSERT_EQ(run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out"}).status, 0);
-    RunResult r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update", "--json", "-"});
+    RunResult r = run_spectex(
+        {"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update", "--json", "-"});
     ASSERT_EQ(r.status, 0) << r.err;
-    EXPECT_EQ(count(r.out, "\"reason\":\"up to date: same settings hash, source size and modification time\""), 2u)
+    EXPECT_EQ(
+        count(r.out,
+              "\"reason\":\"up to date: same settings hash, source size and modification time\""),
+        2u)
         << r.out;
-    // A checkout rewrites a with the same bytes and a new date; older or newer, it stays up to date.
+    // A checkout rewrites a with the same bytes and a new date; older or newer, it stays up to
+    // date.
     set_mtime(d / "a.png", time(nullptr) + 100);
     set_mtime(d / "b.png", 946684800);
-    r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update", "--json", "-"});
+    r = run_spectex(
+        {"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update", "--json", "-"});
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_EQ(count(r.out, "\"status\":\"skipped\""), 2u) << r.out;
     EXPECT_EQ(count(r.out, "its modification time changed"), 2u) << r.out;
@@ -150,7 +161,8 @@ TEST(UpdateIdentity, AnOutputThatDoesNotRecordItsSourceIsRebuilt) {
     // length), so that the header no longer holds them.
     {
         std::string bytes = read_file(d / "a.exr");
-        for (const std::string key : {"spectex:sourceHash", "spectex:sourceSize", "spectex:sourceMtime"}) {
+        for (const std::string key :
+             {"spectex:sourceHash", "spectex:sourceSize", "spectex:sourceMtime"}) {
             const size_t at = bytes.find(key + std::string(1, '\0'));
             ASSERT_NE(at, std::string::npos) << key;
             bytes[at + key.size() - 1] = 'X';
@@ -161,7 +173,8 @@ TEST(UpdateIdentity, AnOutputThatDoesNotRecordItsSourceIsRebuilt) {
         std::fclose(f);
     }
     ASSERT_FALSE(read_exr(d / "a.exr").has_attr("spectex:sourceHash"));
-    const RunResult r = run_spectex({"bake", d / "a.png", "-o", d / "a.exr", "--update", "--json", "-"});
+    const RunResult r =
+        run_spectex({"bake", d / "a.png", "-o", d / "a.exr", "--update", "--json", "-"});
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_EQ(count(r.out, "\"status\":\"ok\""), 1u) << r.out;
     EXPECT_TRUE(read_exr(d / "a.exr").has_attr("spectex:sourceHash"));

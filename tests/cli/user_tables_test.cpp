@@ -36,12 +36,16 @@ void write_basis(const std::string& path, F f) {
 TEST(UserTables, BasisValuesOutsideZeroOneAreRefused) {
     ScratchDir d;
     write_png(d / "in.png");
-    const std::vector<std::pair<std::string, std::string>> bad = {
-        {"1e308", "1e308,0,0"}, {"-0.5", "-0.5,0.5,1"}, {"1.5", "1.5,0,0"}, {"1e-300 then 2", "2,0,0"}};
+    const std::vector<std::pair<std::string, std::string>> bad = {{"1e308", "1e308,0,0"},
+                                                                  {"-0.5", "-0.5,0.5,1"},
+                                                                  {"1.5", "1.5,0,0"},
+                                                                  {"1e-300 then 2", "2,0,0"}};
     for (const auto& [what, row_text] : bad) {
-        const std::string row = row_text;  // a lambda may not capture a structured binding in C++17 (clang refuses)
+        const std::string row =
+            row_text;  // a lambda may not capture a structured binding in C++17 (clang refuses)
         write_basis(d / "b.csv", [&](int) { return row; });
-        RunResult r = run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--basis", d / "b.csv"});
+        RunResult r =
+            run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--basis", d / "b.csv"});
         EXPECT_EQ(r.status, 2) << what << ": " << r.err;
         EXPECT_TRUE(contains(r.err, "b.csv")) << r.err;
         EXPECT_TRUE(contains(r.err, "[0, 1]")) << r.err;
@@ -69,15 +73,23 @@ TEST(UserTables, ABasisThatMissesThePrimariesIsReported) {
 TEST(UserTables, ObserverAndIlluminantValuesAreChecked) {
     ScratchDir d;
     write_png(d / "in.png");
-    auto write_table = [&](const std::string& path, const std::string& header, const std::string& row_at_550) {
+    auto write_table = [&](const std::string& path, const std::string& header,
+                           const std::string& row_at_550) {
         std::ofstream o(path);
         o << header << "\n";
-        for (int l = 360; l <= 830; l += 5) o << l << "," << (l == 550 ? row_at_550 : header.size() > 20 ? "0.5,0.5,0.5" : "100") << "\n";
+        for (int l = 360; l <= 830; l += 5)
+            o << l << ","
+              << (l == 550             ? row_at_550
+                  : header.size() > 20 ? "0.5,0.5,0.5"
+                                       : "100")
+              << "\n";
     };
     for (const std::string v : {"1e308", "-1", "inf"}) {
         write_table(d / "ill.csv", "wavelength,value", v);
-        RunResult r = run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--illuminant", d / "ill.csv"});
-        EXPECT_EQ(r.status, 2) << v << ": " << r.err;  // a setting of every file: checked once, exit 2
+        RunResult r =
+            run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--illuminant", d / "ill.csv"});
+        EXPECT_EQ(r.status, 2) << v << ": "
+                               << r.err;  // a setting of every file: checked once, exit 2
         EXPECT_TRUE(contains(r.err, "ill.csv")) << r.err;
         write_table(d / "obs.csv", "wavelength,x,y,z", v + ",0.5,0.5");
         r = run_spectex({"basis", "-o", d / "b.csv", "--observer", d / "obs.csv"});
@@ -93,11 +105,12 @@ TEST(UserTables, TheInfeasibleGridHintIsTrue) {
     // --allow-infeasible, and bake accepts it: the closest basis, with a warning giving the miss.
     ScratchDir d;
     write_png(d / "in.png");
-    RunResult r = run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--wavelengths", "380:780:40"});
+    RunResult r =
+        run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--wavelengths", "380:780:40"});
     EXPECT_EQ(r.status, 2) << r.err;
     ASSERT_TRUE(contains(r.err, "--allow-infeasible")) << r.err;
-    RunResult ok = run_spectex(
-        {"bake", d / "in.png", "-o", d / "o.exr", "--wavelengths", "380:780:40", "--allow-infeasible"});
+    RunResult ok = run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--wavelengths",
+                                "380:780:40", "--allow-infeasible"});
     EXPECT_EQ(ok.status, 0) << ok.err;
     EXPECT_TRUE(contains(ok.err, "warning: no exact basis")) << ok.err;
     EXPECT_TRUE(file_exists(d / "o.exr"));

@@ -1,13 +1,14 @@
 // spectex verify, right by default (issue 12, items 1-4): it checks a file under what the file
 // records (colour space, illuminant, observer, config, policies) without repeating options; its
-// default gates pass every correct bake and fail wrong, out-of-range and NaN files, naming the gate;
-// it takes many files, lists and JSON Lines like bake; other lights are reported, never gated.
+// default gates pass every correct bake and fail wrong, out-of-range and NaN files, naming the
+// gate; it takes many files, lists and JSON Lines like bake; other lights are reported, never
+// gated.
+#include <Imath/half.h>
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
 #include <ImfOutputFile.h>
 #include <ImfStringAttribute.h>
-#include <Imath/half.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -24,13 +25,15 @@ using namespace spectex_test;
 namespace {
 
 // 8-bit codes: random (fixed seed), with saturated primaries and black and white first.
-std::string make_png(const ScratchDir& d, const std::string& name, int w, int h, int bits = 8, unsigned seed = 3) {
+std::string make_png(const ScratchDir& d, const std::string& name, int w, int h, int bits = 8,
+                     unsigned seed = 3) {
     std::mt19937 rng(seed);
     const std::string path = d / name;
     if (bits == 8) {
         std::vector<uint8_t> px(static_cast<size_t>(w) * h * 3);
         for (auto& v : px) v = static_cast<uint8_t>(rng() & 0xff);
-        const uint8_t fixed[5][3] = {{255, 0, 0}, {0, 255, 0}, {0, 0, 255}, {0, 0, 0}, {255, 255, 255}};
+        const uint8_t fixed[5][3] = {
+            {255, 0, 0}, {0, 255, 0}, {0, 0, 255}, {0, 0, 0}, {255, 255, 255}};
         for (int i = 0; i < 5; ++i)
             for (int c = 0; c < 3; ++c) px[static_cast<size_t>(i) * 3 + c] = fixed[i][c];
         write_image(path, w, h, 3, OIIO::TypeDesc::UINT8, px.data());
@@ -44,7 +47,8 @@ std::string make_png(const ScratchDir& d, const std::string& name, int w, int h,
 
 // Copies an EXR (channels as float, written back in their own types), letting the caller change the
 // header (e.g. drop or set spectex:* attributes) and the spectral samples.
-void rewrite(const std::string& in, const std::string& out, const std::function<void(Imf::Header&)>& header,
+void rewrite(const std::string& in, const std::string& out,
+             const std::function<void(Imf::Header&)>& header,
              const std::function<void(const std::string&, std::vector<float>&)>& pixels = nullptr) {
     ExrImage img = read_exr(in);
     Imf::Header h = img.header;
@@ -70,14 +74,18 @@ void rewrite(const std::string& in, const std::string& out, const std::function<
 // A header without the spectex:* attributes, rebuilt rather than erased from (OpenEXR 3.1's
 // Header::erase leaks the attribute: the sanitizer build caught it).
 void drop_provenance(Imf::Header& h) {
-    Imf::Header clean(h.displayWindow(), h.dataWindow(), h.pixelAspectRatio(), h.screenWindowCenter(),
-                      h.screenWindowWidth(), h.lineOrder(), h.compression());
+    Imf::Header clean(h.displayWindow(), h.dataWindow(), h.pixelAspectRatio(),
+                      h.screenWindowCenter(), h.screenWindowWidth(), h.lineOrder(),
+                      h.compression());
     for (auto it = h.begin(); it != h.end(); ++it)
-        if (std::string(it.name()).rfind("spectex:", 0) != 0) clean.insert(it.name(), it.attribute());
+        if (std::string(it.name()).rfind("spectex:", 0) != 0)
+            clean.insert(it.name(), it.attribute());
     h = clean;
 }
 
-bool has(const std::string& text, const std::string& what) { return text.find(what) != std::string::npos; }
+bool has(const std::string& text, const std::string& what) {
+    return text.find(what) != std::string::npos;
+}
 
 }  // namespace
 
@@ -87,7 +95,8 @@ TEST(VerifyGates, UsesWhatTheFileRecords) {
     ScratchDir d;
     const std::string png = make_png(d, "in.png", 48, 32);
     const std::string p3 = d / "p3.exr", a = d / "a.exr";
-    ASSERT_EQ(run_spectex({"bake", png, "-o", p3, "--colorspace", "display_p3_tx", "-q"}).status, 0);
+    ASSERT_EQ(run_spectex({"bake", png, "-o", p3, "--colorspace", "display_p3_tx", "-q"}).status,
+              0);
     ASSERT_EQ(run_spectex({"bake", png, "-o", a, "--illuminant", "A", "-q"}).status, 0);
 
     RunResult v = run_spectex({"verify", p3, "--source", png});
@@ -102,8 +111,10 @@ TEST(VerifyGates, UsesWhatTheFileRecords) {
     // Overrides: the file is then checked as told, and fails, with one warning line naming both.
     RunResult wrong = run_spectex({"verify", p3, "--source", png, "--colorspace", "srgb_tx"});
     EXPECT_EQ(wrong.status, 1) << wrong.out << wrong.err;
-    EXPECT_TRUE(has(wrong.err, "spectex: warning: " + p3 + ": --colorspace 'srgb_tx'")) << wrong.err;
-    EXPECT_TRUE(has(wrong.err, "overrides the file's 'sRGB Encoded P3-D65 - Texture'")) << wrong.err;
+    EXPECT_TRUE(has(wrong.err, "spectex: warning: " + p3 + ": --colorspace 'srgb_tx'"))
+        << wrong.err;
+    EXPECT_TRUE(has(wrong.err, "overrides the file's 'sRGB Encoded P3-D65 - Texture'"))
+        << wrong.err;
     RunResult wa = run_spectex({"verify", a, "--source", png, "--check-illuminant", "D65"});
     EXPECT_EQ(wa.status, 1);
     EXPECT_TRUE(has(wa.err, "--check-illuminant 'D65' overrides the file's 'A'")) << wa.err;
@@ -143,13 +154,15 @@ TEST(VerifyGates, TheRecordedConfigIsUsedAndItsChangesAreSaid) {
     EXPECT_TRUE(has(gone.err, "is not there")) << gone.err;
 }
 
-// Item 2: the wrong-space file, the out-of-range file and the NaN file fail by default with the gate
-// named and by how much; --report-only measures without gating; a correct bake passes every gate.
+// Item 2: the wrong-space file, the out-of-range file and the NaN file fail by default with the
+// gate named and by how much; --report-only measures without gating; a correct bake passes every
+// gate.
 TEST(VerifyGates, DefaultGatesFailWrongFilesAndNameTheGate) {
     ScratchDir d;
     const std::string png = make_png(d, "in.png", 40, 30);
     const std::string p3 = d / "p3.exr", good = d / "good.exr";
-    ASSERT_EQ(run_spectex({"bake", png, "-o", p3, "--colorspace", "display_p3_tx", "-q"}).status, 0);
+    ASSERT_EQ(run_spectex({"bake", png, "-o", p3, "--colorspace", "display_p3_tx", "-q"}).status,
+              0);
     ASSERT_EQ(run_spectex({"bake", png, "-o", good, "-q"}).status, 0);
     RunResult g = run_spectex({"verify", good, "--source", png});
     ASSERT_EQ(g.status, 0) << g.out << g.err;
@@ -167,27 +180,33 @@ TEST(VerifyGates, DefaultGatesFailWrongFilesAndNameTheGate) {
 
     // 38 % of the samples above 1.
     const std::string over = d / "over.exr";
-    rewrite(good, over, [](Imf::Header&) {},
-            [](const std::string& name, std::vector<float>& v) {
-                if (name < "T.530nm") for (float& x : v) x = 1.5f;
-            });
+    rewrite(
+        good, over, [](Imf::Header&) {},
+        [](const std::string& name, std::vector<float>& v) {
+            if (name < "T.530nm")
+                for (float& x : v) x = 1.5f;
+        });
     RunResult o = run_spectex({"verify", over});
     EXPECT_EQ(o.status, 1);
     EXPECT_TRUE(has(o.err, "samples outside [0, 1] by more than 1e-6: ")) << o.err;
     EXPECT_TRUE(has(o.err, "gate none")) << o.err;
     // ... unless the file records --out-of-range keep.
     const std::string kept = d / "kept.exr";
-    rewrite(over, kept, [](Imf::Header& h) { h.insert("spectex:outOfRange", Imf::StringAttribute("keep")); });
+    rewrite(over, kept,
+            [](Imf::Header& h) { h.insert("spectex:outOfRange", Imf::StringAttribute("keep")); });
     EXPECT_EQ(run_spectex({"verify", kept}).status, 0);
 
     // Every sample NaN.
     const std::string nan = d / "nan.exr";
-    rewrite(good, nan, [](Imf::Header&) {}, [](const std::string&, std::vector<float>& v) {
-        for (float& x : v) x = std::nanf("");
-    });
+    rewrite(
+        good, nan, [](Imf::Header&) {},
+        [](const std::string&, std::vector<float>& v) {
+            for (float& x : v) x = std::nanf("");
+        });
     RunResult n = run_spectex({"verify", nan, "--source", png});
     EXPECT_EQ(n.status, 1);
-    EXPECT_TRUE(has(n.err, "non-finite samples: " + std::to_string(40 * 30 * 81) + " (100%)")) << n.err;
+    EXPECT_TRUE(has(n.err, "non-finite samples: " + std::to_string(40 * 30 * 81) + " (100%)"))
+        << n.err;
     RunResult r = run_spectex({"verify", nan, "--source", png, "--report-only"});
     EXPECT_EQ(r.status, 0) << r.err;
     EXPECT_TRUE(has(r.out, "gates:                none (--report-only)")) << r.out;
@@ -206,7 +225,8 @@ TEST(VerifyGates, SixteenBitSourcesGetABoundFromTheSampleType) {
     EXPECT_TRUE(has(rf.out, "re-encode to their 16-bit codes >= 100%: 100%")) << rf.out;
     RunResult rh = run_spectex({"verify", h, "--source", tif});
     EXPECT_EQ(rh.status, 0) << rh.out << rh.err;
-    EXPECT_TRUE(has(rh.out, "linear RGB error max (half cannot keep 16-bit codes) <= 0.0001")) << rh.out;
+    EXPECT_TRUE(has(rh.out, "linear RGB error max (half cannot keep 16-bit codes) <= 0.0001"))
+        << rh.out;
     EXPECT_FALSE(has(rh.out, "16-bit codes >= 100%")) << rh.out;
 }
 
@@ -230,7 +250,9 @@ TEST(VerifyGates, ManyFilesListsAndJsonLines) {
     const std::string a = d / "a.exr", b = d / "b.exr", bad = d / "bad.exr";
     ASSERT_EQ(run_spectex({"bake", png, "-o", a, "-q"}).status, 0);
     ASSERT_EQ(run_spectex({"bake", png, "-o", b, "--type", "float", "-q"}).status, 0);
-    rewrite(a, bad, [](Imf::Header&) {}, [](const std::string&, std::vector<float>& v) { v[0] = std::nanf(""); });
+    rewrite(
+        a, bad, [](Imf::Header&) {},
+        [](const std::string&, std::vector<float>& v) { v[0] = std::nanf(""); });
     const std::string list = d / "list.txt";
     std::ofstream(list) << b << "\n" << bad << "\n";
 
@@ -241,7 +263,8 @@ TEST(VerifyGates, ManyFilesListsAndJsonLines) {
     EXPECT_TRUE(has(ok.out, "2 files: 2 passed, 0 failed, 0 unreadable")) << ok.out;
 
     const std::string report = d / "report.jsonl";
-    RunResult mixed = run_spectex({"verify", a, "--from-list", list, d / "missing.exr", "--json", report});
+    RunResult mixed =
+        run_spectex({"verify", a, "--from-list", list, d / "missing.exr", "--json", report});
     EXPECT_EQ(mixed.status, 1);
     EXPECT_TRUE(has(mixed.out, bad + ": FAILED")) << mixed.out;
     EXPECT_TRUE(has(mixed.out, "4 files: 2 passed, 1 failed, 1 unreadable")) << mixed.out;
@@ -254,7 +277,8 @@ TEST(VerifyGates, ManyFilesListsAndJsonLines) {
     EXPECT_TRUE(has(rec[0], "\"file\":\"" + a + "\"") && has(rec[0], "\"passed\":true")) << rec[0];
     EXPECT_TRUE(has(rec[1], "\"error\":") && has(rec[1], "missing.exr")) << rec[1];
     EXPECT_TRUE(has(rec[2], "\"file\":\"" + b + "\"") && has(rec[2], "\"passed\":true")) << rec[2];
-    EXPECT_TRUE(has(rec[3], "\"file\":\"" + bad + "\"") && has(rec[3], "\"passed\":false")) << rec[3];
+    EXPECT_TRUE(has(rec[3], "\"file\":\"" + bad + "\"") && has(rec[3], "\"passed\":false"))
+        << rec[3];
     for (const auto& l : rec) EXPECT_TRUE(has(l, "\"schema_version\":2")) << l;
 
     RunResult j2 = run_spectex({"verify", a, "--from-list", list, "--json", "-", "--jobs", "2"});
@@ -293,13 +317,15 @@ TEST(VerifyGates, OtherLightsAreReportedNotGated) {
     std::getline(lines, l1);
     std::getline(lines, l2);
     for (const auto* l : {&l1, &l2}) {
-        EXPECT_TRUE(has(*l, "\"other_lights\":[{\"illuminant\":\"A\",\"adaptation\":\"bradford\"")) << *l;
+        EXPECT_TRUE(has(*l, "\"other_lights\":[{\"illuminant\":\"A\",\"adaptation\":\"bradford\""))
+            << *l;
         EXPECT_TRUE(has(*l, "{\"illuminant\":\"FL11\"")) << *l;
     }
     // The two methods give the same D65 colours but not the same colours under A.
     EXPECT_NE(l1.substr(l1.find("\"other_lights\"")), l2.substr(l2.find("\"other_lights\"")));
     // With a source: the other light never fails the file.
-    RunResult s = run_spectex({"verify", basis, "--source", png, "--illuminant", "A", "--max-de", "0.1"});
+    RunResult s =
+        run_spectex({"verify", basis, "--source", png, "--illuminant", "A", "--max-de", "0.1"});
     EXPECT_EQ(s.status, 0) << s.out << s.err;
     EXPECT_TRUE(has(s.out, "under A (Bradford to D65's white)")) << s.out;
     EXPECT_TRUE(has(s.out, "(reported, not gated)")) << s.out;

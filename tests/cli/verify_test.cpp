@@ -1,12 +1,12 @@
 // spectex verify, end to end: files baked by spectex, altered copies, files written here with
 // OpenEXR the way another tool would (comma channel names, float, tiled, premultiplied alpha, no
 // spectex attributes), non-spectral files, usage errors, and the peak memory of a 2K, 81-bin run.
+#include <Imath/half.h>
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
 #include <ImfOutputFile.h>
 #include <ImfTiledOutputFile.h>
-#include <Imath/half.h>
 #include <gtest/gtest.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -46,7 +46,8 @@ std::vector<uint8_t> random_codes(int w, int h, int nch, unsigned seed = 7) {
     for (int i = 0; i < 5 && i < w * h; ++i)
         for (int c = 0; c < 3; ++c) px[static_cast<size_t>(i) * nch + c] = fixed[i][c];
     if (nch == 4)
-        for (size_t i = 0; i < px.size(); i += 4) px[i + 3] = static_cast<uint8_t>(std::max(1, int(px[i + 3])));
+        for (size_t i = 0; i < px.size(); i += 4)
+            px[i + 3] = static_cast<uint8_t>(std::max(1, int(px[i + 3])));
     return px;
 }
 
@@ -58,7 +59,8 @@ std::string make_png(const ScratchDir& dir, const std::string& name, int w, int 
 }
 
 // Copies an EXR (all channels as float) with one channel scaled.
-void write_scaled_copy(const std::string& in, const std::string& out, const std::string& channel, float k) {
+void write_scaled_copy(const std::string& in, const std::string& out, const std::string& channel,
+                       float k) {
     ExrImage img = read_exr(in);
     ASSERT_TRUE(img.has(channel)) << channel;
     for (float& v : img.pixels[channel]) v *= k;
@@ -109,7 +111,8 @@ Measured run_measured(const std::vector<std::string>& args) {
     return m;
 }
 
-const std::string kFittedBasis = std::string(SPECTEX_TEST_DATA_DIR) + "/spectral/basis_fit_smooth_380-780-5.csv";
+const std::string kFittedBasis =
+    std::string(SPECTEX_TEST_DATA_DIR) + "/spectral/basis_fit_smooth_380-780-5.csv";
 
 }  // namespace
 
@@ -118,7 +121,8 @@ TEST(Verify, FloatBakeRoundTripsWithinHundredthOfDeltaE) {
     std::string png = make_png(d, "in.png", 61, 37);
     std::string exr = d / "out.exr";
     ASSERT_EQ(run_spectex({"bake", png, "-o", exr, "--type", "float", "-q"}).status, 0);
-    RunResult r = run_spectex({"verify", exr, "--source", png, "--json", "-", "--max-de", "0.01", "--min-code-match", "100"});
+    RunResult r = run_spectex({"verify", exr, "--source", png, "--json", "-", "--max-de", "0.01",
+                               "--min-code-match", "100"});
     ASSERT_EQ(r.status, 0) << r.out << r.err;
     EXPECT_EQ(json_number(r.out, "", "schema_version"), 2.0);
     EXPECT_EQ(json_number(r.out, "", "pixels"), 61.0 * 37.0);
@@ -151,7 +155,7 @@ TEST(Verify, HalfBakeFailsMaxDeZeroAndPassesAReasonableOne) {
     RunResult ok = run_spectex({"verify", exr, "--source", png, "--json", "-", "--max-de", "0.5"});
     ASSERT_EQ(ok.status, 0) << ok.out << ok.err;
     const double de_max = json_number(ok.out, "\"ciede2000\":{", "max");
-    EXPECT_GT(de_max, 0.0);   // half rounding is visible to a strict threshold
+    EXPECT_GT(de_max, 0.0);  // half rounding is visible to a strict threshold
     EXPECT_LT(de_max, 0.5);
     RunResult bad = run_spectex({"verify", exr, "--source", png, "--max-de", "0"});
     EXPECT_EQ(bad.status, 1) << bad.out << bad.err;
@@ -177,7 +181,8 @@ TEST(Verify, AlteredSpectraAreDetected) {
     RunResult gated = run_spectex({"verify", altered, "--source", png});
     EXPECT_EQ(gated.status, 1) << gated.out << gated.err;
     EXPECT_NE(gated.err.find("re-encode"), std::string::npos) << gated.err;
-    const double de_a = json_number(a.out, "\"ciede2000\":{", "max"), de_b = json_number(b.out, "\"ciede2000\":{", "max");
+    const double de_a = json_number(a.out, "\"ciede2000\":{", "max"),
+                 de_b = json_number(b.out, "\"ciede2000\":{", "max");
     EXPECT_GT(de_b, 0.1);
     EXPECT_GT(de_b, 100 * de_a);
     EXPECT_GT(json_number(b.out, "\"rgb_error\":{", "max"), 1e-3);
@@ -195,7 +200,8 @@ TEST(Verify, ForeignTiledFileWithPremultipliedAlpha) {
     const int w = 45, h = 33;
     auto codes = random_codes(w, h, 4, 11);
     std::string png = d / "src.png";
-    write_image(png, w, h, 4, OIIO::TypeDesc::UINT8, codes.data(), {{"oiio:UnassociatedAlpha", "1"}});
+    write_image(png, w, h, 4, OIIO::TypeDesc::UINT8, codes.data(),
+                {{"oiio:UnassociatedAlpha", "1"}});
     TestBasis basis = read_test_basis(kFittedBasis);
     ASSERT_EQ(basis.lambda.size(), 81u);
 
@@ -219,7 +225,8 @@ TEST(Verify, ForeignTiledFileWithPremultipliedAlpha) {
     std::vector<float> alpha(n);
     for (size_t i = 0; i < n; ++i) {
         double a = codes[4 * i + 3] / 255.0;
-        auto s = expected_spectrum(srgb_to_linear(codes[4 * i] / 255.0), srgb_to_linear(codes[4 * i + 1] / 255.0),
+        auto s = expected_spectrum(srgb_to_linear(codes[4 * i] / 255.0),
+                                   srgb_to_linear(codes[4 * i + 1] / 255.0),
                                    srgb_to_linear(codes[4 * i + 2] / 255.0), basis);
         for (size_t k = 0; k < s.size(); ++k) planes[k][i] = static_cast<float>(s[k] * a);
         alpha[i] = static_cast<float>(a);
@@ -234,7 +241,8 @@ TEST(Verify, ForeignTiledFileWithPremultipliedAlpha) {
         out.setFrameBuffer(fb);
         out.writeTiles(0, out.numXTiles() - 1, 0, out.numYTiles() - 1);
     }
-    RunResult r = run_spectex({"verify", exr, "--source", png, "--json", "-", "--max-de", "0.01", "--min-code-match", "100"});
+    RunResult r = run_spectex({"verify", exr, "--source", png, "--json", "-", "--max-de", "0.01",
+                               "--min-code-match", "100"});
     ASSERT_EQ(r.status, 0) << r.out << r.err;
     EXPECT_NE(r.out.find("\"alpha\":\"associated\""), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("\"storage\":\"tiled 16x16\""), std::string::npos) << r.out;
@@ -243,8 +251,10 @@ TEST(Verify, ForeignTiledFileWithPremultipliedAlpha) {
     // Band size does not matter: one thread, and a file read in many bands, give the same numbers.
     RunResult one = run_spectex({"verify", exr, "--source", png, "--json", "-", "--threads", "1"});
     ASSERT_EQ(one.status, 0);
-    EXPECT_EQ(json_number(one.out, "\"ciede2000\":{", "max"), json_number(r.out, "\"ciede2000\":{", "max"));
-    EXPECT_EQ(json_number(one.out, "\"ciede2000\":{", "mean"), json_number(r.out, "\"ciede2000\":{", "mean"));
+    EXPECT_EQ(json_number(one.out, "\"ciede2000\":{", "max"),
+              json_number(r.out, "\"ciede2000\":{", "max"));
+    EXPECT_EQ(json_number(one.out, "\"ciede2000\":{", "mean"),
+              json_number(r.out, "\"ciede2000\":{", "mean"));
 
     // Without a source: alpha is reported as associated (OpenEXR's convention, no spectex:alpha).
     RunResult nosrc = run_spectex({"verify", exr});
@@ -259,14 +269,17 @@ TEST(Verify, OtherIlluminantAndObserver) {
     ASSERT_EQ(run_spectex({"bake", png, "-o", exr, "--type", "float", "-q"}).status, 0);
     // Checked under A, the baked spectra are not exact metamers of the source colours any more: the
     // default gates fail, and a warning says the file was baked for D65.
-    RunResult a = run_spectex({"verify", exr, "--source", png, "--check-illuminant", "A", "--json", "-"});
+    RunResult a =
+        run_spectex({"verify", exr, "--source", png, "--check-illuminant", "A", "--json", "-"});
     ASSERT_EQ(a.status, 1) << a.err;
     EXPECT_NE(a.out.find("\"illuminant\":\"A\""), std::string::npos);
     EXPECT_GT(json_number(a.out, "\"ciede2000\":{", "max"), 0.1);
-    EXPECT_NE(a.err.find("warning: " + exr + ": --check-illuminant 'A' overrides the file's 'D65'"), std::string::npos)
+    EXPECT_NE(a.err.find("warning: " + exr + ": --check-illuminant 'A' overrides the file's 'D65'"),
+              std::string::npos)
         << a.err;
     // --illuminant A reports the colours under A next to D65, and gates nothing more.
-    RunResult rep = run_spectex({"verify", exr, "--source", png, "--illuminant", "A", "--json", "-"});
+    RunResult rep =
+        run_spectex({"verify", exr, "--source", png, "--illuminant", "A", "--json", "-"});
     ASSERT_EQ(rep.status, 0) << rep.err;
     EXPECT_NE(rep.out.find("\"illuminant\":\"D65\""), std::string::npos);
     EXPECT_GT(json_number(rep.out, "\"other_lights\":[{", "mean"), 0.1) << rep.out;
@@ -301,7 +314,8 @@ TEST(Verify, RejectsNonSpectralFilesMismatchedSourcesAndBadUsage) {
     EXPECT_NE(mm.err.find("8x16"), std::string::npos) << mm.err;
 
     EXPECT_EQ(run_spectex({"verify"}).status, 2);
-    EXPECT_EQ(run_spectex({"verify", exr, "--source", png, exr}).status, 2);  // --source compares one file
+    EXPECT_EQ(run_spectex({"verify", exr, "--source", png, exr}).status,
+              2);  // --source compares one file
     EXPECT_EQ(run_spectex({"verify", exr, "--max-de", "0.1"}).status, 2);  // needs --source
     EXPECT_EQ(run_spectex({"verify", exr, "--source", png, "--max-de", "abc"}).status, 2);
     EXPECT_EQ(run_spectex({"verify", exr, "--source", png, "--min-code-match", "101"}).status, 2);
@@ -327,17 +341,21 @@ TEST(VerifySlow, BoundedMemoryOnA2KFile) {
     ASSERT_EQ(run_spectex({"bake", png, "-o", exr, "-q"}).status, 0);
     Measured base = run_measured({"verify", small_exr, "--source", small, "--max-de", "0.5"});
     ASSERT_EQ(base.status, 0);
-    Measured m = run_measured({"verify", exr, "--source", png, "--max-de", "0.5", "--min-code-match", "99.99"});
+    Measured m = run_measured(
+        {"verify", exr, "--source", png, "--max-de", "0.5", "--min-code-match", "99.99"});
     EXPECT_EQ(m.status, 0);
     EXPECT_GT(m.max_rss_kib, 0);
     const long added = m.max_rss_kib - base.max_rss_kib;
     // Under AddressSanitizer allocations carry redzones and quarantine: allow 4x there.
     const long limit = std::getenv("ASAN_OPTIONS") ? 4 * 48 * 1024 : 48 * 1024;
-    EXPECT_LT(added, limit) << "peak RSS " << m.max_rss_kib << " KiB, baseline " << base.max_rss_kib << " KiB";
+    EXPECT_LT(added, limit) << "peak RSS " << m.max_rss_kib << " KiB, baseline " << base.max_rss_kib
+                            << " KiB";
     EXPECT_LT(m.max_rss_kib, base.max_rss_kib + 150 * 1024);
-    std::printf("verify 2048x2048x81 half with --source: %.2f s, peak RSS %.1f MiB (64x64 baseline %.1f MiB, "
-                "+%.1f MiB)\n",
-                m.seconds, m.max_rss_kib / 1024.0, base.max_rss_kib / 1024.0, added / 1024.0);
+    std::printf(
+        "verify 2048x2048x81 half with --source: %.2f s, peak RSS %.1f MiB (64x64 baseline %.1f "
+        "MiB, "
+        "+%.1f MiB)\n",
+        m.seconds, m.max_rss_kib / 1024.0, base.max_rss_kib / 1024.0, added / 1024.0);
 }
 
 // Out-of-range and non-finite samples are counted exactly (strictly and beyond 1e-6), and a pixel
@@ -378,7 +396,8 @@ TEST(Verify, CountsOutOfRangeAndNonFiniteSamples) {
     RunResult gated = run_spectex({"verify", exr});
     EXPECT_EQ(gated.status, 1) << gated.out << gated.err;
     EXPECT_NE(gated.err.find("non-finite samples: 1 "), std::string::npos) << gated.err;
-    EXPECT_NE(gated.err.find("samples outside [0, 1] by more than 1e-6: 2 "), std::string::npos) << gated.err;
+    EXPECT_NE(gated.err.find("samples outside [0, 1] by more than 1e-6: 2 "), std::string::npos)
+        << gated.err;
     EXPECT_EQ(json_number(r.out, "", "samples"), static_cast<double>(n * bins));
     EXPECT_EQ(json_number(r.out, "\"nonfinite\":{", "count"), 1.0);
     EXPECT_EQ(json_number(r.out, "\"outside_unit_interval\":{", "count"), 4.0);

@@ -20,7 +20,8 @@
 static std::string temp_path() {
     static std::string p = [] {
         const char* dir = std::getenv("TMPDIR");
-        return std::string(dir && *dir ? dir : "/tmp") + "/spectex-fuzz-exr-" + std::to_string(getpid()) + ".exr";
+        return std::string(dir && *dir ? dir : "/tmp") + "/spectex-fuzz-exr-" +
+               std::to_string(getpid()) + ".exr";
     }();
     return p;
 }

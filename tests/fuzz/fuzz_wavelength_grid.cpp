@@ -28,9 +28,10 @@ static void check_grid(const spectex::WavelengthGrid& g) {
     for (size_t i : idx) {
         double back = 0;
         const std::string name = spectex::reflective_channel_name(g.lambda[i]);
-        if (!spectex::parse_reflective_channel(name, &back)) std::abort();          // name not readable
-        if (std::fabs(back - g.lambda[i]) > 1e-5 * std::max(1.0, std::fabs(g.lambda[i]))) std::abort();
-        if (!(back > prev)) std::abort();                                           // two bins, one name
+        if (!spectex::parse_reflective_channel(name, &back)) std::abort();  // name not readable
+        if (std::fabs(back - g.lambda[i]) > 1e-5 * std::max(1.0, std::fabs(g.lambda[i])))
+            std::abort();
+        if (!(back > prev)) std::abort();  // two bins, one name
         prev = back;
     }
 }
@@ -49,7 +50,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         size_t pos = 0;
         while (pos <= text.size() && v.size() < 4096) {
             size_t nl = text.find('\n', pos);
-            std::string line = text.substr(pos, nl == std::string::npos ? std::string::npos : nl - pos);
+            std::string line =
+                text.substr(pos, nl == std::string::npos ? std::string::npos : nl - pos);
             char* end = nullptr;
             double x = std::strtod(line.c_str(), &end);
             if (end != line.c_str()) v.push_back(x);

@@ -16,8 +16,9 @@ namespace {
 
 const std::string kData = SPECTEX_TEST_DATA_DIR;
 
-FitResult fit(const std::string& grid, const std::string& objective = "smooth", const std::string& primaries = "srgb",
-              const std::string& observer = "cie1931-2", bool allow = false) {
+FitResult fit(const std::string& grid, const std::string& objective = "smooth",
+              const std::string& primaries = "srgb", const std::string& observer = "cie1931-2",
+              bool allow = false) {
     FitSpec s;
     s.data_dir = kData;
     s.grid = WavelengthGrid::parse(grid);
@@ -68,7 +69,8 @@ TEST(BasisFit, InfeasibleIsDetectedAndLeastSquaresIsFinite) {
         }
     // Rec.2020 green is far outside what [0,1] reflectances reach under D65: a visible residual.
     EXPECT_GT(std::max({f.certificate.colour_residual[0], f.certificate.colour_residual[1],
-                        f.certificate.colour_residual[2]}), 1e-3);
+                        f.certificate.colour_residual[2]}),
+              1e-3);
     EXPECT_THROW(fit("500:505:5"), Error);  // fewer than 3 bins
 }
 
@@ -78,25 +80,29 @@ TEST(BasisFit, DeterministicBytes) {
     s.grid = WavelengthGrid::parse("380:780:7");
     Observer o = load_observer(kData, "cie1931-2");
     Spectrum d65 = load_illuminant(kData, "D65");
-    FitRequest req{Colorimetry::make(o, d65, s.grid, primaries_by_name("srgb")), FitObjective::Smooth, false};
+    FitRequest req{Colorimetry::make(o, d65, s.grid, primaries_by_name("srgb")),
+                   FitObjective::Smooth, false};
     EXPECT_EQ(fit_basis(req).basis.checksum(), fit_basis(req).basis.checksum());
 }
 
 TEST(BasisFit, ShippedDefaultBasisEqualsAFreshFit) {
     // config/spectral/basis_fit_smooth_380-780-5.csv is regenerated with
     //   spectex basis -q -o config/spectral/basis_fit_smooth_380-780-5.csv
-    CsvTable t = read_csv_table(kData + "/spectral/basis_fit_smooth_380-780-5.csv", {"wavelength", "r", "g", "b"});
+    CsvTable t = read_csv_table(kData + "/spectral/basis_fit_smooth_380-780-5.csv",
+                                {"wavelength", "r", "g", "b"});
     Basis shipped{"shipped", t.data[0], t.data[1], t.data[2], t.data[3]};
     FitResult f = fit("380:780:5", "smooth");
-    EXPECT_EQ(shipped.checksum(), f.basis.checksum()) << "regenerate the shipped basis (see the comment above)";
+    EXPECT_EQ(shipped.checksum(), f.basis.checksum())
+        << "regenerate the shipped basis (see the comment above)";
 }
 
 TEST(BasisFit, PublishedBasisCertificate) {
     // The published table: colour residual ~3.5e-8 and sum-to-one only within 1e-5 (DESIGN.md).
     Basis b = load_basis(kData, "mallett2019");
     auto grid = WavelengthGrid::from_list(b.lambda);
-    auto c = certify_basis(b, Colorimetry::make(load_observer(kData, "cie1931-2"), load_illuminant(kData, "D65"), grid,
-                                                primaries_by_name("srgb")));
+    auto c = certify_basis(
+        b, Colorimetry::make(load_observer(kData, "cie1931-2"), load_illuminant(kData, "D65"), grid,
+                             primaries_by_name("srgb")));
     EXPECT_LT(c.colour_residual[0], 1e-7);
     EXPECT_GT(c.sum_violation, 1e-6);
     EXPECT_LT(c.sum_violation, 2e-5);

@@ -1,16 +1,17 @@
 // The bounded reader: regular files only, of bounded size, checked before reading; never blocks.
-#include <gtest/gtest.h>
+#include "spectral/bounded_read.h"
+
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <chrono>
 #include <cstdlib>
-#include <functional>
 #include <fstream>
+#include <functional>
 #include <string>
 
-#include "spectral/bounded_read.h"
 #include "spectral/csv_table.h"
 #include "spectral/error.h"
 #include "spectral/wavelength_grid.h"
@@ -44,7 +45,8 @@ TEST(BoundedRead, ReadsARegularFile) {
     TempDir d;
     std::ofstream(d / "a.txt") << "hello\n";
     EXPECT_EQ(read_file_bounded(d / "a.txt", 100, "a test file"), "hello\n");
-    EXPECT_EQ(read_file_bounded(d / "a.txt", 6, "a test file"), "hello\n");  // the limit is inclusive
+    EXPECT_EQ(read_file_bounded(d / "a.txt", 6, "a test file"),
+              "hello\n");  // the limit is inclusive
 }
 
 TEST(BoundedRead, RefusesWhatIsNotARegularFile) {
@@ -73,15 +75,18 @@ TEST(BoundedRead, RefusesFilesOverTheLimitFromTheirSize) {
     ASSERT_GE(fd, 0);
     ASSERT_EQ(::ftruncate(fd, off_t{5} << 30), 0);
     ::close(fd);
-    EXPECT_EQ(error_of([&] { read_file_bounded(d / "big", file_limits::kOcioConfig, "an OCIO config"); }),
-              d / "big" + ": 5 GiB is over the 64 MiB limit for an OCIO config");
+    EXPECT_EQ(
+        error_of([&] { read_file_bounded(d / "big", file_limits::kOcioConfig, "an OCIO config"); }),
+        d / "big" + ": 5 GiB is over the 64 MiB limit for an OCIO config");
 }
 
 TEST(BoundedRead, ProcFilesAreReadUpToTheLimit) {
     // Regular files that stat as 0 bytes: read in blocks, still bounded.
     std::string s = read_file_bounded("/proc/self/status", 1 << 20, "a test file");
     EXPECT_NE(s.find("Name:"), std::string::npos);
-    EXPECT_NE(error_of([&] { read_file_bounded("/proc/self/status", 10, "a test file"); }).find("grew past the 10 bytes"),
+    EXPECT_NE(error_of([&] {
+                  read_file_bounded("/proc/self/status", 10, "a test file");
+              }).find("grew past the 10 bytes"),
               std::string::npos);
 }
 

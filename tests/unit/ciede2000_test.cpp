@@ -1,8 +1,8 @@
 // CIEDE2000 against the supplementary test data of Sharma, Wu & Dalal (2005), Table 1: all 34
 // pairs, with the published differences to 4 decimals; and L*a*b* from XYZ against known values.
-#include <gtest/gtest.h>
-
 #include "spectral/ciede2000.h"
+
+#include <gtest/gtest.h>
 
 using spectex::Lab;
 

@@ -20,7 +20,8 @@ TEST(ShippedData, PublishedValues) {
     // CIE D65 is normalised to 100 at 560 nm.
     Spectrum d65 = load_illuminant(kData, "D65");
     EXPECT_DOUBLE_EQ(d65.sample(WavelengthGrid::from_list({560.0}))[0], 100.0);
-    // CIE 1964 10°: ybar10(555) = 0.9 (tabulated value at 1 nm: 0.9)... check its peak region instead.
+    // CIE 1964 10°: ybar10(555) = 0.9 (tabulated value at 1 nm: 0.9)... check its peak region
+    // instead.
     Observer o10 = load_observer(kData, "cie1964-10");
     EXPECT_NEAR(o10.y.sample(g)[0], 0.99, 0.02);
 }
@@ -35,7 +36,8 @@ TEST(Colorimetry, PerfectReflectorIsWhiteWithConsistentMatrix) {
         Eigen::Vector3d rgb = c.rgb_weights() * ones;
         // Exact up to double rounding of the 3x3 inverse.
         EXPECT_NEAR((rgb - Eigen::Vector3d::Ones()).cwiseAbs().maxCoeff(), 0.0, 1e-13) << spec;
-        // The nominal sRGB matrix misses by ~1e-4..1e-3 (DESIGN.md): report, and check it is not exact.
+        // The nominal sRGB matrix misses by ~1e-4..1e-3 (DESIGN.md): report, and check it is not
+        // exact.
         Eigen::Vector3d nominal = c.nominal_xyz_to_rgb * c.W * ones;
         EXPECT_GT((nominal - Eigen::Vector3d::Ones()).cwiseAbs().maxCoeff(), 1e-5) << spec;
         EXPECT_NEAR(c.white_xyz.y(), 1.0, 1e-14);
@@ -45,8 +47,8 @@ TEST(Colorimetry, PerfectReflectorIsWhiteWithConsistentMatrix) {
 TEST(Colorimetry, PublishedBasisReproducesPrimaries) {
     Basis b = load_basis(kData, "mallett2019");
     auto grid = WavelengthGrid::from_list(b.lambda);
-    auto c = Colorimetry::make(load_observer(kData, "cie1931-2"), load_illuminant(kData, "D65"), grid,
-                               primaries_by_name("srgb"));
+    auto c = Colorimetry::make(load_observer(kData, "cie1931-2"), load_illuminant(kData, "D65"),
+                               grid, primaries_by_name("srgb"));
     Eigen::Map<const Eigen::VectorXd> r(b.r.data(), b.r.size()), g(b.g.data(), b.g.size()),
         bb(b.b.data(), b.b.size());
     Eigen::Matrix3d M;
@@ -60,7 +62,9 @@ TEST(Colorimetry, PublishedBasisReproducesPrimaries) {
 TEST(Colorimetry, GridOutsideTableIsAnError) {
     Observer o = load_observer(kData, "cie1931-2");
     Spectrum d65 = load_illuminant(kData, "D65");
-    EXPECT_THROW(Colorimetry::make(o, d65, WavelengthGrid::parse("200:780:5"), primaries_by_name("srgb")), Error);
+    EXPECT_THROW(
+        Colorimetry::make(o, d65, WavelengthGrid::parse("200:780:5"), primaries_by_name("srgb")),
+        Error);
     EXPECT_THROW(primaries_by_name("nonsense"), Error);
     EXPECT_THROW(load_observer(kData, "cie2000"), Error);
 }

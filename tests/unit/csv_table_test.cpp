@@ -10,8 +10,9 @@
 using namespace spectex;
 
 TEST(CsvTable, ParsesCommentsHeaderAndRows) {
-    auto t = parse_csv_table("# source: test\n# second\nwavelength,r,g,b\n380,0.1,0.2,0.7\n385, 0.5 ,0.25,0.25\n",
-                             "mem", {"wavelength", "r", "g", "b"});
+    auto t = parse_csv_table(
+        "# source: test\n# second\nwavelength,r,g,b\n380,0.1,0.2,0.7\n385, 0.5 ,0.25,0.25\n", "mem",
+        {"wavelength", "r", "g", "b"});
     ASSERT_EQ(t.rows(), 2u);
     EXPECT_EQ(t.comments.size(), 2u);
     EXPECT_EQ(t.comments[0], "source: test");
@@ -51,7 +52,8 @@ TEST(CsvTable, BasisWriteReadIsExact) {
     Basis b{"t", {380, 382.5}, {0.1, 1.0 / 3.0}, {0.2, 2.0 / 3.0}, {0.7, 1e-17}};
     std::ostringstream out;
     write_basis_csv(out, b);
-    EXPECT_EQ(out.str().rfind("wavelength,r,g,b\n", 0), 0u) << "the header row comes first (generic CSV readers)";
+    EXPECT_EQ(out.str().rfind("wavelength,r,g,b\n", 0), 0u)
+        << "the header row comes first (generic CSV readers)";
     auto t = parse_csv_table(out.str(), "mem", {"wavelength", "r", "g", "b"});
     Basis back{"t", t.data[0], t.data[1], t.data[2], t.data[3]};
     EXPECT_EQ(back.checksum(), b.checksum());  // 17 significant digits round-trip doubles exactly
@@ -59,8 +61,9 @@ TEST(CsvTable, BasisWriteReadIsExact) {
 }
 
 TEST(CsvTable, BasisWithTheOlderCommentPreambleStillReads) {
-    const std::string old = "# spectral primary decomposition basis, fitted by spectex\n# checksum: fnv1a64:0\n"
-                            "wavelength,r,g,b\n380,0.1,0.2,0.7\n385,0.2,0.2,0.6\n";
+    const std::string old =
+        "# spectral primary decomposition basis, fitted by spectex\n# checksum: fnv1a64:0\n"
+        "wavelength,r,g,b\n380,0.1,0.2,0.7\n385,0.2,0.2,0.6\n";
     auto t = parse_csv_table(old, "old.csv", {"wavelength", "r", "g", "b"});
     EXPECT_EQ(t.rows(), 2u);
     EXPECT_EQ(t.comments.size(), 2u);

@@ -2,13 +2,13 @@
 
 #include <Imath/half.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <random>
 #include <string>
-#include <unistd.h>
 
 #include "spectral/colorimetry.h"
 #include "spectral/half.h"
@@ -26,13 +26,15 @@ constexpr float kRefColourTolerance = 1.0f / 16384.0f;
 constexpr int kRefMaxFlips = 16;
 
 uint16_t reference_other_side(uint16_t h, float v, float s) {
-    if (v > s && (h & 0x7fffu) != 0) return (h & 0x8000u) ? static_cast<uint16_t>(h + 1) : static_cast<uint16_t>(h - 1);
-    if (v < s && (h & 0x7fffu) < 0x7bffu) return (h & 0x8000u) ? static_cast<uint16_t>(h - 1) : static_cast<uint16_t>(h + 1);
+    if (v > s && (h & 0x7fffu) != 0)
+        return (h & 0x8000u) ? static_cast<uint16_t>(h + 1) : static_cast<uint16_t>(h - 1);
+    if (v < s && (h & 0x7fffu) < 0x7bffu)
+        return (h & 0x8000u) ? static_cast<uint16_t>(h - 1) : static_cast<uint16_t>(h + 1);
     return h;
 }
 
-void reference_feedback(const ExpansionMatrix& m, const float* r, const float* g, const float* b, size_t n,
-                        uint16_t* out, size_t plane_stride) {
+void reference_feedback(const ExpansionMatrix& m, const float* r, const float* g, const float* b,
+                        size_t n, uint16_t* out, size_t plane_stride) {
     float er[kRefBlock], eg[kRefBlock], eb[kRefBlock];
     for (size_t i0 = 0; i0 < n; i0 += kRefBlock) {
         const size_t len = std::min(kRefBlock, n - i0);
@@ -42,9 +44,11 @@ void reference_feedback(const ExpansionMatrix& m, const float* r, const float* g
         float tmp[kRefBlock], back[kRefBlock];
         for (int k = 0; k < m.bins; ++k) {
             const float cr = m.coeff[3 * k], cg = m.coeff[3 * k + 1], cb = m.coeff[3 * k + 2];
-            const float wr = m.rgb_weight[3 * k], wg = m.rgb_weight[3 * k + 1], wb = m.rgb_weight[3 * k + 2];
+            const float wr = m.rgb_weight[3 * k], wg = m.rgb_weight[3 * k + 1],
+                        wb = m.rgb_weight[3 * k + 2];
             uint16_t* dst = out + static_cast<size_t>(k) * plane_stride + i0;
-            for (size_t i = 0; i < len; ++i) tmp[i] = cr * r[i0 + i] + cg * g[i0 + i] + cb * b[i0 + i];
+            for (size_t i = 0; i < len; ++i)
+                tmp[i] = cr * r[i0 + i] + cg * g[i0 + i] + cb * b[i0 + i];
             floats_to_half(tmp, dst, len);
             half_to_floats(dst, back, len);
             for (size_t i = 0; i < len; ++i) {
@@ -57,7 +61,9 @@ void reference_feedback(const ExpansionMatrix& m, const float* r, const float* g
         for (size_t i = 0; i < len; ++i) {
             float e[3] = {er[i], eg[i], eb[i]};
             for (int flip = 0; flip < kRefMaxFlips; ++flip) {
-                if (std::max({std::fabs(e[0]), std::fabs(e[1]), std::fabs(e[2])}) <= kRefColourTolerance) break;
+                if (std::max({std::fabs(e[0]), std::fabs(e[1]), std::fabs(e[2])}) <=
+                    kRefColourTolerance)
+                    break;
                 const float e2 = e[0] * e[0] + e[1] * e[1] + e[2] * e[2];
                 int best = -1;
                 float best_e2 = e2, best_delta = 0;
@@ -70,7 +76,8 @@ void reference_feedback(const ExpansionMatrix& m, const float* r, const float* g
                     const uint16_t alt = reference_other_side(cur, v, s);
                     if (alt == cur) continue;
                     const float delta = half_to_float(alt) - v;
-                    const float x = e[0] + m.rgb_weight[3 * k] * delta, y = e[1] + m.rgb_weight[3 * k + 1] * delta,
+                    const float x = e[0] + m.rgb_weight[3 * k] * delta,
+                                y = e[1] + m.rgb_weight[3 * k + 1] * delta,
                                 z = e[2] + m.rgb_weight[3 * k + 2] * delta;
                     const float t = x * x + y * y + z * z;
                     if (t < best_e2) {
@@ -135,7 +142,8 @@ TEST(Expand, IsTheLinearCombination) {
             // float arithmetic on values <= 1: a few ulps of 1.0
             EXPECT_NEAR(out[k * n + i], want, 4e-7);
             // half: half an ulp of half (2^-11 relative) plus the float error
-            EXPECT_NEAR(half_to_float(hout[k * n + i]), want, std::ldexp(1.0, -11) * std::fabs(want) + 4e-7);
+            EXPECT_NEAR(half_to_float(hout[k * n + i]), want,
+                        std::ldexp(1.0, -11) * std::fabs(want) + 4e-7);
         }
     }
 }
@@ -160,7 +168,8 @@ TEST(Expand, ColourRoundingBoundsTheIntegratedErrorAndChangesFewSamples) {
     auto fb = plain;
     for (int k = 0; k < bins; ++k) {
         double t = k / (bins - 1.0);
-        fb.rgb_weight.insert(fb.rgb_weight.end(), {static_cast<float>(0.2 * t), static_cast<float>(0.2 * std::sin(3.1 * t)),
+        fb.rgb_weight.insert(fb.rgb_weight.end(), {static_cast<float>(0.2 * t),
+                                                   static_cast<float>(0.2 * std::sin(3.1 * t)),
                                                    static_cast<float>(0.2 * (1 - t))});
     }
     const size_t n = 4096;
@@ -176,8 +185,8 @@ TEST(Expand, ColourRoundingBoundsTheIntegratedErrorAndChangesFewSamples) {
     for (size_t i = 0; i < n; ++i) {
         double ep[3] = {0, 0, 0}, ef[3] = {0, 0, 0};
         for (int k = 0; k < bins; ++k) {
-            double exact = static_cast<double>(plain.coeff[3 * k]) * r[i] + plain.coeff[3 * k + 1] * g[i] +
-                           plain.coeff[3 * k + 2] * bl[i];
+            double exact = static_cast<double>(plain.coeff[3 * k]) * r[i] +
+                           plain.coeff[3 * k + 1] * g[i] + plain.coeff[3 * k + 2] * bl[i];
             uint16_t p = hp[k * n + i], f = hf[k * n + i];
             ASSERT_LE(std::abs(static_cast<int>(p) - static_cast<int>(f)), 1);
             changed += p != f;
@@ -196,15 +205,17 @@ TEST(Expand, ColourRoundingBoundsTheIntegratedErrorAndChangesFewSamples) {
         over_plain += mp > 1.0 / 16384 + 1e-7;
         over_fb += mf > 1.0 / 16384 + 1e-7;
     }
-    std::printf("plain: worst %.3g, %zu pixels over tolerance; colour: worst %.3g, %zu over; %zu samples changed\n",
-                worst_plain, over_plain, worst_fb, over_fb, changed);
-    EXPECT_GT(over_plain, n / 20);               // the case is hard enough to need fixing
+    std::printf(
+        "plain: worst %.3g, %zu pixels over tolerance; colour: worst %.3g, %zu over; %zu samples "
+        "changed\n",
+        worst_plain, over_plain, worst_fb, over_fb, changed);
+    EXPECT_GT(over_plain, n / 20);  // the case is hard enough to need fixing
     // The greedy flips minimise the Euclidean error with at most 16 flips, so a rare pixel may stay
     // a little over the max-norm tolerance; require a 20-fold reduction of such pixels and of the
     // worst error by half.
     EXPECT_LT(over_fb * 20, over_plain);
     EXPECT_LT(worst_fb, 0.5 * worst_plain);
-    EXPECT_LT(changed, bins * n / 20);           // under 5 % of the samples differ
+    EXPECT_LT(changed, bins * n / 20);  // under 5 % of the samples differ
 }
 
 TEST(Half, BlockConversionsMatchTheScalarCodeBitForBit) {
@@ -245,12 +256,14 @@ TEST(Expand, ColourRoundingMatchesTheReferenceBitForBit) {
     std::printf("colour rounding with F16C: %s\n", f16c ? "yes" : "no");
     if (const char* e = std::getenv("SPECTEX_NO_F16C"); e && *e) ASSERT_FALSE(f16c);
 
-    ExpansionMatrix real = ExpansionMatrix::from_basis(
-        load_basis(SPECTEX_TEST_DATA_DIR, std::string(SPECTEX_TEST_DATA_DIR) + "/spectral/basis_fit_smooth_380-780-5.csv"));
+    ExpansionMatrix real = ExpansionMatrix::from_basis(load_basis(
+        SPECTEX_TEST_DATA_DIR,
+        std::string(SPECTEX_TEST_DATA_DIR) + "/spectral/basis_fit_smooth_380-780-5.csv"));
     {
-        const Colorimetry c = Colorimetry::make(load_observer(SPECTEX_TEST_DATA_DIR, "cie1931-2"),
-                                                load_illuminant(SPECTEX_TEST_DATA_DIR, "D65"),
-                                                WavelengthGrid::uniform_grid(380, 780, 5), primaries_by_name("srgb"));
+        const Colorimetry c =
+            Colorimetry::make(load_observer(SPECTEX_TEST_DATA_DIR, "cie1931-2"),
+                              load_illuminant(SPECTEX_TEST_DATA_DIR, "D65"),
+                              WavelengthGrid::uniform_grid(380, 780, 5), primaries_by_name("srgb"));
         const Eigen::Matrix3Xd R = c.rgb_weights();
         ASSERT_EQ(R.cols(), real.bins);
         for (int k = 0; k < real.bins; ++k)
@@ -260,8 +273,10 @@ TEST(Expand, ColourRoundingMatchesTheReferenceBitForBit) {
     strong.bins = 40;
     for (int k = 0; k < strong.bins; ++k) {
         const float t = k / 39.0f;
-        strong.coeff.insert(strong.coeff.end(), {t * t, 1 - t * t - (1 - t) * (1 - t), (1 - t) * (1 - t)});
-        strong.rgb_weight.insert(strong.rgb_weight.end(), {0.2f * t, 0.2f * std::sin(3.1f * t), 0.2f * (1 - t)});
+        strong.coeff.insert(strong.coeff.end(),
+                            {t * t, 1 - t * t - (1 - t) * (1 - t), (1 - t) * (1 - t)});
+        strong.rgb_weight.insert(strong.rgb_weight.end(),
+                                 {0.2f * t, 0.2f * std::sin(3.1f * t), 0.2f * (1 - t)});
     }
 
     // Thirds: random 8-bit sRGB codes decoded to linear (as a bake of a texture), random floats in
@@ -275,41 +290,49 @@ TEST(Expand, ColourRoundingMatchesTheReferenceBitForBit) {
         const double v = c / 255.0;
         srgb[c] = static_cast<float>(v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4));
     }
-    const float edges[] = {0.0f, -0.0f, 1.0f, 1e-40f, 1e-30f, 0x1p-25f, 0x1p-24f, 0x1.8p-24f, 0x1p-14f,
-                           0x1.ff8p-15f, 2.0f, 100.0f, 65504.0f, 65520.0f, 1e6f, -0x1p-24f, -1e-3f, -0.5f};
+    const float edges[] = {0.0f,     -0.0f,      1.0f,     1e-40f,       1e-30f, 0x1p-25f,
+                           0x1p-24f, 0x1.8p-24f, 0x1p-14f, 0x1.ff8p-15f, 2.0f,   100.0f,
+                           65504.0f, 65520.0f,   1e6f,     -0x1p-24f,    -1e-3f, -0.5f};
     std::mt19937 rng(11);
-    std::uniform_int_distribution<int> code(0, 255), edge(0, sizeof edges / sizeof edges[0] - 1), coin(0, 1);
+    std::uniform_int_distribution<int> code(0, 255), edge(0, sizeof edges / sizeof edges[0] - 1),
+        coin(0, 1);
     std::uniform_real_distribution<float> u(0, 1);
     for (size_t i = 0; i < n; ++i) {
         float* px[3] = {&r[i], &g[i], &bl[i]};
         for (float* c : px) {
-            if (i < n / 3) *c = srgb[code(rng)];
-            else if (i < 2 * n / 3) *c = u(rng);
-            else *c = coin(rng) ? edges[edge(rng)] : u(rng);
+            if (i < n / 3)
+                *c = srgb[code(rng)];
+            else if (i < 2 * n / 3)
+                *c = u(rng);
+            else
+                *c = coin(rng) ? edges[edge(rng)] : u(rng);
         }
     }
-    auto check = [](const ExpansionMatrix& m, const std::vector<float>& r, const std::vector<float>& g,
-                    const std::vector<float>& b, size_t stride) {
+    auto check = [](const ExpansionMatrix& m, const std::vector<float>& r,
+                    const std::vector<float>& g, const std::vector<float>& b, size_t stride) {
         const size_t n = r.size(), size = stride * static_cast<size_t>(m.bins);
         std::vector<uint16_t> want(size, 0xdead), got(size, 0xdead);
         reference_feedback(m, r.data(), g.data(), b.data(), n, want.data(), stride);
         expand_to_half(m, r.data(), g.data(), b.data(), n, got.data(), stride);
         for (size_t j = 0; j < size; ++j)
-            ASSERT_EQ(got[j], want[j]) << m.bins << " bins, bin " << j / stride << ", pixel " << j % stride << " ("
-                                       << r[j % stride] << ", " << g[j % stride] << ", " << b[j % stride] << ")";
+            ASSERT_EQ(got[j], want[j])
+                << m.bins << " bins, bin " << j / stride << ", pixel " << j % stride << " ("
+                << r[j % stride] << ", " << g[j % stride] << ", " << b[j % stride] << ")";
     };
     check(real, r, g, bl, stride);
     check(strong, r, g, bl, stride);
 
     // Pixels whose error the bins next to zero could reduce most: bins 0-19 hold r (1 + 0.4 or 0.6
-    // half steps, a small weight), bins 20-39 the tiny g (a large weight). A negative g rounds to -0,
-    // which other_side() does not move further down, so only bins 0-19 flip; a positive one rounds to
-    // +0, which can move up.
+    // half steps, a small weight), bins 20-39 the tiny g (a large weight). A negative g rounds to
+    // -0, which other_side() does not move further down, so only bins 0-19 flip; a positive one
+    // rounds to +0, which can move up.
     ExpansionMatrix zero_edge;
     zero_edge.bins = 40;
     for (int k = 0; k < zero_edge.bins; ++k) {
-        zero_edge.coeff.insert(zero_edge.coeff.end(), {k < 20 ? 1.0f : 0.0f, k < 20 ? 0.0f : 1.0f, 0.0f});
-        zero_edge.rgb_weight.insert(zero_edge.rgb_weight.end(), {k < 20 ? 0.1f : -2000.0f, 0.0f, 0.0f});
+        zero_edge.coeff.insert(zero_edge.coeff.end(),
+                               {k < 20 ? 1.0f : 0.0f, k < 20 ? 0.0f : 1.0f, 0.0f});
+        zero_edge.rgb_weight.insert(zero_edge.rgb_weight.end(),
+                                    {k < 20 ? 0.1f : -2000.0f, 0.0f, 0.0f});
     }
     std::vector<float> zr, zg, zb;
     for (float step : {0.4f, 0.6f})
@@ -325,9 +348,10 @@ TEST(Expand, ColourRoundingMatchesTheReferenceBitForBit) {
         const ssize_t len = ::readlink("/proc/self/exe", self, sizeof self - 1);
         ASSERT_GT(len, 0);
         self[len] = 0;
-        const int st = std::system(("SPECTEX_NO_F16C=1 '" + std::string(self) +
-                                    "' --gtest_filter=Expand.ColourRoundingMatchesTheReferenceBitForBit")
-                                       .c_str());
+        const int st =
+            std::system(("SPECTEX_NO_F16C=1 '" + std::string(self) +
+                         "' --gtest_filter=Expand.ColourRoundingMatchesTheReferenceBitForBit")
+                            .c_str());
         EXPECT_EQ(st, 0) << "the scalar path (SPECTEX_NO_F16C=1) differs from the reference";
     }
 }

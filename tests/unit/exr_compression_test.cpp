@@ -1,6 +1,8 @@
 // The compression table (io/exr_compression.h) against OpenEXR itself (ids, chunk heights, which
 // compressions change samples), and the lists that cannot be generated from it (the README, the
 // man page) against the table.
+#include "io/exr_compression.h"
+
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
@@ -18,7 +20,6 @@
 #include <vector>
 
 #include "io/atomic_file.h"
-#include "io/exr_compression.h"
 #include "io/exr_core_writer.h"
 #include "io/spectral_exr_info.h"
 #include "io/spectral_exr_writer.h"
@@ -135,8 +136,9 @@ TEST(ExrCompression, IdsAreTheTableOrderAndNamesAreUnique) {
         ExrCompression::parse("zstd");
         FAIL() << "parse accepted an unknown name";
     } catch (const Error& e) {
-        EXPECT_EQ(std::string(e.what()), "unknown compression 'zstd' (known: none, rle, zips, zip, piz, "
-                                         "pxr24, b44, b44a, dwaa, dwab)");
+        EXPECT_EQ(std::string(e.what()),
+                  "unknown compression 'zstd' (known: none, rle, zips, zip, piz, "
+                  "pxr24, b44, b44a, dwaa, dwab)");
     }
 }
 

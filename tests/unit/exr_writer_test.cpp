@@ -38,7 +38,7 @@ struct Case {
 
 struct Data {
     int w, h, bins;
-    std::vector<uint16_t> half;   // bins planes of w*h
+    std::vector<uint16_t> half;  // bins planes of w*h
     std::vector<float> flt;
     std::vector<float> alpha, r, g, b;
 };
@@ -53,7 +53,8 @@ Data make_data(int w, int h, int bins, bool noise, unsigned seed) {
     for (int k = 0; k < bins; ++k)
         for (size_t i = 0; i < n; ++i) {
             // Smooth spectra (compressible) or random finite bits (not).
-            const float v = noise ? u(rng) : 0.5f + 0.4f * std::sin(0.05f * k + 0.001f * static_cast<float>(i));
+            const float v =
+                noise ? u(rng) : 0.5f + 0.4f * std::sin(0.05f * k + 0.001f * static_cast<float>(i));
             // Noise: every 16-bit pattern (NaNs too: the test compares bits, never values).
             uint16_t hb = noise ? static_cast<uint16_t>(rng() & 0xffff) : float_to_half(v);
             d.half[k * n + i] = hb;
@@ -99,8 +100,9 @@ SpectralExrLayout layout_for(const Data& d, const Case& c, const std::string& wr
 }
 
 // Writes d in strips of the given row counts (cycled).
-std::string write(const Data& d, const Case& c, const std::string& writer, int threads, const std::vector<int>& strips,
-                  std::string* used = nullptr, SpectralExrWriter::Timing* timing = nullptr) {
+std::string write(const Data& d, const Case& c, const std::string& writer, int threads,
+                  const std::vector<int>& strips, std::string* used = nullptr,
+                  SpectralExrWriter::Timing* timing = nullptr) {
     const std::string path = temp_name(writer + "-" + c.compression);
     AtomicFile file(path);
     SpectralExrWriter wr(file, layout_for(d, c, writer, threads));
@@ -115,13 +117,15 @@ std::string write(const Data& d, const Case& c, const std::string& writer, int t
         std::vector<char> planes(rows_n * d.bins * es);
         for (int k = 0; k < d.bins; ++k) {
             const char* src = c.type == SampleType::Half
-                                  ? reinterpret_cast<const char*>(d.half.data() + k * n + static_cast<size_t>(y) * d.w)
-                                  : reinterpret_cast<const char*>(d.flt.data() + k * n + static_cast<size_t>(y) * d.w);
+                                  ? reinterpret_cast<const char*>(d.half.data() + k * n +
+                                                                  static_cast<size_t>(y) * d.w)
+                                  : reinterpret_cast<const char*>(d.flt.data() + k * n +
+                                                                  static_cast<size_t>(y) * d.w);
             std::memcpy(planes.data() + k * rows_n * es, src, rows_n * es);
         }
         const size_t off = static_cast<size_t>(y) * d.w;
-        wr.write_rows(rows, planes.data(), rows_n, d.alpha.data() + off, d.r.data() + off, d.g.data() + off,
-                      d.b.data() + off);
+        wr.write_rows(rows, planes.data(), rows_n, d.alpha.data() + off, d.r.data() + off,
+                      d.g.data() + off, d.b.data() + off);
         y += rows;
     }
     wr.finish();
@@ -131,7 +135,8 @@ std::string write(const Data& d, const Case& c, const std::string& writer, int t
 }
 
 // Reads every channel's raw bits (half as uint16, float as uint32) with OpenEXR's C++ reader.
-std::map<std::string, std::vector<uint32_t>> read_bits(const std::string& path, Imf::Header* header = nullptr) {
+std::map<std::string, std::vector<uint32_t>> read_bits(const std::string& path,
+                                                       Imf::Header* header = nullptr) {
     Imf::InputFile in(path.c_str());
     if (header) *header = in.header();
     const Imath::Box2i dw = in.header().dataWindow();
@@ -142,7 +147,8 @@ std::map<std::string, std::vector<uint32_t>> read_bits(const std::string& path, 
         auto& v = out[it.name()];
         v.assign(static_cast<size_t>(w) * h, 0);
         // 4-byte cells; a half lands in the low two bytes (little-endian host).
-        char* base = reinterpret_cast<char*>(v.data()) - (static_cast<ptrdiff_t>(dw.min.y) * w + dw.min.x) * 4;
+        char* base = reinterpret_cast<char*>(v.data()) -
+                     (static_cast<ptrdiff_t>(dw.min.y) * w + dw.min.x) * 4;
         fb.insert(it.name(), Imf::Slice(it.channel().type, base, 4, 4 * static_cast<size_t>(w)));
     }
     in.setFrameBuffer(fb);
@@ -156,7 +162,8 @@ void expect_file_holds(const std::string& path, const Data& d, const Case& c) {
     EXPECT_EQ(header.dataWindow().min.x, -3);
     EXPECT_EQ(header.dataWindow().min.y, 5);
     EXPECT_EQ(header.displayWindow().max.x, d.w + 9);
-    EXPECT_EQ(header.compression(), static_cast<Imf::Compression>(ExrCompression::parse(c.compression).id));
+    EXPECT_EQ(header.compression(),
+              static_cast<Imf::Compression>(ExrCompression::parse(c.compression).id));
     const auto* v = header.findTypedAttribute<Imf::StringAttribute>("spectralLayoutVersion");
     ASSERT_NE(v, nullptr);
     EXPECT_EQ(v->value(), "1.0");
@@ -193,20 +200,23 @@ void expect_file_holds(const std::string& path, const Data& d, const Case& c) {
 
 TEST(ExrWriter, CoreAndImfWritersStoreTheSameSamples) {
     const std::vector<Case> cases = {
-        {"zip", SampleType::Half, false},  {"zip", SampleType::Half, true},  {"zip", SampleType::Float, false},
-        {"zips", SampleType::Half, false}, {"zips", SampleType::Float, true}, {"none", SampleType::Half, false},
+        {"zip", SampleType::Half, false},  {"zip", SampleType::Half, true},
+        {"zip", SampleType::Float, false}, {"zips", SampleType::Half, false},
+        {"zips", SampleType::Float, true}, {"none", SampleType::Half, false},
         {"none", SampleType::Float, true},
     };
     // 37 x 53: rows not a multiple of ZIP's 16; strips of 7, 1, 29 rows straddle chunks.
     for (const auto& c : cases) {
-        SCOPED_TRACE(c.compression + (c.type == SampleType::Half ? " half" : " float") + (c.noise ? " noise" : ""));
+        SCOPED_TRACE(c.compression + (c.type == SampleType::Half ? " half" : " float") +
+                     (c.noise ? " noise" : ""));
         const Data d = make_data(37, 53, 9, c.noise, 11);
         std::string used;
         SpectralExrWriter::Timing t;
         const std::string core = write(d, c, "core", 2, {7, 1, 29}, &used, &t);
         EXPECT_EQ(used, "core");
         // Random half bits do not deflate: those chunks must take the stored-raw path.
-        if (c.noise && c.type == SampleType::Half && c.compression != "none") EXPECT_GT(t.raw_chunks, 0);
+        if (c.noise && c.type == SampleType::Half && c.compression != "none")
+            EXPECT_GT(t.raw_chunks, 0);
         if (!c.noise) EXPECT_EQ(t.raw_chunks, 0);
         const std::string imf = write(d, c, "imf", 2, {16}, &used);
         EXPECT_EQ(used, "imf");
@@ -241,7 +251,8 @@ TEST(ExrWriter, CoreWriterCapsChunkBuffersWhateverTheBinCount) {
     const std::string p = write(d, c, "core", 2, {3}, nullptr, &t);
     EXPECT_LE(t.buffers, 3);
     EXPECT_GE(t.buffers, 1);
-    EXPECT_EQ(t.chunk_bytes, 16u * 256u * (401u * 2u + 3u * 2u + 4u));  // 401 + R,G,B half + A float
+    EXPECT_EQ(t.chunk_bytes,
+              16u * 256u * (401u * 2u + 3u * 2u + 4u));  // 401 + R,G,B half + A float
     expect_file_holds(p, d, c);
     unlink(p.c_str());
 }
@@ -260,8 +271,8 @@ namespace {
 
 // Writes a tiled (optionally MIP-mapped) file: level l holds make_data(level size, seed l), given
 // in tile rows; returns the path and each level's data.
-std::string write_tiled(const Case& c, const std::string& writer, int w, int h, int tw, int th, bool mip,
-                        std::vector<Data>& levels, std::string* used) {
+std::string write_tiled(const Case& c, const std::string& writer, int w, int h, int tw, int th,
+                        bool mip, std::vector<Data>& levels, std::string* used) {
     const std::string path = temp_name("tiled-" + writer + "-" + c.compression);
     AtomicFile file(path);
     Data shape = make_data(w, h, 5, false, 0);
@@ -283,12 +294,13 @@ std::string write_tiled(const Case& c, const std::string& writer, int w, int h, 
             const size_t rn = static_cast<size_t>(lw) * rows, off = static_cast<size_t>(y0) * lw;
             std::vector<char> planes(rn * d.bins * es);
             for (int k = 0; k < d.bins; ++k) {
-                const char* src = c.type == SampleType::Half ? reinterpret_cast<const char*>(d.half.data() + k * n + off)
-                                                             : reinterpret_cast<const char*>(d.flt.data() + k * n + off);
+                const char* src = c.type == SampleType::Half
+                                      ? reinterpret_cast<const char*>(d.half.data() + k * n + off)
+                                      : reinterpret_cast<const char*>(d.flt.data() + k * n + off);
                 std::memcpy(planes.data() + k * rn * es, src, rn * es);
             }
-            wr.write_level_rows(l, y0, rows, planes.data(), rn, d.alpha.data() + off, d.r.data() + off,
-                                d.g.data() + off, d.b.data() + off);
+            wr.write_level_rows(l, y0, rows, planes.data(), rn, d.alpha.data() + off,
+                                d.r.data() + off, d.g.data() + off, d.b.data() + off);
         }
     }
     wr.finish();
@@ -297,7 +309,8 @@ std::string write_tiled(const Case& c, const std::string& writer, int w, int h, 
 }
 
 // Every level's samples, as raw bits, read with OpenEXR's C++ tiled reader.
-std::vector<std::map<std::string, std::vector<uint32_t>>> read_tiled_bits(const std::string& path, Imf::Header* hdr) {
+std::vector<std::map<std::string, std::vector<uint32_t>>> read_tiled_bits(const std::string& path,
+                                                                          Imf::Header* hdr) {
     Imf::TiledInputFile in(path.c_str());
     *hdr = in.header();
     std::vector<std::map<std::string, std::vector<uint32_t>>> out;
@@ -309,8 +322,10 @@ std::vector<std::map<std::string, std::vector<uint32_t>>> read_tiled_bits(const 
         for (auto it = in.header().channels().begin(); it != in.header().channels().end(); ++it) {
             auto& v = m[it.name()];
             v.assign(static_cast<size_t>(w) * h, 0);
-            char* base = reinterpret_cast<char*>(v.data()) - (static_cast<ptrdiff_t>(dw.min.y) * w + dw.min.x) * 4;
-            fb.insert(it.name(), Imf::Slice(it.channel().type, base, 4, 4 * static_cast<size_t>(w)));
+            char* base = reinterpret_cast<char*>(v.data()) -
+                         (static_cast<ptrdiff_t>(dw.min.y) * w + dw.min.x) * 4;
+            fb.insert(it.name(),
+                      Imf::Slice(it.channel().type, base, 4, 4 * static_cast<size_t>(w)));
         }
         in.setFrameBuffer(fb);
         in.readTiles(0, in.numXTiles(l) - 1, 0, in.numYTiles(l) - 1, l);
@@ -323,8 +338,9 @@ std::vector<std::map<std::string, std::vector<uint32_t>>> read_tiled_bits(const 
 TEST(ExrWriter, TiledAndMipMappedFilesMatchTheCppWriterOnEveryLevel) {
     // 37 x 53 with 8 x 16 tiles: partial tiles at the right and bottom of every level; MIP levels
     // rounded down (37x53, 18x26, ..., 1x1). Both writers, read back level by level.
-    for (const Case& c : {Case{"zip", SampleType::Half, false}, Case{"zips", SampleType::Float, false},
-                          Case{"none", SampleType::Half, true}, Case{"zip", SampleType::Half, true}}) {
+    for (const Case& c :
+         {Case{"zip", SampleType::Half, false}, Case{"zips", SampleType::Float, false},
+          Case{"none", SampleType::Half, true}, Case{"zip", SampleType::Half, true}}) {
         for (bool mip : {false, true}) {
             SCOPED_TRACE(c.compression + (mip ? " mip" : " one level") + (c.noise ? " noise" : ""));
             std::vector<Data> lc, li;

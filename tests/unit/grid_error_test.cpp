@@ -45,7 +45,8 @@ TEST(GridError, LinearSpectrumIsReconstructedExactlyAndHeldPastTheEnds) {
     }
     for (auto rule : {Reconstruction::Linear, Reconstruction::Nearest, Reconstruction::Box}) {
         const Eigen::MatrixXd M = reconstruction_matrix(bins, range(380, 440), rule);
-        for (Eigen::Index f = 0; f < M.rows(); ++f) EXPECT_NEAR(M.row(f).sum(), 1.0, 1e-12) << to_string(rule);
+        for (Eigen::Index f = 0; f < M.rows(); ++f)
+            EXPECT_NEAR(M.row(f).sum(), 1.0, 1e-12) << to_string(rule);
     }
 }
 
@@ -56,9 +57,12 @@ TEST(GridError, StepSpectrumDiffersByRuleByComputableAmounts) {
     //   box:     edge at 415: 416..420 are 1 and 415's cell [414.5, 415.5] is half in -> 5.5
     const std::vector<double> bins = {400, 410, 420};
     const auto fine = range(400, 420);
-    const Eigen::VectorXd n = apply(reconstruction_matrix(bins, fine, Reconstruction::Nearest), {0, 0, 1});
-    const Eigen::VectorXd l = apply(reconstruction_matrix(bins, fine, Reconstruction::Linear), {0, 0, 1});
-    const Eigen::VectorXd b = apply(reconstruction_matrix(bins, fine, Reconstruction::Box), {0, 0, 1});
+    const Eigen::VectorXd n =
+        apply(reconstruction_matrix(bins, fine, Reconstruction::Nearest), {0, 0, 1});
+    const Eigen::VectorXd l =
+        apply(reconstruction_matrix(bins, fine, Reconstruction::Linear), {0, 0, 1});
+    const Eigen::VectorXd b =
+        apply(reconstruction_matrix(bins, fine, Reconstruction::Box), {0, 0, 1});
     EXPECT_DOUBLE_EQ(n.sum(), 5.0);
     EXPECT_DOUBLE_EQ(l.sum(), 5.5);
     EXPECT_DOUBLE_EQ(b.sum(), 5.5);
@@ -69,11 +73,12 @@ TEST(GridError, StepSpectrumDiffersByRuleByComputableAmounts) {
     EXPECT_DOUBLE_EQ(b(14), 0.0);
     EXPECT_DOUBLE_EQ(n(16), 1.0);
 
-    // The error definition by hand: flat light, flat observer over 400..420 (21 samples of 1 nm), so
-    // X = Y = Z = mean(s): neutral colours, a* = b* = 0, L* = 116 cbrt(Y) - 16, and ΔE00 between two
-    // neutrals is |ΔL*| / S_L with S_L = 1 + 0.015 (L̄ - 50)^2 / sqrt(20 + (L̄ - 50)^2).
+    // The error definition by hand: flat light, flat observer over 400..420 (21 samples of 1 nm),
+    // so X = Y = Z = mean(s): neutral colours, a* = b* = 0, L* = 116 cbrt(Y) - 16, and ΔE00 between
+    // two neutrals is |ΔL*| / S_L with S_L = 1 + 0.015 (L̄ - 50)^2 / sqrt(20 + (L̄ - 50)^2).
     const WavelengthGrid grid = renderer_grid(400, 420);
-    const LightWeights lw = light_weights(flat_observer(400, 420), Spectrum{"flat", {400, 420}, {1, 1}}, grid);
+    const LightWeights lw =
+        light_weights(flat_observer(400, 420), Spectrum{"flat", {400, 420}, {1, 1}}, grid);
     EXPECT_NEAR(lw.white(1), 1.0, 1e-12);
     EXPECT_NEAR(lw.W(1, 3), 1.0 / 21, 1e-15);
     Eigen::Matrix3Xd cand = lw.W * n, ref = lw.W * l;
@@ -87,11 +92,13 @@ TEST(GridError, StepSpectrumDiffersByRuleByComputableAmounts) {
 
 TEST(GridError, LightIsDarkWhereItsTableStopsAndObserverMustCover) {
     const Observer obs = flat_observer(400, 420);
-    const LightWeights lw = light_weights(obs, Spectrum{"short", {400, 410}, {1, 1}}, renderer_grid(400, 420));
+    const LightWeights lw =
+        light_weights(obs, Spectrum{"short", {400, 410}, {1, 1}}, renderer_grid(400, 420));
     EXPECT_DOUBLE_EQ(lw.dark_nm, 10.0);
     EXPECT_DOUBLE_EQ(lw.W(1, 15), 0.0);
     EXPECT_NEAR(lw.W(1, 5), 1.0 / 11, 1e-15);
-    EXPECT_THROW(light_weights(obs, Spectrum{"flat", {300, 900}, {1, 1}}, renderer_grid(390, 420)), Error);
+    EXPECT_THROW(light_weights(obs, Spectrum{"flat", {300, 900}, {1, 1}}, renderer_grid(390, 420)),
+                 Error);
     EXPECT_THROW(renderer_grid(400.5, 420), Error);
     EXPECT_THROW(parse_reconstruction("cubic"), Error);
 }
@@ -109,20 +116,24 @@ TEST(GridError, HistogramPercentiles) {
 }
 
 TEST(GridError, BasisColoursAreThreeByThreeMapsOfRgb) {
-    // A basis fitted on 380:780:10, reconstructed at 1 nm over 360:830 under A: the spectra expanded
-    // and integrated give the same XYZ as W_A·R_G·B_G·rgb, and the full cube against itself is 0.
+    // A basis fitted on 380:780:10, reconstructed at 1 nm over 360:830 under A: the spectra
+    // expanded and integrated give the same XYZ as W_A·R_G·B_G·rgb, and the full cube against
+    // itself is 0.
     const std::string dir = SPECTEX_TEST_DATA_DIR;
     const Observer obs = load_observer(dir, "cie1931-2");
     const WavelengthGrid g = WavelengthGrid::parse("380:780:10");
-    const Colorimetry c = Colorimetry::make(obs, load_illuminant(dir, "D65"), g, primaries_by_name("srgb"));
+    const Colorimetry c =
+        Colorimetry::make(obs, load_illuminant(dir, "D65"), g, primaries_by_name("srgb"));
     const Basis basis = fit_basis({c, FitObjective::Smooth, false}).basis;
     const BasisMethod m(basis, "test");
     const WavelengthGrid fine = renderer_grid(360, 830);
     const LightWeights a = light_weights(obs, load_illuminant(dir, "A"), fine);
     EXPECT_DOUBLE_EQ(a.dark_nm, 50.0);  // A's table stops at 780 nm
-    const Eigen::Matrix3Xd WR = a.W * reconstruction_matrix(g.lambda, fine.lambda, Reconstruction::Linear);
+    const Eigen::Matrix3Xd WR =
+        a.W * reconstruction_matrix(g.lambda, fine.lambda, Reconstruction::Linear);
     Eigen::MatrixXd B(static_cast<Eigen::Index>(basis.size()), 3);
-    for (size_t k = 0; k < basis.size(); ++k) B.row(static_cast<Eigen::Index>(k)) << basis.r[k], basis.g[k], basis.b[k];
+    for (size_t k = 0; k < basis.size(); ++k)
+        B.row(static_cast<Eigen::Index>(k)) << basis.r[k], basis.g[k], basis.b[k];
     const Eigen::Matrix3d M = WR * B;
     const auto codes = code_sample(51);
     std::vector<float> r, gg, b;

@@ -29,7 +29,8 @@ TEST(IlluminantTables, TheExpectedCieIlluminantsAreShipped) {
         "FL5",    "FL6",    "FL7",    "FL8",    "FL9",     "FL10",     "FL11",   "FL12",  "LED-B1",
         "LED-B2", "LED-B3", "LED-B4", "LED-B5", "LED-BH1", "LED-RGB1", "LED-V1", "LED-V2"};
     EXPECT_EQ(shipped_illuminants(), expected);
-    EXPECT_EQ(shipped_illuminants_list("D65").rfind("D65 (default), D50, D55, D75, A, FL1, FL2,", 0), 0u);
+    EXPECT_EQ(
+        shipped_illuminants_list("D65").rfind("D65 (default), D50, D55, D75, A, FL1, FL2,", 0), 0u);
     EXPECT_EQ(shipped_illuminants_list().find("(default)"), std::string::npos);
 }
 
@@ -84,18 +85,39 @@ TEST(IlluminantTables, PublishedCieValues) {
     };
     const Spot spots[] = {
         // D series and A are normalised to 100 at 560 nm.
-        {"D50", 560, 100.0},     {"D55", 560, 100.0},    {"D65", 560, 100.0},  {"D75", 560, 100.0},
-        {"A", 560, 100.0},       {"D50", 300, 0.019},    {"D50", 450, 87.247}, {"D50", 780, 78.274},
-        {"D55", 610, 95.14},     {"D75", 450, 133.01},   {"A", 300, 0.930483}, {"A", 780, 241.675},
+        {"D50", 560, 100.0},
+        {"D55", 560, 100.0},
+        {"D65", 560, 100.0},
+        {"D75", 560, 100.0},
+        {"A", 560, 100.0},
+        {"D50", 300, 0.019},
+        {"D50", 450, 87.247},
+        {"D50", 780, 78.274},
+        {"D55", 610, 95.14},
+        {"D75", 450, 133.01},
+        {"A", 300, 0.930483},
+        {"A", 780, 241.675},
         // F series (relative, not normalised).
-        {"FL1", 450, 11.35},     {"FL2", 380, 1.18},     {"FL2", 450, 6.63},   {"FL2", 560, 16.16},
-        {"FL2", 610, 13.8},      {"FL7", 555, 12.44},    {"FL12", 610, 68.53},
+        {"FL1", 450, 11.35},
+        {"FL2", 380, 1.18},
+        {"FL2", 450, 6.63},
+        {"FL2", 560, 16.16},
+        {"FL2", 610, 13.8},
+        {"FL7", 555, 12.44},
+        {"FL12", 610, 68.53},
         // LED series (relative, not normalised).
-        {"LED-B1", 380, 0.0},    {"LED-B1", 450, 7.89},  {"LED-B1", 560, 14.23}, {"LED-B1", 610, 20.97},
-        {"LED-B3", 450, 18.87},  {"LED-BH1", 610, 19.49}, {"LED-RGB1", 560, 8.6}, {"LED-V2", 780, 0.84},
+        {"LED-B1", 380, 0.0},
+        {"LED-B1", 450, 7.89},
+        {"LED-B1", 560, 14.23},
+        {"LED-B1", 610, 20.97},
+        {"LED-B3", 450, 18.87},
+        {"LED-BH1", 610, 19.49},
+        {"LED-RGB1", 560, 8.6},
+        {"LED-V2", 780, 0.84},
     };
     for (const auto& sp : spots)
-        EXPECT_DOUBLE_EQ(at(load_illuminant(kData, sp.name), sp.nm), sp.value) << sp.name << " at " << sp.nm;
+        EXPECT_DOUBLE_EQ(at(load_illuminant(kData, sp.name), sp.nm), sp.value)
+            << sp.name << " at " << sp.nm;
 }
 
 TEST(IlluminantTables, NamesAreCaseInsensitive) {
@@ -119,7 +141,8 @@ TEST(IlluminantTables, UnknownNameListsTheShippedOnes) {
             ADD_FAILURE() << bad << " loaded";
         } catch (const Error& e) {
             std::string m = e.what();
-            EXPECT_NE(m.find(std::string("unknown illuminant '") + bad + "'"), std::string::npos) << m;
+            EXPECT_NE(m.find(std::string("unknown illuminant '") + bad + "'"), std::string::npos)
+                << m;
             for (const auto& name : shipped_illuminants())
                 EXPECT_NE(m.find(name), std::string::npos) << name << " missing from: " << m;
             EXPECT_NE(m.find("or a CSV file"), std::string::npos) << m;
@@ -133,8 +156,8 @@ TEST(IlluminantTables, UnknownNameListsTheShippedOnes) {
 // so bake needs --allow-infeasible there (and the lattice fails the same way). Pinned here so that
 // a change of data or solver that moves this line is seen.
 TEST(IlluminantTables, ExactSrgbBasisOnTheDefaultGrid) {
-    const std::set<std::string> feasible = {"D65",  "D50",  "D55",     "D75",      "A",
-                                            "FL7",  "FL8",  "FL10",    "FL11",     "FL12",
+    const std::set<std::string> feasible = {"D65",     "D50",      "D55",    "D75",   "A",
+                                            "FL7",     "FL8",      "FL10",   "FL11",  "FL12",
                                             "LED-BH1", "LED-RGB1", "LED-V1", "LED-V2"};
     for (const auto& name : shipped_illuminants()) {
         FitSpec spec;

@@ -32,24 +32,26 @@ TEST(Utf8, SequenceLengthAcceptsWellFormedSequencesOnly) {
     };
     const std::vector<Case> cases = {
         {"a", 1},
-        {std::string(1, '\0'), 1},          // NUL is ASCII (JSON escapes it)
+        {std::string(1, '\0'), 1},  // NUL is ASCII (JSON escapes it)
         {"\x7f", 1},
-        {"\xc3\xa9", 2},                    // é
-        {"\xe2\x82\xac", 3},                // €
-        {"\xf0\x9f\x98\x80", 4},            // U+1F600
-        {"\xf4\x8f\xbf\xbf", 4},            // U+10FFFF, the last code point
-        {"\xe9", 0},                        // Latin-1 é: a lead byte without its continuation
-        {"\xe9t", 0},                       // ... followed by ASCII
-        {"\x80", 0},                        // a stray continuation byte
-        {"\xff", 0}, {"\xfe", 0},           // never in UTF-8
-        {"\xc0\xaf", 0},                    // overlong '/'
-        {"\xe0\x80\xaf", 0},                // overlong '/' in three bytes
-        {"\xed\xa0\x80", 0},                // U+D800, a UTF-16 surrogate
-        {"\xed\xbf\xbf", 0},                // U+DFFF
-        {"\xf4\x90\x80\x80", 0},            // U+110000, beyond Unicode
-        {"\xe2\x82", 0},                    // truncated
+        {"\xc3\xa9", 2},          // é
+        {"\xe2\x82\xac", 3},      // €
+        {"\xf0\x9f\x98\x80", 4},  // U+1F600
+        {"\xf4\x8f\xbf\xbf", 4},  // U+10FFFF, the last code point
+        {"\xe9", 0},              // Latin-1 é: a lead byte without its continuation
+        {"\xe9t", 0},             // ... followed by ASCII
+        {"\x80", 0},              // a stray continuation byte
+        {"\xff", 0},
+        {"\xfe", 0},              // never in UTF-8
+        {"\xc0\xaf", 0},          // overlong '/'
+        {"\xe0\x80\xaf", 0},      // overlong '/' in three bytes
+        {"\xed\xa0\x80", 0},      // U+D800, a UTF-16 surrogate
+        {"\xed\xbf\xbf", 0},      // U+DFFF
+        {"\xf4\x90\x80\x80", 0},  // U+110000, beyond Unicode
+        {"\xe2\x82", 0},          // truncated
     };
-    for (const auto& c : cases) EXPECT_EQ(utf8_sequence_length(c.bytes, 0), c.length) << bytes_hex(c.bytes);
+    for (const auto& c : cases)
+        EXPECT_EQ(utf8_sequence_length(c.bytes, 0), c.length) << bytes_hex(c.bytes);
     uint32_t cp = 0;
     ASSERT_EQ(utf8_sequence_length("x\xe2\x82\xac", 1, &cp), 3u);
     EXPECT_EQ(cp, 0x20acu);
@@ -63,7 +65,7 @@ TEST(JsonText, ReplacementIsOneU_FFFDPerByteThatIsNotUtf8) {
     EXPECT_EQ(utf8_with_replacements("caf\xc3\xa9"), "caf\xc3\xa9");  // valid: unchanged
     EXPECT_EQ(utf8_with_replacements("caf\xe9.png"), "caf" + fffd + ".png");
     EXPECT_EQ(utf8_with_replacements("\xed\xa0\x80"), fffd + fffd + fffd);  // a surrogate: 3 bytes
-    EXPECT_EQ(utf8_with_replacements("\xe2\x82x"), fffd + fffd + "x");       // truncated: 2 bytes
+    EXPECT_EQ(utf8_with_replacements("\xe2\x82x"), fffd + fffd + "x");      // truncated: 2 bytes
     EXPECT_TRUE(is_valid_utf8(utf8_with_replacements("\xff\xfe\x80\xc0\xaf")));
 }
 
@@ -128,7 +130,8 @@ TEST(JsonText, LinesAreCompactValidJsonWhateverTheBytes) {
     put_text(j, "name", "a\"b\\c\n\t\x1b[2J\x7f");
     j["stray"] = "raw \xff";  // not through put_text: still valid JSON, as U+FFFD
     const std::string line = json_line(j);
-    EXPECT_EQ(line.rfind("{\"schema_version\":1,\"name\":\"a\\\"b\\\\c\\n\\t\\u001b[2J", 0), 0u) << line;
+    EXPECT_EQ(line.rfind("{\"schema_version\":1,\"name\":\"a\\\"b\\\\c\\n\\t\\u001b[2J", 0), 0u)
+        << line;
     const Json back = parse_line(line);
     EXPECT_EQ(back["name"], "a\"b\\c\n\t\x1b[2J\x7f");
     EXPECT_EQ(back["stray"], "raw \xef\xbf\xbd");
@@ -161,6 +164,7 @@ TEST(JsonText, BakeRecordsOfNamesThatAreNotUtf8ParseAndGiveTheBytesBack) {
     const std::string line = json_record(r);
     EXPECT_EQ(line.find("_bytes_hex"), std::string::npos) << line;
     EXPECT_NE(line.find("\"error\":null,\"seconds\":1.5,\"pixels\":0,"), std::string::npos) << line;
-    EXPECT_NE(line.find("\"stages\":{\"writer\":\"core\",\"read_s\":0.25,\"colour_s\":0.0,"), std::string::npos)
+    EXPECT_NE(line.find("\"stages\":{\"writer\":\"core\",\"read_s\":0.25,\"colour_s\":0.0,"),
+              std::string::npos)
         << line;
 }

@@ -18,8 +18,10 @@ TEST(LibraryMessages, WarningsAreShownOncePrefixedOnOneLine) {
     EXPECT_EQ(f.pass("libpng warning: iCCP: known incorrect sRGB profile\n"), "");
     EXPECT_EQ(f.pass("libpng warning: iCCP: known incorrect sRGB profile\r\n"), "");
     // Another warning is.
-    EXPECT_EQ(f.pass("TIFFReadDirectory: Warning, Unknown field with tag 50341 (0xc4a5) encountered.\n"),
-              "spectex: library: TIFFReadDirectory: Warning, Unknown field with tag 50341 (0xc4a5) encountered.\n");
+    EXPECT_EQ(
+        f.pass("TIFFReadDirectory: Warning, Unknown field with tag 50341 (0xc4a5) encountered.\n"),
+        "spectex: library: TIFFReadDirectory: Warning, Unknown field with tag 50341 (0xc4a5) "
+        "encountered.\n");
     EXPECT_EQ(f.pass("[OpenColorIO Warning]: Invalid $OCIO_LOGGING_LEVEL specified.\n"),
               "spectex: library: [OpenColorIO Warning]: Invalid $OCIO_LOGGING_LEVEL specified.\n");
 }
@@ -41,15 +43,19 @@ TEST(LibraryMessages, ErrorsAndChatterAreLeftOutByDefault) {
 
 TEST(LibraryMessages, ControlBytesAndLongLinesAreMadeSafe) {
     LibraryLineFilter f(LibraryMessages::warnings);
-    EXPECT_EQ(f.pass("Warning: tag \x1b[2J\xff seen\n"), "spectex: library: Warning: tag \\x1b[2J\\xff seen\n");
+    EXPECT_EQ(f.pass("Warning: tag \x1b[2J\xff seen\n"),
+              "spectex: library: Warning: tag \\x1b[2J\\xff seen\n");
     const std::string out = f.pass("Warning: " + std::string(5000, 'x') + "\n");
-    EXPECT_EQ(out.size(), std::string("spectex: library: ").size() + LibraryLineFilter::kMaxLine + 6 + 1) << out.size();
+    EXPECT_EQ(out.size(),
+              std::string("spectex: library: ").size() + LibraryLineFilter::kMaxLine + 6 + 1)
+        << out.size();
     EXPECT_EQ(out.substr(out.size() - 7), " [...]\n");
 }
 
 TEST(LibraryMessages, AllShowsEverythingAndNoneNothing) {
     LibraryLineFilter all(LibraryMessages::all), none(LibraryMessages::none);
-    for (const char* l : {"libpng error: IHDR: CRC error\n", "[OpenColorIO Debug]: x\n", "Warning: w\n"}) {
+    for (const char* l :
+         {"libpng error: IHDR: CRC error\n", "[OpenColorIO Debug]: x\n", "Warning: w\n"}) {
         EXPECT_NE(all.pass(l), "") << l;
         EXPECT_EQ(none.pass(l), "") << l;
     }
@@ -63,6 +69,7 @@ TEST(LibraryMessages, TheDistinctLinesRememberedAreBounded) {
     LibraryLineFilter f(LibraryMessages::warnings);
     for (size_t i = 0; i < LibraryLineFilter::kMaxRemembered + 10; ++i)
         ASSERT_NE(f.pass("Warning: " + std::to_string(i) + "\n"), "") << i;
-    EXPECT_EQ(f.pass("Warning: 0\n"), "");                                   // remembered
-    EXPECT_NE(f.pass("Warning: " + std::to_string(LibraryLineFilter::kMaxRemembered + 5) + "\n"), "");  // not
+    EXPECT_EQ(f.pass("Warning: 0\n"), "");  // remembered
+    EXPECT_NE(f.pass("Warning: " + std::to_string(LibraryLineFilter::kMaxRemembered + 5) + "\n"),
+              "");  // not
 }

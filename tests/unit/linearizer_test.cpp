@@ -1,6 +1,7 @@
 #include "io/linearizer.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -8,7 +9,6 @@
 #include <fstream>
 #include <random>
 #include <vector>
-#include <unistd.h>
 
 #include "spectral/error.h"
 
@@ -19,10 +19,12 @@ namespace {
 const std::string kData = SPECTEX_TEST_DATA_DIR;
 
 // IEC 61966-2-1 sRGB decoding, written out here so the test shares nothing with the config.
-double iec_srgb_to_linear(double v) { return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4); }
+double iec_srgb_to_linear(double v) {
+    return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4);
+}
 
-Linearizer make(const std::string& cs, const std::string& config = "", const std::string& file = "x.png",
-                const std::string& hint = "") {
+Linearizer make(const std::string& cs, const std::string& config = "",
+                const std::string& file = "x.png", const std::string& hint = "") {
     return Linearizer::make(ColourRequest{kData, config, cs, file, hint});
 }
 
@@ -48,7 +50,8 @@ TEST(Linearizer, ShippedSrgbMatchesIecFormulaOnAll8BitCodes) {
     for (int c = 0; c < 256; ++c) codes.push_back(static_cast<float>(c / 255.0));
     auto lin_values = linearize(lin, codes);
     double worst = 0;
-    for (int c = 0; c < 256; ++c) worst = std::max(worst, std::fabs(lin_values[c] - iec_srgb_to_linear(c / 255.0)));
+    for (int c = 0; c < 256; ++c)
+        worst = std::max(worst, std::fabs(lin_values[c] - iec_srgb_to_linear(c / 255.0)));
     // OCIO 2.1's ExponentWithLinear uses toe slope 12.923 (not 12.92): up to 7.6e-7 absolute at
     // code 10, plus float rounding of ~6e-8. 1e-6 absolute bounds both.
     EXPECT_LT(worst, 1e-6);
@@ -58,9 +61,11 @@ TEST(Linearizer, ShippedSrgbMatchesIecFormulaOnAll8BitCodes) {
 TEST(Linearizer, ShippedSrgbMatchesIecFormulaOn16BitSpotChecks) {
     Linearizer lin = make("sRGB - Texture");
     std::vector<float> codes;
-    for (int c : {0, 1, 100, 2650, 2651, 10000, 32768, 50000, 65534, 65535}) codes.push_back(static_cast<float>(c / 65535.0));
+    for (int c : {0, 1, 100, 2650, 2651, 10000, 32768, 50000, 65534, 65535})
+        codes.push_back(static_cast<float>(c / 65535.0));
     auto v = linearize(lin, codes);
-    for (size_t i = 0; i < codes.size(); ++i) EXPECT_NEAR(v[i], iec_srgb_to_linear(codes[i]), 1e-6) << codes[i];
+    for (size_t i = 0; i < codes.size(); ++i)
+        EXPECT_NEAR(v[i], iec_srgb_to_linear(codes[i]), 1e-6) << codes[i];
 }
 
 TEST(Linearizer, AliasesAndRulesPickTheRightSpace) {
@@ -93,10 +98,14 @@ TEST(Linearizer, AnotherConfigChangesTheResultAsItSays) {
     // follow it, so no sRGB formula is hard-wired anywhere.
     std::ifstream in(kData + "/spectex.ocio");
     std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    const std::string from = "from_scene_reference: !<ExponentWithLinearTransform> {gamma: 2.4, offset: 0.055, direction: inverse}";
+    const std::string from =
+        "from_scene_reference: !<ExponentWithLinearTransform> {gamma: 2.4, offset: 0.055, "
+        "direction: inverse}";
     size_t pos = text.find(from);
     ASSERT_NE(pos, std::string::npos);
-    text.replace(pos, from.size(), "from_scene_reference: !<ExponentTransform> {value: 2.2, style: pass_thru, direction: inverse}");
+    text.replace(pos, from.size(),
+                 "from_scene_reference: !<ExponentTransform> {value: 2.2, style: pass_thru, "
+                 "direction: inverse}");
     char tmpl[] = "/tmp/spectex-ocio-XXXXXX";
     std::string dir = mkdtemp(tmpl);
     std::string path = dir + "/g22.ocio";
@@ -162,7 +171,8 @@ TEST(Linearizer, CodeTableGivesOcioBitsForEveryCodeAndAnyOtherValue) {
         plain.apply_rgba(a.data(), static_cast<long>(a.size() / 4));
         table.apply_rgba(b.data(), static_cast<long>(b.size() / 4));
         size_t differ = 0;
-        for (size_t i = 0; i < a.size(); ++i) differ += std::memcmp(&a[i], &b[i], sizeof(float)) != 0;
+        for (size_t i = 0; i < a.size(); ++i)
+            differ += std::memcmp(&a[i], &b[i], sizeof(float)) != 0;
         EXPECT_EQ(differ, 0u);
     }
     // A transform with crosstalk (P3 primaries -> Rec.709) cannot use a per-channel table.
@@ -174,12 +184,16 @@ TEST(Linearizer, AConfigEditedBetweenFilesIsReadAnew) {
     // Configs are parsed once per process for the same path and bytes (a batch of small files);
     // a config whose file changes under the same path must still be parsed again.
     std::ifstream in(kData + "/spectex.ocio");
-    const std::string shipped((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    const std::string from = "from_scene_reference: !<ExponentWithLinearTransform> {gamma: 2.4, offset: 0.055, direction: inverse}";
+    const std::string shipped((std::istreambuf_iterator<char>(in)),
+                              std::istreambuf_iterator<char>());
+    const std::string from =
+        "from_scene_reference: !<ExponentWithLinearTransform> {gamma: 2.4, offset: 0.055, "
+        "direction: inverse}";
     ASSERT_NE(shipped.find(from), std::string::npos);
     std::string g22 = shipped;
     g22.replace(g22.find(from), from.size(),
-                "from_scene_reference: !<ExponentTransform> {value: 2.2, style: pass_thru, direction: inverse}");
+                "from_scene_reference: !<ExponentTransform> {value: 2.2, style: pass_thru, "
+                "direction: inverse}");
     char tmpl[] = "/tmp/spectex-ocio-XXXXXX";
     const std::string dir = mkdtemp(tmpl), path = dir + "/edited.ocio";
     const std::vector<float> codes{0.1f, 0.5f, 0.9f};

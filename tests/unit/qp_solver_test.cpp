@@ -53,8 +53,8 @@ Kkt kkt(const QpProblem& p, const QpResult& r) {
     k.eq = inf_norm(Ax - p.b);
     k.eq_scale = std::max(1.0, inf_norm(p.b));
     k.stat = inf_norm(Px + p.q - Aty - r.z_lower + r.z_upper);
-    k.stat_scale = std::max({1.0, inf_norm(p.q), inf_norm(Px), inf_norm(Aty),
-                             inf_norm(r.z_lower), inf_norm(r.z_upper)});
+    k.stat_scale = std::max({1.0, inf_norm(p.q), inf_norm(Px), inf_norm(Aty), inf_norm(r.z_lower),
+                             inf_norm(r.z_upper)});
     k.comp_scale = std::max({1.0, std::abs(p.q.dot(r.x)), std::abs(r.x.dot(Px))});
     for (Eigen::Index i = 0; i < r.x.size(); ++i) {
         k.min_z = std::min({k.min_z, r.z_lower[i], r.z_upper[i]});

@@ -80,10 +80,12 @@ TEST(SpectralMethod, GenericColourRoundingIsTheBasisRule) {
         const size_t n = 2500, bins = s.basis.size();
         std::vector<float> r, g, b;
         pixels(n, r, g, b);
-        for (const std::vector<float>* w : std::vector<const std::vector<float>*>{nullptr, &s.weight}) {
+        for (const std::vector<float>* w :
+             std::vector<const std::vector<float>*>{nullptr, &s.weight}) {
             std::vector<uint16_t> fast(n * bins), generic(n * bins);
             method.expand_half(r.data(), g.data(), b.data(), n, fast.data(), n, w);
-            method.SpectralMethod::expand_half(r.data(), g.data(), b.data(), n, generic.data(), n, w);
+            method.SpectralMethod::expand_half(r.data(), g.data(), b.data(), n, generic.data(), n,
+                                               w);
             size_t differ = 0;
             for (size_t i = 0; i < fast.size(); ++i) differ += fast[i] != generic[i];
             EXPECT_EQ(differ, 0u) << grid << (w ? ", colour rounding" : ", nearest");

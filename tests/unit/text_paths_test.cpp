@@ -19,7 +19,8 @@ TEST(Text, ParseFiniteTakesWholeFiniteTokensOnly) {
     EXPECT_TRUE(parse_finite("400", &v));
     EXPECT_EQ(v, 400.0);
     v = 7;
-    for (const char* bad : {"", " 1", "1 ", "1x", "x", "inf", "-inf", "nan", "1e400", "0x", ",5", "1,5", "\t2"}) {
+    for (const char* bad :
+         {"", " 1", "1 ", "1x", "x", "inf", "-inf", "nan", "1e400", "0x", ",5", "1,5", "\t2"}) {
         EXPECT_FALSE(parse_finite(bad, &v)) << "'" << bad << "'";
         EXPECT_EQ(v, 7.0) << "'" << bad << "' changed the output";
     }
@@ -36,7 +37,8 @@ TEST(Text, EndsWithNocase) {
 
 TEST(Text, LowerAsciiLeavesOtherBytesAlone) {
     EXPECT_EQ(lower_ascii("sRGB - Texture"), "srgb - texture");
-    EXPECT_EQ(lower_ascii("\xc3\x89T\xc3\x89"), "\xc3\x89t\xc3\x89");  // "ÉTÉ": only the ASCII T changes
+    EXPECT_EQ(lower_ascii("\xc3\x89T\xc3\x89"),
+              "\xc3\x89t\xc3\x89");  // "ÉTÉ": only the ASCII T changes
 }
 
 TEST(Paths, FolderAndNameAsDirnameAndBasename) {
@@ -53,7 +55,8 @@ TEST(Paths, FolderAndNameAsDirnameAndBasename) {
 
 TEST(Text, QuotePathOnlyWhenAShellOrTheMessageConventionNeedsIt) {
     EXPECT_EQ(quote_path("assets/a_b-c.1001.png"), "assets/a_b-c.1001.png");
-    EXPECT_EQ(quote_path("/abs/t\xc3\xabxture.png"), "/abs/t\xc3\xabxture.png");  // UTF-8 stays as it is
+    EXPECT_EQ(quote_path("/abs/t\xc3\xabxture.png"),
+              "/abs/t\xc3\xabxture.png");  // UTF-8 stays as it is
     EXPECT_EQ(quote_path("my file.png"), "'my file.png'");
     EXPECT_EQ(quote_path(" lead.png"), "' lead.png'");
     EXPECT_EQ(quote_path("a: b.png"), "'a: b.png'");

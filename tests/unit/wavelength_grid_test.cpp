@@ -26,9 +26,9 @@ TEST(WavelengthGrid, EndIncludedOnlyWhenOnGrid) {
 }
 
 TEST(WavelengthGrid, MalformedSpecsAreErrors) {
-    for (const char* bad : {"", "380", "380:780", "380:780:5:1", "a:780:5", "380:780:0", "380:780:-5",
-                            "780:380:5", "380:780:nan", "380:780:inf", "0:780:5", "380 :780:5", "380:780:5x",
-                            "1:1e9:0.001"}) {
+    for (const char* bad :
+         {"", "380", "380:780", "380:780:5:1", "a:780:5", "380:780:0", "380:780:-5", "780:380:5",
+          "380:780:nan", "380:780:inf", "0:780:5", "380 :780:5", "380:780:5x", "1:1e9:0.001"}) {
         EXPECT_THROW(WavelengthGrid::parse(bad), Error) << bad;
     }
 }
@@ -58,13 +58,14 @@ TEST(ChannelNames, FormatAndParse) {
     EXPECT_DOUBLE_EQ(l, 380);
     ASSERT_TRUE(parse_reflective_channel("T.555.5nm", &l));
     EXPECT_DOUBLE_EQ(l, 555.5);
-    for (const char* bad : {"T.nm", "T.380", "S0.380nm", "T.38,0,0nm", "T.-380nm", "T.,5nm", "T.5,nm", "R", "T.1e3nm",
-                            "T.380 nm", "T.0nm"})
+    for (const char* bad : {"T.nm", "T.380", "S0.380nm", "T.38,0,0nm", "T.-380nm", "T.,5nm",
+                            "T.5,nm", "R", "T.1e3nm", "T.380 nm", "T.0nm"})
         EXPECT_FALSE(parse_reflective_channel(bad, &l)) << bad;
 }
 
 TEST(ChannelNames, EveryGridRoundTrips) {
-    for (const char* spec : {"380:780:5", "360:830:1", "380:780:3.7", "400:700:2.5", "380:780:0.1"}) {
+    for (const char* spec :
+         {"380:780:5", "360:830:1", "380:780:3.7", "400:700:2.5", "380:780:0.1"}) {
         auto g = WavelengthGrid::parse(spec);
         for (double l : g.lambda) {
             double back = 0;

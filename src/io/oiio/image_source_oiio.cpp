@@ -1,23 +1,22 @@
 // OpenImageIO's side of ImageSource (io/image_source.h), PNG writing for render and the code
 // floats of the linearizer's table: the image module (io/image_library.h).
-#include "io/oiio/oiio_library.h"
-#include "io/image_source.h"
-#include "spectral/text.h"
-
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
-
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <mutex>
 
+#include "io/image_source.h"
+#include "io/oiio/oiio_library.h"
 #include "spectral/bounded_read.h"
 #include "spectral/error.h"
+#include "spectral/text.h"
 
 namespace spectex {
 
@@ -26,10 +25,10 @@ namespace {
 // The reader's view of the checked file: OIIO reads through this descriptor (never the path again,
 // so the file read is the file checked) and every byte read at the hash's frontier extends the
 // FNV-1a of the file, so the content hash costs no read of its own. Readers may read from several
-// threads (OpenEXR) and out of order (TIFF directories, EXR offset tables): only bytes that continue
-// the hash in file order are hashed; the rest is read at the end (content_hash).
+// threads (OpenEXR) and out of order (TIFF directories, EXR offset tables): only bytes that
+// continue the hash in file order are hashed; the rest is read at the end (content_hash).
 class HashingProxy final : public OIIO::Filesystem::IOProxy {
-public:
+  public:
     HashingProxy(const std::string& path, int fd, uint64_t size)
         : IOProxy(path, IOProxy::Read), fd_(fd), size_(size) {}
     const char* proxytype() const override { return "spectex-hashing"; }
@@ -42,7 +41,8 @@ public:
         if (offset < 0) return 0;
         size_t done = 0;
         while (done < size) {
-            const ssize_t got = ::pread(fd_, static_cast<char*>(buf) + done, size - done, static_cast<off_t>(offset) + static_cast<off_t>(done));
+            const ssize_t got = ::pread(fd_, static_cast<char*>(buf) + done, size - done,
+                                        static_cast<off_t>(offset) + static_cast<off_t>(done));
             if (got < 0 && errno == EINTR) continue;
             if (got <= 0) break;
             done += static_cast<size_t>(got);
@@ -67,7 +67,7 @@ public:
         return hash_.text();
     }
 
-private:
+  private:
     void observe(const unsigned char* p, size_t n, uint64_t offset) {
         std::lock_guard<std::mutex> lock(mutex_);
         if (offset > frontier_ || offset + n <= frontier_ || frontier_ >= size_) return;
@@ -85,22 +85,24 @@ private:
 }  // namespace
 
 class OiioImageSource final : public ImageSource {
-public:
+  public:
     static std::unique_ptr<ImageSource> open(const std::string& path, uint64_t max_pixels);
     ~OiioImageSource() override {
         if (in) in->close();
     }
-    std::string content_hash() override { return !whole_hash.empty() ? whole_hash : proxy->finish(info_.path); }
+    std::string content_hash() override {
+        return !whole_hash.empty() ? whole_hash : proxy->finish(info_.path);
+    }
     void read_rgba(int y0, int y1, float* rgba) override;
 
-private:
+  private:
     std::unique_ptr<CheckedFile> file;    // the descriptor checked, open while the image is read
     std::unique_ptr<HashingProxy> proxy;  // before `in`: destroyed after it
     std::vector<unsigned char> bytes;     // JPEG: the file, read once (see open)
     std::unique_ptr<OIIO::Filesystem::IOMemReader> memory;
-    std::string whole_hash;               // JPEG: the hash of `bytes`
+    std::string whole_hash;  // JPEG: the hash of `bytes`
     std::unique_ptr<OIIO::ImageInput> in;
-    int chbegin = 0, chend = 0;        // the channels read: [chbegin, chend) of the file
+    int chbegin = 0, chend = 0;         // the channels read: [chbegin, chend) of the file
     int color_channels[3] = {0, 0, 0};  // relative to chbegin
     int alpha = -1;                     // relative to chbegin, -1 when none
     bool tiled = false;
@@ -117,8 +119,6 @@ std::string oiio_error(OIIO::ImageInput* in) {
         if (c == '\n' || c == '\r') c = ' ';  // one line: some readers report several errors
     return e.empty() ? "unknown OpenImageIO error" : e;
 }
-
-
 
 // "R, G, B, Z" or, for long lists, the first ten then "... (1000 channels)".
 std::string channel_list(const std::vector<std::string>& names) {
@@ -140,13 +140,15 @@ void check_png_chunks(const CheckedFile& f, const std::string& path) {
         unsigned char h[8];
         ssize_t n = ::pread(f.fd(), h, 8, static_cast<off_t>(pos));
         if (n != 8)
-            throw Error(path + ": truncated PNG: the file ends at byte " + std::to_string(f.size()) +
-                        " without an IEND chunk");
-        const uint64_t len = (uint64_t{h[0]} << 24) | (uint64_t{h[1]} << 16) | (uint64_t{h[2]} << 8) | h[3];
+            throw Error(path + ": truncated PNG: the file ends at byte " +
+                        std::to_string(f.size()) + " without an IEND chunk");
+        const uint64_t len =
+            (uint64_t{h[0]} << 24) | (uint64_t{h[1]} << 16) | (uint64_t{h[2]} << 8) | h[3];
         const std::string type(reinterpret_cast<const char*>(h + 4), 4);
         if (pos + 12 + len > f.size())
-            throw Error(path + ": truncated PNG: chunk '" + printable_excerpt(type, 64) + "' at byte " + std::to_string(pos) +
-                        " runs past the end of the file (" + std::to_string(f.size()) + " bytes)");
+            throw Error(path + ": truncated PNG: chunk '" + printable_excerpt(type, 64) +
+                        "' at byte " + std::to_string(pos) + " runs past the end of the file (" +
+                        std::to_string(f.size()) + " bytes)");
         if (type == "IEND") return;
         pos += 12 + len;
     }
@@ -160,8 +162,8 @@ struct ChannelChoice {
 
 // OpenEXR names its channels: choose them by name, never by position (a spectral, polarised or
 // depth channel is not a colour, and Z is not alpha).
-//   1. R, G, B;  2. Y (grey);  3. one layer's <layer>.R/.G/.B, the first layer in name order, with a
-//   note;  4. a layer's <layer>.Y.  Alpha only from a channel named A or alpha (any case), the
+//   1. R, G, B;  2. Y (grey);  3. one layer's <layer>.R/.G/.B, the first layer in name order, with
+//   a note;  4. a layer's <layer>.Y.  Alpha only from a channel named A or alpha (any case), the
 //   chosen layer's own first. Anything else: refused, listing what the file has.
 ChannelChoice choose_by_name(const std::vector<std::string>& names, const std::string& path) {
     auto find = [&](const std::string& n) -> int {
@@ -185,10 +187,12 @@ ChannelChoice choose_by_name(const std::vector<std::string>& names, const std::s
         return c;
     }
     if (int y = find("Y"); y >= 0) {
-        // Y with RY and BY is OpenEXR's luminance/chroma encoding, not grey: baking Y alone would drop
-        // the colour without a word.
+        // Y with RY and BY is OpenEXR's luminance/chroma encoding, not grey: baking Y alone would
+        // drop the colour without a word.
         if (find("RY") >= 0 || find("BY") >= 0)
-            throw Error(path + ": luminance/chroma channels (Y, RY, BY) are not supported: write the file with R, G, B");
+            throw Error(path +
+                        ": luminance/chroma channels (Y, RY, BY) are not supported: write the file "
+                        "with R, G, B");
         c.colour[0] = c.colour[1] = c.colour[2] = y;
         c.alpha = find_alpha("");
         return c;
@@ -216,9 +220,12 @@ ChannelChoice choose_by_name(const std::vector<std::string>& names, const std::s
         if (r < 0 || g < 0 || b < 0) continue;
         c.colour[0] = r, c.colour[1] = g, c.colour[2] = b;
         use_layer_alpha(layer);
-        c.note = "input has no R, G, B channels: used layer '" + printable_excerpt(layer, 64) + "' (" + printable_excerpt(layer, 64) +
-                 ".R, .G, .B" + (c.alpha >= 0 ? ", alpha " + printable_excerpt(names[static_cast<size_t>(c.alpha)], 64) : "") +
-                 ")";
+        c.note =
+            "input has no R, G, B channels: used layer '" + printable_excerpt(layer, 64) + "' (" +
+            printable_excerpt(layer, 64) + ".R, .G, .B" +
+            (c.alpha >= 0 ? ", alpha " + printable_excerpt(names[static_cast<size_t>(c.alpha)], 64)
+                          : "") +
+            ")";
         return c;
     }
     for (const auto& layer : layers) {
@@ -226,12 +233,17 @@ ChannelChoice choose_by_name(const std::vector<std::string>& names, const std::s
         if (y < 0) continue;
         c.colour[0] = c.colour[1] = c.colour[2] = y;
         use_layer_alpha(layer);
-        c.note = "input has no R, G, B or Y channels: used layer '" + printable_excerpt(layer, 64) + "' (" + printable_excerpt(layer, 64) +
-                 ".Y as grey" + (c.alpha >= 0 ? ", alpha " + printable_excerpt(names[static_cast<size_t>(c.alpha)], 64) : "") +
-                 ")";
+        c.note =
+            "input has no R, G, B or Y channels: used layer '" + printable_excerpt(layer, 64) +
+            "' (" + printable_excerpt(layer, 64) + ".Y as grey" +
+            (c.alpha >= 0 ? ", alpha " + printable_excerpt(names[static_cast<size_t>(c.alpha)], 64)
+                          : "") +
+            ")";
         return c;
     }
-    throw Error(path + ": no colour channels (R, G, B or Y, or a layer's <layer>.R/.G/.B or <layer>.Y); the file has " +
+    throw Error(path +
+                ": no colour channels (R, G, B or Y, or a layer's <layer>.R/.G/.B or <layer>.Y); "
+                "the file has " +
                 channel_list(names));
 }
 
@@ -274,7 +286,9 @@ std::string format_from_signature(const unsigned char* b, size_t n) {
     if (is("DDS ", 4)) return "dds";
     if (is("SIMPLE  =", 9)) return "fits";
     if (is("\x53\x80\xf6\x34", 4)) return "pic";
-    if (is("ftyp", 4, 4) && (is("heic", 4, 8) || is("heix", 4, 8) || is("mif1", 4, 8) || is("avif", 4, 8))) return "heif";
+    if (is("ftyp", 4, 4) &&
+        (is("heic", 4, 8) || is("heix", 4, 8) || is("mif1", 4, 8) || is("avif", 4, 8)))
+        return "heif";
     if (n >= 2 && b[0] == 'P' && b[1] >= '1' && b[1] <= '7') return "pnm";
     return "";
 }
@@ -287,7 +301,8 @@ std::unique_ptr<ImageSource> OiioImageSource::open(const std::string& path, uint
     std::string format;  // the reader chosen by the file's first bytes, "" when they say nothing
     auto file = std::make_unique<CheckedFile>(path, file_limits::kImage, "an input image");
     struct stat fst;
-    if (::fstat(file->fd(), &fst) != 0) throw Error(path + ": cannot stat: " + std::strerror(errno));
+    if (::fstat(file->fd(), &fst) != 0)
+        throw Error(path + ": cannot stat: " + std::strerror(errno));
     const SourceIdentity identity = SourceIdentity::of(fst);
     {
         const CheckedFile& f = *file;
@@ -309,9 +324,13 @@ std::unique_ptr<ImageSource> OiioImageSource::open(const std::string& path, uint
     // and falls back to every other reader.)
     if (format.empty()) {
         const size_t dot = path.find_last_of('.'), slash = path.find_last_of('/');
-        if (dot != std::string::npos && (slash == std::string::npos || dot > slash)) format = lower_ascii(path.substr(dot + 1));
+        if (dot != std::string::npos && (slash == std::string::npos || dot > slash))
+            format = lower_ascii(path.substr(dot + 1));
     }
-    if (format.empty()) throw Error(path + ": cannot read: neither its contents nor its name (no extension) say what image format it is");
+    if (format.empty())
+        throw Error(path +
+                    ": cannot read: neither its contents nor its name (no extension) say what "
+                    "image format it is");
     // Readers that can read through a proxy read the checked descriptor and hash as they go;
     // the others (a few rare formats) open the path, and the hash reads the file at the end.
     // (Declared before the reader, so that it outlives it.)
@@ -324,23 +343,27 @@ std::unique_ptr<ImageSource> OiioImageSource::open(const std::string& path, uint
     if (in->supports("ioproxy")) {
         OIIO::Filesystem::IOProxy* p = proxy.get();
         if (std::string(in->format_name()) == "jpeg") {
-            // OIIO 2.4's JPEG reader takes only in-memory proxies: a JPEG (small next to its pixels)
-            // is read once into memory and hashed there. Past 256 MiB it opens the path itself and
-            // the hash reads the file at the end.
+            // OIIO 2.4's JPEG reader takes only in-memory proxies: a JPEG (small next to its
+            // pixels) is read once into memory and hashed there. Past 256 MiB it opens the path
+            // itself and the hash reads the file at the end.
             p = nullptr;
             if (file->size() <= (uint64_t{256} << 20)) {
                 bytes.resize(static_cast<size_t>(file->size()));
                 size_t done = 0;
                 while (done < bytes.size()) {
-                    const ssize_t got = ::pread(file->fd(), bytes.data() + done, bytes.size() - done, static_cast<off_t>(done));
+                    const ssize_t got = ::pread(file->fd(), bytes.data() + done,
+                                                bytes.size() - done, static_cast<off_t>(done));
                     if (got < 0 && errno == EINTR) continue;
-                    if (got <= 0) throw Error(path + ": read error: " + (got < 0 ? std::strerror(errno) : "the file became shorter"));
+                    if (got <= 0)
+                        throw Error(path + ": read error: " +
+                                    (got < 0 ? std::strerror(errno) : "the file became shorter"));
                     done += static_cast<size_t>(got);
                 }
                 Fnv1a64 h;
                 h.add(bytes.data(), bytes.size());
                 whole_hash = h.text();
-                memory = std::make_unique<OIIO::Filesystem::IOMemReader>(bytes.data(), bytes.size());
+                memory =
+                    std::make_unique<OIIO::Filesystem::IOMemReader>(bytes.data(), bytes.size());
                 p = memory.get();
             }
         }
@@ -350,7 +373,9 @@ std::unique_ptr<ImageSource> OiioImageSource::open(const std::string& path, uint
         OIIO::ImageSpec opened;
         if (!in->open(path, opened, config)) {
             std::string why = oiio_error(in.get());
-            if (why.empty()) why = "not " + (format.empty() ? std::string("an image its extension names") : "a " + format + " file");
+            if (why.empty())
+                why = "not " + (format.empty() ? std::string("an image its extension names")
+                                               : "a " + format + " file");
             throw Error(path + ": cannot read: " + why);
         }
     }
@@ -369,28 +394,34 @@ std::unique_ptr<ImageSource> OiioImageSource::open(const std::string& path, uint
     SourceInfo& info = src->info_;
     info.path = path;
     info.format_name = in->format_name();
-    static_cast<PixelWindows&>(info) = {spec.x, spec.y, spec.width, spec.height,
-                                        spec.full_x, spec.full_y, spec.full_width, spec.full_height};
+    static_cast<PixelWindows&>(info) = {spec.x,          spec.y,          spec.width,
+                                        spec.height,     spec.full_x,     spec.full_y,
+                                        spec.full_width, spec.full_height};
     info.channels = spec.nchannels;
     if (spec.width <= 0 || spec.height <= 0) throw Error(path + ": image has no pixels");
-    if (spec.depth > 1) throw Error(path + ": volume images (depth " + std::to_string(spec.depth) + ") are not supported");
+    if (spec.depth > 1)
+        throw Error(path + ": volume images (depth " + std::to_string(spec.depth) +
+                    ") are not supported");
     if (spec.deep) throw Error(path + ": deep images are not supported");
     uint64_t pixels = static_cast<uint64_t>(spec.width) * static_cast<uint64_t>(spec.height);
     if (pixels > max_pixels)
         throw Error(path + ": " + std::to_string(spec.width) + "x" + std::to_string(spec.height) +
-                    " pixels exceed the limit of " + std::to_string(max_pixels) + " (--max-pixels)");
+                    " pixels exceed the limit of " + std::to_string(max_pixels) +
+                    " (--max-pixels)");
     if (spec.nchannels < 1) throw Error(path + ": image has no channels");
 
     info.is_float = spec.format.basetype == OIIO::TypeDesc::FLOAT ||
                     spec.format.basetype == OIIO::TypeDesc::HALF ||
                     spec.format.basetype == OIIO::TypeDesc::DOUBLE;
     info.bits = static_cast<int>(spec.format.size() * 8);
-    if (int b = spec.get_int_attribute("oiio:BitsPerSample", 0); b > 0 && !info.is_float) info.bits = b;
+    if (int b = spec.get_int_attribute("oiio:BitsPerSample", 0); b > 0 && !info.is_float)
+        info.bits = b;
     info.colorspace_hint = spec.get_string_attribute("oiio:ColorSpace");
 
     // Channels: by name where the format has names (OpenEXR), else by position.
-    const ChannelChoice choice = info.format_name == "openexr" ? choose_by_name(spec.channelnames, path)
-                                                               : choose_by_position(spec);
+    const ChannelChoice choice = info.format_name == "openexr"
+                                     ? choose_by_name(spec.channelnames, path)
+                                     : choose_by_position(spec);
     if (!choice.note.empty()) info.notes.push_back(choice.note);
     // Only the span of channels in use is read (a 1000-channel file is not decoded whole).
     int lo = choice.colour[0], hi = choice.colour[0];
@@ -436,8 +467,8 @@ void OiioImageSource::read_rgba(int y0, int y1, float* rgba) {
         s = I.whole.data() + static_cast<size_t>(y0) * w * static_cast<size_t>(nch);
     } else {
         scratch_.resize(w * rows * static_cast<size_t>(nch));
-        if (!in->read_scanlines(0, 0, info_.y + y0, info_.y + y1, 0, I.chbegin, I.chend, OIIO::TypeDesc::FLOAT,
-                                scratch_.data()))
+        if (!in->read_scanlines(0, 0, info_.y + y0, info_.y + y1, 0, I.chbegin, I.chend,
+                                OIIO::TypeDesc::FLOAT, scratch_.data()))
             throw Error(info_.path + ": read failed at rows " + std::to_string(y0) + "-" +
                         std::to_string(y1 - 1) + ": " + oiio_error(in));
         s = scratch_.data();
@@ -457,18 +488,20 @@ void OiioImageSource::read_rgba(int y0, int y1, float* rgba) {
 namespace {
 
 class OiioPngWriter final : public PngWriter {
-public:
-    OiioPngWriter(const std::string& file_path, const std::string& png_path, int width, int height, int channels,
-                  const std::vector<std::pair<std::string, std::string>>& attributes)
+  public:
+    OiioPngWriter(const std::string& file_path, const std::string& png_path, int width, int height,
+                  int channels, const std::vector<std::pair<std::string, std::string>>& attributes)
         : png_path_(png_path) {
         out_ = OIIO::ImageOutput::create("png");
         if (!out_) throw Error(png_path + ": OpenImageIO has no PNG writer: " + OIIO::geterror());
         OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::UINT8);
         spec.attribute("oiio:ColorSpace", "sRGB");
-        // Our colour is straight already: without this OIIO's PNG writer would divide it by A again.
+        // Our colour is straight already: without this OIIO's PNG writer would divide it by A
+        // again.
         if (channels == 4) spec.attribute("oiio:UnassociatedAlpha", 1);
         for (const auto& [k, v] : attributes) spec.attribute(k, v);
-        if (!out_->open(file_path, spec)) throw Error(png_path + ": cannot write the PNG: " + out_->geterror());
+        if (!out_->open(file_path, spec))
+            throw Error(png_path + ": cannot write the PNG: " + out_->geterror());
     }
     void write_rows(int y0, int rows, const uint8_t* data) override {
         if (!out_->write_scanlines(y0, y0 + rows, 0, OIIO::TypeDesc::UINT8, data))
@@ -478,14 +511,15 @@ public:
         if (!out_->close()) throw Error(png_path_ + ": cannot write the PNG: " + out_->geterror());
     }
 
-private:
+  private:
     std::string png_path_;
     std::unique_ptr<OIIO::ImageOutput> out_;
 };
 
 class OiioLibrary final : public ImageLibrary {
-public:
-    std::unique_ptr<ImageSource> open_source(const std::string& path, uint64_t max_pixels) override {
+  public:
+    std::unique_ptr<ImageSource> open_source(const std::string& path,
+                                             uint64_t max_pixels) override {
         return OiioImageSource::open(path, max_pixels);
     }
     std::vector<float> integer_code_floats(int bits) override {
@@ -495,18 +529,21 @@ public:
         if (bits <= 8) {
             std::vector<uint8_t> c8(n);
             for (size_t i = 0; i < n; ++i) c8[i] = static_cast<uint8_t>(i);
-            OIIO::convert_pixel_values(OIIO::TypeDesc::UINT8, c8.data(), OIIO::TypeDesc::FLOAT, key.data(), static_cast<int>(n));
+            OIIO::convert_pixel_values(OIIO::TypeDesc::UINT8, c8.data(), OIIO::TypeDesc::FLOAT,
+                                       key.data(), static_cast<int>(n));
         } else {
             std::vector<uint16_t> c16(n);
             for (size_t i = 0; i < n; ++i) c16[i] = static_cast<uint16_t>(i);
-            OIIO::convert_pixel_values(OIIO::TypeDesc::UINT16, c16.data(), OIIO::TypeDesc::FLOAT, key.data(), static_cast<int>(n));
+            OIIO::convert_pixel_values(OIIO::TypeDesc::UINT16, c16.data(), OIIO::TypeDesc::FLOAT,
+                                       key.data(), static_cast<int>(n));
         }
         return key;
     }
-    std::unique_ptr<PngWriter> png_writer(const std::string& file_path, const std::string& png_path, int width,
-                                          int height, int channels,
-                                          const std::vector<std::pair<std::string, std::string>>& attributes) override {
-        return std::make_unique<OiioPngWriter>(file_path, png_path, width, height, channels, attributes);
+    std::unique_ptr<PngWriter> png_writer(
+        const std::string& file_path, const std::string& png_path, int width, int height,
+        int channels, const std::vector<std::pair<std::string, std::string>>& attributes) override {
+        return std::make_unique<OiioPngWriter>(file_path, png_path, width, height, channels,
+                                               attributes);
     }
     void set_threads(int threads) override { OIIO::attribute("threads", threads); }
 };
