@@ -9,6 +9,8 @@
 #include <sstream>
 
 #include "io/linearizer.h"
+#include "spectral/basis_fit.h"
+#include "spectral/error.h"
 #include "spectral/text.h"
 
 namespace spectex {
@@ -179,6 +181,21 @@ double parse_number(const std::string& option, const std::string& value) {
     double v = 0;
     if (!parse_finite(value, &v)) throw UsageError(option + ": '" + value + "' is not a number");
     return v;
+}
+
+void require_one_input(const std::vector<std::string>& files) {
+    if (files.empty()) throw UsageError("no input file");
+    if (files.size() > 1)
+        throw UsageError("one file at a time (got " + std::to_string(files.size()) + ")");
+}
+
+std::string parse_objective_option(const std::string& value) {
+    try {
+        (void)parse_objective(value);
+    } catch (const Error&) {
+        throw UsageError("--objective: '" + value + "' is not one of smooth, norm");
+    }
+    return value;
 }
 
 uint64_t parse_count(const std::string& option, const std::string& value) {

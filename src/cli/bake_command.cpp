@@ -358,8 +358,7 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         if (c.method != "basis" && c.range == "keep")
             throw UsageError("--out-of-range keep needs --method basis: the " + c.method +
                              " method is defined on linear RGB in [0, 1] only");
-        if (c.fit.objective != "smooth" && c.fit.objective != "norm")
-            throw UsageError("--objective: '" + c.fit.objective + "' is not one of smooth, norm");
+        parse_objective_option(c.fit.objective);
         const bool automatic = c.wavelengths == "auto";
         if (automatic) {
             if (!c.wavelengths_file.empty())

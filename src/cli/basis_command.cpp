@@ -114,8 +114,7 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
                 throw UsageError(e.what());
             }
         }
-        if (spec.objective != "norm" && spec.objective != "smooth")
-            throw UsageError("--objective: '" + spec.objective + "' is not one of norm, smooth");
+        parse_objective_option(spec.objective);
         try {
             spec.grid = wavelengths_file.empty() ? WavelengthGrid::parse_exact(wavelengths)
                                                  : WavelengthGrid::from_file(wavelengths_file);

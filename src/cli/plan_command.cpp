@@ -112,11 +112,7 @@ int run_plan(const std::vector<std::string>& args) {
                  lattice_given = true;
              });
     p.option("--objective", "smooth|norm", "Objective of the fitted basis (default smooth).",
-             [&](const std::string& v) {
-                 if (v != "smooth" && v != "norm")
-                     throw UsageError("--objective: '" + v + "' is not one of smooth, norm");
-                 spec.method.fit.objective = v;
-             });
+             [&](const std::string& v) { spec.method.fit.objective = parse_objective_option(v); });
     p.option("--observer", "NAME|FILE",
              "Observer of the method and of the error (default cie1931-2).",
              [&](const std::string& v) { spec.method.fit.observer = v; });

@@ -57,9 +57,7 @@ int run_plot(const std::vector<std::string>& args) {
     std::vector<std::string> files;
     try {
         if (p.parse_or_help(args, files)) return 0;
-        if (files.empty()) throw UsageError("no input file");
-        if (files.size() > 1)
-            throw UsageError("one file at a time (got " + std::to_string(files.size()) + ")");
+        require_one_input(files);
         if (xy.empty()) throw UsageError("no --pixel X,Y given");
         if (output.empty()) throw UsageError("no output: give -o OUT.svg");
         check_output_against(

@@ -75,9 +75,7 @@ int run_render(const std::vector<std::string>& args) {
     std::vector<std::string> files;
     try {
         if (p.parse_or_help(args, files)) return 0;
-        if (files.empty()) throw UsageError("no input file");
-        if (files.size() > 1)
-            throw UsageError("one file at a time (got " + std::to_string(files.size()) + ")");
+        require_one_input(files);
         if (output.empty()) throw UsageError("no output: give -o OUT.png");
         if (s.illuminants.empty()) s.illuminants.push_back("D65");
         std::vector<std::pair<std::string, std::string>> reads = {{files[0], "the input"},
