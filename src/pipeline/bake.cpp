@@ -110,20 +110,10 @@ std::string to_string(RangePolicy p) {
 }
 std::string to_string(NanPolicy p) { return p == NanPolicy::Replace ? "replace" : "error"; }
 
-BakeResult bake_file(const std::string& input, const std::string& output, const BakeSettings& s,
-                     BakeProgress* progress) {
-    auto t0 = std::chrono::steady_clock::now();
-    BakeResult res;
-    res.input = input;
-    res.output = output;
-    check_not_input(input, output);
-    const SpectralMethod& method = *s.method;
-    if (!same_wavelengths(method.lambda(), s.grid.lambda))
-        throw Error("the " + method.name() + " method is not on the output grid " +
-                    s.grid.describe());
+namespace {
 
-    auto src = ImageSource::open(input, s.max_pixels);
-    const SourceInfo& info = src->info();
+// What the source's shape means for the bake, as notes for the user.
+void note_source_shape(const SourceInfo& info, BakeResult& res) {
     if (info.miplevels > 1)
         res.notes.push_back("input has " + std::to_string(info.miplevels) +
                             " MIP levels: the first was used");
@@ -134,10 +124,10 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     if (info.channels > 4)
         res.notes.push_back("input has " + std::to_string(info.channels) +
                             " channels: only RGB(A) were used");
+}
 
-    ColourRequest req{s.data_dir, s.config, s.colorspace, input, info.colorspace_hint};
-    Linearizer lin = Linearizer::make(req);
-    if (!info.is_float) lin.use_code_table(info.bits);
+// The colour space chosen for the file and how, for the summary and the JSON record.
+void record_colour(const SourceInfo& info, const Linearizer& lin, BakeResult& res) {
     res.colorspace = lin.input_space();
     res.colorspace_how = lin.how_chosen();
     res.colorspace_rule = lin.file_rule();
@@ -145,23 +135,13 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     res.config_from = lin.config_from();
     res.integer_to_linear_by_default_rule =
         !info.is_float && lin.by_default_rule() && lin.scene_linear();
+}
 
-    const bool has_alpha = info.alpha != AlphaKind::None;
-    SpectralExrLayout layout;
-    static_cast<PixelWindows&>(layout) = info;
-    layout.lambda = s.grid.lambda;
-    layout.type = s.type;
-    layout.alpha = has_alpha;
-    // Half holds every 8-bit alpha exactly enough to re-encode it; 16-bit and float alphas need
-    // float.
-    layout.alpha_type =
-        (s.type == SampleType::Half && (info.bits <= 8 || (info.is_float && info.bits == 16)))
-            ? SampleType::Half
-            : SampleType::Float;
-    layout.preview = s.preview;
-    layout.compression = s.compression;
-    layout.zip_level = s.zip_level;
-    layout.attributes = {
+// The spectex:* header attributes, in the order that is part of the output's bytes.
+std::vector<std::pair<std::string, std::string>> header_attributes(
+    const BakeSettings& s, const std::string& input, const Linearizer& lin, bool has_alpha,
+    const SpectralMethod& method, const SourceIdentity& identity) {
+    std::vector<std::pair<std::string, std::string>> a = {
         {provenance_key::kVersion, SPECTEX_VERSION},
         {provenance_key::kCommandLine, s.command_line},
         {provenance_key::kSource, input},
@@ -186,12 +166,11 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
         {provenance_key::kSettingsHash, s.settings_hash},
         // The source's identity, for --update (io/source_identity.h); the hash is patched in once
         // the source has been decoded (and so hashed).
-        {provenance_key::kSourceSize, src->identity().size_text()},
-        {provenance_key::kSourceMtime, src->identity().mtime_text()},
+        {provenance_key::kSourceSize, identity.size_text()},
+        {provenance_key::kSourceMtime, identity.mtime_text()},
         {provenance_key::kSourceHash, source_hash_placeholder()},
     };
     if (!s.plan.lights.empty()) {
-        auto& a = layout.attributes;
         a.push_back({provenance_key::kPlanLights, s.plan.lights});
         a.push_back({provenance_key::kPlanMaxDe, s.plan.max_de});
         a.push_back({provenance_key::kPlanReconstruction, s.plan.reconstruction});
@@ -199,148 +178,155 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
         a.push_back({provenance_key::kPlanWorstDe, s.plan.worst_de});
         if (s.plan.nonuniform) a.push_back({provenance_key::kPlanGrids, "uniform and non-uniform"});
     }
-    {
-        // The method's own attributes where the basis' always stood (the order is part of the
-        // bytes).
-        auto at = layout.attributes.begin() + 3;
-        for (const auto& kv : method.provenance()) at = layout.attributes.insert(at, kv) + 1;
-    }
-    layout.threads = s.threads;
+    // The method's own attributes where the basis' always stood (the order is part of the bytes).
+    auto at = a.begin() + 3;
+    for (const auto& kv : method.provenance()) at = a.insert(at, kv) + 1;
+    return a;
+}
 
+// The output file's layout: the source's windows, the grid, types, tiles and header.
+SpectralExrLayout output_layout(const BakeSettings& s, const SourceInfo& info,
+                                std::vector<std::pair<std::string, std::string>> attributes) {
+    SpectralExrLayout layout;
+    static_cast<PixelWindows&>(layout) = info;
+    layout.lambda = s.grid.lambda;
+    layout.type = s.type;
+    layout.alpha = info.alpha != AlphaKind::None;
+    // Half holds every 8-bit alpha exactly enough to re-encode it; 16-bit and float alphas need
+    // float.
+    layout.alpha_type =
+        (s.type == SampleType::Half && (info.bits <= 8 || (info.is_float && info.bits == 16)))
+            ? SampleType::Half
+            : SampleType::Float;
+    layout.preview = s.preview;
+    layout.compression = s.compression;
+    layout.zip_level = s.zip_level;
+    layout.attributes = std::move(attributes);
+    layout.threads = s.threads;
     layout.tile_width = s.mipmap && s.tile_width <= 0 ? 64 : s.tile_width;
     layout.tile_height = s.mipmap && s.tile_height <= 0 ? 64 : s.tile_height;
     layout.mipmap = s.mipmap;
+    return layout;
+}
 
-    AtomicFile out(output);
-    SpectralExrWriter writer(out, layout);
-
-    // Colour-aware half rounding integrates under the colorimetry the method is exact for: its
-    // observer and illuminant on the output bins.
+// Colour-aware half rounding integrates under the colorimetry the method is exact for: its
+// observer and illuminant on the output bins. Empty when the output is not rounded that way.
+std::vector<float> half_rounding_weights(const BakeSettings& s, const SpectralMethod& method) {
     std::vector<float> rgb_weight;
-    if (s.type == SampleType::Half && s.colour_rounding) {
-        Colorimetry c = Colorimetry::make(load_observer(s.data_dir, s.observer),
-                                          load_illuminant(s.data_dir, s.illuminant), s.grid,
-                                          primaries_by_name("srgb"));
-        const Eigen::Matrix3Xd R = c.rgb_weights();
-        rgb_weight.resize(3 * static_cast<size_t>(method.bins()));
-        for (int k = 0; k < method.bins(); ++k)
-            for (int ch = 0; ch < 3; ++ch)
-                rgb_weight[3 * static_cast<size_t>(k) + ch] = static_cast<float>(R(ch, k));
-    }
-    const std::vector<float>* feedback = rgb_weight.empty() ? nullptr : &rgb_weight;
-    const size_t bins = static_cast<size_t>(method.bins());
-    const size_t w = static_cast<size_t>(info.width);
-    const size_t es = s.type == SampleType::Half ? 2 : 4;
-    const bool tiled = layout.tile_width > 0;
-    const int chunk = tiled ? layout.tile_height : s.compression.lines_per_chunk;
-    size_t row_bytes = w * bins * es;
-    const int strip = strip_rows(row_bytes, chunk,
-                                 tiled || std::string(writer.writer_name()) != "core", info.height);
+    if (s.type != SampleType::Half || !s.colour_rounding) return rgb_weight;
+    Colorimetry c = Colorimetry::make(load_observer(s.data_dir, s.observer),
+                                      load_illuminant(s.data_dir, s.illuminant), s.grid,
+                                      primaries_by_name("srgb"));
+    const Eigen::Matrix3Xd R = c.rgb_weights();
+    rgb_weight.resize(3 * static_cast<size_t>(method.bins()));
+    for (int k = 0; k < method.bins(); ++k)
+        for (int ch = 0; ch < 3; ++ch)
+            rgb_weight[3 * static_cast<size_t>(k) + ch] = static_cast<float>(R(ch, k));
+    return rgb_weight;
+}
 
-    const PixelPolicy policy{info.alpha == AlphaKind::Associated, s.nan, s.range};
-    const bool premultiply = has_alpha && s.alpha == AlphaMode::Associated;
-    std::vector<float> rgba;
+// The pixel stages of one file between the reader and the writer: read and police rows into
+// linear (premultiplied) planes, expand planes to bins, hand them to the writer; and the two
+// orders they run in (scanlines with two strips in flight, or a MIP pyramid).
+class PixelStages {
+  public:
+    PixelStages(const std::string& input, const BakeSettings& s, const SpectralMethod& method,
+                ImageSource& src, const Linearizer& lin, SpectralExrWriter& writer,
+                const SpectralExrLayout& layout, BakeResult& res, BakeProgress* progress)
+        : input_(input),
+          s_(s),
+          method_(method),
+          src_(src),
+          lin_(lin),
+          writer_(writer),
+          res_(res),
+          progress_(progress),
+          info_(src.info()),
+          has_alpha_(info_.alpha != AlphaKind::None),
+          premultiply_(has_alpha_ && s.alpha == AlphaMode::Associated),
+          policy_{info_.alpha == AlphaKind::Associated, s.nan, s.range},
+          rgb_weight_(half_rounding_weights(s, method)),
+          feedback_(rgb_weight_.empty() ? nullptr : &rgb_weight_),
+          bins_(static_cast<size_t>(method.bins())),
+          w_(static_cast<size_t>(info_.width)),
+          tiled_(layout.tile_width > 0),
+          tile_height_(layout.tile_height) {
+        const size_t es = s.type == SampleType::Half ? 2 : 4;
+        const int chunk = tiled_ ? layout.tile_height : s.compression.lines_per_chunk;
+        size_t row_bytes = w_ * bins_ * es;
+        strip_ = strip_rows(row_bytes, chunk, tiled_ || std::string(writer.writer_name()) != "core",
+                            info_.height);
+    }
+
+    void run() {
+        if (progress_) {
+            long rows = info_.height;
+            if (s_.mipmap) {
+                rows = 0;
+                for (int l = 0; l < writer_.levels(); ++l) rows += writer_.level_height(l);
+            }
+            progress_->rows_total = rows;
+        }
+        if (s_.mipmap)
+            write_mipmapped();
+        else
+            write_scanlines();
+    }
+
+  private:
+    struct Strip {
+        std::vector<float> r, g, b, a;
+        std::vector<uint16_t> half;
+        std::vector<float> flt;
+        int y0 = 0, y1 = 0;
+    };
+
     // Reads rows [y0, y1) and leaves linear, policed, (premultiplied) planes in r, g, b, a.
-    auto process_rows = [&](int y0, int y1, float* r, float* g, float* b, float* a) {
-        const size_t n = w * static_cast<size_t>(y1 - y0);
-        rgba.resize(n * 4);
+    void read_rows(int y0, int y1, float* r, float* g, float* b, float* a) {
+        const size_t n = w_ * static_cast<size_t>(y1 - y0);
+        rgba_.resize(n * 4);
         auto t_read = Clock::now();
-        src->read_rgba(y0, y1, rgba.data());
-        res.stages.read += since(t_read);
+        src_.read_rgba(y0, y1, rgba_.data());
+        res_.stages.read += since(t_read);
         auto t_colour = Clock::now();
-        const PolicedCounts counts = police_rgba(rgba.data(), n, lin, policy, input, w, y0);
-        res.replaced_pixels += counts.replaced;
-        res.clamped_pixels += counts.clamped;
+        const PolicedCounts counts = police_rgba(rgba_.data(), n, lin_, policy_, input_, w_, y0);
+        res_.replaced_pixels += counts.replaced;
+        res_.clamped_pixels += counts.clamped;
         for (size_t i = 0; i < n; ++i) {
-            const float* p = &rgba[4 * i];
+            const float* p = &rgba_[4 * i];
             float al = p[3];
-            float k = premultiply ? al : 1.0f;
+            float k = premultiply_ ? al : 1.0f;
             r[i] = p[0] * k;
             g[i] = p[1] * k;
             b[i] = p[2] * k;
-            if (has_alpha) a[i] = al;
+            if (has_alpha_) a[i] = al;
         }
-        res.stages.colour += since(t_colour);
-    };
-
-    std::vector<uint16_t> half_planes;
-    std::vector<float> float_planes;
-    // Expands n pixels and writes them as rows [row0, row0 + rows) of `level`.
-    auto expand_and_write = [&](int level, int row0, int rows, size_t n, const float* r,
-                                const float* g, const float* b, const float* a) {
-        const void* planes;
-        if (s.type == SampleType::Half) {
-            half_planes.resize(n * bins);
-            method.expand_half(r, g, b, n, half_planes.data(), n, feedback);
-            planes = half_planes.data();
-        } else {
-            float_planes.resize(n * bins);
-            method.expand_float(r, g, b, n, float_planes.data(), n);
-            planes = float_planes.data();
-        }
-        if (tiled)
-            writer.write_level_rows(level, row0, rows, planes, n, a, r, g, b);
-        else
-            writer.write_rows(rows, planes, n, a, r, g, b);
-    };
-
-    if (progress) {
-        long rows = info.height;
-        if (s.mipmap) {
-            rows = 0;
-            for (int l = 0; l < writer.levels(); ++l) rows += writer.level_height(l);
-        }
-        progress->rows_total = rows;
+        res_.stages.colour += since(t_colour);
     }
-    if (!s.mipmap) {
-        // Two strips in flight: while OpenEXR compresses and writes strip k (on its thread pool),
-        // a producer thread decodes, linearises and expands strip k+1, so those stages hide
-        // under the encoder. The producer alone touches the reader and the counters.
-        struct Strip {
-            std::vector<float> r, g, b, a;
-            std::vector<uint16_t> half;
-            std::vector<float> flt;
-            int y0 = 0, y1 = 0;
-        };
+
+    // Expands n pixels into `half` or `flt` (by the output type); returns the planes.
+    const void* expand(const float* r, const float* g, const float* b, size_t n,
+                       std::vector<uint16_t>& half, std::vector<float>& flt) const {
+        if (s_.type == SampleType::Half) {
+            half.resize(n * bins_);
+            method_.expand_half(r, g, b, n, half.data(), n, feedback_);
+            return half.data();
+        }
+        flt.resize(n * bins_);
+        method_.expand_float(r, g, b, n, flt.data(), n);
+        return flt.data();
+    }
+
+    // Two strips in flight: while OpenEXR compresses and writes strip k (on its thread pool), a
+    // producer thread decodes, linearises and expands strip k+1, so those stages hide under the
+    // encoder. The producer alone touches the reader and the counters.
+    void write_scanlines() {
         std::array<Strip, 2> strips;
-        auto produce = [&](Strip& st, int y0) {
-            st.y0 = y0;
-            st.y1 = std::min(info.height, y0 + strip);
-            const size_t n = w * static_cast<size_t>(st.y1 - st.y0);
-            st.r.resize(n);
-            st.g.resize(n);
-            st.b.resize(n);
-            st.a.resize(has_alpha ? n : 0);
-            process_rows(st.y0, st.y1, st.r.data(), st.g.data(), st.b.data(), st.a.data());
-            auto t_expand = Clock::now();
-            if (s.type == SampleType::Half) {
-                st.half.resize(n * bins);
-                method.expand_half(st.r.data(), st.g.data(), st.b.data(), n, st.half.data(), n,
-                                   feedback);
-            } else {
-                st.flt.resize(n * bins);
-                method.expand_float(st.r.data(), st.g.data(), st.b.data(), n, st.flt.data(), n);
-            }
-            res.stages.expand += since(t_expand);
-        };
-        auto consume = [&](const Strip& st) {
-            const size_t n = w * static_cast<size_t>(st.y1 - st.y0);
-            const void* planes = s.type == SampleType::Half
-                                     ? static_cast<const void*>(st.half.data())
-                                     : static_cast<const void*>(st.flt.data());
-            if (tiled)
-                writer.write_level_rows(0, st.y0, st.y1 - st.y0, planes, n, st.a.data(),
-                                        st.r.data(), st.g.data(), st.b.data());
-            else
-                writer.write_rows(st.y1 - st.y0, planes, n, st.a.data(), st.r.data(), st.g.data(),
-                                  st.b.data());
-            if (progress) progress->rows_done += st.y1 - st.y0;
-        };
         produce(strips[0], 0);
-        for (int k = 0; strips[k % 2].y0 < info.height; ++k) {
+        for (int k = 0; strips[k % 2].y0 < info_.height; ++k) {
             const int next_y0 = strips[k % 2].y1;
             std::future<void> next;
-            if (next_y0 < info.height)
+            if (next_y0 < info_.height)
                 next = std::async(std::launch::async,
                                   [&, next_y0, k] { produce(strips[(k + 1) % 2], next_y0); });
             try {
@@ -352,45 +338,102 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
             if (!next.valid()) break;
             auto t_wait = Clock::now();
             next.get();  // rethrows the producer's error
-            res.stages.producer_wait += since(t_wait);
+            res_.stages.producer_wait += since(t_wait);
         }
-    } else {
-        // MIP-mapped: the expansion is linear, so every level is filtered on the linear (and
-        // premultiplied) RGBA and expanded afterwards; memory is the RGBA pyramid, not N bins.
-        const size_t n0 = w * static_cast<size_t>(info.height);
+    }
+
+    void produce(Strip& st, int y0) {
+        st.y0 = y0;
+        st.y1 = std::min(info_.height, y0 + strip_);
+        const size_t n = w_ * static_cast<size_t>(st.y1 - st.y0);
+        st.r.resize(n);
+        st.g.resize(n);
+        st.b.resize(n);
+        st.a.resize(has_alpha_ ? n : 0);
+        read_rows(st.y0, st.y1, st.r.data(), st.g.data(), st.b.data(), st.a.data());
+        auto t_expand = Clock::now();
+        expand(st.r.data(), st.g.data(), st.b.data(), n, st.half, st.flt);
+        res_.stages.expand += since(t_expand);
+    }
+
+    void consume(const Strip& st) {
+        const size_t n = w_ * static_cast<size_t>(st.y1 - st.y0);
+        const void* planes = s_.type == SampleType::Half ? static_cast<const void*>(st.half.data())
+                                                         : static_cast<const void*>(st.flt.data());
+        if (tiled_)
+            writer_.write_level_rows(0, st.y0, st.y1 - st.y0, planes, n, st.a.data(), st.r.data(),
+                                     st.g.data(), st.b.data());
+        else
+            writer_.write_rows(st.y1 - st.y0, planes, n, st.a.data(), st.r.data(), st.g.data(),
+                               st.b.data());
+        if (progress_) progress_->rows_done += st.y1 - st.y0;
+    }
+
+    // MIP-mapped: the expansion is linear, so every level is filtered on the linear (and
+    // premultiplied) RGBA and expanded afterwards; memory is the RGBA pyramid, not N bins.
+    void write_mipmapped() {
+        const size_t n0 = w_ * static_cast<size_t>(info_.height);
         std::array<std::vector<float>, 4> level;
-        for (int c = 0; c < (has_alpha ? 4 : 3); ++c) level[static_cast<size_t>(c)].resize(n0);
-        for (int y0 = 0; y0 < info.height; y0 += strip) {
-            const int y1 = std::min(info.height, y0 + strip);
-            const size_t off = w * static_cast<size_t>(y0);
-            process_rows(y0, y1, level[0].data() + off, level[1].data() + off,
-                         level[2].data() + off, has_alpha ? level[3].data() + off : nullptr);
+        for (int c = 0; c < (has_alpha_ ? 4 : 3); ++c) level[static_cast<size_t>(c)].resize(n0);
+        for (int y0 = 0; y0 < info_.height; y0 += strip_) {
+            const int y1 = std::min(info_.height, y0 + strip_);
+            const size_t off = w_ * static_cast<size_t>(y0);
+            read_rows(y0, y1, level[0].data() + off, level[1].data() + off, level[2].data() + off,
+                      has_alpha_ ? level[3].data() + off : nullptr);
         }
-        int lw = info.width, lh = info.height;
-        for (int l = 0; l < writer.levels(); ++l) {
+        std::vector<uint16_t> half;
+        std::vector<float> flt;
+        int lw = info_.width, lh = info_.height;
+        for (int l = 0; l < writer_.levels(); ++l) {
             if (l > 0) {
-                const int nw = writer.level_width(l), nh = writer.level_height(l);
+                const int nw = writer_.level_width(l), nh = writer_.level_height(l);
                 for (auto& p : level)
                     if (!p.empty()) p = box_downsample(p, lw, lh, nw, nh);
                 lw = nw;
                 lh = nh;
             }
-            const int th = layout.tile_height;
-            for (int y0 = 0; y0 < lh; y0 += th) {
-                const int y1 = std::min(lh, y0 + th);
+            for (int y0 = 0; y0 < lh; y0 += tile_height_) {
+                const int y1 = std::min(lh, y0 + tile_height_);
                 const size_t off = static_cast<size_t>(lw) * static_cast<size_t>(y0);
-                expand_and_write(
-                    l, y0, y1 - y0, static_cast<size_t>(lw) * static_cast<size_t>(y1 - y0),
-                    level[0].data() + off, level[1].data() + off, level[2].data() + off,
-                    has_alpha ? level[3].data() + off : nullptr);
-                if (progress) progress->rows_done += y1 - y0;
+                const size_t n = static_cast<size_t>(lw) * static_cast<size_t>(y1 - y0);
+                const float *r = level[0].data() + off, *g = level[1].data() + off,
+                            *b = level[2].data() + off;
+                const float* a = has_alpha_ ? level[3].data() + off : nullptr;
+                writer_.write_level_rows(l, y0, y1 - y0, expand(r, g, b, n, half, flt), n, a, r, g,
+                                         b);
+                if (progress_) progress_->rows_done += y1 - y0;
             }
         }
     }
+
+    const std::string& input_;
+    const BakeSettings& s_;
+    const SpectralMethod& method_;
+    ImageSource& src_;
+    const Linearizer& lin_;
+    SpectralExrWriter& writer_;
+    BakeResult& res_;
+    BakeProgress* progress_;
+    const SourceInfo& info_;
+    const bool has_alpha_, premultiply_;
+    const PixelPolicy policy_;
+    const std::vector<float> rgb_weight_;
+    const std::vector<float>* feedback_;
+    const size_t bins_, w_;
+    const bool tiled_;
+    const int tile_height_;
+    int strip_ = 1;
+    std::vector<float> rgba_;
+};
+
+// After the last pixel: close the file, patch in the source's hash (known once it was decoded),
+// note the writer's timing and the size, and rename the file into place.
+void finish_output(SpectralExrWriter& writer, AtomicFile& out, ImageSource& src,
+                   const std::string& output, BakeResult& res) {
     auto t_finish = Clock::now();
     writer.finish();
     patch_string_attribute(out.fd(), provenance_key::kSourceHash, source_hash_placeholder(),
-                           src->content_hash(), output);
+                           src.content_hash(), output);
     res.stages.finish = since(t_finish);
     const auto wt = writer.timing();
     res.stages.pack = wt.pack_seconds;
@@ -400,6 +443,41 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     struct stat st;
     if (::fstat(out.fd(), &st) == 0) res.bytes = static_cast<uint64_t>(st.st_size);
     out.commit();
+}
+
+}  // namespace
+
+// The stages of one file, in order: check the names, open the source, choose its colour space,
+// lay out the output, run the pixel stages, finish the file.
+BakeResult bake_file(const std::string& input, const std::string& output, const BakeSettings& s,
+                     BakeProgress* progress) {
+    auto t0 = std::chrono::steady_clock::now();
+    BakeResult res;
+    res.input = input;
+    res.output = output;
+    check_not_input(input, output);
+    const SpectralMethod& method = *s.method;
+    if (!same_wavelengths(method.lambda(), s.grid.lambda))
+        throw Error("the " + method.name() + " method is not on the output grid " +
+                    s.grid.describe());
+
+    auto src = ImageSource::open(input, s.max_pixels);
+    const SourceInfo& info = src->info();
+    note_source_shape(info, res);
+
+    Linearizer lin = Linearizer::make(
+        ColourRequest{s.data_dir, s.config, s.colorspace, input, info.colorspace_hint});
+    if (!info.is_float) lin.use_code_table(info.bits);
+    record_colour(info, lin, res);
+
+    const SpectralExrLayout layout = output_layout(
+        s, info,
+        header_attributes(s, input, lin, info.alpha != AlphaKind::None, method, src->identity()));
+    AtomicFile out(output);
+    SpectralExrWriter writer(out, layout);
+    PixelStages(input, s, method, *src, lin, writer, layout, res, progress).run();
+    finish_output(writer, out, *src, output, res);
+
     res.pixels = static_cast<uint64_t>(info.width) * static_cast<uint64_t>(info.height);
     res.bins = method.bins();
     res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
