@@ -293,7 +293,8 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
              "N = K-1.",
              [&](const std::string& v) { c.shard = v; });
     p.flag("--update",
-           "Skip files whose output is newer than the input and was made with the same settings.",
+           "Skip files whose output was made from this same source (size, modification time, "
+           "content hash) with the same settings.",
            [&] { c.update = true; });
     p.flag("--force", "Rebuild every file even with --update.", [&] { c.force = true; });
     p.flag("--fail-fast",
