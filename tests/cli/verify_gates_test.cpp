@@ -332,3 +332,38 @@ TEST(VerifyGates, OtherLightsAreReportedNotGated) {
     EXPECT_EQ(run_spectex({"verify", basis, "--illuminant", "A,,FL11"}).status, 2);
     EXPECT_EQ(run_spectex({"verify", basis, "--illuminant", "nosuch"}).status, 1);
 }
+
+// Issue 15, item 6: the code-match check re-encodes through the config's own inverse transform,
+// never by the names of our config's spaces: a studio config that calls its sRGB texture space
+// something else keeps the check (100 % of the 8-bit codes).
+TEST(VerifyGates, CodeMatchFollowsTheTransformNotTheSpacesName) {
+    ScratchDir d;
+    const std::string png = make_png(d, "in.png", 24, 16);
+    const std::string cfg = d / "studio.ocio", exr = d / "out.exr";
+    std::string text;
+    {
+        std::ifstream in(std::string(SPECTEX_TEST_DATA_DIR) + "/spectex.ocio");
+        text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    }
+    auto replace_all = [&text](const std::string& from, const std::string& to) {
+        size_t n = 0;
+        for (size_t p = text.find(from); p != std::string::npos;
+             p = text.find(from, p + to.size())) {
+            text.replace(p, from.size(), to);
+            ++n;
+        }
+        return n;
+    };
+    ASSERT_GT(replace_all("sRGB - Texture", "Studio Albedo 8bit"), 3u);
+    ASSERT_EQ(
+        replace_all("aliases: [srgb_tx, srgb_texture, Utility - Studio Albedo 8bit, sRGB, srgb]",
+                    "aliases: [albedo8]"),
+        1u);
+    std::ofstream(cfg) << text;
+    RunResult b = run_spectex({"bake", png, "-o", exr, "--config", cfg, "-q"});
+    ASSERT_EQ(b.status, 0) << b.err;
+    EXPECT_EQ(read_exr(exr).attr("spectex:inputColorSpace"), "Studio Albedo 8bit");
+    RunResult v = run_spectex({"verify", exr, "--source", png});
+    EXPECT_EQ(v.status, 0) << v.out << v.err;
+    EXPECT_TRUE(has(v.out, "re-encode to their 8-bit codes >= 100%: 100%")) << v.out;
+}
