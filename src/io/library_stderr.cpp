@@ -78,8 +78,6 @@ std::string LibraryLineFilter::pass(const std::string& raw) {
 
 bool stderr_is_terminal() { return g_tty; }
 
-LibraryMessages library_messages_mode() { return g_mode; }
-
 void capture_library_stderr() {
     static bool done = false;
     if (done) return;
@@ -117,8 +115,8 @@ void capture_library_stderr() {
     // Never destroyed: std::cerr keeps pointing at it until the very end (the standard streams are
     // flushed after every static destructor has run), and its descriptor must stay open for the
     // sanitizer's report at exit. A static object here was destroyed first and closed `real`, so
-    // the leak check's report went to a closed descriptor and the sanitizer died silently with
-    // its exit code (in about 1 of 60 runs of a command as short as `spectex bakee`).
+    // a leak check's report went to a closed descriptor and the sanitizer died silently with its
+    // exit code (the report hidden so was the false leak described below).
     static auto* ours = new __gnu_cxx::stdio_filebuf<char>(real, std::ios::out);
     std::cerr.rdbuf(ours);
     // The reader signals once it runs: a command as short as `spectex --help` could otherwise exit

@@ -36,7 +36,6 @@ void capture_library_stderr();
 // Forwards what the libraries printed last and gives descriptor 2 back to the real stderr; call
 // once, at the end of main.
 void finish_library_stderr();
-LibraryMessages library_messages_mode();
 // Whether the real stderr is a terminal (descriptor 2 itself is a pipe once captured).
 bool stderr_is_terminal();
 
