@@ -7,17 +7,16 @@
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
-#include <condition_variable>
 #include <cstring>
 #include <deque>
 #include <exception>
 #include <map>
 #include <mutex>
-#include <thread>
 
 #include "io/exr_compression.h"
 #include "spectral/error.h"
 #include "spectral/expand.h"
+#include "spectral/task_pool.h"
 #include "spectral/wavelength_grid.h"
 
 namespace spectex {
@@ -96,22 +95,30 @@ struct ExrCoreWriter::Impl {
     std::vector<std::pair<int, int>> level_size;  // tiled: width, height of each level
     int next_level = 0, next_row = 0;             // tiled: where the caller must continue
 
-    // Chunk buffers: `free` ones wait to be filled; `queue` waits for a worker; `done` holds
-    // compressed chunks until every earlier chunk is written (the file's line order is increasing).
+    // Chunk buffers: `free` ones wait to be filled; each filled one becomes a compression task of
+    // the shared pool (`pending`, in chunk order, touched by the caller's thread only); `done`
+    // holds compressed chunks until every earlier chunk is written (the file's line order is
+    // increasing).
     std::vector<std::unique_ptr<Chunk>> all;
     std::vector<Chunk*> free;
-    std::deque<Chunk*> queue;
+    std::deque<Task> pending;
     std::map<int, Chunk*> done;
     int max_buffers = 2;
     size_t max_chunk_bytes = 0;
     Chunk* current = nullptr;
-    int next_chunk = 0;  // index of the next chunk to start filling
-    int next_write = 0;  // index of the next chunk to write
-    std::mutex mu;       // guards everything above and the error
-    std::condition_variable cv;
+    int next_chunk = 0;   // index of the next chunk to start filling
+    int next_write = 0;   // index of the next chunk to write
+    std::mutex mu;        // guards everything above and the error
     std::mutex write_mu;  // serialises writes to the file
-    std::vector<std::thread> workers;
-    bool stopping = false;
+    // A deflate compressor and its scratch block per compression running at once, reused.
+    struct Deflater {
+        libdeflate_compressor* z = nullptr;
+        std::vector<uint8_t> scratch;
+        ~Deflater() {
+            if (z) libdeflate_free_compressor(z);
+        }
+    };
+    std::vector<std::unique_ptr<Deflater>> deflaters;  // idle ones; guarded by mu
     std::exception_ptr error;
     std::string io_error;    // the first write() failure, with errno's text
     std::string core_error;  // the last message from OpenEXR's core
@@ -192,7 +199,6 @@ struct ExrCoreWriter::Impl {
             if (e && !error) error = e;
             ++next_write;
             free.push_back(c);
-            cv.notify_all();
             if (error) return;
         }
     }
@@ -214,47 +220,69 @@ struct ExrCoreWriter::Impl {
         c.bytes = out;
     }
 
-    void worker() {
-        libdeflate_compressor* z = libdeflate_alloc_compressor(L.zip_level);
-        std::vector<uint8_t> scratch;
-        for (;;) {
-            Chunk* c = nullptr;
-            {
-                std::unique_lock<std::mutex> lock(mu);
-                cv.wait(lock, [&] { return stopping || !queue.empty(); });
-                if (queue.empty()) break;
-                c = queue.front();
-                queue.pop_front();
+    std::unique_ptr<Deflater> take_deflater() {
+        {
+            std::lock_guard<std::mutex> lock(mu);
+            if (!deflaters.empty()) {
+                std::unique_ptr<Deflater> d = std::move(deflaters.back());
+                deflaters.pop_back();
+                return d;
             }
-            auto t0 = Clock::now();
-            try {
-                if (!z) throw Error(name + ": cannot allocate a deflate compressor");
-                compress_chunk(*c, z, scratch);
-            } catch (...) {
-                std::lock_guard<std::mutex> lock(mu);
-                if (!error) error = std::current_exception();
-                cv.notify_all();
-                continue;
-            }
-            {
-                std::lock_guard<std::mutex> lock(stats_mu);
-                stats.compress_seconds += since(t0);
-            }
-            {
-                std::lock_guard<std::mutex> lock(mu);
-                done[c->index] = c;
-            }
-            write_ready();
         }
-        if (z) libdeflate_free_compressor(z);
+        auto d = std::make_unique<Deflater>();
+        d->z = libdeflate_alloc_compressor(L.zip_level);
+        if (!d->z) throw Error(name + ": cannot allocate a deflate compressor");
+        return d;
+    }
+
+    // One task of the pool: compresses chunk c, then writes whatever is next in line. Never
+    // throws: a failure is kept in `error` for the caller's thread.
+    void compress_task(Chunk* c) {
+        auto t0 = Clock::now();
+        try {
+            std::unique_ptr<Deflater> d = take_deflater();
+            compress_chunk(*c, d->z, d->scratch);
+            std::lock_guard<std::mutex> lock(mu);
+            deflaters.push_back(std::move(d));
+        } catch (...) {
+            std::lock_guard<std::mutex> lock(mu);
+            if (!error) error = std::current_exception();
+            return;
+        }
+        {
+            std::lock_guard<std::mutex> lock(stats_mu);
+            stats.compress_seconds += since(t0);
+        }
+        {
+            std::lock_guard<std::mutex> lock(mu);
+            done[c->index] = c;
+        }
+        write_ready();
+    }
+
+    // Waits for the oldest compression still pending (running it here if no worker has begun it).
+    // Once it has returned, every chunk up to it is written and its buffer is free again.
+    bool finish_oldest() {
+        if (pending.empty()) return false;
+        Task t = std::move(pending.front());
+        pending.pop_front();
+        t.wait();
+        return true;
+    }
+
+    void drain() {
+        while (finish_oldest()) {
+        }
     }
 
     Chunk* acquire() {
         auto t0 = Clock::now();
         std::unique_lock<std::mutex> lock(mu);
-        cv.wait(lock, [&] {
-            return error || !free.empty() || static_cast<int>(all.size()) < max_buffers;
-        });
+        while (!error && free.empty() && static_cast<int>(all.size()) >= max_buffers) {
+            lock.unlock();
+            if (!finish_oldest()) throw Error(name + ": internal: no chunk buffer can come free");
+            lock.lock();
+        }
         rethrow_locked();
         Chunk* c;
         if (!free.empty()) {
@@ -279,12 +307,11 @@ struct ExrCoreWriter::Impl {
 
     void submit(Chunk* c) {
         stats.chunk_bytes = std::max(stats.chunk_bytes, c->raw_bytes);
-        std::unique_lock<std::mutex> lock(mu);
         if (compress) {
-            queue.push_back(c);
-            cv.notify_all();
+            pending.push_back(TaskPool::shared().submit([this, c] { compress_task(c); }));
             return;
         }
+        std::unique_lock<std::mutex> lock(mu);
         c->bytes = c->raw_bytes;
         done[c->index] = c;
         lock.unlock();
@@ -317,16 +344,6 @@ struct ExrCoreWriter::Impl {
             dst += cw * es;
         }
         return dst;
-    }
-
-    void stop_workers() {
-        {
-            std::lock_guard<std::mutex> lock(mu);
-            stopping = true;
-        }
-        cv.notify_all();
-        for (auto& t : workers) t.join();
-        workers.clear();
     }
 };
 
@@ -439,15 +456,15 @@ ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const SpectralExrL
         I.max_chunk_bytes = I.row_bytes * static_cast<size_t>(I.lines_per_chunk);
     }
 
-    // Memory: one chunk being filled and one per worker being compressed; each worker also has
-    // a scratch block. Never more, whatever the bin count.
-    const int workers = I.compress ? std::max(1, L.threads) : 0;
-    I.max_buffers = workers + 1;
-    for (int i = 0; i < workers; ++i) I.workers.emplace_back([&I] { I.worker(); });
+    // Memory: one chunk being filled and one per compression under way (L.threads of them at
+    // most, each with a scratch block). Never more, whatever the bin count.
+    const int compressing = I.compress ? std::max(1, L.threads) : 0;
+    I.max_buffers = compressing + 1;
+    if (I.compress) TaskPool::shared().reserve(compressing);
 }
 
 ExrCoreWriter::~ExrCoreWriter() {
-    impl_->stop_workers();
+    impl_->drain();  // the tasks use the buffers and the context freed below
     if (impl_->ctxt)
         exr_finish(&impl_->ctxt);  // frees the context; the AtomicFile discards the data
 }
@@ -537,10 +554,15 @@ void ExrCoreWriter::finish() {
         if (I.current || I.next_chunk != I.chunk_count)
             throw Error(I.name + ": internal: " + std::to_string(I.next_chunk) + " of " +
                         std::to_string(I.chunk_count) + " chunks were given rows");
-        I.cv.wait(lock, [&] { return I.error || I.next_write == I.chunk_count; });
-        I.rethrow_locked();
     }
-    I.stop_workers();
+    I.drain();
+    {
+        std::lock_guard<std::mutex> lock(I.mu);
+        I.rethrow_locked();
+        if (I.next_write != I.chunk_count)
+            throw Error(I.name + ": internal: " + std::to_string(I.next_write) + " of " +
+                        std::to_string(I.chunk_count) + " chunks were written");
+    }
     exr_result_t rv = exr_finish(&I.ctxt);  // writes the offset table
     I.ctxt = nullptr;
     if (rv != EXR_ERR_SUCCESS) I.fail("cannot finish the file", rv);
