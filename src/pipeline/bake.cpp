@@ -10,7 +10,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <future>
 #include <memory>
 
 #include "io/atomic_file.h"
@@ -24,6 +23,7 @@
 #include "spectral/error.h"
 #include "spectral/expand.h"
 #include "spectral/provenance_keys.h"
+#include "spectral/task_pool.h"
 
 namespace spectex {
 
@@ -317,29 +317,18 @@ class PixelStages {
         return flt.data();
     }
 
-    // Two strips in flight: while OpenEXR compresses and writes strip k (on its thread pool), a
-    // producer thread decodes, linearises and expands strip k+1, so those stages hide under the
+    // Two strips in flight: while strip k is packed and handed to the writer's compression tasks,
+    // a pool task decodes, linearises and expands strip k+1, so those stages hide under the
     // encoder. The producer alone touches the reader and the counters.
     void write_scanlines() {
         std::array<Strip, 2> strips;
-        produce(strips[0], 0);
-        for (int k = 0; strips[k % 2].y0 < info_.height; ++k) {
-            const int next_y0 = strips[k % 2].y1;
-            std::future<void> next;
-            if (next_y0 < info_.height)
-                next = std::async(std::launch::async,
-                                  [&, next_y0, k] { produce(strips[(k + 1) % 2], next_y0); });
-            try {
-                consume(strips[k % 2]);
-            } catch (...) {
-                if (next.valid()) next.wait();  // never leave the producer running on our buffers
-                throw;
-            }
-            if (!next.valid()) break;
-            auto t_wait = Clock::now();
-            next.get();  // rethrows the producer's error
-            res_.stages.producer_wait += since(t_wait);
-        }
+        const size_t count = static_cast<size_t>((info_.height + strip_ - 1) / strip_);
+        res_.stages.producer_wait += produce_consume_strips(
+            count,
+            [&](size_t k, int slot) {
+                produce(strips[static_cast<size_t>(slot)], static_cast<int>(k) * strip_);
+            },
+            [&](size_t, int slot) { consume(strips[static_cast<size_t>(slot)]); });
     }
 
     void produce(Strip& st, int y0) {

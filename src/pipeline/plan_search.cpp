@@ -4,14 +4,15 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <set>
-#include <thread>
 
 #include "spectral/basis_fit.h"
 #include "spectral/ciede2000.h"
 #include "spectral/colorimetry.h"
 #include "spectral/error.h"
+#include "spectral/task_pool.h"
 
 namespace spectex {
 
@@ -89,17 +90,8 @@ struct SearchContext {
     }
 };
 
-// Runs f(i) for i in [0, n) on `threads` threads.
-template <class F>
-void parallel_for(size_t n, int threads, F f) {
-    std::atomic<size_t> next{0};
-    auto work = [&] {
-        for (size_t i = next++; i < n; i = next++) f(i);
-    };
-    std::vector<std::thread> pool;
-    for (int t = 1; t < threads && static_cast<size_t>(t) < n; ++t) pool.emplace_back(work);
-    work();
-    for (auto& th : pool) th.join();
+void parallel_for(size_t n, int threads, const std::function<void(size_t)>& f) {
+    TaskPool::shared().parallel_for(n, threads, f);
 }
 
 }  // namespace

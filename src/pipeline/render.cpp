@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <memory>
-#include <thread>
 
 #include "io/atomic_file.h"
 #include "io/image_library.h"
@@ -11,6 +10,7 @@
 #include "pipeline/look.h"
 #include "spectral/adaptation.h"
 #include "spectral/error.h"
+#include "spectral/task_pool.h"
 
 namespace spectex {
 
@@ -132,8 +132,7 @@ RenderReport render_file(const std::string& exr_path, const std::string& png_pat
     std::vector<uint8_t> rows(out_stride * static_cast<size_t>(band));
     for (size_t i = 0; i < rows.size(); i += static_cast<size_t>(nch))
         std::copy(kBackground, kBackground + nch, rows.begin() + static_cast<std::ptrdiff_t>(i));
-    unsigned hw = std::max(1u, std::thread::hardware_concurrency());
-    const int nthreads = s.threads > 0 ? s.threads : static_cast<int>(hw);
+    const int nthreads = s.threads > 0 ? s.threads : hardware_threads();
     for (int y0 = 0; y0 < h; y0 += band) {
         const int nrows = std::min(band, h - y0);
         reader.read_rows(y0, nrows, planes.data(), plane, alpha.data());
@@ -144,21 +143,12 @@ RenderReport render_file(const std::string& exr_path, const std::string& png_pat
             const size_t x0 = static_cast<size_t>(p) * static_cast<size_t>(w + r.gap);
             const size_t per =
                 (count + static_cast<size_t>(nthreads) - 1) / static_cast<size_t>(nthreads);
-            std::vector<std::thread> pool;
-            for (int t = 1; t < nthreads; ++t) {
-                const size_t b = std::min(count, per * static_cast<size_t>(t)),
-                             e = std::min(count, b + per);
+            TaskPool::shared().parallel_for(static_cast<size_t>(nthreads), nthreads, [&](size_t t) {
+                const size_t b = std::min(count, per * t), e = std::min(count, b + per);
                 if (b < e)
-                    pool.emplace_back([&, b, e] {
-                        integrate(planes.data(), plane, alpha.data(), bins, static_cast<size_t>(w),
-                                  wrgb, associated, info.alpha, b, e, rows.data(), out_stride, x0,
-                                  nch);
-                    });
-            }
-            integrate(planes.data(), plane, alpha.data(), bins, static_cast<size_t>(w), wrgb,
-                      associated, info.alpha, 0, std::min(count, per), rows.data(), out_stride, x0,
-                      nch);
-            for (auto& t : pool) t.join();
+                    integrate(planes.data(), plane, alpha.data(), bins, static_cast<size_t>(w),
+                              wrgb, associated, info.alpha, b, e, rows.data(), out_stride, x0, nch);
+            });
         }
         write_rows(r.label_height + y0, nrows, rows.data());
     }

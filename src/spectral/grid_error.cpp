@@ -4,12 +4,12 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <thread>
 
 #include "spectral/ciede2000.h"
 #include "spectral/error.h"
 #include "spectral/half.h"
 #include "spectral/srgb_axis.h"
+#include "spectral/task_pool.h"
 
 namespace spectex {
 
@@ -248,10 +248,8 @@ std::vector<ErrorStats> cube_error_linear(const std::vector<Eigen::Matrix3d>& ca
             }
         }
     };
-    std::vector<std::thread> pool;
-    for (int t = 1; t < threads; ++t) pool.emplace_back(work, t);
-    work(0);
-    for (auto& th : pool) th.join();
+    TaskPool::shared().parallel_for(static_cast<size_t>(threads), threads,
+                                    [&](size_t t) { work(static_cast<int>(t)); });
     std::vector<ErrorStats> out;
     for (size_t i = 0; i < cand.size(); ++i) {
         for (int t = 1; t < threads; ++t) hist[0][i].merge(hist[static_cast<size_t>(t)][i]);
