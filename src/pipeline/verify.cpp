@@ -4,10 +4,8 @@
 #include <cfloat>
 #include <chrono>
 #include <cmath>
-#include <future>
 #include <limits>
 #include <memory>
-#include <thread>
 
 #include "io/file_identity.h"
 #include "io/image_source.h"
@@ -22,6 +20,7 @@
 #include "spectral/error.h"
 #include "spectral/provenance_keys.h"
 #include "spectral/spectrum.h"
+#include "spectral/task_pool.h"
 #include "spectral/text.h"
 #include "spectral/wavelength_grid.h"
 
@@ -130,72 +129,161 @@ struct Context {
     std::vector<OtherLight> lights;
 };
 
+constexpr size_t kBlock = 256;  // pixels integrated together, so that the bins stream in order
+
+// XYZ of pixels [i0, i0 + m) under each other light, adapted: lacc[(3 l + ch) kBlock + j].
+void integrate_other_lights(const Context& c, const Band& b, size_t i0, size_t m,
+                            std::vector<double>& lacc) {
+    std::fill(lacc.begin(), lacc.end(), 0.0);
+    for (size_t l = 0; l < c.lights.size(); ++l) {
+        const Eigen::Matrix3Xd& Wl = c.lights[l].xyz_weights;
+        double* a = &lacc[l * 3 * kBlock];
+        for (int k = 0; k < c.bins; ++k) {
+            const float* p = b.planes.data() + static_cast<size_t>(k) * c.plane + i0;
+            const double w0 = Wl(0, k), w1 = Wl(1, k), w2 = Wl(2, k);
+            for (size_t j = 0; j < m; ++j) {
+                const double d = p[j];
+                a[j] += w0 * d;
+                a[kBlock + j] += w1 * d;
+                a[2 * kBlock + j] += w2 * d;
+            }
+        }
+    }
+}
+
+// Linear RGB of pixels [i0, i0 + m) into acc, and the samples outside [0, 1] or not finite.
+void integrate_block(const Context& c, const Band& b, size_t i0, size_t m, double (*acc)[kBlock],
+                     Stats& st) {
+    for (int ch = 0; ch < 3; ++ch) std::fill(acc[ch], acc[ch] + m, 0.0);
+    // Fast path: integrate and track the block's range; NaN fails both comparisons of the
+    // range check below, Inf lands in it. Samples are counted one by one only when needed.
+    float lo = 0.0f, hi = 1.0f;
+    bool nan = false;
+    for (int k = 0; k < c.bins; ++k) {
+        const float* p = b.planes.data() + static_cast<size_t>(k) * c.plane + i0;
+        const double w0 = c.wrgb[3 * k], w1 = c.wrgb[3 * k + 1], w2 = c.wrgb[3 * k + 2];
+        for (size_t j = 0; j < m; ++j) {
+            const float v = p[j];
+            const double d = v;
+            acc[0][j] += w0 * d;
+            acc[1][j] += w1 * d;
+            acc[2][j] += w2 * d;
+            lo = v < lo ? v : lo;
+            hi = v > hi ? v : hi;
+            nan |= v != v;
+        }
+    }
+    if (!(lo < 0.0f || hi > 1.0f || nan)) return;
+    const float hi_tol = 1.0f + 1e-6f;
+    uint64_t below0 = 0, above1 = 0, belowt = 0, abovet = 0, nonfin = 0;
+    for (int k = 0; k < c.bins; ++k) {
+        const float* p = b.planes.data() + static_cast<size_t>(k) * c.plane + i0;
+        for (size_t j = 0; j < m; ++j) {
+            const float v = p[j];
+            below0 += v < 0.0f;
+            above1 += v > 1.0f;
+            belowt += v < -1e-6f;
+            abovet += v > hi_tol;
+            nonfin += !(std::fabs(v) <= FLT_MAX);
+        }
+    }
+    st.below_zero += below0;
+    st.above_one += above1;
+    st.below_tol += belowt;
+    st.above_tol += abovet;
+    st.nonfinite += nonfin;
+}
+
+// Pixel j of the block under each other light (XYZ in lacc, still premultiplied by alpha when
+// inv_a != 1) against its colour rgb under the check light.
+void add_other_lights(const Context& c, const std::vector<double>& lacc, size_t j,
+                      const double* rgb, double inv_a, int px, int py, Stats& st) {
+    const Eigen::Vector3d ref = c.rgb_to_xyz * Eigen::Vector3d(rgb[0], rgb[1], rgb[2]);
+    const Lab ref_lab = lab_from_xyz(ref, c.white);
+    for (size_t l = 0; l < c.lights.size(); ++l) {
+        const double* a = &lacc[l * 3 * kBlock];
+        const Eigen::Vector3d xyz(a[j] * inv_a, a[kBlock + j] * inv_a, a[2 * kBlock + j] * inv_a);
+        if (!xyz.allFinite()) continue;
+        LightStats& ls = st.lights[l];
+        ++ls.pixels;
+        const double de = ciede2000(lab_from_xyz(xyz, c.white), ref_lab);
+        ls.de_sum += de;
+        if (de > ls.de_max) ls.de_max = de, ls.de_x = px, ls.de_y = py;
+        ls.hist.add(de);
+        const Eigen::Vector3d lrgb = c.xyz_to_rgb * xyz;
+        for (int ch = 0; ch < 3; ++ch) {
+            ls.rgb_min[ch] = std::min(ls.rgb_min[ch], lrgb[ch]);
+            ls.rgb_max[ch] = std::max(ls.rgb_max[ch], lrgb[ch]);
+        }
+    }
+}
+
+// Pixel idx (colour rgb) against the source's linearised pixel: linear RGB error and CIEDE2000.
+void compare_with_source(const Band& b, const Context& c, size_t idx, const double* rgb,
+                         bool finite, int px, int py, Stats& st) {
+    ++st.compared;
+    const float* src = &b.lin[4 * idx];
+    if (!finite) {
+        ++st.nonfinite_pixels;
+        const double inf = std::numeric_limits<double>::infinity();
+        if (st.rgb_err_max < inf) st.rgb_err_max = inf, st.rgb_err_x = px, st.rgb_err_y = py;
+        if (st.de_max < inf) st.de_max = inf, st.de_x = px, st.de_y = py;
+        st.rgb_err_sum = inf;
+        st.de_sum = inf;
+        st.hist.add(inf);
+        return;
+    }
+    double emax = 0;
+    for (int ch = 0; ch < 3; ++ch) {
+        const double e = std::fabs(rgb[ch] - static_cast<double>(src[ch]));
+        st.rgb_err_sum += e;
+        emax = std::max(emax, e);
+    }
+    if (emax > st.rgb_err_max) st.rgb_err_max = emax, st.rgb_err_x = px, st.rgb_err_y = py;
+    const Eigen::Vector3d v1(rgb[0], rgb[1], rgb[2]);
+    const Eigen::Vector3d v2(src[0], src[1], src[2]);
+    double de = 0;
+    if (v1 != v2)
+        de = ciede2000(lab_from_xyz(c.rgb_to_xyz * v1, c.white),
+                       lab_from_xyz(c.rgb_to_xyz * v2, c.white));
+    st.de_sum += de;
+    if (de > st.de_max) st.de_max = de, st.de_x = px, st.de_y = py;
+    st.hist.add(de);
+}
+
+// Code check of nenc pixels: their colours (enc, RGBA) re-encoded through the config's inverse
+// transform and rounded to the source's codes, against the codes the source holds.
+void check_codes(const Context& c, const Band& b, float* enc, const size_t* enc_idx, size_t nenc,
+                 Stats& st) {
+    c.encoder->encode_rgba(enc, static_cast<long>(nenc));
+    for (size_t e = 0; e < nenc; ++e) {
+        const float* raw = &b.raw[4 * enc_idx[e]];
+        const double k = c.source_associated ? static_cast<double>(raw[3]) : 1.0;
+        bool match = true;
+        for (int ch = 0; ch < 3 && match; ++ch) {
+            const double v = std::min(1.0, std::max(0.0, static_cast<double>(enc[4 * e + ch])));
+            const long expect = std::lround(v * k * c.max_code);
+            const long have = std::lround(static_cast<double>(raw[ch]) * c.max_code);
+            match = expect == have;
+        }
+        ++st.code_checked;
+        st.code_matched += match;
+    }
+}
+
+// Measures pixels [begin, end) of band b into st.
 void compute_range(const Context& c, const Band& b, size_t begin, size_t end, Stats& st) {
-    constexpr size_t kBlock = 256;
     double acc[3][kBlock];
     const size_t nl = c.lights.size();
     std::vector<double> lacc(nl * 3 * kBlock);  // XYZ under each other light, adapted
     float enc[4 * kBlock];                      // colours to re-encode (code check)
     size_t enc_idx[kBlock];
-    const float hi_tol = 1.0f + 1e-6f;
     if (st.lights.size() < nl) st.lights.resize(nl);
     for (size_t i0 = begin; i0 < end; i0 += kBlock) {
         const size_t m = std::min(kBlock, end - i0);
-        for (int ch = 0; ch < 3; ++ch) std::fill(acc[ch], acc[ch] + m, 0.0);
-        std::fill(lacc.begin(), lacc.end(), 0.0);
-        for (size_t l = 0; l < nl; ++l) {
-            const Eigen::Matrix3Xd& Wl = c.lights[l].xyz_weights;
-            double* a = &lacc[l * 3 * kBlock];
-            for (int k = 0; k < c.bins; ++k) {
-                const float* p = b.planes.data() + static_cast<size_t>(k) * c.plane + i0;
-                const double w0 = Wl(0, k), w1 = Wl(1, k), w2 = Wl(2, k);
-                for (size_t j = 0; j < m; ++j) {
-                    const double d = p[j];
-                    a[j] += w0 * d;
-                    a[kBlock + j] += w1 * d;
-                    a[2 * kBlock + j] += w2 * d;
-                }
-            }
-        }
+        integrate_other_lights(c, b, i0, m, lacc);
+        integrate_block(c, b, i0, m, acc, st);
         size_t nenc = 0;
-        // Fast path: integrate and track the block's range; NaN fails both comparisons of the
-        // range check below, Inf lands in it. Samples are counted one by one only when needed.
-        float lo = 0.0f, hi = 1.0f;
-        bool nan = false;
-        for (int k = 0; k < c.bins; ++k) {
-            const float* p = b.planes.data() + static_cast<size_t>(k) * c.plane + i0;
-            const double w0 = c.wrgb[3 * k], w1 = c.wrgb[3 * k + 1], w2 = c.wrgb[3 * k + 2];
-            for (size_t j = 0; j < m; ++j) {
-                const float v = p[j];
-                const double d = v;
-                acc[0][j] += w0 * d;
-                acc[1][j] += w1 * d;
-                acc[2][j] += w2 * d;
-                lo = v < lo ? v : lo;
-                hi = v > hi ? v : hi;
-                nan |= v != v;
-            }
-        }
-        if (lo < 0.0f || hi > 1.0f || nan) {
-            uint64_t below0 = 0, above1 = 0, belowt = 0, abovet = 0, nonfin = 0;
-            for (int k = 0; k < c.bins; ++k) {
-                const float* p = b.planes.data() + static_cast<size_t>(k) * c.plane + i0;
-                for (size_t j = 0; j < m; ++j) {
-                    const float v = p[j];
-                    below0 += v < 0.0f;
-                    above1 += v > 1.0f;
-                    belowt += v < -1e-6f;
-                    abovet += v > hi_tol;
-                    nonfin += !(std::fabs(v) <= FLT_MAX);
-                }
-            }
-            st.below_zero += below0;
-            st.above_one += above1;
-            st.below_tol += belowt;
-            st.above_tol += abovet;
-            st.nonfinite += nonfin;
-        }
-
         for (size_t j = 0; j < m; ++j) {
             const size_t idx = i0 + j;
             double rgb[3] = {acc[0][j], acc[1][j], acc[2][j]};
@@ -216,82 +304,335 @@ void compute_range(const Context& c, const Band& b, size_t begin, size_t end, St
                 }
             const int px = c.x0 + static_cast<int>(idx % c.w);
             const int py = c.y0 + b.y0 + static_cast<int>(idx / c.w);
-            if (finite && nl) {
-                const double inv_a = c.associated ? 1.0 / static_cast<double>(b.alpha[idx]) : 1.0;
-                const Eigen::Vector3d ref = c.rgb_to_xyz * Eigen::Vector3d(rgb[0], rgb[1], rgb[2]);
-                const Lab ref_lab = lab_from_xyz(ref, c.white);
-                for (size_t l = 0; l < nl; ++l) {
-                    const double* a = &lacc[l * 3 * kBlock];
-                    const Eigen::Vector3d xyz(a[j] * inv_a, a[kBlock + j] * inv_a,
-                                              a[2 * kBlock + j] * inv_a);
-                    if (!xyz.allFinite()) continue;
-                    LightStats& ls = st.lights[l];
-                    ++ls.pixels;
-                    const double de = ciede2000(lab_from_xyz(xyz, c.white), ref_lab);
-                    ls.de_sum += de;
-                    if (de > ls.de_max) ls.de_max = de, ls.de_x = px, ls.de_y = py;
-                    ls.hist.add(de);
-                    const Eigen::Vector3d lrgb = c.xyz_to_rgb * xyz;
-                    for (int ch = 0; ch < 3; ++ch) {
-                        ls.rgb_min[ch] = std::min(ls.rgb_min[ch], lrgb[ch]);
-                        ls.rgb_max[ch] = std::max(ls.rgb_max[ch], lrgb[ch]);
-                    }
-                }
-            }
+            if (finite && nl)
+                add_other_lights(c, lacc, j, rgb,
+                                 c.associated ? 1.0 / static_cast<double>(b.alpha[idx]) : 1.0, px,
+                                 py, st);
             if (!c.compare) continue;
-            ++st.compared;
-            const float* src = &b.lin[4 * idx];
-            if (!finite) {
-                ++st.nonfinite_pixels;
-                const double inf = std::numeric_limits<double>::infinity();
-                if (st.rgb_err_max < inf)
-                    st.rgb_err_max = inf, st.rgb_err_x = px, st.rgb_err_y = py;
-                if (st.de_max < inf) st.de_max = inf, st.de_x = px, st.de_y = py;
-                st.rgb_err_sum = inf;
-                st.de_sum = inf;
-                st.hist.add(inf);
-                continue;
-            }
-            double emax = 0;
-            for (int ch = 0; ch < 3; ++ch) {
-                const double e = std::fabs(rgb[ch] - static_cast<double>(src[ch]));
-                st.rgb_err_sum += e;
-                emax = std::max(emax, e);
-            }
-            if (emax > st.rgb_err_max) st.rgb_err_max = emax, st.rgb_err_x = px, st.rgb_err_y = py;
-            const Eigen::Vector3d v1(rgb[0], rgb[1], rgb[2]);
-            const Eigen::Vector3d v2(src[0], src[1], src[2]);
-            double de = 0;
-            if (v1 != v2)
-                de = ciede2000(lab_from_xyz(c.rgb_to_xyz * v1, c.white),
-                               lab_from_xyz(c.rgb_to_xyz * v2, c.white));
-            st.de_sum += de;
-            if (de > st.de_max) st.de_max = de, st.de_x = px, st.de_y = py;
-            st.hist.add(de);
-            if (c.encoder && !b.changed[idx]) {
+            compare_with_source(b, c, idx, rgb, finite, px, py, st);
+            if (finite && c.encoder && !b.changed[idx]) {
                 for (int ch = 0; ch < 3; ++ch) enc[4 * nenc + ch] = static_cast<float>(rgb[ch]);
                 enc[4 * nenc + 3] = 1.0f;
                 enc_idx[nenc++] = idx;
             }
         }
-        // Code check: re-encode through the config's inverse transform, round to the source's
-        // codes.
-        if (nenc) {
-            c.encoder->encode_rgba(enc, static_cast<long>(nenc));
-            for (size_t e = 0; e < nenc; ++e) {
-                const float* raw = &b.raw[4 * enc_idx[e]];
-                const double k = c.source_associated ? static_cast<double>(raw[3]) : 1.0;
-                bool match = true;
-                for (int ch = 0; ch < 3 && match; ++ch) {
-                    const double v =
-                        std::min(1.0, std::max(0.0, static_cast<double>(enc[4 * e + ch])));
-                    const long expect = std::lround(v * k * c.max_code);
-                    const long have = std::lround(static_cast<double>(raw[ch]) * c.max_code);
-                    match = expect == have;
-                }
-                ++st.code_checked;
-                st.code_matched += match;
+        if (nenc) check_codes(c, b, enc, enc_idx, nenc, st);
+    }
+}
+
+// The file's size, bins and storage, as the report states them.
+VerifyReport describe_file(const std::string& exr_path, const SpectralExrInfo& info) {
+    VerifyReport r;
+    r.file = exr_path;
+    r.width = info.width;
+    r.height = info.height;
+    r.pixels = static_cast<uint64_t>(info.width) * static_cast<uint64_t>(info.height);
+    r.bins = static_cast<int>(info.reflective.size());
+    r.lambda_min = info.reflective.front().lambda;
+    r.lambda_max = info.reflective.back().lambda;
+    r.sample_type = info.sample_type;
+    r.compression = info.compression;
+    r.storage = info.tiled ? "tiled " + std::to_string(info.tile_width) + "x" +
+                                 std::to_string(info.tile_height)
+                           : std::string("scanline");
+    r.samples = r.pixels * static_cast<uint64_t>(r.bins);
+    return r;
+}
+
+// What the file records, and what is used: a setting given overrides the file's, with a warning.
+class Recorded {
+  public:
+    Recorded(const SpectralExrInfo& info, std::vector<std::string>& warnings)
+        : info_(info), warnings_(warnings) {}
+    std::string operator()(const std::string& key) const {
+        for (const auto& [k, v] : info_.attributes)
+            if (k == key) return v;
+        return std::string();
+    }
+    std::string choose(const std::string& given, const std::string& key,
+                       const std::string& fallback, const std::string& option) const {
+        const std::string rec = (*this)(key);
+        if (given.empty()) return rec.empty() ? fallback : rec;
+        if (!rec.empty() && lower_ascii(given) != lower_ascii(rec))
+            warnings_.push_back(option + " '" + given + "' overrides the file's '" + rec + "' (" +
+                                key + ")");
+        return given;
+    }
+
+  private:
+    const SpectralExrInfo& info_;
+    std::vector<std::string>& warnings_;
+};
+
+// The bake's settings the file records, or those given instead.
+void read_recorded_settings(const Recorded& recorded, const VerifySettings& s, VerifyReport& r) {
+    r.method = recorded(provenance_key::kMethod);
+    // spectex before 0.1's methods recorded only the basis.
+    if (r.method.empty() && !recorded(provenance_key::kBasis).empty()) r.method = "basis";
+    if (const std::string v = recorded(provenance_key::kOutOfRange); !v.empty()) r.out_of_range = v;
+    if (const std::string v = recorded(provenance_key::kNan); !v.empty()) r.nan = v;
+    r.half_rounding = recorded(provenance_key::kHalfRounding);
+    r.illuminant =
+        recorded.choose(s.illuminant, provenance_key::kIlluminant, "D65", "--check-illuminant");
+    r.observer = recorded.choose(s.observer, provenance_key::kObserver, "cie1931-2", "--observer");
+}
+
+// The check light's colorimetry on the file's own bins; the other lights, adapted to its white,
+// go to ctx.
+Colorimetry file_colorimetry(const std::string& exr_path, const SpectralExrInfo& info,
+                             const VerifySettings& s, VerifyReport& r, Context& ctx) {
+    std::vector<double> lambdas;
+    for (const auto& b : info.reflective) lambdas.push_back(b.lambda);
+    try {
+        WavelengthGrid grid = WavelengthGrid::from_list(lambdas);
+        r.wavelengths = grid.describe();
+        Observer obs = load_observer(s.data_dir, r.observer);
+        Colorimetry col = Colorimetry::make(obs, load_illuminant(s.data_dir, r.illuminant), grid,
+                                            primaries_by_name("srgb"));
+        for (const auto& name : s.other_lights) {
+            const Colorimetry cl = Colorimetry::make(obs, load_illuminant(s.data_dir, name), grid,
+                                                     primaries_by_name("srgb"));
+            ctx.lights.push_back({bradford_adaptation(cl.white_xyz, col.white_xyz) * cl.W});
+            OtherLightReport lr;
+            lr.light = name;
+            r.other_lights.push_back(lr);
+        }
+        return col;
+    } catch (const Error& e) {
+        throw Error(exr_path + ": " + e.what());
+    }
+}
+
+// The OCIO config for the source: the one given, else the one the bake used when it is still
+// there; a changed or missing config is warned about.
+std::string choose_config(const Recorded& recorded, const VerifySettings& s, VerifyReport& r) {
+    std::string config = s.config;
+    const std::string rec_config = recorded(provenance_key::kConfig),
+                      rec_sum = recorded(provenance_key::kConfigChecksum);
+    if (config.empty() && !rec_config.empty()) {
+        if (file_id(rec_config)) {
+            config = rec_config;
+            if (!rec_sum.empty() && config_checksum(rec_config) != rec_sum)
+                r.warnings.push_back("the OCIO config the file records (" + rec_config +
+                                     ") has changed since the bake");
+        } else {
+            r.warnings.push_back("the OCIO config the file records (" + rec_config +
+                                 ") is not there; using " + ocio_config_path(s.data_dir, ""));
+        }
+    } else if (!config.empty() && !rec_sum.empty() && config_checksum(config) != rec_sum) {
+        r.warnings.push_back("--config " + config + " differs from the config the file records (" +
+                             rec_config + ")");
+    }
+    return config;
+}
+
+// The code check, when the source's codes can be checked: what the report says of it, and the
+// encoder it needs in ctx.
+void plan_code_check(const SourceInfo& si, const Linearizer& lin, VerifyReport& r, Context& ctx) {
+    if (si.is_float) {
+        r.code_match_note = "float source: no codes to match";
+    } else if (si.bits != 8 && si.bits != 16) {
+        r.code_match_note =
+            std::to_string(si.bits) + "-bit source: only 8- and 16-bit codes are checked";
+    } else if (!lin.can_encode()) {
+        r.code_match_note = "the config cannot invert the transform of '" + lin.input_space() + "'";
+    } else {
+        ctx.encoder = &lin;
+        r.code_match_note =
+            "re-encoded through the config's inverse transform to '" + lin.input_space() + "'";
+    }
+    r.code_match_available = ctx.encoder != nullptr;
+    ctx.max_code = si.bits == 16 ? 65535.0 : 255.0;
+}
+
+// The source, opened and checked before any pixel is read, with the linearisation the file
+// records (or the one given).
+std::unique_ptr<ImageSource> open_source(const std::string& exr_path, const SpectralExrInfo& info,
+                                         const VerifySettings& s, const Recorded& recorded,
+                                         VerifyReport& r, Linearizer& lin, Context& ctx) {
+    auto src = ImageSource::open(s.source, s.max_pixels);
+    const SourceInfo& si = src->info();
+    if (si.width != info.width || si.height != info.height)
+        throw Error(exr_path + ": data window " + std::to_string(info.width) + "x" +
+                    std::to_string(info.height) + " differs from the source's " +
+                    std::to_string(si.width) + "x" + std::to_string(si.height) + " (" + s.source +
+                    ")");
+    const std::string config = choose_config(recorded, s, r);
+    const std::string rec_space = recorded(provenance_key::kInputColorSpace);
+    ColourRequest req{s.data_dir, config, s.colorspace.empty() ? rec_space : s.colorspace, s.source,
+                      si.colorspace_hint};
+    lin = Linearizer::make(req);
+    if (!s.colorspace.empty() && !rec_space.empty() && lin.input_space() != rec_space)
+        r.warnings.push_back("--colorspace '" + s.colorspace + "' ('" + lin.input_space() +
+                             "') overrides the file's '" + rec_space + "' (" +
+                             provenance_key::kInputColorSpace + ")");
+    r.compared = true;
+    r.source = s.source;
+    r.source_colorspace = lin.input_space();
+    r.source_colorspace_how = s.colorspace.empty() && !rec_space.empty()
+                                  ? std::string("the file's ") + provenance_key::kInputColorSpace
+                                  : lin.how_chosen();
+    r.source_bits = si.bits;
+    r.source_float = si.is_float;
+    ctx.compare = true;
+    ctx.source_associated = si.alpha == AlphaKind::Associated;
+    plan_code_check(si, lin, r, ctx);
+    return src;
+}
+
+// Reads the file (and the source) a band at a time, the next band while this one is measured;
+// returns one accumulator per range of a band.
+std::vector<Stats> measure_bands(SpectralReader& reader, ImageSource* src, const Linearizer& lin,
+                                 const Context& ctx, int band_rows, const VerifySettings& s,
+                                 VerifyReport& r) {
+    const SpectralExrInfo& info = reader.info();
+    const size_t w = ctx.w;
+    Band bands[2];
+    for (Band& b : bands) {
+        b.planes.resize(ctx.plane * static_cast<size_t>(r.bins));
+        if (info.alpha) b.alpha.resize(ctx.plane);
+        if (src) {
+            b.raw.resize(ctx.plane * 4);
+            b.lin.resize(ctx.plane * 4);
+            b.changed.resize(ctx.plane);
+        }
+    }
+    const PixelPolicy policy{src && src->info().alpha == AlphaKind::Associated, NanPolicy::Replace,
+                             r.out_of_range == "keep" ? RangePolicy::Keep : RangePolicy::Clamp};
+
+    auto read_band = [&](Band& b, int y0) {
+        b.y0 = y0;
+        b.rows = std::min(band_rows, info.height - y0);
+        reader.read_rows(y0, b.rows, b.planes.data(), ctx.plane,
+                         info.alpha ? b.alpha.data() : nullptr);
+        if (!src) return;
+        const size_t n = w * static_cast<size_t>(b.rows);
+        src->read_rgba(y0, y0 + b.rows, b.raw.data());
+        std::copy(b.raw.begin(), b.raw.begin() + static_cast<std::ptrdiff_t>(4 * n), b.lin.begin());
+        // The bake's policies, as the file records them: NaN/Inf -> 0 (a bake with --nan error
+        // had none), values outside [0, 1] clamped unless --out-of-range keep.
+        const PolicedCounts counts =
+            police_rgba(b.lin.data(), n, lin, policy, r.source, w, y0, b.changed.data());
+        b.replaced = counts.replaced;
+        b.clamped = counts.clamped;
+    };
+
+    const int nthreads = s.threads > 0 ? s.threads : hardware_threads();
+    std::vector<Stats> stats(static_cast<size_t>(nthreads));
+    // Each band is cut into nthreads ranges, one accumulator each, so the sums do not depend on
+    // which thread ran which range.
+    auto compute_band = [&](const Band& b) {
+        const size_t n = w * static_cast<size_t>(b.rows);
+        const size_t per = (n + static_cast<size_t>(nthreads) - 1) / static_cast<size_t>(nthreads);
+        TaskPool::shared().parallel_for(static_cast<size_t>(nthreads), nthreads, [&](size_t t) {
+            const size_t begin = std::min(n, per * t), end = std::min(n, begin + per);
+            if (begin < end) compute_range(ctx, b, begin, end, stats[t]);
+        });
+    };
+
+    const size_t band_count = static_cast<size_t>((info.height + band_rows - 1) / band_rows);
+    produce_consume_strips(
+        band_count,
+        [&](size_t k, int slot) { read_band(bands[slot], static_cast<int>(k) * band_rows); },
+        [&](size_t, int slot) {
+            compute_band(bands[slot]);
+            r.source_clamped += bands[slot].clamped;
+            r.source_replaced += bands[slot].replaced;
+        });
+    return stats;
+}
+
+// The accumulators of all ranges as one.
+Stats merge_stats(const std::vector<Stats>& stats) {
+    Stats total;
+    for (const Stats& st : stats) {
+        total.below_zero += st.below_zero;
+        total.above_one += st.above_one;
+        total.below_tol += st.below_tol;
+        total.above_tol += st.above_tol;
+        total.nonfinite += st.nonfinite;
+        for (int c = 0; c < 3; ++c) {
+            total.rgb_min[c] = std::min(total.rgb_min[c], st.rgb_min[c]);
+            total.rgb_max[c] = std::max(total.rgb_max[c], st.rgb_max[c]);
+        }
+        total.compared += st.compared;
+        total.transparent += st.transparent;
+        total.nonfinite_pixels += st.nonfinite_pixels;
+        total.code_checked += st.code_checked;
+        total.code_matched += st.code_matched;
+        if (total.lights.size() < st.lights.size()) total.lights.resize(st.lights.size());
+        for (size_t l = 0; l < st.lights.size(); ++l) {
+            LightStats& T = total.lights[l];
+            const LightStats& L = st.lights[l];
+            T.pixels += L.pixels;
+            T.de_sum += L.de_sum;
+            if (L.de_max > T.de_max || (L.de_max == T.de_max &&
+                                        (L.de_y < T.de_y || (L.de_y == T.de_y && L.de_x < T.de_x))))
+                T.de_max = L.de_max, T.de_x = L.de_x, T.de_y = L.de_y;
+            for (int c = 0; c < 3; ++c) {
+                T.rgb_min[c] = std::min(T.rgb_min[c], L.rgb_min[c]);
+                T.rgb_max[c] = std::max(T.rgb_max[c], L.rgb_max[c]);
             }
+            T.hist.merge(L.hist);
+        }
+        total.rgb_err_sum += st.rgb_err_sum;
+        total.de_sum += st.de_sum;
+        // Each thread keeps its first maximum; across threads, ties go to the first pixel in
+        // reading order, so the reported location does not depend on the thread count.
+        auto earlier = [](int y, int x, int ty, int tx) { return y < ty || (y == ty && x < tx); };
+        if (st.rgb_err_max > total.rgb_err_max ||
+            (st.rgb_err_max == total.rgb_err_max &&
+             earlier(st.rgb_err_y, st.rgb_err_x, total.rgb_err_y, total.rgb_err_x)))
+            total.rgb_err_max = st.rgb_err_max, total.rgb_err_x = st.rgb_err_x,
+            total.rgb_err_y = st.rgb_err_y;
+        if (st.de_max > total.de_max ||
+            (st.de_max == total.de_max && earlier(st.de_y, st.de_x, total.de_y, total.de_x)))
+            total.de_max = st.de_max, total.de_x = st.de_x, total.de_y = st.de_y;
+        total.hist.merge(st.hist);
+    }
+    return total;
+}
+
+// The report's figures from the merged accumulators.
+void report_totals(const Stats& total, VerifyReport& r) {
+    r.below_zero = total.below_zero;
+    r.above_one = total.above_one;
+    r.below_tol = total.below_tol;
+    r.above_tol = total.above_tol;
+    r.nonfinite = total.nonfinite;
+    for (int c = 0; c < 3; ++c) {
+        r.rgb_min[c] = total.rgb_min[c] <= total.rgb_max[c] ? total.rgb_min[c] : 0.0;
+        r.rgb_max[c] = total.rgb_min[c] <= total.rgb_max[c] ? total.rgb_max[c] : 0.0;
+    }
+    if (r.compared) {
+        r.compared_pixels = total.compared;
+        r.transparent_pixels = total.transparent;
+        r.nonfinite_pixels = total.nonfinite_pixels;
+        r.code_checked = total.code_checked;
+        r.code_matched = total.code_matched;
+        const double n = static_cast<double>(total.compared);
+        r.rgb_error_max = std::max(0.0, total.rgb_err_max);
+        r.rgb_error_x = total.rgb_err_x;
+        r.rgb_error_y = total.rgb_err_y;
+        r.rgb_error_mean = total.compared ? total.rgb_err_sum / (3.0 * n) : 0.0;
+        r.de_max = std::max(0.0, total.de_max);
+        r.de_x = total.de_x;
+        r.de_y = total.de_y;
+        r.de_mean = total.compared ? total.de_sum / n : 0.0;
+        r.de_p99 = total.hist.percentile(99.0, r.de_max);
+    }
+    for (size_t l = 0; l < r.other_lights.size() && l < total.lights.size(); ++l) {
+        OtherLightReport& o = r.other_lights[l];
+        const LightStats& L = total.lights[l];
+        o.pixels = L.pixels;
+        o.de_max = std::max(0.0, L.de_max);
+        o.de_x = L.de_x;
+        o.de_y = L.de_y;
+        o.de_mean = L.pixels ? L.de_sum / static_cast<double>(L.pixels) : 0.0;
+        o.de_p99 = L.hist.percentile(99.0, o.de_max);
+        for (int c = 0; c < 3; ++c) {
+            o.rgb_min[c] = L.rgb_min[c] <= L.rgb_max[c] ? L.rgb_min[c] : 0.0;
+            o.rgb_max[c] = L.rgb_min[c] <= L.rgb_max[c] ? L.rgb_max[c] : 0.0;
         }
     }
 }
@@ -309,148 +650,26 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
             exr_path +
             ": incomplete: chunks of the pixel data are missing (a truncated or interrupted file)");
 
-    VerifyReport r;
-    r.file = exr_path;
-    r.width = info.width;
-    r.height = info.height;
-    r.pixels = static_cast<uint64_t>(info.width) * static_cast<uint64_t>(info.height);
-    r.bins = static_cast<int>(info.reflective.size());
-    r.lambda_min = info.reflective.front().lambda;
-    r.lambda_max = info.reflective.back().lambda;
-    r.sample_type = info.sample_type;
-    r.compression = info.compression;
-    r.storage = info.tiled ? "tiled " + std::to_string(info.tile_width) + "x" +
-                                 std::to_string(info.tile_height)
-                           : std::string("scanline");
-    // What the file records, and what is used: a setting given overrides the file's, with a
-    // warning.
-    auto recorded = [&](const std::string& key) {
-        for (const auto& [k, v] : info.attributes)
-            if (k == key) return v;
-        return std::string();
-    };
-    auto differ = [](const std::string& a, const std::string& b) {
-        return lower_ascii(a) != lower_ascii(b);
-    };
-    auto choose = [&](const std::string& given, const std::string& key, const std::string& fallback,
-                      const std::string& option) {
-        const std::string rec = recorded(key);
-        if (given.empty()) return rec.empty() ? fallback : rec;
-        if (!rec.empty() && differ(given, rec))
-            r.warnings.push_back(option + " '" + given + "' overrides the file's '" + rec + "' (" +
-                                 key + ")");
-        return given;
-    };
-    r.method = recorded(provenance_key::kMethod);
-    // spectex before 0.1's methods recorded only the basis.
-    if (r.method.empty() && !recorded(provenance_key::kBasis).empty()) r.method = "basis";
-    if (const std::string v = recorded(provenance_key::kOutOfRange); !v.empty()) r.out_of_range = v;
-    if (const std::string v = recorded(provenance_key::kNan); !v.empty()) r.nan = v;
-    r.half_rounding = recorded(provenance_key::kHalfRounding);
-    r.illuminant = choose(s.illuminant, provenance_key::kIlluminant, "D65", "--check-illuminant");
-    r.observer = choose(s.observer, provenance_key::kObserver, "cie1931-2", "--observer");
+    VerifyReport r = describe_file(exr_path, info);
+    const Recorded recorded(info, r.warnings);
+    read_recorded_settings(recorded, s, r);
     r.alpha = reader.alpha();  // "associated" is OpenEXR's convention when nothing says otherwise
 
-    std::vector<double> lambdas;
-    for (const auto& b : info.reflective) lambdas.push_back(b.lambda);
-    Colorimetry col;
-    std::vector<OtherLight> lights;
-    try {
-        WavelengthGrid grid = WavelengthGrid::from_list(lambdas);
-        r.wavelengths = grid.describe();
-        Observer obs = load_observer(s.data_dir, r.observer);
-        col = Colorimetry::make(obs, load_illuminant(s.data_dir, r.illuminant), grid,
-                                primaries_by_name("srgb"));
-        for (const auto& name : s.other_lights) {
-            const Colorimetry cl = Colorimetry::make(obs, load_illuminant(s.data_dir, name), grid,
-                                                     primaries_by_name("srgb"));
-            lights.push_back({bradford_adaptation(cl.white_xyz, col.white_xyz) * cl.W});
-            OtherLightReport lr;
-            lr.light = name;
-            r.other_lights.push_back(lr);
-        }
-    } catch (const Error& e) {
-        throw Error(exr_path + ": " + e.what());
-    }
+    Context ctx;
+    const Colorimetry col = file_colorimetry(exr_path, info, s, r, ctx);
     const Eigen::Matrix3Xd wrgb = col.rgb_weights();
-
-    // The source, opened and checked before any pixel is read.
     std::unique_ptr<ImageSource> src;
     Linearizer lin;
-    Context ctx;
-    ctx.lights = std::move(lights);
-    if (!s.source.empty()) {
-        src = ImageSource::open(s.source, s.max_pixels);
-        const SourceInfo& si = src->info();
-        if (si.width != info.width || si.height != info.height)
-            throw Error(exr_path + ": data window " + std::to_string(info.width) + "x" +
-                        std::to_string(info.height) + " differs from the source's " +
-                        std::to_string(si.width) + "x" + std::to_string(si.height) + " (" +
-                        s.source + ")");
-        // The OCIO config: the one given, else the one the bake used when it is still there.
-        std::string config = s.config;
-        const std::string rec_config = recorded(provenance_key::kConfig),
-                          rec_sum = recorded(provenance_key::kConfigChecksum);
-        if (config.empty() && !rec_config.empty()) {
-            if (file_id(rec_config)) {
-                config = rec_config;
-                if (!rec_sum.empty() && config_checksum(rec_config) != rec_sum)
-                    r.warnings.push_back("the OCIO config the file records (" + rec_config +
-                                         ") has changed since the bake");
-            } else {
-                r.warnings.push_back("the OCIO config the file records (" + rec_config +
-                                     ") is not there; using " + ocio_config_path(s.data_dir, ""));
-            }
-        } else if (!config.empty() && !rec_sum.empty() && config_checksum(config) != rec_sum) {
-            r.warnings.push_back("--config " + config +
-                                 " differs from the config the file records (" + rec_config + ")");
-        }
-        const std::string rec_space = recorded(provenance_key::kInputColorSpace);
-        ColourRequest req{s.data_dir, config, s.colorspace.empty() ? rec_space : s.colorspace,
-                          s.source, si.colorspace_hint};
-        lin = Linearizer::make(req);
-        if (!s.colorspace.empty() && !rec_space.empty() && lin.input_space() != rec_space)
-            r.warnings.push_back("--colorspace '" + s.colorspace + "' ('" + lin.input_space() +
-                                 "') overrides the file's '" + rec_space + "' (" +
-                                 provenance_key::kInputColorSpace + ")");
-        r.compared = true;
-        r.source = s.source;
-        r.source_colorspace = lin.input_space();
-        r.source_colorspace_how =
-            s.colorspace.empty() && !rec_space.empty()
-                ? std::string("the file's ") + provenance_key::kInputColorSpace
-                : lin.how_chosen();
-        r.source_bits = si.bits;
-        r.source_float = si.is_float;
-        ctx.compare = true;
-        ctx.source_associated = si.alpha == AlphaKind::Associated;
-        if (si.is_float) {
-            r.code_match_note = "float source: no codes to match";
-        } else if (si.bits != 8 && si.bits != 16) {
-            r.code_match_note =
-                std::to_string(si.bits) + "-bit source: only 8- and 16-bit codes are checked";
-        } else if (!lin.can_encode()) {
-            r.code_match_note =
-                "the config cannot invert the transform of '" + lin.input_space() + "'";
-        } else {
-            ctx.encoder = &lin;
-            r.code_match_note =
-                "re-encoded through the config's inverse transform to '" + lin.input_space() + "'";
-        }
-        r.code_match_available = ctx.encoder != nullptr;
-        ctx.max_code = si.bits == 16 ? 65535.0 : 255.0;
-    }
+    if (!s.source.empty()) src = open_source(exr_path, info, s, recorded, r, lin, ctx);
 
     try {
-        const size_t w = static_cast<size_t>(info.width);
         // Whole chunks (or tile rows) per band when they fit the budget, so that no chunk is
         // decoded twice; for very wide files a band may be part of a chunk (OpenEXR keeps the
         // decoded chunk).
         const int band_rows = reader.band_rows(s.band_bytes);
         r.band_rows = band_rows;
-
-        ctx.w = w;
-        ctx.plane = w * static_cast<size_t>(band_rows);
+        ctx.w = static_cast<size_t>(info.width);
+        ctx.plane = ctx.w * static_cast<size_t>(band_rows);
         ctx.bins = r.bins;
         ctx.x0 = info.data_x0;
         ctx.y0 = info.data_y0;
@@ -460,172 +679,7 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
         ctx.white = col.white_xyz;
         ctx.has_alpha = info.alpha;
         ctx.associated = r.alpha == "associated";
-
-        Band bands[2];
-        for (Band& b : bands) {
-            b.planes.resize(ctx.plane * static_cast<size_t>(r.bins));
-            if (info.alpha) b.alpha.resize(ctx.plane);
-            if (src) {
-                b.raw.resize(ctx.plane * 4);
-                b.lin.resize(ctx.plane * 4);
-                b.changed.resize(ctx.plane);
-            }
-        }
-        const PixelPolicy policy{src && src->info().alpha == AlphaKind::Associated,
-                                 NanPolicy::Replace,
-                                 r.out_of_range == "keep" ? RangePolicy::Keep : RangePolicy::Clamp};
-
-        auto read_band = [&](Band& b, int y0) {
-            b.y0 = y0;
-            b.rows = std::min(band_rows, info.height - y0);
-            reader.read_rows(y0, b.rows, b.planes.data(), ctx.plane,
-                             info.alpha ? b.alpha.data() : nullptr);
-            if (!src) return;
-            const size_t n = w * static_cast<size_t>(b.rows);
-            src->read_rgba(y0, y0 + b.rows, b.raw.data());
-            std::copy(b.raw.begin(), b.raw.begin() + static_cast<std::ptrdiff_t>(4 * n),
-                      b.lin.begin());
-            // The bake's policies, as the file records them: NaN/Inf -> 0 (a bake with --nan error
-            // had none), values outside [0, 1] clamped unless --out-of-range keep.
-            const PolicedCounts counts =
-                police_rgba(b.lin.data(), n, lin, policy, r.source, w, y0, b.changed.data());
-            b.replaced = counts.replaced;
-            b.clamped = counts.clamped;
-        };
-
-        unsigned hw = std::max(1u, std::thread::hardware_concurrency());
-        const int nthreads = s.threads > 0 ? s.threads : static_cast<int>(hw);
-        std::vector<Stats> stats(static_cast<size_t>(nthreads));
-
-        auto compute_band = [&](const Band& b) {
-            const size_t n = w * static_cast<size_t>(b.rows);
-            const size_t per =
-                (n + static_cast<size_t>(nthreads) - 1) / static_cast<size_t>(nthreads);
-            std::vector<std::thread> pool;
-            for (int t = 1; t < nthreads; ++t) {
-                const size_t begin = std::min(n, per * static_cast<size_t>(t)),
-                             end = std::min(n, begin + per);
-                if (begin < end)
-                    pool.emplace_back([&, begin, end, t] {
-                        compute_range(ctx, b, begin, end, stats[static_cast<size_t>(t)]);
-                    });
-            }
-            compute_range(ctx, b, 0, std::min(n, per), stats[0]);
-            for (auto& th : pool) th.join();
-        };
-
-        // Double buffering: the next band is decoded while this one is measured.
-        int cur = 0;
-        read_band(bands[0], 0);
-        for (int y0 = 0; y0 < info.height; y0 += band_rows) {
-            const int next = y0 + band_rows;
-            std::future<void> pending;
-            if (next < info.height)
-                pending = std::async(std::launch::async,
-                                     [&, next, cur] { read_band(bands[1 - cur], next); });
-            try {
-                compute_band(bands[cur]);
-            } catch (...) {
-                if (pending.valid()) pending.wait();
-                throw;
-            }
-            r.source_clamped += bands[cur].clamped;
-            r.source_replaced += bands[cur].replaced;
-            if (pending.valid()) pending.get();
-            cur = 1 - cur;
-        }
-
-        // Merge.
-        Stats total;
-        for (const Stats& st : stats) {
-            total.below_zero += st.below_zero;
-            total.above_one += st.above_one;
-            total.below_tol += st.below_tol;
-            total.above_tol += st.above_tol;
-            total.nonfinite += st.nonfinite;
-            for (int c = 0; c < 3; ++c) {
-                total.rgb_min[c] = std::min(total.rgb_min[c], st.rgb_min[c]);
-                total.rgb_max[c] = std::max(total.rgb_max[c], st.rgb_max[c]);
-            }
-            total.compared += st.compared;
-            total.transparent += st.transparent;
-            total.nonfinite_pixels += st.nonfinite_pixels;
-            total.code_checked += st.code_checked;
-            total.code_matched += st.code_matched;
-            if (total.lights.size() < st.lights.size()) total.lights.resize(st.lights.size());
-            for (size_t l = 0; l < st.lights.size(); ++l) {
-                LightStats& T = total.lights[l];
-                const LightStats& L = st.lights[l];
-                T.pixels += L.pixels;
-                T.de_sum += L.de_sum;
-                if (L.de_max > T.de_max ||
-                    (L.de_max == T.de_max &&
-                     (L.de_y < T.de_y || (L.de_y == T.de_y && L.de_x < T.de_x))))
-                    T.de_max = L.de_max, T.de_x = L.de_x, T.de_y = L.de_y;
-                for (int c = 0; c < 3; ++c) {
-                    T.rgb_min[c] = std::min(T.rgb_min[c], L.rgb_min[c]);
-                    T.rgb_max[c] = std::max(T.rgb_max[c], L.rgb_max[c]);
-                }
-                T.hist.merge(L.hist);
-            }
-            total.rgb_err_sum += st.rgb_err_sum;
-            total.de_sum += st.de_sum;
-            // Each thread keeps its first maximum; across threads, ties go to the first pixel in
-            // reading order, so the reported location does not depend on the thread count.
-            auto earlier = [](int y, int x, int ty, int tx) {
-                return y < ty || (y == ty && x < tx);
-            };
-            if (st.rgb_err_max > total.rgb_err_max ||
-                (st.rgb_err_max == total.rgb_err_max &&
-                 earlier(st.rgb_err_y, st.rgb_err_x, total.rgb_err_y, total.rgb_err_x)))
-                total.rgb_err_max = st.rgb_err_max, total.rgb_err_x = st.rgb_err_x,
-                total.rgb_err_y = st.rgb_err_y;
-            if (st.de_max > total.de_max ||
-                (st.de_max == total.de_max && earlier(st.de_y, st.de_x, total.de_y, total.de_x)))
-                total.de_max = st.de_max, total.de_x = st.de_x, total.de_y = st.de_y;
-            total.hist.merge(st.hist);
-        }
-        r.samples = r.pixels * static_cast<uint64_t>(r.bins);
-        r.below_zero = total.below_zero;
-        r.above_one = total.above_one;
-        r.below_tol = total.below_tol;
-        r.above_tol = total.above_tol;
-        r.nonfinite = total.nonfinite;
-        for (int c = 0; c < 3; ++c) {
-            r.rgb_min[c] = total.rgb_min[c] <= total.rgb_max[c] ? total.rgb_min[c] : 0.0;
-            r.rgb_max[c] = total.rgb_min[c] <= total.rgb_max[c] ? total.rgb_max[c] : 0.0;
-        }
-        if (r.compared) {
-            r.compared_pixels = total.compared;
-            r.transparent_pixels = total.transparent;
-            r.nonfinite_pixels = total.nonfinite_pixels;
-            r.code_checked = total.code_checked;
-            r.code_matched = total.code_matched;
-            const double n = static_cast<double>(total.compared);
-            r.rgb_error_max = std::max(0.0, total.rgb_err_max);
-            r.rgb_error_x = total.rgb_err_x;
-            r.rgb_error_y = total.rgb_err_y;
-            r.rgb_error_mean = total.compared ? total.rgb_err_sum / (3.0 * n) : 0.0;
-            r.de_max = std::max(0.0, total.de_max);
-            r.de_x = total.de_x;
-            r.de_y = total.de_y;
-            r.de_mean = total.compared ? total.de_sum / n : 0.0;
-            r.de_p99 = total.hist.percentile(99.0, r.de_max);
-        }
-        for (size_t l = 0; l < r.other_lights.size() && l < total.lights.size(); ++l) {
-            OtherLightReport& o = r.other_lights[l];
-            const LightStats& L = total.lights[l];
-            o.pixels = L.pixels;
-            o.de_max = std::max(0.0, L.de_max);
-            o.de_x = L.de_x;
-            o.de_y = L.de_y;
-            o.de_mean = L.pixels ? L.de_sum / static_cast<double>(L.pixels) : 0.0;
-            o.de_p99 = L.hist.percentile(99.0, o.de_max);
-            for (int c = 0; c < 3; ++c) {
-                o.rgb_min[c] = L.rgb_min[c] <= L.rgb_max[c] ? L.rgb_min[c] : 0.0;
-                o.rgb_max[c] = L.rgb_min[c] <= L.rgb_max[c] ? L.rgb_max[c] : 0.0;
-            }
-        }
+        report_totals(merge_stats(measure_bands(reader, src.get(), lin, ctx, band_rows, s, r)), r);
     } catch (const Error&) {
         throw;
     } catch (const std::exception& e) {
@@ -728,6 +782,33 @@ std::vector<std::string> gate_failures(const VerifyReport& r, const VerifyGates&
     for (const Gate& x : gates_of(r, g))
         if (!x.passed) f.push_back(x.what + ": " + x.measured + ", gate " + x.limit);
     return f;
+}
+
+std::vector<VerifyOutcome> verify_files(const std::vector<std::string>& files,
+                                        const VerifySettings& s, const VerifyGates& g,
+                                        bool source_from_header, int jobs) {
+    std::vector<VerifyOutcome> outcomes(files.size());
+    TaskPool::shared().parallel_for(files.size(), jobs, [&](size_t i) {
+        VerifyOutcome& o = outcomes[i];
+        VerifySettings fs = s;
+        try {
+            if (source_from_header) {
+                fs.source.clear();
+                for (const auto& [k, v] : read_spectral_exr_info(files[i]).attributes)
+                    if (k == provenance_key::kSource) fs.source = v;
+                if (fs.source.empty())
+                    throw Error(files[i] + ": the header records no " + provenance_key::kSource);
+            }
+            o.report = verify_file(files[i], fs);
+            o.failures = gate_failures(o.report, g);
+            o.readable = true;
+        } catch (const Error& e) {
+            o.error = e.what();
+        } catch (const std::exception& e) {
+            o.error = files[i] + ": " + e.what();
+        }
+    });
+    return outcomes;
 }
 
 std::vector<std::string> gates_applied(const VerifyReport& r, const VerifyGates& g) {

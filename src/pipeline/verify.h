@@ -139,6 +139,20 @@ struct VerifyGates {
 constexpr double kDefaultMaxDe = 0.5;
 // One line per failed gate, naming it and by how much it failed; empty when all pass.
 std::vector<std::string> gate_failures(const VerifyReport& r, const VerifyGates& g);
+
+// One file of a verify run: its report and the gates it failed, or why it could not be verified.
+struct VerifyOutcome {
+    bool readable = false;
+    VerifyReport report;
+    std::string error;
+    std::vector<std::string> failures;
+};
+// Verifies `files`, `jobs` at once, each against s.source or, with source_from_header, the source
+// its header records; the outcomes are in the files' order. Never throws for a file: its error is
+// in its outcome.
+std::vector<VerifyOutcome> verify_files(const std::vector<std::string>& files,
+                                        const VerifySettings& s, const VerifyGates& g,
+                                        bool source_from_header, int jobs);
 // Report text: a number ("%.6g" unless told), and a share as a percentage with enough digits to
 // show one sample of a large image ("0%" and "100%" exactly when none or all).
 std::string number_text(double v, const char* format = "%.6g");
