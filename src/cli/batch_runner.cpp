@@ -218,7 +218,7 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
     auto report = [&](const FileRecord& r) {
         std::lock_guard<std::mutex> lock(io);
         if (plan.progress && plan.progress_terminal) std::cerr << "\r\033[K";
-        if (r.status == "failed") {
+        if (r.status == BatchStatus::Failed) {
             print_error(name_file(r.input, r.error));
         } else if (!plan.quiet) {
             const std::string named = one_line(quote_path(r.input));
@@ -231,13 +231,13 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
                 std::cerr << "spectex: " << named << ": " << r.result.replaced_pixels
                           << " pixels had NaN/Inf values replaced with 0\n";
         }
-        if (plan.verbose && r.status == "ok")
+        if (plan.verbose && r.status == BatchStatus::Ok)
             std::cerr << "spectex: " << one_line(quote_path(r.input)) << " -> "
                       << one_line(quote_path(r.output)) << ": " << r.result.pixels << " pixels, "
                       << r.result.bins << " bins, colour space '" << r.result.colorspace << "' ("
                       << r.result.colorspace_how << "), " << r.result.bytes << " bytes, "
                       << seconds_text(r.result.seconds) << "\n";
-        if (plan.verbose && r.status == "ok") {
+        if (plan.verbose && r.status == BatchStatus::Ok) {
             const auto& st = r.result.stages;
             char buf[400];
             std::snprintf(buf, sizeof buf,
@@ -249,13 +249,13 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
                           st.finish, st.compress_cpu, st.writer.c_str());
             std::cerr << "spectex: " << one_line(quote_path(r.input)) << ": " << buf;
         }
-        if (plan.verbose && r.status == "skipped")
+        if (plan.verbose && r.status == BatchStatus::Skipped)
             std::cerr << "spectex: " << one_line(quote_path(r.output) + ": " + r.reason) << "\n";
         if (!plan.json.empty()) write_json(json_record(r));
         ++done;
-        ok += r.status == "ok";
-        skipped += r.status == "skipped";
-        failed += r.status == "failed";
+        ok += r.status == BatchStatus::Ok;
+        skipped += r.status == BatchStatus::Skipped;
+        failed += r.status == BatchStatus::Failed;
         if (plan.progress) show_progress();
     };
 
@@ -278,7 +278,7 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
                                 ? plan.prechecked[i]
                                 : check_update(r.input, r.output, settings.settings_hash);
                 if (check.up_to_date) {
-                    r.status = "skipped";
+                    r.status = BatchStatus::Skipped;
                     r.reason = check.reason;
                 } else {
                     if (plan.make_folders) {
@@ -294,13 +294,13 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
                         slot.rows.rows_total = 0;
                     }
                     r.result = bake_file(r.input, r.output, settings, &slot.rows);
-                    r.status = "ok";
+                    r.status = BatchStatus::Ok;
                 }
             } catch (const Error& e) {
-                r.status = "failed";
+                r.status = BatchStatus::Failed;
                 r.error = e.what();
             } catch (const std::exception& e) {
-                r.status = "failed";
+                r.status = BatchStatus::Failed;
                 r.error = r.input + ": " + e.what();
             }
             {
@@ -309,9 +309,9 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
             }
             r.result.seconds =
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-            if (r.status == "failed" && plan.fail_fast) stop.store(true);
+            if (r.status == BatchStatus::Failed && plan.fail_fast) stop.store(true);
             report(r);
-            if (r.status == "ok") {
+            if (r.status == BatchStatus::Ok) {
                 std::lock_guard<std::mutex> lock(io);
                 baked[i] = r.result;
                 was_baked[i] = true;

@@ -383,12 +383,24 @@ UpdateCheck check_update(const std::string& input, const std::string& output,
     return c;
 }
 
+const char* to_string(BatchStatus s) {
+    switch (s) {
+        case BatchStatus::Ok:
+            return "ok";
+        case BatchStatus::Skipped:
+            return "skipped";
+        case BatchStatus::Failed:
+            return "failed";
+    }
+    return "failed";
+}
+
 std::string json_record(const FileRecord& r) {
     Json j;
     j["schema_version"] = kJsonSchemaVersion;
     put_text(j, "input", r.input);
     put_text(j, "output", r.output);
-    j["status"] = r.status;
+    j["status"] = to_string(r.status);
     put_text_or_null(j, "error", r.error);
     j["seconds"] = json_number(r.result.seconds, "%.3f");
     j["pixels"] = r.result.pixels;
@@ -398,9 +410,9 @@ std::string json_record(const FileRecord& r) {
     j["replaced_pixels"] = r.result.replaced_pixels;
     put_text(j, "colorspace", r.result.colorspace);
     put_text(j, "settings_hash", r.settings_hash);
-    if (r.status == "skipped")
+    if (r.status == BatchStatus::Skipped)
         put_text(j, "reason", r.reason);  // why nothing was done, for a script
-    if (r.status == "ok") {
+    if (r.status == BatchStatus::Ok) {
         const auto& st = r.result.stages;
         Json stages;
         stages["writer"] = st.writer;
