@@ -1,5 +1,4 @@
 #include <OpenEXR/ImfThreading.h>
-#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -8,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <iostream>
 #include <thread>
 
@@ -74,9 +74,17 @@ T pick(const std::string& option, const std::string& value,
 
 bool ends_with_exr(const std::string& s) { return ends_with_nocase(s, ".exr"); }
 
+// A folder, links followed; false when it cannot be examined.
 bool is_directory(const std::string& p) {
-    struct stat st;
-    return ::stat(p.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
+    std::error_code ec;
+    return std::filesystem::is_directory(p, ec);
+}
+
+// Something that is not a folder (links followed): a file, a device, a FIFO...
+bool exists_not_directory(const std::string& p) {
+    std::error_code ec;
+    const std::filesystem::file_status st = std::filesystem::status(p, ec);
+    return std::filesystem::exists(st) && !std::filesystem::is_directory(st);
 }
 
 // What -o and --output-dir name, checked before any work (exit 2): a folder, a name without .exr
@@ -101,8 +109,7 @@ void check_output_option(const std::string& output, const std::string& output_di
             !bad.empty() || has_template_tokens(output_dir))
             throw UsageError("--output-dir: '" + output_dir +
                              "' is a folder, not a template (tokens go in -o)");
-        struct stat st;
-        if (::stat(output_dir.c_str(), &st) == 0 && !S_ISDIR(st.st_mode))
+        if (exists_not_directory(output_dir))
             throw UsageError("--output-dir: '" + output_dir + "' exists and is not a folder");
     }
 }
