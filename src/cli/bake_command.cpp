@@ -1,4 +1,3 @@
-#include <OpenEXR/ImfThreading.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -9,7 +8,6 @@
 #include <cstring>
 #include <filesystem>
 #include <iostream>
-#include <thread>
 
 #include "cli/arg_parser.h"
 #include "cli/batch_runner.h"
@@ -24,6 +22,7 @@
 #include "pipeline/bake.h"
 #include "pipeline/basis_cache.h"
 #include "pipeline/batch.h"
+#include "pipeline/batch_run.h"
 #include "pipeline/method_cache.h"
 #include "pipeline/plan.h"
 #include "spectral/basis_fit.h"
@@ -408,36 +407,16 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         // --output-dir is created (with its parents) when missing, like mkdir -p; the folders below
         // it (a mirrored tree, a template's folders) as each file is baked.
         make_folders(c.output_dir);
-        std::vector<std::string> listed = inputs;
-        if (!c.from_list.empty()) {
-            auto more = read_list(c.from_list);
-            if (more.empty() && inputs.empty())
-                throw Error((c.from_list == "-" ? std::string("standard input (--from-list -)")
-                                                : c.from_list) +
-                            ": the input list names no files, and no input was given");
-            listed.insert(listed.end(), more.begin(), more.end());
-        }
-        std::vector<std::string> expanded;
-        for (const auto& in : listed) {
-            auto tiles = expand_tiles(in);
-            expanded.insert(expanded.end(), tiles.begin(), tiles.end());
-        }
-        std::sort(expanded.begin(), expanded.end());
-        expanded.erase(std::unique(expanded.begin(), expanded.end()), expanded.end());
-        if (expanded.size() > 1 && c.output_dir.empty() && !has_template_tokens(c.output))
+        const std::vector<std::string> listed = list_inputs(inputs, c.from_list);
+        std::vector<std::string> expanded = expand_inputs(listed);
+        const OutputNaming naming{c.output, c.output_dir, c.base_dir};
+        if (expanded.size() > 1 && !naming.per_input())
             throw UsageError("several inputs need --output-dir DIR or an -o template with {stem}");
         if (!c.shard.empty()) expanded = select_shard(expanded, Shard::parse(c.shard));
-        for (const auto& in : expanded) {
-            std::string out;
-            try {
-                if (!c.base_dir.empty()) (void)relative_folder(in, c.base_dir);
-                out = c.output_dir.empty() && !has_template_tokens(c.output)
-                          ? c.output
-                          : output_for(in, c.output, c.output_dir, c.base_dir);
-            } catch (const Error& e) {
-                throw UsageError(e.what());
-            }
-            plan.files.push_back({in, out});
+        try {
+            plan.files = name_outputs(expanded, naming);
+        } catch (const Error& e) {
+            throw UsageError(e.what());
         }
         // No output may be a file this command reads, whatever its spelling or links.
         ReadFiles reads;
@@ -672,15 +651,10 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         return 2;
     }
 
-    unsigned hw = std::max(1u, std::thread::hardware_concurrency());
-    plan.jobs = c.jobs;
-    plan.threads = c.threads > 0 ? c.threads : std::max(1, static_cast<int>(hw) / c.jobs);
-    // OpenEXR's pool is global to the process: size it for all jobs together.
-    Imf::setGlobalThreadCount(plan.jobs * plan.threads);
-    set_image_threads(plan.threads);  // applied if and when an image is decoded
+    size_batch_threads(plan, c.jobs, c.threads);
     c.settings.threads = plan.threads;
     plan.update = c.update && !c.force;
-    plan.make_folders = !c.output_dir.empty() || has_template_tokens(c.output);
+    plan.make_folders = OutputNaming{c.output, c.output_dir, c.base_dir}.per_input();
     plan.prechecked = std::move(prechecked);
     plan.fail_fast = c.fail_fast;
     plan.quiet = c.quiet;
