@@ -1,5 +1,3 @@
-#include <OpenEXR/ImfThreading.h>
-#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -8,8 +6,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <iostream>
-#include <thread>
 
 #include "cli/arg_parser.h"
 #include "cli/batch_runner.h"
@@ -24,6 +22,7 @@
 #include "pipeline/bake.h"
 #include "pipeline/basis_cache.h"
 #include "pipeline/batch.h"
+#include "pipeline/batch_run.h"
 #include "pipeline/method_cache.h"
 #include "pipeline/plan.h"
 #include "spectral/basis_fit.h"
@@ -74,9 +73,17 @@ T pick(const std::string& option, const std::string& value,
 
 bool ends_with_exr(const std::string& s) { return ends_with_nocase(s, ".exr"); }
 
+// A folder, links followed; false when it cannot be examined.
 bool is_directory(const std::string& p) {
-    struct stat st;
-    return ::stat(p.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
+    std::error_code ec;
+    return std::filesystem::is_directory(p, ec);
+}
+
+// Something that is not a folder (links followed): a file, a device, a FIFO...
+bool exists_not_directory(const std::string& p) {
+    std::error_code ec;
+    const std::filesystem::file_status st = std::filesystem::status(p, ec);
+    return std::filesystem::exists(st) && !std::filesystem::is_directory(st);
 }
 
 // What -o and --output-dir name, checked before any work (exit 2): a folder, a name without .exr
@@ -101,23 +108,12 @@ void check_output_option(const std::string& output, const std::string& output_di
             !bad.empty() || has_template_tokens(output_dir))
             throw UsageError("--output-dir: '" + output_dir +
                              "' is a folder, not a template (tokens go in -o)");
-        struct stat st;
-        if (::stat(output_dir.c_str(), &st) == 0 && !S_ISDIR(st.st_mode))
+        if (exists_not_directory(output_dir))
             throw UsageError("--output-dir: '" + output_dir + "' exists and is not a folder");
     }
 }
 
-}  // namespace
-
-int run_bake(const std::vector<std::string>& args, const std::string& command_line) {
-    BakeCli c;
-    ArgParser p(
-        "bake", "spectex bake [options] INPUT... (-o OUTPUT.exr | -o TEMPLATE | --output-dir DIR)",
-        "Turns textures into spectral reflectance OpenEXRs (Fichet 2021 layout, channels\n"
-        "T.<wavelength>nm): read with OpenImageIO, linearise with OpenColorIO, expand each pixel\n"
-        "with the spectral primary decomposition (Mallett & Yuksel 2019). Inputs may hold <UDIM> "
-        "or\n"
-        "<UVTILE>, expanded to the existing tiles. Exit status 0 only when every file succeeded.");
+void declare_output_options(ArgParser& p, BakeCli& c) {
     p.section("Output");
     p.option("-o, --output", "FILE|TEMPLATE",
              "Output OpenEXR file, or a template with {dir}, {reldir} (with --base-dir), {stem}, "
@@ -185,6 +181,9 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
              "Whether the spectral channels are premultiplied by A (default associated, OpenEXR's "
              "convention).",
              [&](const std::string& v) { c.alpha = v; });
+}
+
+void declare_colour_options(ArgParser& p, BakeCli& c) {
     p.section("Colour");
     p.option(
         "--colorspace", "NAME",
@@ -200,6 +199,9 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
              [&](const std::string& v) { c.range = v; });
     p.option("--nan", "replace|error", "NaN and infinite values: replace with 0 (default) or fail.",
              [&](const std::string& v) { c.nan = v; });
+}
+
+void declare_spectra_options(ArgParser& p, BakeCli& c) {
     p.section("Spectra");
     p.option("--wavelengths", "START:END:STEP|auto",
              "Output wavelength grid in nm (default 380:780:5). auto: the cheapest grid within "
@@ -282,6 +284,9 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
                  shipped_illuminants_list(FitSpec().illuminant) +
                  " (any case), or a CSV wavelength,value.",
              [&](const std::string& v) { c.fit.illuminant = v; });
+}
+
+void declare_batch_options(ArgParser& p, BakeCli& c) {
     p.section("Batches");
     p.option("--from-list", "FILE",
              "Read input paths from FILE, one per line ('-' = stdin), after those given.",
@@ -315,79 +320,398 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
              [&](const std::string& v) { c.settings.max_pixels = parse_count("--max-pixels", v); });
     p.flag("-q, --quiet", "Print errors only.", [&] { c.quiet = true; });
     p.flag("-v, --verbose", "Print what was done for each file.", [&] { c.verbose = true; });
+}
+
+// Every option of bake, filling `c` as they are parsed.
+void declare_bake_options(ArgParser& p, BakeCli& c) {
+    declare_output_options(p, c);
+    declare_colour_options(p, c);
+    declare_spectra_options(p, c);
+    declare_batch_options(p, c);
+}
+
+// What must be given, and what goes with what (throws UsageError).
+void check_given_options(const BakeCli& c, const std::vector<std::string>& inputs) {
+    if (inputs.empty() && c.from_list.empty()) throw UsageError("no input file");
+    if (c.output.empty() && c.output_dir.empty())
+        throw UsageError("no output (-o OUTPUT.exr, -o TEMPLATE or --output-dir DIR)");
+    check_output_option(c.output, c.output_dir);
+    if (!c.shard.empty()) {
+        try {
+            Shard::parse(c.shard);
+        } catch (const Error& e) {
+            throw UsageError(e.what());
+        }
+    }
+}
+
+// Sample type, alpha, range and NaN policies, compression; the options of each method.
+void check_method_options(BakeCli& c) {
+    c.settings.type = pick<SampleType>("--type", c.type,
+                                       {{"half", SampleType::Half}, {"float", SampleType::Float}});
+    c.settings.alpha = pick<AlphaMode>(
+        "--alpha", c.alpha,
+        {{"associated", AlphaMode::Associated}, {"unassociated", AlphaMode::Unassociated}});
+    c.settings.range = pick<RangePolicy>("--out-of-range", c.range,
+                                         {{"clamp", RangePolicy::Clamp},
+                                          {"keep", RangePolicy::Keep},
+                                          {"error", RangePolicy::Error}});
+    c.settings.nan = pick<NanPolicy>(
+        "--nan", c.nan, {{"replace", NanPolicy::Replace}, {"error", NanPolicy::Error}});
+    try {
+        c.settings.compression = ExrCompression::parse(c.compression);
+    } catch (const Error& e) {
+        throw UsageError(std::string("--compression: ") + e.what());
+    }
+    if (c.method != "basis" && (c.basis_given || c.objective_given || c.fit.allow_infeasible))
+        throw UsageError(
+            "--basis, --objective and --allow-infeasible choose the basis of --method basis, "
+            "not of "
+            "--method " +
+            c.method);
+    if (c.method != "lattice" && c.lattice_given)
+        throw UsageError("--lattice-size and --vertex-prior belong to --method lattice");
+    if (c.method != "jakob-hanika" && c.jh_given)
+        throw UsageError("--jh-resolution belongs to --method jakob-hanika");
+    if (c.method != "basis" && c.range == "keep")
+        throw UsageError("--out-of-range keep needs --method basis: the " + c.method +
+                         " method is defined on linear RGB in [0, 1] only");
+}
+
+// The output grid: given, read from a file, or chosen by --wavelengths auto.
+void check_grid_options(BakeCli& c) {
+    parse_objective_option(c.fit.objective);
+    const bool automatic = c.wavelengths == "auto";
+    if (automatic) {
+        if (!c.wavelengths_file.empty())
+            throw UsageError("--wavelengths auto and --wavelengths-file are two grids; give one");
+        if (!c.plan_lights || !c.plan_budget)
+            throw UsageError(
+                "--wavelengths auto needs --lights and --max-de (the scene's lights and the "
+                "error budget)");
+        if (c.method == "basis" && c.basis != "fit")
+            throw UsageError("--wavelengths auto fits the basis on the chosen grid; --basis " +
+                             c.basis + " has a grid of its own");
+        if (c.plan.nonuniform && c.method != "basis")
+            throw UsageError(
+                "--nonuniform searches with the basis' 3x3 maps: it needs --method basis");
+    } else if (c.plan_lights || c.plan_budget || !c.plan.candidates.empty() || c.plan.nonuniform) {
+        throw UsageError(
+            "--lights, --max-de, --grids and --nonuniform choose the grid of --wavelengths "
+            "auto");
+    }
+    if (c.wavelengths_file.empty() && !automatic) {
+        try {
+            c.settings.grid = WavelengthGrid::parse_exact(c.wavelengths);
+        } catch (const Error& e) {
+            throw UsageError(std::string("--wavelengths: ") + e.what());
+        }
+    }
+}
+
+// Raised when something every file needs cannot be read before any work (exit 2, no usage hint).
+class SetupFailure : public std::runtime_error {
+  public:
+    explicit SetupFailure(const std::string& what) : std::runtime_error(what) {}
+};
+
+// The batch's files: inputs listed, expanded and sharded, each with its output
+// (pipeline/batch_run).
+BatchPlan plan_bake_files(BakeCli& c, const std::vector<std::string>& inputs) {
+    BatchPlan plan;
+    c.settings.data_dir = find_data_dir();
+    if (!c.base_dir.empty() && !is_directory(c.base_dir))
+        throw UsageError("--base-dir: '" + c.base_dir + "' is not a folder");
+    // --output-dir is created (with its parents) when missing, like mkdir -p; the folders below
+    // it (a mirrored tree, a template's folders) as each file is baked.
+    make_folders(c.output_dir);
+    const std::vector<std::string> listed = list_inputs(inputs, c.from_list);
+    std::vector<std::string> expanded = expand_inputs(listed);
+    const OutputNaming naming{c.output, c.output_dir, c.base_dir};
+    if (expanded.size() > 1 && !naming.per_input())
+        throw UsageError("several inputs need --output-dir DIR or an -o template with {stem}");
+    if (!c.shard.empty()) expanded = select_shard(expanded, Shard::parse(c.shard));
+    try {
+        plan.files = name_outputs(expanded, naming);
+    } catch (const Error& e) {
+        throw UsageError(e.what());
+    }
+    return plan;
+}
+
+// No output may be a file this command reads, whatever its spelling or links.
+void check_outputs_against_reads(const BakeCli& c, const BatchPlan& plan) {
+    ReadFiles reads;
+    reads.add_data_dir(c.settings.data_dir);
+    for (const auto& file : plan.files) reads.add(file.first, "an input");
+    reads.add(c.from_list, "--from-list");
+    {
+        const std::string config = ocio_config_path(c.settings.data_dir, c.settings.config);
+        std::vector<std::string> files;
+        try {
+            files =
+                ocio_config_files(config);  // a config that cannot be read fails every file: once
+        } catch (const Error& e) {
+            throw SetupFailure(e.what());
+        }
+        reads.add(files.front(), "the OCIO config");
+        for (size_t i = 1; i < files.size(); ++i) reads.add(files[i], "a LUT file of " + config);
+    }
+    if (c.basis != "fit" && c.basis != "mallett2019") reads.add(c.basis, "--basis");
+    reads.add(c.fit.observer, "--observer");
+    reads.add(c.fit.illuminant, "--illuminant");
+    reads.add(c.wavelengths_file, "--wavelengths-file");
+    if (c.wavelengths == "auto")
+        for (const auto& l : c.plan.lights) reads.add(l, "--lights");
+    std::vector<OutputTarget> targets;
+    for (const auto& [in, out] : plan.files) {
+        if (std::string clash = reads.clash(out, "the output of " + in); !clash.empty())
+            throw UsageError(clash);
+        try {
+            check_output_path(out);
+        } catch (const Error& e) {
+            throw UsageError(e.what());
+        }
+        targets.push_back(output_target(out));
+    }
+    if (!c.json.empty() && c.json != "-") {
+        if (std::string clash = reads.clash(c.json, "--json"); !clash.empty())
+            throw UsageError(clash);
+        if (c.json.back() == '/' || is_directory(c.json))
+            throw UsageError("--json: '" + c.json + "' is a folder; give a file name");
+        try {
+            check_output_path(c.json);
+        } catch (const Error& e) {
+            throw UsageError(std::string(e.what()) + " (--json)");
+        }
+        const OutputTarget report = output_target(c.json);
+        for (size_t i = 0; i < targets.size(); ++i)
+            if (report.same_as(targets[i]))
+                throw UsageError("--json: " + c.json + " is also the output of " +
+                                 plan.files[i].first);
+    }
+}
+
+// --wavelengths auto: how the grid is chosen, recorded in the header (and hashed).
+void record_auto_plan(BakeCli& c) {
+    auto& rec = c.settings.plan;
+    char num[64];
+    for (const auto& l : c.plan.lights) rec.lights += (rec.lights.empty() ? "" : ",") + l;
+    std::snprintf(num, sizeof num, "%g", c.plan.max_de);
+    rec.max_de = num;
+    rec.reconstruction = to_string(c.plan.reconstruction);
+    std::snprintf(num, sizeof num, "%g:%g", c.plan.range_start, c.plan.range_end);
+    rec.range = num;
+    rec.nonuniform = c.plan.nonuniform;
+}
+
+// --basis mallett2019 or FILE (with --method basis): read now (cheap), checked against the output
+// grid, which it sets without --wavelengths; null for a fitted basis or another method.
+std::shared_ptr<Basis> load_given_basis(BakeCli& c) {
+    if (c.method != "basis" || c.basis == "fit") return nullptr;
+    Basis basis = load_basis(c.settings.data_dir, c.basis);
+    // A given basis is exact for the conditions it was made for; the default ones are
+    // recorded.
+    if (c.basis == "mallett2019") c.settings.observer = "cie1931-2", c.settings.illuminant = "D65";
+    WavelengthGrid basis_grid = WavelengthGrid::from_list(basis.lambda);
+    // Without --wavelengths, the output is on the basis' own grid.
+    if (!c.wavelengths_given && c.wavelengths_file.empty()) c.settings.grid = basis_grid;
+    if (!same_wavelengths(c.settings.grid.lambda, basis_grid.lambda))
+        throw Error("basis " + c.basis + " is on " + basis_grid.describe() +
+                    ", not on the output grid " + c.settings.grid.describe() +
+                    " (the default --basis fit works on any grid)");
+    check_basis_values(basis);
+    return std::make_shared<Basis>(std::move(basis));
+}
+
+// The method's recipe: what builds it, the tables' values included (a user table that changes
+// under the same name changes the hash).
+std::string method_recipe(const BakeCli& c, const Basis* file_basis, const Observer& observer,
+                          const Spectrum& illuminant) {
+    Fnv1a64 h;
+    auto add = [&](const std::string& t) { h.add(t.data(), t.size() + 1); };
+    auto add_values = [&](const std::vector<double>& v) {
+        h.add(v.data(), v.size() * sizeof(double));
+    };
+    if (file_basis) {
+        add("basis " + file_basis->checksum());
+    } else if (c.method == "basis") {
+        add("basis fit, objective " + c.fit.objective +
+            (c.fit.allow_infeasible ? ", infeasible allowed" : ""));
+    } else {
+        add(c.method + " lattice " + std::to_string(c.lattice_size) + " prior " + c.vertex_prior +
+            " jh " + std::to_string(c.jh_resolution));
+    }
+    add_values(observer.x.lambda);
+    add_values(observer.x.value);
+    add_values(observer.y.value);
+    add_values(observer.z.value);
+    add_values(illuminant.lambda);
+    add_values(illuminant.value);
+    if (c.wavelengths == "auto") {
+        // The grid is chosen later from these (and this version): the choice is hashed by
+        // its inputs.
+        for (const auto& l : c.plan.lights) {
+            const Spectrum light = load_illuminant(c.settings.data_dir, l);
+            add("light " + l);
+            add_values(light.lambda);
+            add_values(light.value);
+        }
+        for (const auto& g : c.plan.candidates) {
+            add("candidate");
+            add_values(g.lambda);
+        }
+        add(std::string(c.plan.half ? "half" : "float") + " stride " +
+            std::to_string(c.plan.sample_stride) + " colours " + c.plan.colours);
+    }
+    return h.text();
+}
+
+// --wavelengths auto: the grid chosen once per batch (every file of it gets the same grid).
+void choose_auto_grid(BakeCli& c) {
+    auto& rec = c.settings.plan;
+    // Once per batch: every file of it gets the same grid.
+    c.plan.method.method = c.method;
+    c.plan.method.fit = c.fit;
+    c.plan.method.fit.data_dir = c.settings.data_dir;
+    c.plan.method.lattice_size = c.lattice_size;
+    c.plan.method.vertex_prior = c.vertex_prior;
+    c.plan.half = c.settings.type == SampleType::Half;
+    c.plan.threads = c.threads;
+    const PlanResult pr = plan_grids(c.plan);
+    if (c.verbose) std::cerr << plan_table(c.plan, pr);
+    if (pr.chosen < 0) throw Error(plan_failure(c.plan, pr));
+    const GridRow& row = pr.rows[static_cast<size_t>(pr.chosen)];
+    c.settings.grid = row.grid;
+    char num[64];
+    std::snprintf(num, sizeof num, "%.4g", row.worst);
+    rec.worst_de = num;
+    if (!c.quiet)
+        std::cerr << "spectex: --wavelengths auto: " << grid_label(row.grid) << " (" << row.bins
+                  << " bins), worst " << rec.worst_de << " ΔE00 under " << row.worst_light
+                  << ", within " << rec.max_de << " under " << join_names(c.plan.lights) << " ("
+                  << pr.seconds << " s)\n";
+}
+
+// The spectral method every file is baked with: built, fitted or checked once.
+void build_method(BakeCli& c, std::shared_ptr<Basis> file_basis, const Observer& observer,
+                  const Spectrum& illuminant) {
+    if (!c.settings.colorspace.empty())
+        (void)Linearizer::make(
+            ColourRequest{c.settings.data_dir, c.settings.config, c.settings.colorspace, "", ""});
+    if (c.method != "basis") {
+        MethodSpec spec;
+        spec.method = c.method;
+        spec.fit = c.fit;
+        spec.fit.data_dir = c.settings.data_dir;
+        spec.fit.grid = c.settings.grid;
+        spec.lattice_size = c.lattice_size;
+        spec.jh_resolution = c.jh_resolution;
+        spec.vertex_prior = c.vertex_prior;
+        MethodResult made = make_method(spec);
+        c.settings.method = made.method;
+        if (c.verbose)
+            std::cerr << "spectex: " << spec.describe() << ": built in " << made.build_seconds
+                      << " s\n";
+    } else if (c.basis == "fit") {
+        c.fit.data_dir = c.settings.data_dir;
+        c.fit.grid = c.settings.grid;
+        FitResult fit = fit_basis_for(c.fit);
+        if (!fit.certificate.feasible && !c.quiet) {
+            const auto& r = fit.certificate.colour_residual;
+            std::cerr << "spectex: warning: no exact basis exists for " << c.fit.describe()
+                      << "; baking with the closest one, which misses the primaries by "
+                      << std::max({r[0], r[1], r[2]}) << " in linear RGB (--allow-infeasible)\n";
+        }
+        c.settings.method =
+            std::make_shared<BasisMethod>(fit.basis, "fitted by spectex: " + c.fit.describe());
+    } else {
+        // How far the basis is from reproducing the primaries under the colorimetry it is
+        // used with: a wrong table (another observer, a flat one) bakes wrong colours
+        // without a word.
+        Colorimetry cm =
+            Colorimetry::make(observer, illuminant, c.settings.grid, primaries_by_name("srgb"));
+        const FitCertificate cert = certify_basis(*file_basis, cm);
+        const double miss =
+            std::max({cert.colour_residual[0], cert.colour_residual[1], cert.colour_residual[2]});
+        if (miss > kBasisPrimaryTolerance && !c.quiet)
+            std::cerr << "spectex: warning: basis " << c.basis << " misses the sRGB primaries by "
+                      << miss << " in linear RGB under " << c.settings.observer << " and "
+                      << c.settings.illuminant << " (tolerance " << kBasisPrimaryTolerance
+                      << "): baked colours will be off by up to that\n";
+        c.settings.method = std::make_shared<BasisMethod>(
+            std::move(*file_basis),
+            c.basis == "mallett2019" ? "published table (Mallett & Yuksel 2019)" : "file");
+    }
+}
+
+// Settings that are the same for every file (grid, colour config and space, observer,
+// illuminant, basis, method) are checked once, before any input is read: one message, exit 2.
+// The settings hash is computed from the recipe (the options and the tables' contents), before
+// anything expensive is built (a basis fit, a lattice or Jakob-Hanika table, --wavelengths
+// auto's search, an OCIO processor), so that --update checks the outputs' headers first and a
+// run whose files are all up to date builds nothing.
+// Throws Error (exit 2).
+void prepare_settings(BakeCli& c, const std::string& command_line, BatchPlan& plan) {
+    if (!c.wavelengths_file.empty())
+        c.settings.grid = WavelengthGrid::from_file(c.wavelengths_file);
+    const bool automatic = c.wavelengths == "auto";
+    if (automatic) record_auto_plan(c);
+    c.settings.observer = c.fit.observer;
+    c.settings.illuminant = c.fit.illuminant;
+    std::shared_ptr<Basis> file_basis = load_given_basis(c);
+    const Observer observer = load_observer(c.settings.data_dir, c.settings.observer);
+    const Spectrum illuminant = load_illuminant(c.settings.data_dir, c.settings.illuminant);
+    c.settings.method_recipe = method_recipe(c, file_basis.get(), observer, illuminant);
+    // Reads the colour config (checked: a regular file of bounded size): an Error, exit 2.
+    c.settings.command_line = command_line;
+    c.settings.settings_hash = settings_hash(c.settings);
+    bool all_up_to_date = false;
+    if (c.update && !c.force) {
+        all_up_to_date = true;
+        for (const auto& [in, out] : plan.files) {
+            plan.prechecked.push_back(check_update(in, out, c.settings.settings_hash));
+            all_up_to_date = all_up_to_date && plan.prechecked.back().up_to_date;
+        }
+    }
+    if (all_up_to_date) return;
+    if (automatic) choose_auto_grid(c);
+    build_method(c, std::move(file_basis), observer, illuminant);
+}
+
+// Threads, and how the batch runs and reports.
+void finish_batch_plan(BakeCli& c, BatchPlan& plan) {
+    size_batch_threads(plan, c.jobs, c.threads);
+    c.settings.threads = plan.threads;
+    plan.update = c.update && !c.force;
+    plan.make_folders = OutputNaming{c.output, c.output_dir, c.base_dir}.per_input();
+    plan.fail_fast = c.fail_fast;
+    plan.quiet = c.quiet;
+    plan.verbose = c.verbose;
+    plan.progress = c.progress || (!c.quiet && stderr_is_terminal());
+    plan.progress_terminal = stderr_is_terminal();
+    plan.json = c.json;
+}
+
+}  // namespace
+
+int run_bake(const std::vector<std::string>& args, const std::string& command_line) {
+    BakeCli c;
+    ArgParser p(
+        "bake", "spectex bake [options] INPUT... (-o OUTPUT.exr | -o TEMPLATE | --output-dir DIR)",
+        "Turns textures into spectral reflectance OpenEXRs (Fichet 2021 layout, channels\n"
+        "T.<wavelength>nm): read with OpenImageIO, linearise with OpenColorIO, expand each pixel\n"
+        "with the spectral primary decomposition (Mallett & Yuksel 2019). Inputs may hold <UDIM> "
+        "or\n"
+        "<UVTILE>, expanded to the existing tiles. Exit status 0 only when every file succeeded.");
+    declare_bake_options(p, c);
 
     std::vector<std::string> inputs;
     try {
         if (p.parse_or_help(args, inputs)) return 0;
-        if (inputs.empty() && c.from_list.empty()) throw UsageError("no input file");
-        if (c.output.empty() && c.output_dir.empty())
-            throw UsageError("no output (-o OUTPUT.exr, -o TEMPLATE or --output-dir DIR)");
-        check_output_option(c.output, c.output_dir);
-        if (!c.shard.empty()) {
-            try {
-                Shard::parse(c.shard);
-            } catch (const Error& e) {
-                throw UsageError(e.what());
-            }
-        }
-        c.settings.type = pick<SampleType>(
-            "--type", c.type, {{"half", SampleType::Half}, {"float", SampleType::Float}});
-        c.settings.alpha = pick<AlphaMode>(
-            "--alpha", c.alpha,
-            {{"associated", AlphaMode::Associated}, {"unassociated", AlphaMode::Unassociated}});
-        c.settings.range = pick<RangePolicy>("--out-of-range", c.range,
-                                             {{"clamp", RangePolicy::Clamp},
-                                              {"keep", RangePolicy::Keep},
-                                              {"error", RangePolicy::Error}});
-        c.settings.nan = pick<NanPolicy>(
-            "--nan", c.nan, {{"replace", NanPolicy::Replace}, {"error", NanPolicy::Error}});
-        try {
-            c.settings.compression = ExrCompression::parse(c.compression);
-        } catch (const Error& e) {
-            throw UsageError(std::string("--compression: ") + e.what());
-        }
-        if (c.method != "basis" && (c.basis_given || c.objective_given || c.fit.allow_infeasible))
-            throw UsageError(
-                "--basis, --objective and --allow-infeasible choose the basis of --method basis, "
-                "not of "
-                "--method " +
-                c.method);
-        if (c.method != "lattice" && c.lattice_given)
-            throw UsageError("--lattice-size and --vertex-prior belong to --method lattice");
-        if (c.method != "jakob-hanika" && c.jh_given)
-            throw UsageError("--jh-resolution belongs to --method jakob-hanika");
-        if (c.method != "basis" && c.range == "keep")
-            throw UsageError("--out-of-range keep needs --method basis: the " + c.method +
-                             " method is defined on linear RGB in [0, 1] only");
-        parse_objective_option(c.fit.objective);
-        const bool automatic = c.wavelengths == "auto";
-        if (automatic) {
-            if (!c.wavelengths_file.empty())
-                throw UsageError(
-                    "--wavelengths auto and --wavelengths-file are two grids; give one");
-            if (!c.plan_lights || !c.plan_budget)
-                throw UsageError(
-                    "--wavelengths auto needs --lights and --max-de (the scene's lights and the "
-                    "error budget)");
-            if (c.method == "basis" && c.basis != "fit")
-                throw UsageError("--wavelengths auto fits the basis on the chosen grid; --basis " +
-                                 c.basis + " has a grid of its own");
-            if (c.plan.nonuniform && c.method != "basis")
-                throw UsageError(
-                    "--nonuniform searches with the basis' 3x3 maps: it needs --method basis");
-        } else if (c.plan_lights || c.plan_budget || !c.plan.candidates.empty() ||
-                   c.plan.nonuniform) {
-            throw UsageError(
-                "--lights, --max-de, --grids and --nonuniform choose the grid of --wavelengths "
-                "auto");
-        }
-        if (c.wavelengths_file.empty() && !automatic) {
-            try {
-                c.settings.grid = WavelengthGrid::parse_exact(c.wavelengths);
-            } catch (const Error& e) {
-                throw UsageError(std::string("--wavelengths: ") + e.what());
-            }
-        }
+        check_given_options(c, inputs);
+        check_method_options(c);
+        check_grid_options(c);
     } catch (const UsageError& e) {
         return usage_error("bake", e.what());
     }
@@ -395,95 +719,11 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
     // Inputs and outputs first: every mistake in them is reported before any work (a basis fit).
     BatchPlan plan;
     try {
-        c.settings.data_dir = find_data_dir();
-        if (!c.base_dir.empty() && !is_directory(c.base_dir))
-            throw UsageError("--base-dir: '" + c.base_dir + "' is not a folder");
-        // --output-dir is created (with its parents) when missing, like mkdir -p; the folders below
-        // it (a mirrored tree, a template's folders) as each file is baked.
-        make_folders(c.output_dir);
-        std::vector<std::string> listed = inputs;
-        if (!c.from_list.empty()) {
-            auto more = read_list(c.from_list);
-            if (more.empty() && inputs.empty())
-                throw Error((c.from_list == "-" ? std::string("standard input (--from-list -)")
-                                                : c.from_list) +
-                            ": the input list names no files, and no input was given");
-            listed.insert(listed.end(), more.begin(), more.end());
-        }
-        std::vector<std::string> expanded;
-        for (const auto& in : listed) {
-            auto tiles = expand_tiles(in);
-            expanded.insert(expanded.end(), tiles.begin(), tiles.end());
-        }
-        std::sort(expanded.begin(), expanded.end());
-        expanded.erase(std::unique(expanded.begin(), expanded.end()), expanded.end());
-        if (expanded.size() > 1 && c.output_dir.empty() && !has_template_tokens(c.output))
-            throw UsageError("several inputs need --output-dir DIR or an -o template with {stem}");
-        if (!c.shard.empty()) expanded = select_shard(expanded, Shard::parse(c.shard));
-        for (const auto& in : expanded) {
-            std::string out;
-            try {
-                if (!c.base_dir.empty()) (void)relative_folder(in, c.base_dir);
-                out = c.output_dir.empty() && !has_template_tokens(c.output)
-                          ? c.output
-                          : output_for(in, c.output, c.output_dir, c.base_dir);
-            } catch (const Error& e) {
-                throw UsageError(e.what());
-            }
-            plan.files.push_back({in, out});
-        }
-        // No output may be a file this command reads, whatever its spelling or links.
-        ReadFiles reads;
-        reads.add_data_dir(c.settings.data_dir);
-        for (const auto& in : expanded) reads.add(in, "an input");
-        reads.add(c.from_list, "--from-list");
-        {
-            const std::string config = ocio_config_path(c.settings.data_dir, c.settings.config);
-            std::vector<std::string> files;
-            try {
-                files = ocio_config_files(
-                    config);  // a config that cannot be read fails every file: once
-            } catch (const Error& e) {
-                print_error(e.what());
-                return 2;
-            }
-            reads.add(files.front(), "the OCIO config");
-            for (size_t i = 1; i < files.size(); ++i)
-                reads.add(files[i], "a LUT file of " + config);
-        }
-        if (c.basis != "fit" && c.basis != "mallett2019") reads.add(c.basis, "--basis");
-        reads.add(c.fit.observer, "--observer");
-        reads.add(c.fit.illuminant, "--illuminant");
-        reads.add(c.wavelengths_file, "--wavelengths-file");
-        if (c.wavelengths == "auto")
-            for (const auto& l : c.plan.lights) reads.add(l, "--lights");
-        std::vector<OutputTarget> targets;
-        for (const auto& [in, out] : plan.files) {
-            if (std::string clash = reads.clash(out, "the output of " + in); !clash.empty())
-                throw UsageError(clash);
-            try {
-                check_output_path(out);
-            } catch (const Error& e) {
-                throw UsageError(e.what());
-            }
-            targets.push_back(output_target(out));
-        }
-        if (!c.json.empty() && c.json != "-") {
-            if (std::string clash = reads.clash(c.json, "--json"); !clash.empty())
-                throw UsageError(clash);
-            if (c.json.back() == '/' || is_directory(c.json))
-                throw UsageError("--json: '" + c.json + "' is a folder; give a file name");
-            try {
-                check_output_path(c.json);
-            } catch (const Error& e) {
-                throw UsageError(std::string(e.what()) + " (--json)");
-            }
-            const OutputTarget report = output_target(c.json);
-            for (size_t i = 0; i < targets.size(); ++i)
-                if (report.same_as(targets[i]))
-                    throw UsageError("--json: " + c.json + " is also the output of " +
-                                     plan.files[i].first);
-        }
+        plan = plan_bake_files(c, inputs);
+        check_outputs_against_reads(c, plan);
+    } catch (const SetupFailure& e) {
+        print_error(e.what());  // a config that cannot be read fails every file: once
+        return 2;
     } catch (const UsageError& e) {
         return usage_error("bake", e.what());
     } catch (const Error& e) {
@@ -491,196 +731,13 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         return 1;
     }
 
-    // Settings that are the same for every file (grid, colour config and space, observer,
-    // illuminant, basis, method) are checked once, before any input is read: one message, exit 2.
-    // The settings hash is computed from the recipe (the options and the tables' contents), before
-    // anything expensive is built (a basis fit, a lattice or Jakob-Hanika table, --wavelengths
-    // auto's search, an OCIO processor), so that --update checks the outputs' headers first and a
-    // run whose files are all up to date builds nothing.
-    std::vector<UpdateCheck> prechecked;
-    bool all_up_to_date = false;
     try {
-        if (!c.wavelengths_file.empty())
-            c.settings.grid = WavelengthGrid::from_file(c.wavelengths_file);
-        const bool automatic = c.wavelengths == "auto";
-        auto& rec = c.settings.plan;
-        if (automatic) {
-            char num[64];
-            for (const auto& l : c.plan.lights) rec.lights += (rec.lights.empty() ? "" : ",") + l;
-            std::snprintf(num, sizeof num, "%g", c.plan.max_de);
-            rec.max_de = num;
-            rec.reconstruction = to_string(c.plan.reconstruction);
-            std::snprintf(num, sizeof num, "%g:%g", c.plan.range_start, c.plan.range_end);
-            rec.range = num;
-            rec.nonuniform = c.plan.nonuniform;
-        }
-        c.settings.observer = c.fit.observer;
-        c.settings.illuminant = c.fit.illuminant;
-        std::shared_ptr<Basis> file_basis;  // --basis mallett2019 or FILE: read now (cheap)
-        if (c.method == "basis" && c.basis != "fit") {
-            Basis basis = load_basis(c.settings.data_dir, c.basis);
-            // A given basis is exact for the conditions it was made for; the default ones are
-            // recorded.
-            if (c.basis == "mallett2019")
-                c.settings.observer = "cie1931-2", c.settings.illuminant = "D65";
-            WavelengthGrid basis_grid = WavelengthGrid::from_list(basis.lambda);
-            // Without --wavelengths, the output is on the basis' own grid.
-            if (!c.wavelengths_given && c.wavelengths_file.empty()) c.settings.grid = basis_grid;
-            if (!same_wavelengths(c.settings.grid.lambda, basis_grid.lambda))
-                throw Error("basis " + c.basis + " is on " + basis_grid.describe() +
-                            ", not on the output grid " + c.settings.grid.describe() +
-                            " (the default --basis fit works on any grid)");
-            check_basis_values(basis);
-            file_basis = std::make_shared<Basis>(std::move(basis));
-        }
-        const Observer observer = load_observer(c.settings.data_dir, c.settings.observer);
-        const Spectrum illuminant = load_illuminant(c.settings.data_dir, c.settings.illuminant);
-        {
-            // The method's recipe: what builds it, the tables' values included (a user table that
-            // changes under the same name changes the hash).
-            Fnv1a64 h;
-            auto add = [&](const std::string& t) { h.add(t.data(), t.size() + 1); };
-            auto add_values = [&](const std::vector<double>& v) {
-                h.add(v.data(), v.size() * sizeof(double));
-            };
-            if (file_basis) {
-                add("basis " + file_basis->checksum());
-            } else if (c.method == "basis") {
-                add("basis fit, objective " + c.fit.objective +
-                    (c.fit.allow_infeasible ? ", infeasible allowed" : ""));
-            } else {
-                add(c.method + " lattice " + std::to_string(c.lattice_size) + " prior " +
-                    c.vertex_prior + " jh " + std::to_string(c.jh_resolution));
-            }
-            add_values(observer.x.lambda);
-            add_values(observer.x.value);
-            add_values(observer.y.value);
-            add_values(observer.z.value);
-            add_values(illuminant.lambda);
-            add_values(illuminant.value);
-            if (automatic) {
-                // The grid is chosen later from these (and this version): the choice is hashed by
-                // its inputs.
-                for (const auto& l : c.plan.lights) {
-                    const Spectrum light = load_illuminant(c.settings.data_dir, l);
-                    add("light " + l);
-                    add_values(light.lambda);
-                    add_values(light.value);
-                }
-                for (const auto& g : c.plan.candidates) {
-                    add("candidate");
-                    add_values(g.lambda);
-                }
-                add(std::string(c.plan.half ? "half" : "float") + " stride " +
-                    std::to_string(c.plan.sample_stride) + " colours " + c.plan.colours);
-            }
-            c.settings.method_recipe = h.text();
-        }
-        // Reads the colour config (checked: a regular file of bounded size), so inside the try.
-        c.settings.command_line = command_line;
-        c.settings.settings_hash = settings_hash(c.settings);
-        if (c.update && !c.force) {
-            all_up_to_date = true;
-            for (const auto& [in, out] : plan.files) {
-                prechecked.push_back(check_update(in, out, c.settings.settings_hash));
-                all_up_to_date = all_up_to_date && prechecked.back().up_to_date;
-            }
-        }
-        if (!all_up_to_date) {
-            if (automatic) {
-                // Once per batch: every file of it gets the same grid.
-                c.plan.method.method = c.method;
-                c.plan.method.fit = c.fit;
-                c.plan.method.fit.data_dir = c.settings.data_dir;
-                c.plan.method.lattice_size = c.lattice_size;
-                c.plan.method.vertex_prior = c.vertex_prior;
-                c.plan.half = c.settings.type == SampleType::Half;
-                c.plan.threads = c.threads;
-                const PlanResult pr = plan_grids(c.plan);
-                if (c.verbose) std::cerr << plan_table(c.plan, pr);
-                if (pr.chosen < 0) throw Error(plan_failure(c.plan, pr));
-                const GridRow& row = pr.rows[static_cast<size_t>(pr.chosen)];
-                c.settings.grid = row.grid;
-                char num[64];
-                std::snprintf(num, sizeof num, "%.4g", row.worst);
-                rec.worst_de = num;
-                if (!c.quiet)
-                    std::cerr << "spectex: --wavelengths auto: " << grid_label(row.grid) << " ("
-                              << row.bins << " bins), worst " << rec.worst_de << " ΔE00 under "
-                              << row.worst_light << ", within " << rec.max_de << " under "
-                              << join_names(c.plan.lights) << " (" << pr.seconds << " s)\n";
-            }
-            if (!c.settings.colorspace.empty())
-                (void)Linearizer::make(ColourRequest{c.settings.data_dir, c.settings.config,
-                                                     c.settings.colorspace, "", ""});
-            if (c.method != "basis") {
-                MethodSpec spec;
-                spec.method = c.method;
-                spec.fit = c.fit;
-                spec.fit.data_dir = c.settings.data_dir;
-                spec.fit.grid = c.settings.grid;
-                spec.lattice_size = c.lattice_size;
-                spec.jh_resolution = c.jh_resolution;
-                spec.vertex_prior = c.vertex_prior;
-                MethodResult made = make_method(spec);
-                c.settings.method = made.method;
-                if (c.verbose)
-                    std::cerr << "spectex: " << spec.describe() << ": built in "
-                              << made.build_seconds << " s\n";
-            } else if (c.basis == "fit") {
-                c.fit.data_dir = c.settings.data_dir;
-                c.fit.grid = c.settings.grid;
-                FitResult fit = fit_basis_for(c.fit);
-                if (!fit.certificate.feasible && !c.quiet) {
-                    const auto& r = fit.certificate.colour_residual;
-                    std::cerr << "spectex: warning: no exact basis exists for " << c.fit.describe()
-                              << "; baking with the closest one, which misses the primaries by "
-                              << std::max({r[0], r[1], r[2]})
-                              << " in linear RGB (--allow-infeasible)\n";
-                }
-                c.settings.method = std::make_shared<BasisMethod>(
-                    fit.basis, "fitted by spectex: " + c.fit.describe());
-            } else {
-                // How far the basis is from reproducing the primaries under the colorimetry it is
-                // used with: a wrong table (another observer, a flat one) bakes wrong colours
-                // without a word.
-                Colorimetry cm = Colorimetry::make(observer, illuminant, c.settings.grid,
-                                                   primaries_by_name("srgb"));
-                const FitCertificate cert = certify_basis(*file_basis, cm);
-                const double miss = std::max(
-                    {cert.colour_residual[0], cert.colour_residual[1], cert.colour_residual[2]});
-                if (miss > kBasisPrimaryTolerance && !c.quiet)
-                    std::cerr << "spectex: warning: basis " << c.basis
-                              << " misses the sRGB primaries by " << miss << " in linear RGB under "
-                              << c.settings.observer << " and " << c.settings.illuminant
-                              << " (tolerance " << kBasisPrimaryTolerance
-                              << "): baked colours will be off by up to that\n";
-                c.settings.method = std::make_shared<BasisMethod>(
-                    std::move(*file_basis),
-                    c.basis == "mallett2019" ? "published table (Mallett & Yuksel 2019)" : "file");
-            }
-        }
+        prepare_settings(c, command_line, plan);
     } catch (const Error& e) {
         print_error(e.what());
         return 2;
     }
-
-    unsigned hw = std::max(1u, std::thread::hardware_concurrency());
-    plan.jobs = c.jobs;
-    plan.threads = c.threads > 0 ? c.threads : std::max(1, static_cast<int>(hw) / c.jobs);
-    // OpenEXR's pool is global to the process: size it for all jobs together.
-    Imf::setGlobalThreadCount(plan.jobs * plan.threads);
-    set_image_threads(plan.threads);  // applied if and when an image is decoded
-    c.settings.threads = plan.threads;
-    plan.update = c.update && !c.force;
-    plan.make_folders = !c.output_dir.empty() || has_template_tokens(c.output);
-    plan.prechecked = std::move(prechecked);
-    plan.fail_fast = c.fail_fast;
-    plan.quiet = c.quiet;
-    plan.verbose = c.verbose;
-    plan.progress = c.progress || (!c.quiet && stderr_is_terminal());
-    plan.progress_terminal = stderr_is_terminal();
-    plan.json = c.json;
+    finish_batch_plan(c, plan);
     return run_batch(plan, c.settings);
 }
 

@@ -1,25 +1,18 @@
 #include "cli/batch_runner.h"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
-#include <condition_variable>
 #include <cstdio>
-#include <cstdlib>
 #include <ctime>
-#include <fstream>
 #include <iostream>
-#include <map>
 #include <memory>
-#include <mutex>
-#include <thread>
 
 #include "cli/commands.h"
 #include "io/atomic_file.h"
-#include "io/file_identity.h"
 #include "io/linearizer.h"
 #include "io/paths.h"
 #include "pipeline/batch.h"
+#include "pipeline/batch_run.h"
 #include "spectral/error.h"
 #include "spectral/text.h"
 
@@ -46,13 +39,6 @@ std::string utc_stamp() {
     std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
     return buf;
 }
-
-// What one job is baking, for the progress line.
-struct JobSlot {
-    std::string input;  // "" when idle (guarded by the batch's io mutex)
-    std::chrono::steady_clock::time_point start;
-    BakeProgress rows;
-};
 
 // Names listed per line of the summary; the --json report has every file.
 constexpr size_t kListedFiles = 20;
@@ -120,74 +106,130 @@ void warn_default_rule_to_linear(const BatchPlan& plan, const BakeSettings& sett
     std::cerr << "spectex: " << one_line(msg) << "\n";
 }
 
-}  // namespace
+// The command's side of a batch: each file's messages on stderr and its JSON Lines record, the
+// progress line, and the summary at the end.
+class BatchReport : public BatchListener {
+  public:
+    explicit BatchReport(const BatchPlan& plan)
+        : plan_(plan), t0_(std::chrono::steady_clock::now()) {}
 
-int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
-    const auto t0 = std::chrono::steady_clock::now();
-    const size_t total = plan.files.size();
-    std::mutex io;
-    // The report is an output like the others: written to a temporary file and renamed at the end,
-    // so a failed write (a full disk) is a failure and never leaves a short report under its name.
-    std::unique_ptr<AtomicFile> json_file;
-    std::string json_error;
-    if (!plan.json.empty() && plan.json != "-") {
+    // The report is an output like the others: written to a temporary file and renamed at the
+    // end, so a failed write (a full disk) is a failure and never leaves a short report under its
+    // name. False (the error printed) when it cannot be created.
+    bool open_json() {
+        if (plan_.json.empty() || plan_.json == "-") return true;
         try {
-            json_file = std::make_unique<AtomicFile>(plan.json);
+            json_file_ = std::make_unique<AtomicFile>(plan_.json);
         } catch (const Error& e) {
             print_error(std::string(e.what()) + " (--json)");
-            return 1;
+            return false;
         }
+        return true;
     }
-    auto write_json = [&](const std::string& line) {
-        if (plan.json == "-") {
-            std::cout << line << std::flush;
-            if (!std::cout && json_error.empty())
-                json_error = "standard output: cannot write the JSON report";
-        } else if (json_file && json_error.empty()) {
+
+    void file_done(const FileRecord& r) override {
+        if (plan_.progress && plan_.progress_terminal) std::cerr << "\r\033[K";
+        if (r.status == BatchStatus::Failed)
+            print_error(name_file(r.input, r.error));
+        else if (!plan_.quiet)
+            print_file_notes(r);
+        if (plan_.verbose && r.status == BatchStatus::Ok) print_baked(r);
+        if (plan_.verbose && r.status == BatchStatus::Skipped)
+            std::cerr << "spectex: " << one_line(quote_path(r.output) + ": " + r.reason) << "\n";
+        if (!plan_.json.empty()) write_json(json_record(r));
+    }
+
+    void progress(const BatchCounts& counts, const std::vector<JobSlot>& slots) override {
+        if (plan_.progress_terminal)
+            std::cerr << "\r\033[K" << progress_line(counts, slots) << std::flush;
+        else
+            std::cerr << utc_stamp() << " " << progress_line(counts, slots) << "\n" << std::flush;
+    }
+
+    // The summary, the report committed; the exit status.
+    int finish(const BatchOutcome& outcome, const BakeSettings& settings) {
+        const BatchCounts& n = outcome.counts;
+        if (plan_.progress && plan_.progress_terminal) std::cerr << "\r\033[K";
+        const size_t not_attempted = n.total - n.done;
+        if (!plan_.quiet && (n.total > 1 || n.failed || n.skipped)) {
+            double el =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+            std::cerr << "spectex: " << n.ok << " baked, " << n.skipped << " up to date, "
+                      << n.failed << " failed";
+            if (not_attempted) std::cerr << ", " << not_attempted << " not attempted (--fail-fast)";
+            std::cerr << " of " << n.total << " in " << seconds_text(el) << "\n";
+            print_colour_spaces(plan_, outcome.baked, outcome.was_baked);
+        }
+        if (!plan_.quiet)
+            warn_default_rule_to_linear(plan_, settings, outcome.baked, outcome.was_baked);
+        if (json_file_ && json_error_.empty()) {
             try {
-                write_all(json_file->fd(), line, plan.json);
+                json_file_->commit();
             } catch (const Error& e) {
-                json_error = std::string(e.what()) + " (--json)";
+                json_error_ = std::string(e.what()) + " (--json)";
             }
         }
-    };
-
-    // Two inputs must never race for one output inside a batch: outputs are compared by where
-    // they land (folders resolved, links followed), not by how they are spelt.
-    std::map<std::string, size_t> first_by_key;
-    std::map<std::pair<dev_t, ino_t>, size_t> first_by_id;
-    std::vector<std::string> clash(total);
-    for (size_t i = 0; i < total; ++i) {
-        const OutputTarget t = output_target(plan.files[i].second);
-        size_t first = i;
-        if (auto [it, fresh] = first_by_key.emplace(t.key, i); !fresh) first = it->second;
-        if (t.existing)
-            if (auto [it, fresh] =
-                    first_by_id.emplace(std::make_pair(t.existing->dev, t.existing->ino), i);
-                !fresh)
-                first = std::min(first, it->second);
-        if (first != i)
-            clash[i] = plan.files[i].first + ": its output " + plan.files[i].second +
-                       " is also the output of " + plan.files[first].first + " (as " +
-                       plan.files[first].second + "); not baked twice";
+        if (!json_error_.empty()) {
+            print_error(json_error_ + "; the report is incomplete");
+            return 1;
+        }
+        return n.failed || not_attempted ? 1 : 0;
     }
 
-    std::atomic<size_t> next{0};
-    std::atomic<bool> stop{false};
-    size_t done = 0, ok = 0, skipped = 0, failed = 0;
-    // Per input, in input order: its colour space and how it was chosen (baked files only), and
-    // whether it is an integer file read as scene-linear through the default rule, for the summary.
-    std::vector<BakeResult> baked(total);
-    std::vector<bool> was_baked(total, false);
+  private:
+    void write_json(const std::string& line) {
+        if (plan_.json == "-") {
+            std::cout << line << std::flush;
+            if (!std::cout && json_error_.empty())
+                json_error_ = "standard output: cannot write the JSON report";
+        } else if (json_file_ && json_error_.empty()) {
+            try {
+                write_all(json_file_->fd(), line, plan_.json);
+            } catch (const Error& e) {
+                json_error_ = std::string(e.what()) + " (--json)";
+            }
+        }
+    }
 
-    const int jobs = std::max(1, std::min<int>(plan.jobs, static_cast<int>(total)));
-    std::vector<JobSlot> slots(static_cast<size_t>(jobs));
-    // The progress line (io held): files done, and the rows of the files being baked.
-    auto progress_line = [&]() {
+    // Notes, clamped and replaced pixels of a file that did not fail.
+    static void print_file_notes(const FileRecord& r) {
+        const std::string named = one_line(quote_path(r.input));
+        for (const auto& n : r.result.notes)
+            std::cerr << "spectex: " << named << ": note: " << one_line(n) << "\n";
+        if (r.result.clamped_pixels)
+            std::cerr << "spectex: " << named << ": " << r.result.clamped_pixels
+                      << " pixels had linear values outside [0, 1] and were clamped\n";
+        if (r.result.replaced_pixels)
+            std::cerr << "spectex: " << named << ": " << r.result.replaced_pixels
+                      << " pixels had NaN/Inf values replaced with 0\n";
+    }
+
+    // --verbose: what a baked file became, and where its time went.
+    static void print_baked(const FileRecord& r) {
+        std::cerr << "spectex: " << one_line(quote_path(r.input)) << " -> "
+                  << one_line(quote_path(r.output)) << ": " << r.result.pixels << " pixels, "
+                  << r.result.bins << " bins, colour space '" << r.result.colorspace << "' ("
+                  << r.result.colorspace_how << "), " << r.result.bytes << " bytes, "
+                  << seconds_text(r.result.seconds) << "\n";
+        const auto& st = r.result.stages;
+        char buf[400];
+        std::snprintf(buf, sizeof buf,
+                      "stages: read %.2f s, colour %.2f s, expand %.2f s (producer thread); "
+                      "pack %.2f s, waiting for the encoder %.2f s, for the producer %.2f s, "
+                      "finish %.2f s "
+                      "(writer thread); compress %.2f CPU-s (%s writer)\n",
+                      st.read, st.colour, st.expand, st.pack, st.encoder_wait, st.producer_wait,
+                      st.finish, st.compress_cpu, st.writer.c_str());
+        std::cerr << "spectex: " << one_line(quote_path(r.input)) << ": " << buf;
+    }
+
+    // Files done, and the rows of the files being baked.
+    std::string progress_line(const BatchCounts& n, const std::vector<JobSlot>& slots) const {
         const auto now = std::chrono::steady_clock::now();
-        const double el = std::chrono::duration<double>(now - t0).count();
+        const double el = std::chrono::duration<double>(now - t0_).count();
+        const size_t done = n.done, total = n.total;
         std::string line = "spectex: [" + std::to_string(done) + "/" + std::to_string(total) +
-                           "] " + std::to_string(failed) + " failed";
+                           "] " + std::to_string(n.failed) + " failed";
         double file_eta = 0;
         for (const auto& sl : slots) {
             if (sl.input.empty()) continue;
@@ -207,179 +249,21 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
         if (total == 1) eta = file_eta;
         if (done || file_eta > 0) line += ", ETA " + seconds_text(eta);
         return line;
-    };
-    auto show_progress = [&]() {
-        if (plan.progress_terminal)
-            std::cerr << "\r\033[K" << progress_line() << std::flush;
-        else
-            std::cerr << utc_stamp() << " " << progress_line() << "\n" << std::flush;
-    };
-
-    auto report = [&](const FileRecord& r) {
-        std::lock_guard<std::mutex> lock(io);
-        if (plan.progress && plan.progress_terminal) std::cerr << "\r\033[K";
-        if (r.status == "failed") {
-            print_error(name_file(r.input, r.error));
-        } else if (!plan.quiet) {
-            const std::string named = one_line(quote_path(r.input));
-            for (const auto& n : r.result.notes)
-                std::cerr << "spectex: " << named << ": note: " << one_line(n) << "\n";
-            if (r.result.clamped_pixels)
-                std::cerr << "spectex: " << named << ": " << r.result.clamped_pixels
-                          << " pixels had linear values outside [0, 1] and were clamped\n";
-            if (r.result.replaced_pixels)
-                std::cerr << "spectex: " << named << ": " << r.result.replaced_pixels
-                          << " pixels had NaN/Inf values replaced with 0\n";
-        }
-        if (plan.verbose && r.status == "ok")
-            std::cerr << "spectex: " << one_line(quote_path(r.input)) << " -> "
-                      << one_line(quote_path(r.output)) << ": " << r.result.pixels << " pixels, "
-                      << r.result.bins << " bins, colour space '" << r.result.colorspace << "' ("
-                      << r.result.colorspace_how << "), " << r.result.bytes << " bytes, "
-                      << seconds_text(r.result.seconds) << "\n";
-        if (plan.verbose && r.status == "ok") {
-            const auto& st = r.result.stages;
-            char buf[400];
-            std::snprintf(buf, sizeof buf,
-                          "stages: read %.2f s, colour %.2f s, expand %.2f s (producer thread); "
-                          "pack %.2f s, waiting for the encoder %.2f s, for the producer %.2f s, "
-                          "finish %.2f s "
-                          "(writer thread); compress %.2f CPU-s (%s writer)\n",
-                          st.read, st.colour, st.expand, st.pack, st.encoder_wait, st.producer_wait,
-                          st.finish, st.compress_cpu, st.writer.c_str());
-            std::cerr << "spectex: " << one_line(quote_path(r.input)) << ": " << buf;
-        }
-        if (plan.verbose && r.status == "skipped")
-            std::cerr << "spectex: " << one_line(quote_path(r.output) + ": " + r.reason) << "\n";
-        if (!plan.json.empty()) write_json(json_record(r));
-        ++done;
-        ok += r.status == "ok";
-        skipped += r.status == "skipped";
-        failed += r.status == "failed";
-        if (plan.progress) show_progress();
-    };
-
-    auto worker = [&](size_t job) {
-        JobSlot& slot = slots[job];
-        for (;;) {
-            if (stop.load()) return;
-            size_t i = next.fetch_add(1);
-            if (i >= total) return;
-            FileRecord r;
-            r.input = plan.files[i].first;
-            r.output = plan.files[i].second;
-            r.settings_hash = settings.settings_hash;
-            auto start = std::chrono::steady_clock::now();
-            try {
-                if (!clash[i].empty()) throw Error(clash[i]);
-                UpdateCheck check;
-                if (plan.update)
-                    check = i < plan.prechecked.size()
-                                ? plan.prechecked[i]
-                                : check_update(r.input, r.output, settings.settings_hash);
-                if (check.up_to_date) {
-                    r.status = "skipped";
-                    r.reason = check.reason;
-                } else {
-                    if (plan.make_folders) {
-                        const size_t slash = r.output.find_last_of('/');
-                        if (slash != std::string::npos && slash > 0)
-                            make_folders(r.output.substr(0, slash));
-                    }
-                    {
-                        std::lock_guard<std::mutex> lock(io);
-                        slot.input = r.input;
-                        slot.start = std::chrono::steady_clock::now();
-                        slot.rows.rows_done = 0;
-                        slot.rows.rows_total = 0;
-                    }
-                    r.result = bake_file(r.input, r.output, settings, &slot.rows);
-                    r.status = "ok";
-                }
-            } catch (const Error& e) {
-                r.status = "failed";
-                r.error = e.what();
-            } catch (const std::exception& e) {
-                r.status = "failed";
-                r.error = r.input + ": " + e.what();
-            }
-            {
-                std::lock_guard<std::mutex> lock(io);
-                slot.input.clear();
-            }
-            r.result.seconds =
-                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-            if (r.status == "failed" && plan.fail_fast) stop.store(true);
-            report(r);
-            if (r.status == "ok") {
-                std::lock_guard<std::mutex> lock(io);
-                baked[i] = r.result;
-                was_baked[i] = true;
-            }
-        }
-    };
-    // Progress within files: a few times a second on a terminal, every 10 s in a log.
-    std::mutex tick_mutex;
-    std::condition_variable tick_cv;
-    bool finished = false;
-    std::thread ticker;
-    if (plan.progress)
-        ticker = std::thread([&] {
-            // A log's cadence: SPECTEX_PROGRESS_SECONDS (default 10).
-            double log_seconds = 10;
-            if (const char* e = std::getenv("SPECTEX_PROGRESS_SECONDS")) {
-                double v = 0;
-                if (parse_finite(e, &v) && v >= 0.01 && v <= 86400) log_seconds = v;
-            }
-            const auto period =
-                plan.progress_terminal
-                    ? std::chrono::milliseconds(250)
-                    : std::chrono::milliseconds(static_cast<long>(log_seconds * 1000));
-            std::unique_lock<std::mutex> lock(tick_mutex);
-            while (!tick_cv.wait_for(lock, period, [&] { return finished; })) {
-                std::lock_guard<std::mutex> io_lock(io);
-                bool busy = false;
-                for (const auto& sl : slots)
-                    busy = busy || (!sl.input.empty() && sl.rows.rows_total.load() > 0);
-                if (busy) show_progress();
-            }
-        });
-    std::vector<std::thread> pool;
-    for (int j = 1; j < jobs; ++j) pool.emplace_back(worker, static_cast<size_t>(j));
-    worker(0);
-    for (auto& t : pool) t.join();
-    if (ticker.joinable()) {
-        {
-            std::lock_guard<std::mutex> lock(tick_mutex);
-            finished = true;
-        }
-        tick_cv.notify_all();
-        ticker.join();
     }
 
-    if (plan.progress && plan.progress_terminal) std::cerr << "\r\033[K";
-    const size_t not_attempted = total - done;
-    if (!plan.quiet && (total > 1 || failed || skipped)) {
-        double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        std::cerr << "spectex: " << ok << " baked, " << skipped << " up to date, " << failed
-                  << " failed";
-        if (not_attempted) std::cerr << ", " << not_attempted << " not attempted (--fail-fast)";
-        std::cerr << " of " << total << " in " << seconds_text(el) << "\n";
-        print_colour_spaces(plan, baked, was_baked);
-    }
-    if (!plan.quiet) warn_default_rule_to_linear(plan, settings, baked, was_baked);
-    if (json_file && json_error.empty()) {
-        try {
-            json_file->commit();
-        } catch (const Error& e) {
-            json_error = std::string(e.what()) + " (--json)";
-        }
-    }
-    if (!json_error.empty()) {
-        print_error(json_error + "; the report is incomplete");
-        return 1;
-    }
-    return failed || not_attempted ? 1 : 0;
+    const BatchPlan& plan_;
+    const std::chrono::steady_clock::time_point t0_;
+    std::unique_ptr<AtomicFile> json_file_;
+    std::string json_error_;
+};
+
+}  // namespace
+
+int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
+    BatchReport report(plan);
+    if (!report.open_json()) return 1;
+    const BatchOutcome outcome = bake_batch(plan, settings, report);
+    return report.finish(outcome, settings);
 }
 
 }  // namespace spectex

@@ -1,8 +1,6 @@
 #include "io/paths.h"
 
-#include <unistd.h>
-
-#include <climits>
+#include <filesystem>
 
 namespace spectex {
 
@@ -19,10 +17,9 @@ std::string file_name_of(const std::string& path) {
 }
 
 std::string executable_dir() {
-    char buf[PATH_MAX];
-    const ssize_t n = ::readlink("/proc/self/exe", buf, sizeof buf - 1);
-    if (n <= 0) return "";
-    const std::string p(buf, static_cast<size_t>(n));
+    std::error_code ec;
+    const std::string p = std::filesystem::read_symlink("/proc/self/exe", ec).native();
+    if (ec || p.empty()) return "";
     return p.substr(0, p.find_last_of('/'));
 }
 

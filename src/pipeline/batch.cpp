@@ -3,7 +3,6 @@
 #include <ImfHeader.h>
 #include <ImfMultiPartInputFile.h>
 #include <ImfStringAttribute.h>
-#include <dirent.h>
 #include <limits.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -98,12 +97,18 @@ std::vector<std::string> expand_tiles(const std::string& path) {
     replace_all("<UVTILE>", "u[1-9][0-9]*_v[1-9][0-9]*");
     std::regex re(pattern);
     std::vector<std::string> out;
-    DIR* d = ::opendir(dir.c_str());
-    if (!d) throw Error(path + ": cannot list " + dir + ": " + std::strerror(errno));
-    while (dirent* e = ::readdir(d))
-        if (std::regex_match(e->d_name, re))
-            out.push_back(path.find('/') == std::string::npos ? e->d_name : dir + "/" + e->d_name);
-    ::closedir(d);
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    fs::directory_iterator it(dir, ec);
+    if (ec) throw Error(path + ": cannot list " + dir + ": " + ec.message());
+    // Names as the system gives them (native bytes, whatever their encoding), put in the place of
+    // the pattern's name: the folder stays as the user spelt it ("a//b/", "./", none).
+    for (const fs::directory_iterator end; !ec && it != end; it.increment(ec)) {
+        const fs::path name = it->path().filename();
+        if (std::regex_match(name.native(), re))
+            out.push_back(fs::path(path).replace_filename(name).native());
+    }
+    if (ec) throw Error(path + ": cannot list " + dir + ": " + ec.message());
     if (out.empty()) throw Error(path + ": no existing tiles match");
     std::sort(out.begin(), out.end());
     return out;
@@ -383,12 +388,24 @@ UpdateCheck check_update(const std::string& input, const std::string& output,
     return c;
 }
 
+const char* to_string(BatchStatus s) {
+    switch (s) {
+        case BatchStatus::Ok:
+            return "ok";
+        case BatchStatus::Skipped:
+            return "skipped";
+        case BatchStatus::Failed:
+            return "failed";
+    }
+    return "failed";
+}
+
 std::string json_record(const FileRecord& r) {
     Json j;
     j["schema_version"] = kJsonSchemaVersion;
     put_text(j, "input", r.input);
     put_text(j, "output", r.output);
-    j["status"] = r.status;
+    j["status"] = to_string(r.status);
     put_text_or_null(j, "error", r.error);
     j["seconds"] = json_number(r.result.seconds, "%.3f");
     j["pixels"] = r.result.pixels;
@@ -398,9 +415,9 @@ std::string json_record(const FileRecord& r) {
     j["replaced_pixels"] = r.result.replaced_pixels;
     put_text(j, "colorspace", r.result.colorspace);
     put_text(j, "settings_hash", r.settings_hash);
-    if (r.status == "skipped")
+    if (r.status == BatchStatus::Skipped)
         put_text(j, "reason", r.reason);  // why nothing was done, for a script
-    if (r.status == "ok") {
+    if (r.status == BatchStatus::Ok) {
         const auto& st = r.result.stages;
         Json stages;
         stages["writer"] = st.writer;

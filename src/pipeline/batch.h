@@ -62,8 +62,13 @@ struct UpdateCheck {
 UpdateCheck check_update(const std::string& input, const std::string& output,
                          const std::string& hash);
 
+// What became of one file of a batch; to_string gives the word the report writes.
+enum class BatchStatus { Ok, Skipped, Failed };
+const char* to_string(BatchStatus s);  // "ok", "skipped", "failed"
+
 struct FileRecord {
-    std::string input, output, status;  // status: ok, failed, skipped
+    std::string input, output;
+    BatchStatus status = BatchStatus::Failed;
     std::string error;
     BakeResult result;
     std::string settings_hash;

@@ -141,7 +141,7 @@ TEST(JsonText, BakeRecordsOfNamesThatAreNotUtf8ParseAndGiveTheBytesBack) {
     FileRecord r;
     r.input = "in/caf\xe9\x07.png";
     r.output = "out/caf\xe9\x07.exr";
-    r.status = "failed";
+    r.status = BatchStatus::Failed;
     r.error = r.input + ": cannot open";
     r.result.colorspace = "sRGB - Texture";
     r.settings_hash = "fnv1a64:0123456789abcdef";
@@ -157,7 +157,7 @@ TEST(JsonText, BakeRecordsOfNamesThatAreNotUtf8ParseAndGiveTheBytesBack) {
     r.input = "in/a.png";
     r.output = "out/a.exr";
     r.error.clear();
-    r.status = "ok";
+    r.status = BatchStatus::Ok;
     r.result.seconds = 1.5;
     r.result.stages.writer = "core";
     r.result.stages.read = 0.25;

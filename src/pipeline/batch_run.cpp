@@ -1,0 +1,252 @@
+#include "pipeline/batch_run.h"
+
+#include <OpenEXR/ImfThreading.h>
+
+#include <algorithm>
+#include <atomic>
+#include <condition_variable>
+#include <cstdlib>
+#include <map>
+#include <mutex>
+#include <thread>
+
+#include "io/atomic_file.h"
+#include "io/file_identity.h"
+#include "io/image_library.h"
+#include "io/paths.h"
+#include "spectral/error.h"
+#include "spectral/text.h"
+
+namespace spectex {
+
+namespace {
+
+// Two inputs must never race for one output inside a batch: outputs are compared by where they
+// land (folders resolved, links followed), not by how they are spelt. Per file: "" or why it is
+// not baked.
+std::vector<std::string> output_clashes(
+    const std::vector<std::pair<std::string, std::string>>& files) {
+    const size_t total = files.size();
+    std::map<std::string, size_t> first_by_key;
+    std::map<std::pair<dev_t, ino_t>, size_t> first_by_id;
+    std::vector<std::string> clash(total);
+    for (size_t i = 0; i < total; ++i) {
+        const OutputTarget t = output_target(files[i].second);
+        size_t first = i;
+        if (auto [it, fresh] = first_by_key.emplace(t.key, i); !fresh) first = it->second;
+        if (t.existing)
+            if (auto [it, fresh] =
+                    first_by_id.emplace(std::make_pair(t.existing->dev, t.existing->ino), i);
+                !fresh)
+                first = std::min(first, it->second);
+        if (first != i)
+            clash[i] = files[i].first + ": its output " + files[i].second +
+                       " is also the output of " + files[first].first + " (as " +
+                       files[first].second + "); not baked twice";
+    }
+    return clash;
+}
+
+// A log's progress cadence: SPECTEX_PROGRESS_SECONDS (default 10); a terminal's, 250 ms.
+std::chrono::milliseconds progress_period(bool terminal) {
+    double log_seconds = 10;
+    if (const char* e = std::getenv("SPECTEX_PROGRESS_SECONDS")) {
+        double v = 0;
+        if (parse_finite(e, &v) && v >= 0.01 && v <= 86400) log_seconds = v;
+    }
+    return terminal ? std::chrono::milliseconds(250)
+                    : std::chrono::milliseconds(static_cast<long>(log_seconds * 1000));
+}
+
+// The batch's state shared by its workers and its progress ticker.
+struct BatchRun {
+    const BatchPlan& plan;
+    const BakeSettings& settings;
+    BatchListener& listener;
+    const size_t total;
+    std::vector<std::string> clash;
+    std::mutex io;
+    std::atomic<size_t> next{0};
+    std::atomic<bool> stop{false};
+    BatchOutcome outcome;
+    std::vector<JobSlot> slots;
+
+    BatchRun(const BatchPlan& p, const BakeSettings& s, BatchListener& l, size_t jobs)
+        : plan(p),
+          settings(s),
+          listener(l),
+          total(p.files.size()),
+          clash(output_clashes(p.files)),
+          slots(jobs) {
+        outcome.counts.total = total;
+        outcome.baked.resize(total);
+        outcome.was_baked.assign(total, false);
+    }
+
+    // The listener told, the counts kept (io held).
+    void report(const FileRecord& r) {
+        std::lock_guard<std::mutex> lock(io);
+        listener.file_done(r);
+        BatchCounts& n = outcome.counts;
+        ++n.done;
+        n.ok += r.status == BatchStatus::Ok;
+        n.skipped += r.status == BatchStatus::Skipped;
+        n.failed += r.status == BatchStatus::Failed;
+        if (plan.progress) listener.progress(n, slots);
+    }
+
+    // File i: skipped when up to date, else its folders made and baked in `slot`.
+    void bake_one(size_t i, JobSlot& slot, FileRecord& r) {
+        if (!clash[i].empty()) throw Error(clash[i]);
+        UpdateCheck check;
+        if (plan.update)
+            check = i < plan.prechecked.size()
+                        ? plan.prechecked[i]
+                        : check_update(r.input, r.output, settings.settings_hash);
+        if (check.up_to_date) {
+            r.status = BatchStatus::Skipped;
+            r.reason = check.reason;
+            return;
+        }
+        if (plan.make_folders) {
+            const std::string folder = folder_of(r.output);
+            if (folder != "." && folder != "/") make_folders(folder);
+        }
+        {
+            std::lock_guard<std::mutex> lock(io);
+            slot.input = r.input;
+            slot.start = std::chrono::steady_clock::now();
+            slot.rows.rows_done = 0;
+            slot.rows.rows_total = 0;
+        }
+        r.result = bake_file(r.input, r.output, settings, &slot.rows);
+        r.status = BatchStatus::Ok;
+    }
+
+    void worker(size_t job) {
+        JobSlot& slot = slots[job];
+        for (;;) {
+            if (stop.load()) return;
+            size_t i = next.fetch_add(1);
+            if (i >= total) return;
+            FileRecord r;
+            r.input = plan.files[i].first;
+            r.output = plan.files[i].second;
+            r.settings_hash = settings.settings_hash;
+            auto start = std::chrono::steady_clock::now();
+            try {
+                bake_one(i, slot, r);
+            } catch (const Error& e) {
+                r.status = BatchStatus::Failed;
+                r.error = e.what();
+            } catch (const std::exception& e) {
+                r.status = BatchStatus::Failed;
+                r.error = r.input + ": " + e.what();
+            }
+            {
+                std::lock_guard<std::mutex> lock(io);
+                slot.input.clear();
+            }
+            r.result.seconds =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+            if (r.status == BatchStatus::Failed && plan.fail_fast) stop.store(true);
+            report(r);
+            if (r.status == BatchStatus::Ok) {
+                std::lock_guard<std::mutex> lock(io);
+                outcome.baked[i] = r.result;
+                outcome.was_baked[i] = true;
+            }
+        }
+    }
+};
+
+}  // namespace
+
+bool OutputNaming::per_input() const { return !output_dir.empty() || has_template_tokens(output); }
+
+std::vector<std::string> list_inputs(const std::vector<std::string>& given,
+                                     const std::string& from_list) {
+    std::vector<std::string> listed = given;
+    if (!from_list.empty()) {
+        auto more = read_list(from_list);
+        if (more.empty() && given.empty())
+            throw Error(
+                (from_list == "-" ? std::string("standard input (--from-list -)") : from_list) +
+                ": the input list names no files, and no input was given");
+        listed.insert(listed.end(), more.begin(), more.end());
+    }
+    return listed;
+}
+
+std::vector<std::string> expand_inputs(const std::vector<std::string>& listed) {
+    std::vector<std::string> expanded;
+    for (const auto& in : listed) {
+        auto tiles = expand_tiles(in);
+        expanded.insert(expanded.end(), tiles.begin(), tiles.end());
+    }
+    std::sort(expanded.begin(), expanded.end());
+    expanded.erase(std::unique(expanded.begin(), expanded.end()), expanded.end());
+    return expanded;
+}
+
+std::vector<std::pair<std::string, std::string>> name_outputs(
+    const std::vector<std::string>& inputs, const OutputNaming& naming) {
+    std::vector<std::pair<std::string, std::string>> files;
+    for (const auto& in : inputs) {
+        if (!naming.base_dir.empty()) (void)relative_folder(in, naming.base_dir);
+        std::string out = naming.per_input()
+                              ? output_for(in, naming.output, naming.output_dir, naming.base_dir)
+                              : naming.output;
+        files.push_back({in, out});
+    }
+    return files;
+}
+
+void size_batch_threads(BatchPlan& plan, int jobs, int threads) {
+    unsigned hw = std::max(1u, std::thread::hardware_concurrency());
+    plan.jobs = jobs;
+    plan.threads = threads > 0 ? threads : std::max(1, static_cast<int>(hw) / jobs);
+    // OpenEXR's pool is global to the process: size it for all jobs together.
+    Imf::setGlobalThreadCount(plan.jobs * plan.threads);
+    set_image_threads(plan.threads);  // applied if and when an image is decoded
+}
+
+BatchOutcome bake_batch(const BatchPlan& plan, const BakeSettings& settings,
+                        BatchListener& listener) {
+    const size_t total = plan.files.size();
+    const int jobs = std::max(1, std::min<int>(plan.jobs, static_cast<int>(total)));
+    BatchRun run(plan, settings, listener, static_cast<size_t>(jobs));
+    // Progress within files: a few times a second on a terminal, every 10 s in a log.
+    std::mutex tick_mutex;
+    std::condition_variable tick_cv;
+    bool finished = false;
+    std::thread ticker;
+    if (plan.progress)
+        ticker = std::thread([&] {
+            const auto period = progress_period(plan.progress_terminal);
+            std::unique_lock<std::mutex> lock(tick_mutex);
+            while (!tick_cv.wait_for(lock, period, [&] { return finished; })) {
+                std::lock_guard<std::mutex> io_lock(run.io);
+                bool busy = false;
+                for (const auto& sl : run.slots)
+                    busy = busy || (!sl.input.empty() && sl.rows.rows_total.load() > 0);
+                if (busy) listener.progress(run.outcome.counts, run.slots);
+            }
+        });
+    std::vector<std::thread> pool;
+    for (int j = 1; j < jobs; ++j)
+        pool.emplace_back([&run, j] { run.worker(static_cast<size_t>(j)); });
+    run.worker(0);
+    for (auto& t : pool) t.join();
+    if (ticker.joinable()) {
+        {
+            std::lock_guard<std::mutex> lock(tick_mutex);
+            finished = true;
+        }
+        tick_cv.notify_all();
+        ticker.join();
+    }
+    return std::move(run.outcome);
+}
+
+}  // namespace spectex
