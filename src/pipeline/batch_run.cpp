@@ -15,6 +15,7 @@
 #include "io/image_library.h"
 #include "io/paths.h"
 #include "spectral/error.h"
+#include "spectral/task_pool.h"
 #include "spectral/text.h"
 
 namespace spectex {
@@ -203,9 +204,11 @@ std::vector<std::pair<std::string, std::string>> name_outputs(
 }
 
 void size_batch_threads(BatchPlan& plan, int jobs, int threads) {
-    unsigned hw = std::max(1u, std::thread::hardware_concurrency());
     plan.jobs = jobs;
-    plan.threads = threads > 0 ? threads : std::max(1, static_cast<int>(hw) / jobs);
+    plan.threads = threads > 0 ? threads : std::max(1, hardware_threads() / jobs);
+    // The task pool: jobs - 1 workers besides the caller, and per job a strip producer and
+    // `threads` compressions, as many threads as each of those had of its own before the pool.
+    TaskPool::shared().reserve(plan.jobs * (plan.threads + 2) - 1);
     // OpenEXR's pool is global to the process: size it for all jobs together.
     Imf::setGlobalThreadCount(plan.jobs * plan.threads);
     set_image_threads(plan.threads);  // applied if and when an image is decoded
@@ -233,11 +236,9 @@ BatchOutcome bake_batch(const BatchPlan& plan, const BakeSettings& settings,
                 if (busy) listener.progress(run.outcome.counts, run.slots);
             }
         });
-    std::vector<std::thread> pool;
-    for (int j = 1; j < jobs; ++j)
-        pool.emplace_back([&run, j] { run.worker(static_cast<size_t>(j)); });
-    run.worker(0);
-    for (auto& t : pool) t.join();
+    // One task per job, each taking the next file until none is left (or --fail-fast stops it).
+    TaskPool::shared().parallel_for(static_cast<size_t>(jobs), jobs,
+                                    [&run](size_t job) { run.worker(job); });
     if (ticker.joinable()) {
         {
             std::lock_guard<std::mutex> lock(tick_mutex);

@@ -788,6 +788,10 @@ std::vector<VerifyOutcome> verify_files(const std::vector<std::string>& files,
                                         const VerifySettings& s, const VerifyGates& g,
                                         bool source_from_header, int jobs) {
     std::vector<VerifyOutcome> outcomes(files.size());
+    // Per job: the file's measuring ranges and its band producer, as many threads as they had of
+    // their own before the pool.
+    const int threads = s.threads > 0 ? s.threads : hardware_threads();
+    TaskPool::shared().reserve(std::max(1, jobs) * (threads + 1) - 1);
     TaskPool::shared().parallel_for(files.size(), jobs, [&](size_t i) {
         VerifyOutcome& o = outcomes[i];
         VerifySettings fs = s;

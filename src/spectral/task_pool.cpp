@@ -158,8 +158,7 @@ double produce_consume_strips(size_t count, const std::function<void(size_t k, i
     for (size_t k = 0; k < count; ++k) {
         const int slot = static_cast<int>(k % 2);
         Task next;
-        if (k + 1 < count)
-            next = TaskPool::shared().submit([&, k] { produce(k + 1, 1 - slot); });
+        if (k + 1 < count) next = TaskPool::shared().submit([&, k] { produce(k + 1, 1 - slot); });
         try {
             consume(k, slot);
         } catch (...) {
@@ -176,6 +175,8 @@ double produce_consume_strips(size_t count, const std::function<void(size_t k, i
     return waited;
 }
 
-int hardware_threads() { return std::max(1, static_cast<int>(std::thread::hardware_concurrency())); }
+int hardware_threads() {
+    return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+}
 
 }  // namespace spectex
