@@ -118,9 +118,9 @@ TEST(TaskPool, NestingDeeperThanThePoolFinishes) {
     std::atomic<int> inner{0};
     pool.parallel_for(8, 4, [&](size_t) {
         std::vector<Task> tasks;
-        for (int k = 0; k < 4; ++k) tasks.push_back(pool.submit([&] {
-            pool.parallel_for(4, 4, [&](size_t) { ++inner; });
-        }));
+        for (int k = 0; k < 4; ++k)
+            tasks.push_back(
+                pool.submit([&] { pool.parallel_for(4, 4, [&](size_t) { ++inner; }); }));
         for (Task& t : tasks) t.wait();
     });
     EXPECT_EQ(inner.load(), 8 * 4 * 4);
