@@ -349,9 +349,10 @@ void check_given_options(const BakeCli& c, const std::vector<std::string>& input
 void check_method_options(BakeCli& c) {
     c.settings.type = pick<SampleType>("--type", c.type,
                                        {{"half", SampleType::Half}, {"float", SampleType::Float}});
-    c.settings.alpha = pick<AlphaMode>(
-        "--alpha", c.alpha,
-        {{"associated", AlphaMode::Associated}, {"unassociated", AlphaMode::Unassociated}});
+    c.settings.alpha =
+        pick<AlphaKind>("--alpha", c.alpha,
+                        {{to_string(AlphaKind::Associated), AlphaKind::Associated},
+                         {to_string(AlphaKind::Unassociated), AlphaKind::Unassociated}});
     c.settings.range = pick<RangePolicy>("--out-of-range", c.range,
                                          {{"clamp", RangePolicy::Clamp},
                                           {"keep", RangePolicy::Keep},

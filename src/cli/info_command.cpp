@@ -73,7 +73,7 @@ std::string info_json(const SpectralExrInfo& info, const WavelengthGrid& grid) {
     }
     j["levels"] = std::move(levels);
     j["parts"] = info.parts;
-    j["alpha"] = alpha_kind(info);
+    j["alpha"] = to_string(alpha_kind(info));
     if (info.alpha)
         put_text(j, "alpha_type", info.alpha_type);
     else

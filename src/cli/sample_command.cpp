@@ -42,11 +42,11 @@ void print_csv(const SampleReport& r) {
         for (size_t k = 0; k < r.wavelengths.size(); ++k)
             o << xy << "," << format_wavelength(r.wavelengths[k]) << "," << num(p.values[k])
               << "\n";
-        if (r.alpha == "associated")
+        if (r.alpha == AlphaKind::Associated)
             o << "# pixel " << xy << ": A " << num(p.alpha, "%.6g")
               << (p.alpha > 0 ? " (premultiplied): the colours are of the spectrum divided by A\n"
                               : ": transparent, its colour is not defined\n");
-        else if (r.alpha == "unassociated")
+        else if (r.alpha == AlphaKind::Unassociated)
             o << "# pixel " << xy << ": A " << num(p.alpha, "%.6g")
               << " (unassociated: not applied)\n";
         for (size_t l = 0; l < r.lights.size(); ++l) {
@@ -72,7 +72,7 @@ void print_json(const SampleReport& r) {
     j["schema_version"] = 1;
     put_text(j, "file", r.file);
     put_text(j, "observer", r.observer);
-    j["alpha"] = r.alpha;
+    j["alpha"] = to_string(r.alpha);
     Json wavelengths = Json::array();
     for (double l : r.wavelengths) wavelengths.push_back(json_number_text(format_wavelength(l)));
     j["wavelengths"] = std::move(wavelengths);
@@ -90,7 +90,7 @@ void print_json(const SampleReport& r) {
         Json pixel;
         pixel["x"] = p.x;
         pixel["y"] = p.y;
-        pixel["alpha"] = r.alpha == "none" ? Json(nullptr) : json_num(p.alpha);
+        pixel["alpha"] = r.alpha == AlphaKind::None ? Json(nullptr) : json_num(p.alpha);
         Json values = Json::array();
         for (double v : p.values) values.push_back(json_num(v));
         pixel["values"] = std::move(values);

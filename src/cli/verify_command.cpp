@@ -53,7 +53,9 @@ void print_text(const VerifyReport& r, const VerifyGates& g,
     o << "  samples:              " << r.sample_type << ", " << r.compression << ", " << r.storage
       << "\n";
     o << "  alpha:                "
-      << (r.alpha == "none" ? std::string("none") : "A (" + r.alpha + ")") << "\n";
+      << (r.alpha == AlphaKind::None ? std::string("none")
+                                     : std::string("A (") + to_string(r.alpha) + ")")
+      << "\n";
     o << "  integrated under:     " << r.illuminant << ", observer " << r.observer << "\n";
     if (!r.method.empty()) o << "  method:               " << r.method << "\n";
     o << "  outside [0, 1]:       " << r.below_zero + r.above_one << " samples ("
@@ -151,7 +153,7 @@ std::string verify_json(const VerifyReport& r, const VerifyGates& t,
     put_text(j, "sample_type", r.sample_type);
     put_text(j, "compression", r.compression);
     put_text(j, "storage", r.storage);
-    put_text(j, "alpha", r.alpha);
+    put_text(j, "alpha", to_string(r.alpha));
     put_text(j, "illuminant", r.illuminant);
     put_text(j, "observer", r.observer);
     put_text_or_null(j, "method", r.method);

@@ -5,12 +5,11 @@
 #include <string>
 #include <vector>
 
+#include "io/alpha_kind.h"
 #include "io/pixel_window.h"
 #include "io/source_identity.h"
 
 namespace spectex {
-
-enum class AlphaKind { None, Associated, Unassociated };
 
 struct SourceInfo : PixelWindows {
     std::string path;

@@ -16,11 +16,12 @@
 
 namespace spectex {
 
-std::string alpha_kind(const SpectralExrInfo& info) {
-    if (!info.alpha) return "none";
+AlphaKind alpha_kind(const SpectralExrInfo& info) {
+    if (!info.alpha) return AlphaKind::None;
     for (const auto& [k, v] : info.attributes)
-        if (k == provenance_key::kAlpha && v == "unassociated") return "unassociated";
-    return "associated";
+        if (k == provenance_key::kAlpha && v == to_string(AlphaKind::Unassociated))
+            return AlphaKind::Unassociated;
+    return AlphaKind::Associated;
 }
 
 struct SpectralReader::Impl {

@@ -7,13 +7,14 @@
 #include <utility>
 #include <vector>
 
+#include "io/alpha_kind.h"
 #include "io/spectral_exr_info.h"
 
 namespace spectex {
 
 // "none", "associated" (OpenEXR's convention for A when nothing says otherwise) or "unassociated"
 // (spectex:alpha says so).
-std::string alpha_kind(const SpectralExrInfo& info);
+AlphaKind alpha_kind(const SpectralExrInfo& info);
 
 struct PixelSpectrum {
     int x = 0, y = 0;           // data window coordinates, as in the file
@@ -33,7 +34,7 @@ class SpectralReader {
     const std::string& path() const { return info_.path; }
     int bins() const { return static_cast<int>(info_.reflective.size()); }
     std::vector<double> wavelengths() const;
-    const std::string& alpha() const { return alpha_; }  // alpha_kind()
+    AlphaKind alpha() const { return alpha_; }  // alpha_kind()
 
     // Rows [y0, y0 + rows) of the data window (0-based) into bin-major planes: bin k of pixel
     // (x, y0 + r) at planes[k * plane_stride + r * width + x]; A (or 1) into alpha when not null.
@@ -48,7 +49,7 @@ class SpectralReader {
   private:
     struct Impl;
     SpectralExrInfo info_;
-    std::string alpha_;
+    AlphaKind alpha_ = AlphaKind::None;
     std::unique_ptr<Impl> impl_;
 };
 

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "io/alpha_kind.h"
 #include "io/spectral_exr_writer.h"
 #include "spectral/spectral_method.h"
 #include "spectral/wavelength_grid.h"
@@ -15,7 +16,6 @@ namespace spectex {
 
 enum class RangePolicy { Clamp, Keep, Error };
 enum class NanPolicy { Replace, Error };
-enum class AlphaMode { Associated, Unassociated };
 
 struct BakeSettings {
     std::string colorspace;  // --colorspace ("" = metadata, then file rules)
@@ -29,7 +29,7 @@ struct BakeSettings {
     ExrCompression compression = ExrCompression::parse("zip");
     int zip_level = 4;  // deflate level of zip/zips (1 fastest .. 12 smallest)
     bool preview = false;
-    AlphaMode alpha = AlphaMode::Associated;
+    AlphaKind alpha = AlphaKind::Associated;  // --alpha: what a source's A means (never None)
     RangePolicy range = RangePolicy::Clamp;
     NanPolicy nan = NanPolicy::Replace;
     uint64_t max_pixels = 268435456;  // 16384 x 16384

@@ -306,7 +306,7 @@ std::string settings_hash(const BakeSettings& s) {
     if (s.zip_level != 4)
         fnv(h, "zip-level " + std::to_string(s.zip_level));  // 4: hashes as before
     fnv(h, s.preview ? "preview" : "");
-    fnv(h, s.alpha == AlphaMode::Associated ? "associated" : "unassociated");
+    fnv(h, to_string(s.alpha));
     fnv(h, to_string(s.range));
     fnv(h, to_string(s.nan));
     fnv(h, s.observer);

@@ -79,7 +79,7 @@ std::string plot_svg(const std::string& exr_path, const std::vector<std::pair<in
         throw Error(exr_path + ": " + e.what());
     }
     const std::vector<PixelSpectrum> px = reader.read_pixels(xy);
-    const bool divide = reader.alpha() == "associated";
+    const bool divide = reader.alpha() == AlphaKind::Associated;
 
     const double x_lo = lambda.front(),
                  x_hi = lambda.size() > 1 ? lambda.back() : lambda.front() + 1;

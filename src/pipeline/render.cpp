@@ -95,7 +95,7 @@ RenderReport render_file(const std::string& exr_path, const std::string& png_pat
     for (const auto& l : v.lights) r.labels.push_back(l.label);
     const int nch = r.channels;
     const size_t out_stride = static_cast<size_t>(r.width) * static_cast<size_t>(nch);
-    const bool associated = reader.alpha() == "associated";
+    const bool associated = reader.alpha() == AlphaKind::Associated;
 
     AtomicFile file(png_path);
     std::string description = "spectex render of " + exr_path + " under";

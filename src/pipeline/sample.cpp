@@ -22,7 +22,7 @@ SampleReport sample_pixels(const std::string& exr_path, const std::vector<std::p
         throw Error(exr_path + ": " + e.what());
     }
     r.pixels = reader.read_pixels(xy);
-    const bool divide = r.alpha == "associated";
+    const bool divide = r.alpha == AlphaKind::Associated;
     for (const auto& p : r.pixels) {
         std::vector<PixelColour> c;
         for (const auto& l : v.lights)

@@ -19,7 +19,7 @@ struct SampleSettings {
 struct SampleReport {
     std::string file;
     std::vector<double> wavelengths;
-    std::string alpha;  // alpha_kind()
+    AlphaKind alpha = AlphaKind::None;  // alpha_kind()
     std::string observer;
     std::vector<LightView> lights;  // D65 first
     std::vector<PixelSpectrum> pixels;

@@ -678,7 +678,7 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
         ctx.xyz_to_rgb = col.xyz_to_rgb;
         ctx.white = col.white_xyz;
         ctx.has_alpha = info.alpha;
-        ctx.associated = r.alpha == "associated";
+        ctx.associated = r.alpha == AlphaKind::Associated;
         report_totals(merge_stats(measure_bands(reader, src.get(), lin, ctx, band_rows, s, r)), r);
     } catch (const Error&) {
         throw;

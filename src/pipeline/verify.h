@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "io/alpha_kind.h"
+
 namespace spectex {
 
 // Every setting left empty is taken from what the file records (its spectex:* provenance), and
@@ -67,7 +69,7 @@ struct VerifyReport {
     double lambda_min = 0, lambda_max = 0;
     std::string wavelengths;  // WavelengthGrid::describe()
     std::string sample_type, compression, storage;
-    std::string alpha = "none";  // "none", "associated", "unassociated"
+    AlphaKind alpha = AlphaKind::None;
     std::string illuminant, observer;
     int band_rows = 0;
     // What the file records (spectex:*; "" when absent) and what was used.
