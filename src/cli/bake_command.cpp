@@ -51,6 +51,7 @@ struct BakeCli {
     bool jh_given = false;
     bool basis_given = false, objective_given = false, lattice_given = false,
          wavelengths_given = false;
+    std::string objective = "smooth";  // --objective, parsed into fit.objective
     FitSpec fit;
     std::string output_dir, base_dir, from_list, json, shard;
     int threads = 0, jobs = 1;
@@ -271,7 +272,7 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
     p.option("--objective", "smooth|norm",
              "Objective of the fitted basis (default smooth; see spectex basis).",
              [&](const std::string& v) {
-                 c.fit.objective = v;
+                 c.objective = v;
                  c.objective_given = true;
              });
     p.option("--observer", "NAME|FILE",
@@ -359,7 +360,7 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         if (c.method != "basis" && c.range == "keep")
             throw UsageError("--out-of-range keep needs --method basis: the " + c.method +
                              " method is defined on linear RGB in [0, 1] only");
-        parse_objective_option(c.fit.objective);
+        c.fit.objective = parse_objective(parse_objective_option(c.objective));
         const bool automatic = c.wavelengths == "auto";
         if (automatic) {
             if (!c.wavelengths_file.empty())
@@ -546,7 +547,7 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
             if (file_basis) {
                 add("basis " + file_basis->checksum());
             } else if (c.method == "basis") {
-                add("basis fit, objective " + c.fit.objective +
+                add("basis fit, objective " + to_string(c.fit.objective) +
                     (c.fit.allow_infeasible ? ", infeasible allowed" : ""));
             } else {
                 add(c.method + " lattice " + std::to_string(c.lattice_size) + " prior " +

@@ -177,7 +177,7 @@ std::shared_ptr<const SpectralMethod> build_reference(const PlanSpec& spec,
 // The method and the conditions it is exact for, for the report (without a grid).
 std::string method_text(const PlanSpec& spec) {
     if (spec.method.method == "basis")
-        return "basis (fitted, " + spec.method.fit.objective + ")" + ", " +
+        return "basis (fitted, " + to_string(spec.method.fit.objective) + ")" + ", " +
                spec.method.fit.primaries + " primaries, " + spec.method.fit.observer +
                ", exact under " + spec.method.fit.illuminant;
     // describe() names the grid of the template spec: drop it, the grid is the row's.
