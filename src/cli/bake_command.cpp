@@ -50,6 +50,7 @@ struct BakeCli {
     bool jh_given = false;
     bool basis_given = false, objective_given = false, lattice_given = false,
          wavelengths_given = false;
+    std::string objective = "smooth";  // --objective, parsed into fit.objective
     FitSpec fit;
     std::string output_dir, base_dir, from_list, json, shard;
     int threads = 0, jobs = 1;
@@ -273,7 +274,7 @@ void declare_spectra_options(ArgParser& p, BakeCli& c) {
     p.option("--objective", "smooth|norm",
              "Objective of the fitted basis (default smooth; see spectex basis).",
              [&](const std::string& v) {
-                 c.fit.objective = v;
+                 c.objective = v;
                  c.objective_given = true;
              });
     p.option("--observer", "NAME|FILE",
@@ -381,7 +382,7 @@ void check_method_options(BakeCli& c) {
 
 // The output grid: given, read from a file, or chosen by --wavelengths auto.
 void check_grid_options(BakeCli& c) {
-    parse_objective_option(c.fit.objective);
+    c.fit.objective = parse_objective(parse_objective_option(c.objective));
     const bool automatic = c.wavelengths == "auto";
     if (automatic) {
         if (!c.wavelengths_file.empty())
@@ -537,7 +538,7 @@ std::string method_recipe(const BakeCli& c, const Basis* file_basis, const Obser
     if (file_basis) {
         add("basis " + file_basis->checksum());
     } else if (c.method == "basis") {
-        add("basis fit, objective " + c.fit.objective +
+        add("basis fit, objective " + to_string(c.fit.objective) +
             (c.fit.allow_infeasible ? ", infeasible allowed" : ""));
     } else {
         add(c.method + " lattice " + std::to_string(c.lattice_size) + " prior " + c.vertex_prior +

@@ -53,6 +53,7 @@ std::string certificate_text(const FitSpec& spec, const FitResult& fit) {
 int run_basis(const std::vector<std::string>& args, const std::string& command_line) {
     FitSpec spec;
     std::string output, wavelengths = "380:780:5", wavelengths_file;
+    std::string objective = "smooth";  // --objective, parsed into spec.objective once checked
     bool quiet = false;
     ArgParser p(
         "basis", "spectex basis [options] -o BASIS.csv",
@@ -83,7 +84,7 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
     p.option(
         "--objective", "norm|smooth",
         "smooth (default): least squared first differences along wavelength; norm: least ||S||^2.",
-        [&](const std::string& v) { spec.objective = v; });
+        [&](const std::string& v) { objective = v; });
     p.flag("--allow-infeasible",
            "Write the least-squares closest basis when no exact one exists (exit 0).",
            [&] { spec.allow_infeasible = true; });
@@ -114,7 +115,7 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
                 throw UsageError(e.what());
             }
         }
-        parse_objective_option(spec.objective);
+        spec.objective = parse_objective(parse_objective_option(objective));
         try {
             spec.grid = wavelengths_file.empty() ? WavelengthGrid::parse_exact(wavelengths)
                                                  : WavelengthGrid::from_file(wavelengths_file);

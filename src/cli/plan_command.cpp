@@ -73,24 +73,19 @@ void add_plan_options(ArgParser& p, PlanSpec& spec, bool& lights_given, bool& bu
              });
 }
 
-int run_plan(const std::vector<std::string>& args) {
+namespace {
+
+// What the command line said, parsed.
+struct PlanOptions {
     PlanSpec spec;
-    spec.method.method = "basis";
     std::string type = "half", json, grid_file;
     bool lights_given = false, budget_given = false, lattice_given = false;
-    ArgParser p(
-        "plan", "spectex plan [options]",
-        "Chooses the wavelength grid for a scene: for candidate grids (uniform steps 1, 2, 2.5, 4, "
-        "5, 10\n"
-        "and 20 nm over 380:780, 400:700 and the renderer's range), the worst and 99th-percentile\n"
-        "ΔE00 under each light between the spectrum baked on the grid, as the renderer "
-        "reconstructs it\n"
-        "at 1 nm, and the method's spectrum built on 1 nm; over all 16,777,216 8-bit sRGB colours "
-        "for\n"
-        "the basis, a dense sample for the other methods. Marks the cheapest grid within --max-de\n"
-        "under every light. Exit status 1 when no grid meets the budget (with the best "
-        "achievable).");
-    add_plan_options(p, spec, lights_given, budget_given);
+};
+
+// --method and what builds it: --lattice-size, --vertex-prior, --objective, --observer,
+// --illuminant.
+void add_method_options(ArgParser& p, PlanOptions& o) {
+    PlanSpec& spec = o.spec;
     p.option("--method", "basis|lattice|jakob-hanika",
              "The bake's method (default basis, fitted on each grid).", [&](const std::string& v) {
                  if (v != "basis" && v != "lattice" && v != "jakob-hanika")
@@ -101,7 +96,7 @@ int run_plan(const std::vector<std::string>& args) {
     p.option("--lattice-size", "N", "Breakpoints per axis of the lattice (default 9).",
              [&](const std::string& v) {
                  spec.method.lattice_size = parse_int("--lattice-size", v, 2, 65);
-                 lattice_given = true;
+                 o.lattice_given = true;
              });
     p.option("--vertex-prior", "jakob-hanika|smooth|blend",
              "The lattice's vertex prior (default jakob-hanika).", [&](const std::string& v) {
@@ -109,22 +104,30 @@ int run_plan(const std::vector<std::string>& args) {
                      throw UsageError("--vertex-prior: '" + v +
                                       "' is not one of jakob-hanika, smooth, blend");
                  spec.method.vertex_prior = v;
-                 lattice_given = true;
+                 o.lattice_given = true;
              });
     p.option("--objective", "smooth|norm", "Objective of the fitted basis (default smooth).",
-             [&](const std::string& v) { spec.method.fit.objective = parse_objective_option(v); });
+             [&](const std::string& v) {
+                 spec.method.fit.objective = parse_objective(parse_objective_option(v));
+             });
     p.option("--observer", "NAME|FILE",
              "Observer of the method and of the error (default cie1931-2).",
              [&](const std::string& v) { spec.method.fit.observer = v; });
     p.option("--illuminant", "NAME|FILE",
              "Illuminant the method is exact for (default D65), as in bake.",
              [&](const std::string& v) { spec.method.fit.illuminant = v; });
+}
+
+// How the bake is measured and what is written: --type, --sample-stride, --colours, --grid-file,
+// --texture, --colorspace, --config, --threads, --json.
+void add_measure_options(ArgParser& p, PlanOptions& o) {
+    PlanSpec& spec = o.spec;
     p.option("--type", "half|float",
              "Sample type of the bake (default half: its rounding is part of the error).",
              [&](const std::string& v) {
                  if (v != "half" && v != "float")
                      throw UsageError("--type: '" + v + "' is not one of half, float");
-                 type = v;
+                 o.type = v;
              });
     p.option(
         "--sample-stride", "N",
@@ -147,7 +150,7 @@ int run_plan(const std::vector<std::string>& args) {
         "--grid-file", "FILE",
         "Write the chosen grid's wavelengths, one per line, for bake --wavelengths-file (any grid, "
         "non-uniform ones included).",
-        [&](const std::string& v) { grid_file = v; });
+        [&](const std::string& v) { o.grid_file = v; });
     p.option("--texture", "FILE",
              "Measure over this texture's colours (read and linearised as bake reads it; at most "
              "1,048,576 "
@@ -163,59 +166,95 @@ int run_plan(const std::vector<std::string>& args) {
              [&](const std::string& v) { spec.threads = parse_int("--threads", v, 0, 1024); });
     p.option("--json", "FILE",
              "Also write the table as JSON ('-' = stdout, instead of the text table).",
-             [&](const std::string& v) { json = v; });
+             [&](const std::string& v) { o.json = v; });
+}
+
+// The checks across options, once all are read; throws UsageError.
+void check_plan_options(PlanOptions& o, const std::vector<std::string>& pos) {
+    PlanSpec& spec = o.spec;
+    if (!pos.empty()) throw UsageError("unexpected argument '" + pos[0] + "'");
+    if (o.lattice_given && spec.method.method != "lattice")
+        throw UsageError("--lattice-size and --vertex-prior belong to --method lattice");
+    if (spec.nonuniform && spec.method.method != "basis")
+        throw UsageError("--nonuniform searches with the basis' 3x3 maps: it needs --method basis");
+    spec.half = o.type == "half";
+    // Outputs are none of the files plan reads (tables given as files).
+    std::vector<std::pair<std::string, std::string>> reads = {
+        {spec.method.fit.observer, "--observer"}, {spec.method.fit.illuminant, "--illuminant"}};
+    for (const auto& l : spec.lights) reads.push_back({l, "--lights"});
+    if (!spec.texture.empty()) reads.push_back({spec.texture, "--texture"});
+    if (!spec.config.empty()) reads.push_back({spec.config, "--config"});
+    if ((!spec.colorspace.empty() || !spec.config.empty()) && spec.texture.empty())
+        throw UsageError("--colorspace and --config read the colours of --texture");
+    if (!o.json.empty() && o.json != "-") check_output_against(o.json, "--json", reads);
+    if (!o.grid_file.empty()) {
+        check_output_against(o.grid_file, "--grid-file", reads);
+        if (o.grid_file == o.json) throw UsageError("--grid-file and --json name the same file");
+    }
+}
+
+// The chosen grid's wavelengths, one per line, for bake --wavelengths-file.
+void write_grid_file(const std::string& path, const WavelengthGrid& grid) {
+    std::string text = "# spectex plan: " + grid_label(grid) + "\n";
+    for (double l : grid.lambda) text += format_wavelength(l) + "\n";
+    write_text_atomically(path, text);
+}
+
+// Plans, prints the table and writes the outputs; the exit status.
+int plan_and_report(const PlanOptions& o) {
+    const PlanSpec& spec = o.spec;
+    const std::string& json = o.json;
+    PlanResult r = plan_grids(spec);
+    if (json != "-") std::cout << plan_table(spec, r) << std::flush;
+    if (!json.empty()) {
+        if (json == "-")
+            std::cout << plan_json(spec, r) << std::flush;
+        else
+            write_text_atomically(json, plan_json(spec, r));
+    }
+    if (r.chosen < 0) {
+        print_error(plan_failure(spec, r));
+        return 1;
+    }
+    if (!o.grid_file.empty())
+        write_grid_file(o.grid_file, r.rows[static_cast<size_t>(r.chosen)].grid);
+    return 0;
+}
+
+}  // namespace
+
+int run_plan(const std::vector<std::string>& args) {
+    PlanOptions o;
+    o.spec.method.method = "basis";
+    ArgParser p(
+        "plan", "spectex plan [options]",
+        "Chooses the wavelength grid for a scene: for candidate grids (uniform steps 1, 2, 2.5, 4, "
+        "5, 10\n"
+        "and 20 nm over 380:780, 400:700 and the renderer's range), the worst and 99th-percentile\n"
+        "ΔE00 under each light between the spectrum baked on the grid, as the renderer "
+        "reconstructs it\n"
+        "at 1 nm, and the method's spectrum built on 1 nm; over all 16,777,216 8-bit sRGB colours "
+        "for\n"
+        "the basis, a dense sample for the other methods. Marks the cheapest grid within --max-de\n"
+        "under every light. Exit status 1 when no grid meets the budget (with the best "
+        "achievable).");
+    add_plan_options(p, o.spec, o.lights_given, o.budget_given);
+    add_method_options(p, o);
+    add_measure_options(p, o);
     try {
         std::vector<std::string> pos;
         if (p.parse_or_help(args, pos)) return 0;
-        if (!pos.empty()) throw UsageError("unexpected argument '" + pos[0] + "'");
-        if (lattice_given && spec.method.method != "lattice")
-            throw UsageError("--lattice-size and --vertex-prior belong to --method lattice");
-        if (spec.nonuniform && spec.method.method != "basis")
-            throw UsageError(
-                "--nonuniform searches with the basis' 3x3 maps: it needs --method basis");
-        spec.half = type == "half";
-        // Outputs are none of the files plan reads (tables given as files).
-        std::vector<std::pair<std::string, std::string>> reads = {
-            {spec.method.fit.observer, "--observer"}, {spec.method.fit.illuminant, "--illuminant"}};
-        for (const auto& l : spec.lights) reads.push_back({l, "--lights"});
-        if (!spec.texture.empty()) reads.push_back({spec.texture, "--texture"});
-        if (!spec.config.empty()) reads.push_back({spec.config, "--config"});
-        if ((!spec.colorspace.empty() || !spec.config.empty()) && spec.texture.empty())
-            throw UsageError("--colorspace and --config read the colours of --texture");
-        if (!json.empty() && json != "-") check_output_against(json, "--json", reads);
-        if (!grid_file.empty()) {
-            check_output_against(grid_file, "--grid-file", reads);
-            if (grid_file == json) throw UsageError("--grid-file and --json name the same file");
-        }
+        check_plan_options(o, pos);
     } catch (const UsageError& e) {
         return usage_error("plan", e.what());
     }
     try {
-        spec.method.fit.data_dir = find_data_dir();
-        PlanResult r = plan_grids(spec);
-        if (json != "-") std::cout << plan_table(spec, r) << std::flush;
-        if (!json.empty()) {
-            if (json == "-")
-                std::cout << plan_json(spec, r) << std::flush;
-            else
-                write_text_atomically(json, plan_json(spec, r));
-        }
-        if (r.chosen < 0) {
-            print_error(plan_failure(spec, r));
-            return 1;
-        }
-        if (!grid_file.empty()) {
-            std::string text =
-                "# spectex plan: " + grid_label(r.rows[static_cast<size_t>(r.chosen)].grid) + "\n";
-            for (double l : r.rows[static_cast<size_t>(r.chosen)].grid.lambda)
-                text += format_wavelength(l) + "\n";
-            write_text_atomically(grid_file, text);
-        }
+        o.spec.method.fit.data_dir = find_data_dir();
+        return plan_and_report(o);
     } catch (const Error& e) {
         print_error(e.what());
         return 1;
     }
-    return 0;
 }
 
 }  // namespace spectex

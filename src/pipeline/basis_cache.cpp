@@ -10,7 +10,7 @@ namespace spectex {
 
 std::string FitSpec::describe() const {
     return primaries + " primaries, " + observer + ", " + illuminant + ", " + grid.describe() +
-           ", " + objective + (allow_infeasible ? ", infeasible allowed" : "");
+           ", " + to_string(objective) + (allow_infeasible ? ", infeasible allowed" : "");
 }
 
 FitResult fit_basis_for(const FitSpec& spec) {
@@ -23,9 +23,9 @@ FitResult fit_basis_for(const FitSpec& spec) {
     Observer obs = load_observer(spec.data_dir, spec.observer);
     Spectrum ill = load_illuminant(spec.data_dir, spec.illuminant);
     FitRequest req{Colorimetry::make(obs, ill, spec.grid, primaries_by_name(spec.primaries)),
-                   parse_objective(spec.objective), spec.allow_infeasible};
+                   spec.objective, spec.allow_infeasible};
     FitResult r = fit_basis(req);
-    r.basis.name = "fit:" + spec.objective;
+    r.basis.name = "fit:" + to_string(spec.objective);
     cache.emplace(key, r);
     return r;
 }

@@ -14,7 +14,7 @@ struct FitSpec {
     std::string observer = "cie1931-2";
     std::string illuminant = "D65";
     std::string primaries = "srgb";
-    std::string objective = "smooth";
+    FitObjective objective = FitObjective::Smooth;  // parsed where the option is read
     bool allow_infeasible = false;
 
     // "srgb primaries, cie1931-2, D65, 380:780:5, smooth"

@@ -86,88 +86,111 @@ std::vector<WavelengthGrid> default_candidates(double range_start, double range_
 
 double relative_bake_time(int bins) { return 0.24 + 0.76 * bins / 81.0; }
 
-PlanResult plan_grids(const PlanSpec& spec) {
-    const auto t0 = std::chrono::steady_clock::now();
-    if (spec.lights.empty()) throw Error("no lights to plan for");
-    if (!(spec.max_de > 0)) throw Error("the budget must be a positive ΔE00");
-    const std::string& dir = spec.method.fit.data_dir;
-    const WavelengthGrid fine = renderer_grid(spec.range_start, spec.range_end);
-    const Observer obs = load_observer(dir, spec.method.fit.observer);
+namespace {
+
+// The scene as the renderer sees it: its range at 1 nm, the observer, and each light's weights.
+struct Scene {
+    WavelengthGrid fine;
+    Observer observer;
     std::vector<LightWeights> lights;
+};
+
+Scene load_scene(const PlanSpec& spec) {
+    const std::string& dir = spec.method.fit.data_dir;
+    Scene s;
+    s.fine = renderer_grid(spec.range_start, spec.range_end);
+    s.observer = load_observer(dir, spec.method.fit.observer);
     for (const auto& name : spec.lights)
-        lights.push_back(light_weights(obs, load_illuminant(dir, name), fine));
-    for (size_t j = 0; j < lights.size(); ++j) lights[j].name = spec.lights[j];
-    // The colours: the dense sample of the 8-bit cube, or the texture's own (every row on them).
-    std::vector<std::array<uint8_t, 3>>
-        codes;  // 8-bit sRGB code of each colour (for the worst colour)
+        s.lights.push_back(light_weights(s.observer, load_illuminant(dir, name), s.fine));
+    for (size_t j = 0; j < s.lights.size(); ++j) s.lights[j].name = spec.lights[j];
+    return s;
+}
+
+// The colours that decide: the dense sample of the 8-bit cube, or the texture's own (every row on
+// them), in linear sRGB with the 8-bit sRGB code of each (for the worst colour).
+struct Colours {
+    std::vector<std::array<uint8_t, 3>> codes;
     std::vector<float> sr, sg, sb;
-    std::string sample_text;
-    if (spec.texture.empty()) {
-        codes = code_sample(spec.sample_stride);
-        const auto& t = srgb_code_table();
-        for (const auto& c : codes) {
-            sr.push_back(static_cast<float>(t[c[0]]));
-            sg.push_back(static_cast<float>(t[c[1]]));
-            sb.push_back(static_cast<float>(t[c[2]]));
-        }
-        sample_text = thousands(codes.size()) + " colours (every " +
-                      std::to_string(spec.sample_stride) +
-                      "th 8-bit sRGB code and 255 per axis, the cube's faces included)";
-    } else {
-        const TextureColours tc = texture_colours(spec.texture, dir, spec.config, spec.colorspace,
-                                                  spec.max_pixels, spec.texture_cap);
-        if (tc.rgb.empty())
-            throw Error(spec.texture + ": no pixel with alpha above 0: no colour to plan for");
-        for (const auto& c : tc.rgb) {
-            sr.push_back(c[0]);
-            sg.push_back(c[1]);
-            sb.push_back(c[2]);
-            auto code = [](float v) {
-                return static_cast<uint8_t>(std::lround(255.0 * srgb_encode(v)));
-            };
-            codes.push_back({{code(c[0]), code(c[1]), code(c[2])}});
-        }
-        sample_text = thousands(tc.rgb.size()) + " colours of " + spec.texture + " (" +
-                      (tc.rgb.size() < tc.distinct
-                           ? "an even subset of its " + thousands(tc.distinct) + " distinct ones, "
-                           : std::string("every distinct one, ")) +
-                      thousands(tc.pixels) + " pixels" +
-                      (tc.transparent ? ", " + thousands(tc.transparent) + " with alpha 0 left out"
-                                      : std::string()) +
-                      "; " + tc.colorspace + ")";
+    Eigen::Matrix3Xd srgb;
+    std::string text;  // how they were taken, for the report
+};
+
+Colours cube_sample_colours(const PlanSpec& spec) {
+    Colours c;
+    c.codes = code_sample(spec.sample_stride);
+    const auto& t = srgb_code_table();
+    for (const auto& code : c.codes) {
+        c.sr.push_back(static_cast<float>(t[code[0]]));
+        c.sg.push_back(static_cast<float>(t[code[1]]));
+        c.sb.push_back(static_cast<float>(t[code[2]]));
     }
-    Eigen::Matrix3Xd srgb(3, static_cast<Eigen::Index>(sr.size()));
-    for (size_t i = 0; i < sr.size(); ++i)
-        srgb.col(static_cast<Eigen::Index>(i)) << sr[i], sg[i], sb[i];
-    // A texture's colours are all there is: no cube.
-    const std::string mode = spec.texture.empty() ? spec.colours : "sample";
-    const char* row_colours = spec.texture.empty() ? "sample" : "texture";
+    c.text = thousands(c.codes.size()) + " colours (every " + std::to_string(spec.sample_stride) +
+             "th 8-bit sRGB code and 255 per axis, the cube's faces included)";
+    return c;
+}
 
-    const int threads = spec.threads > 0
-                            ? spec.threads
-                            : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+Colours texture_sample_colours(const PlanSpec& spec) {
+    const TextureColours tc = texture_colours(spec.texture, spec.method.fit.data_dir, spec.config,
+                                              spec.colorspace, spec.max_pixels, spec.texture_cap);
+    if (tc.rgb.empty())
+        throw Error(spec.texture + ": no pixel with alpha above 0: no colour to plan for");
+    Colours c;
+    for (const auto& rgb : tc.rgb) {
+        c.sr.push_back(rgb[0]);
+        c.sg.push_back(rgb[1]);
+        c.sb.push_back(rgb[2]);
+        auto code = [](float v) {
+            return static_cast<uint8_t>(std::lround(255.0 * srgb_encode(v)));
+        };
+        c.codes.push_back({{code(rgb[0]), code(rgb[1]), code(rgb[2])}});
+    }
+    c.text = thousands(tc.rgb.size()) + " colours of " + spec.texture + " (" +
+             (tc.rgb.size() < tc.distinct
+                  ? "an even subset of its " + thousands(tc.distinct) + " distinct ones, "
+                  : std::string("every distinct one, ")) +
+             thousands(tc.pixels) + " pixels" +
+             (tc.transparent ? ", " + thousands(tc.transparent) + " with alpha 0 left out"
+                             : std::string()) +
+             "; " + tc.colorspace + ")";
+    return c;
+}
 
-    std::shared_ptr<const SpectralMethod> ref;
+Colours plan_colours(const PlanSpec& spec) {
+    Colours c = spec.texture.empty() ? cube_sample_colours(spec) : texture_sample_colours(spec);
+    c.srgb.resize(3, static_cast<Eigen::Index>(c.sr.size()));
+    for (size_t i = 0; i < c.sr.size(); ++i)
+        c.srgb.col(static_cast<Eigen::Index>(i)) << c.sr[i], c.sg[i], c.sb[i];
+    return c;
+}
+
+// The method on the renderer's 1 nm range, which every candidate is measured against.
+std::shared_ptr<const SpectralMethod> build_reference(const PlanSpec& spec,
+                                                      const WavelengthGrid& fine) {
     try {
-        ref = build_method(spec, fine);
+        return build_method(spec, fine);
     } catch (const Error& e) {
         throw Error("the reference (the method on " + fine.describe() +
                     ", the renderer's range at 1 nm): " + e.what());
     }
-    const bool linear = spec.method.method == "basis";
+}
 
-    PlanResult res;
-    res.method = spec.method.method == "basis" ? "basis (fitted, " + spec.method.fit.objective + ")"
-                                               : spec.method.describe();
-    if (spec.method.method != "basis") {
-        // describe() names the grid of the template spec: drop it, the grid is the row's.
-        const size_t cut = res.method.rfind(", ");
-        if (cut != std::string::npos) res.method = res.method.substr(0, cut);
-    } else {
-        res.method += ", " + spec.method.fit.primaries + " primaries, " + spec.method.fit.observer +
-                      ", exact under " + spec.method.fit.illuminant;
-    }
+// The method and the conditions it is exact for, for the report (without a grid).
+std::string method_text(const PlanSpec& spec) {
+    if (spec.method.method == "basis")
+        return "basis (fitted, " + to_string(spec.method.fit.objective) + ")" + ", " +
+               spec.method.fit.primaries + " primaries, " + spec.method.fit.observer +
+               ", exact under " + spec.method.fit.illuminant;
+    // describe() names the grid of the template spec: drop it, the grid is the row's.
+    std::string text = spec.method.describe();
+    const size_t cut = text.rfind(", ");
+    if (cut != std::string::npos) text = text.substr(0, cut);
+    return text;
+}
 
+// The candidates (with --nonuniform, the search's grids added), fewest bins first.
+std::vector<WavelengthGrid> candidate_grids(const PlanSpec& spec, const Scene& scene,
+                                            const SpectralMethod& ref, bool linear, int threads,
+                                            std::string* search_note) {
     std::vector<WavelengthGrid> grids = spec.candidates.empty()
                                             ? default_candidates(spec.range_start, spec.range_end)
                                             : spec.candidates;
@@ -175,202 +198,259 @@ PlanResult plan_grids(const PlanSpec& spec) {
         if (!linear)
             throw Error("--nonuniform searches with the basis' 3x3 maps: it needs --method basis");
         const NonuniformSearch found =
-            search_nonuniform(spec, obs, load_illuminant(dir, spec.method.fit.illuminant), fine,
-                              lights, basis_matrix(*ref), grids, threads);
+            search_nonuniform(spec, scene.observer,
+                              load_illuminant(spec.method.fit.data_dir, spec.method.fit.illuminant),
+                              scene.fine, scene.lights, basis_matrix(ref), grids, threads);
         for (const auto& g : found.grids)
             if (std::none_of(grids.begin(), grids.end(), [&](const WavelengthGrid& u) {
                     return same_wavelengths(u.lambda, g.lambda);
                 }))
                 grids.push_back(g);
-        res.search = found.note;
+        *search_note = found.note;
     }
     std::sort(grids.begin(), grids.end(), [](const WavelengthGrid& a, const WavelengthGrid& b) {
         return a.size() != b.size() ? a.size() < b.size() : a.lambda.front() < b.lambda.front();
     });
-    std::vector<std::shared_ptr<const SpectralMethod>> methods(grids.size());
-    for (size_t i = 0; i < grids.size(); ++i) {
+    return grids;
+}
+
+// The candidates being measured, one per row.
+struct Candidates {
+    std::vector<WavelengthGrid> grids;
+    std::vector<std::shared_ptr<const SpectralMethod>> methods;  // null: cannot be built
+    std::vector<std::vector<Eigen::Matrix3Xd>> recon;            // per row, per light: W_L·R_G
+};
+
+// A row per grid, with the method built on it; a grid the method cannot be built on fails.
+std::vector<GridRow> build_rows(const PlanSpec& spec, Candidates& cand) {
+    std::vector<GridRow> rows;
+    cand.methods.resize(cand.grids.size());
+    for (size_t i = 0; i < cand.grids.size(); ++i) {
         GridRow row;
-        row.grid = grids[i];
-        row.bins = static_cast<int>(grids[i].size());
+        row.grid = cand.grids[i];
+        row.bins = static_cast<int>(cand.grids[i].size());
         row.bytes_per_pixel = row.bins * (spec.half ? 2 : 4);
         row.relative_time = relative_bake_time(row.bins);
         try {
-            methods[i] = build_method(spec, grids[i]);
+            cand.methods[i] = build_method(spec, cand.grids[i]);
         } catch (const Error& e) {
             row.ok = false;
             row.why = std::string("cannot build the method on this grid: ") + e.what();
         }
-        res.rows.push_back(row);
+        rows.push_back(row);
     }
+    return rows;
+}
 
-    // Half rounding as a bake does it: colour-aware, under the conditions the method is exact for.
-    auto rgb_weight_for = [&](const WavelengthGrid& g) {
-        const Colorimetry c =
-            Colorimetry::make(obs, load_illuminant(dir, spec.method.fit.illuminant), g,
-                              primaries_by_name(spec.method.fit.primaries));
-        const Eigen::Matrix3Xd R = c.rgb_weights();
-        std::vector<float> w(3 * g.size());
-        for (size_t k = 0; k < g.size(); ++k)
-            for (int ch = 0; ch < 3; ++ch)
-                w[3 * k + static_cast<size_t>(ch)] =
-                    static_cast<float>(R(ch, static_cast<Eigen::Index>(k)));
-        return w;
-    };
-    for (auto& row : res.rows) row.lights.resize(lights.size());
-
-    // A row's verdict from its figures.
-    auto judge = [&](GridRow& row) {
-        row.worst = 0;
-        row.worst_light.clear();
-        std::string over;
-        for (const auto& le : row.lights) {
-            if (le.worst >= row.worst) {
-                row.worst = le.worst;
-                row.worst_light = le.light;
-            }
-            if (le.worst > spec.max_de)
-                over += (over.empty() ? "" : ", ") + le.light + " " + fmt(le.worst);
-        }
-        row.passes = over.empty();
-        row.why = row.passes ? "" : "fails: " + over + " > " + fmt(spec.max_de);
-        if (row.passes || row.colours != "cube") return;
-        row.why += " on the full cube";
-    };
-
-    std::vector<std::vector<Eigen::Matrix3Xd>> recon(
-        res.rows.size());  // per row, per light: W_L·R_G
-    for (size_t i = 0; i < res.rows.size(); ++i) {
-        if (!methods[i]) continue;
+// Each light's weights after the renderer's reconstruction from a row's grid to 1 nm.
+void reconstruct_lights(const PlanSpec& spec, const Scene& scene, Candidates& cand,
+                        std::vector<GridRow>& rows) {
+    for (auto& row : rows) row.lights.resize(scene.lights.size());
+    cand.recon.resize(rows.size());
+    for (size_t i = 0; i < rows.size(); ++i) {
+        if (!cand.methods[i]) continue;
         const Eigen::MatrixXd R =
-            reconstruction_matrix(grids[i].lambda, fine.lambda, spec.reconstruction);
-        for (const auto& lw : lights) recon[i].push_back(lw.W * R);
-        for (size_t j = 0; j < lights.size(); ++j) res.rows[i].lights[j].light = lights[j].name;
+            reconstruction_matrix(cand.grids[i].lambda, scene.fine.lambda, spec.reconstruction);
+        for (const auto& lw : scene.lights) cand.recon[i].push_back(lw.W * R);
+        for (size_t j = 0; j < scene.lights.size(); ++j)
+            rows[i].lights[j].light = scene.lights[j].name;
     }
+}
 
-    if (linear) {
-        // Colour is a 3×3 map of linear RGB: M_G = W_L·R_G·B_G for the candidate, W_L·B_1nm for the
-        // reference. The sample gives every row's figures (with the real half rounding); the full
-        // cube (float maps, plus the largest change half rounding made to any sample colour's
-        // error) is computed for every row with "cube", for the chosen row with "auto".
-        const Eigen::MatrixXd Bref = basis_matrix(*ref);
-        std::vector<Eigen::Matrix3d> Mref;
-        std::vector<std::vector<Eigen::Matrix3d>> M(res.rows.size());
-        for (const auto& lw : lights) Mref.push_back(lw.W * Bref);
-        for (size_t i = 0; i < res.rows.size(); ++i) {
-            if (!methods[i]) continue;
-            const Eigen::MatrixXd B = basis_matrix(*methods[i]);
-            for (size_t j = 0; j < lights.size(); ++j) M[i].push_back(recon[i][j] * B);
-            std::vector<Eigen::Matrix3Xd> half_xyz;
-            if (spec.half) {
-                const std::vector<float> w = rgb_weight_for(grids[i]);
-                half_xyz = method_xyz(*methods[i], recon[i], sr, sg, sb, true, &w);
-            }
-            for (size_t j = 0; j < lights.size(); ++j) {
-                const Eigen::Matrix3Xd ref_xyz = Mref[j] * srgb;
-                std::vector<double> de_float, de_half;
-                const DeltaEHistogram hf =
-                    xyz_error(M[i][j] * srgb, ref_xyz, lights[j].white, &de_float);
-                LightError& le = res.rows[i].lights[j];
-                ErrorStats st = stats_of(hf, &codes);
-                if (spec.half) {
-                    st = stats_of(xyz_error(half_xyz[j], ref_xyz, lights[j].white, &de_half),
-                                  &codes);
-                    for (size_t k = 0; k < de_half.size(); ++k)
-                        le.half_shift =
-                            std::max(le.half_shift, std::fabs(de_half[k] - de_float[k]));
-                }
-                le.worst = st.worst;
-                le.p99 = st.p99;
-                le.worst_code = st.worst_code;
-            }
-            res.rows[i].colours = row_colours;
+// Half rounding as a bake does it: colour-aware, under the conditions the method is exact for.
+std::vector<float> rgb_weight_for(const PlanSpec& spec, const Observer& obs,
+                                  const WavelengthGrid& g) {
+    const Colorimetry c = Colorimetry::make(
+        obs, load_illuminant(spec.method.fit.data_dir, spec.method.fit.illuminant), g,
+        primaries_by_name(spec.method.fit.primaries));
+    const Eigen::Matrix3Xd R = c.rgb_weights();
+    std::vector<float> w(3 * g.size());
+    for (size_t k = 0; k < g.size(); ++k)
+        for (int ch = 0; ch < 3; ++ch)
+            w[3 * k + static_cast<size_t>(ch)] =
+                static_cast<float>(R(ch, static_cast<Eigen::Index>(k)));
+    return w;
+}
+
+// A row's verdict from its figures.
+void judge(GridRow& row, double max_de) {
+    row.worst = 0;
+    row.worst_light.clear();
+    std::string over;
+    for (const auto& le : row.lights) {
+        if (le.worst >= row.worst) {
+            row.worst = le.worst;
+            row.worst_light = le.light;
         }
-        auto on_cube = [&](const std::vector<size_t>& rows) {
-            for (size_t j = 0; j < lights.size(); ++j) {
-                std::vector<Eigen::Matrix3d> cand;
-                for (size_t i : rows) cand.push_back(M[i][j]);
-                const auto stats = cube_error_linear(cand, Mref[j], lights[j].white, threads);
-                for (size_t c = 0; c < rows.size(); ++c) {
-                    LightError& le = res.rows[rows[c]].lights[j];
-                    le.worst = stats[c].worst + le.half_shift;
-                    le.p99 = stats[c].p99 + le.half_shift;
-                    le.worst_code = stats[c].worst_code;
-                }
-            }
-            for (size_t i : rows) res.rows[i].colours = "cube";
-        };
-        if (mode == "cube") {
-            std::vector<size_t> all;
-            for (size_t i = 0; i < res.rows.size(); ++i)
-                if (methods[i]) all.push_back(i);
-            on_cube(all);
-        }
-        res.colours =
-            mode == "sample"
-                ? sample_text
-                : "all " + thousands(16777216) + " 8-bit sRGB colours" +
-                      std::string(mode == "auto" ? " for the chosen grid, " : " for every grid") +
-                      (mode == "auto" ? sample_text + " for the others" : "");
-        if (spec.half && mode != "sample")
-            res.colours +=
-                "; on the cube, half rounding's largest change of a sample colour's error is added";
-        for (auto& row : res.rows)
-            if (row.ok) judge(row);
-        if (mode == "auto") {
-            // The cheapest row that passes on the sample is checked on the cube, until one holds.
-            while (true) {
-                int pick = -1;
-                for (size_t i = 0; i < res.rows.size(); ++i) {
-                    const GridRow& row = res.rows[i];
-                    if (!row.passes || row.colours == "cube") continue;
-                    if (pick < 0 || row.bins < res.rows[static_cast<size_t>(pick)].bins ||
-                        (row.bins == res.rows[static_cast<size_t>(pick)].bins &&
-                         row.worst < res.rows[static_cast<size_t>(pick)].worst))
-                        pick = static_cast<int>(i);
-                }
-                bool verified = false;
-                for (const auto& row : res.rows)
-                    if (row.passes && row.colours == "cube" &&
-                        (pick < 0 || row.bins <= res.rows[static_cast<size_t>(pick)].bins))
-                        verified = true;
-                if (pick < 0 || verified) break;
-                on_cube({static_cast<size_t>(pick)});
-                judge(res.rows[static_cast<size_t>(pick)]);
-            }
-        }
-    } else {
-        std::vector<Eigen::Matrix3Xd> ref_w;
-        for (const auto& lw : lights) ref_w.push_back(lw.W);
-        const auto ref_xyz = method_xyz(*ref, ref_w, sr, sg, sb, false, nullptr);
-        for (size_t i = 0; i < res.rows.size(); ++i) {
-            if (!methods[i]) continue;
-            std::vector<float> w;
-            if (spec.half) w = rgb_weight_for(grids[i]);
-            const auto xyz =
-                method_xyz(*methods[i], recon[i], sr, sg, sb, spec.half, spec.half ? &w : nullptr);
-            for (size_t j = 0; j < lights.size(); ++j) {
-                const ErrorStats st =
-                    stats_of(xyz_error(xyz[j], ref_xyz[j], lights[j].white), &codes);
-                LightError& le = res.rows[i].lights[j];
-                le.worst = st.worst;
-                le.p99 = st.p99;
-                le.worst_code = st.worst_code;
-            }
-            res.rows[i].colours = row_colours;
-            judge(res.rows[i]);
-        }
-        res.colours = sample_text + " (the method is not linear in RGB: no 3x3 map of the cube)";
+        if (le.worst > max_de) over += (over.empty() ? "" : ", ") + le.light + " " + fmt(le.worst);
     }
+    row.passes = over.empty();
+    row.why = row.passes ? "" : "fails: " + over + " > " + fmt(max_de);
+    if (row.passes || row.colours != "cube") return;
+    row.why += " on the full cube";
+}
 
+void set_figures(LightError& le, const ErrorStats& st) {
+    le.worst = st.worst;
+    le.p99 = st.p99;
+    le.worst_code = st.worst_code;
+}
+
+// What a measurement of the rows needs.
+struct Measure {
+    const PlanSpec& spec;
+    const Scene& scene;
+    const Colours& colours;
+    const Candidates& cand;
+    const SpectralMethod& ref;
+    int threads;
+    const char* row_colours;  // what a row measured on the colours is over: sample or texture
+};
+
+// Colour is a 3×3 map of linear RGB: M_G = W_L·R_G·B_G for the candidate, W_L·B_1nm for the
+// reference.
+struct LinearMaps {
+    std::vector<Eigen::Matrix3d> ref;                // per light
+    std::vector<std::vector<Eigen::Matrix3d>> rows;  // per row, per light
+};
+
+// A row's figures on the sample through its 3×3 maps, with the real half rounding; keeps the
+// largest change half rounding made to any colour's error for the cube.
+void linear_row_on_sample(const Measure& m, size_t i, LinearMaps& maps, GridRow& row) {
+    const Colours& c = m.colours;
+    const auto& lights = m.scene.lights;
+    const Eigen::MatrixXd B = basis_matrix(*m.cand.methods[i]);
+    for (size_t j = 0; j < lights.size(); ++j) maps.rows[i].push_back(m.cand.recon[i][j] * B);
+    std::vector<Eigen::Matrix3Xd> half_xyz;
+    if (m.spec.half) {
+        const std::vector<float> w = rgb_weight_for(m.spec, m.scene.observer, m.cand.grids[i]);
+        half_xyz = method_xyz(*m.cand.methods[i], m.cand.recon[i], c.sr, c.sg, c.sb, true, &w);
+    }
+    for (size_t j = 0; j < lights.size(); ++j) {
+        const Eigen::Matrix3Xd ref_xyz = maps.ref[j] * c.srgb;
+        std::vector<double> de_float, de_half;
+        const DeltaEHistogram hf =
+            xyz_error(maps.rows[i][j] * c.srgb, ref_xyz, lights[j].white, &de_float);
+        LightError& le = row.lights[j];
+        ErrorStats st = stats_of(hf, &c.codes);
+        if (m.spec.half) {
+            st = stats_of(xyz_error(half_xyz[j], ref_xyz, lights[j].white, &de_half), &c.codes);
+            for (size_t k = 0; k < de_half.size(); ++k)
+                le.half_shift = std::max(le.half_shift, std::fabs(de_half[k] - de_float[k]));
+        }
+        set_figures(le, st);
+    }
+    row.colours = m.row_colours;
+}
+
+// The figures of some rows over all 16,777,216 codes (float maps, plus the half shift).
+void linear_rows_on_cube(const Measure& m, const LinearMaps& maps, const std::vector<size_t>& which,
+                         std::vector<GridRow>& rows) {
+    const auto& lights = m.scene.lights;
+    for (size_t j = 0; j < lights.size(); ++j) {
+        std::vector<Eigen::Matrix3d> cand;
+        for (size_t i : which) cand.push_back(maps.rows[i][j]);
+        const auto stats = cube_error_linear(cand, maps.ref[j], lights[j].white, m.threads);
+        for (size_t c = 0; c < which.size(); ++c) {
+            LightError& le = rows[which[c]].lights[j];
+            le.worst = stats[c].worst + le.half_shift;
+            le.p99 = stats[c].p99 + le.half_shift;
+            le.worst_code = stats[c].worst_code;
+        }
+    }
+    for (size_t i : which) rows[i].colours = "cube";
+}
+
+// With "auto": the cheapest row that passes on the sample is checked on the cube, until one holds.
+void verify_cheapest_on_cube(const Measure& m, const LinearMaps& maps, std::vector<GridRow>& rows) {
+    while (true) {
+        int pick = -1;
+        for (size_t i = 0; i < rows.size(); ++i) {
+            const GridRow& row = rows[i];
+            if (!row.passes || row.colours == "cube") continue;
+            if (pick < 0 || row.bins < rows[static_cast<size_t>(pick)].bins ||
+                (row.bins == rows[static_cast<size_t>(pick)].bins &&
+                 row.worst < rows[static_cast<size_t>(pick)].worst))
+                pick = static_cast<int>(i);
+        }
+        bool verified = false;
+        for (const auto& row : rows)
+            if (row.passes && row.colours == "cube" &&
+                (pick < 0 || row.bins <= rows[static_cast<size_t>(pick)].bins))
+                verified = true;
+        if (pick < 0 || verified) break;
+        linear_rows_on_cube(m, maps, {static_cast<size_t>(pick)}, rows);
+        judge(rows[static_cast<size_t>(pick)], m.spec.max_de);
+    }
+}
+
+std::string linear_colours_text(const PlanSpec& spec, const std::string& mode,
+                                const std::string& sample_text) {
+    std::string text =
+        mode == "sample"
+            ? sample_text
+            : "all " + thousands(16777216) + " 8-bit sRGB colours" +
+                  std::string(mode == "auto" ? " for the chosen grid, " : " for every grid") +
+                  (mode == "auto" ? sample_text + " for the others" : "");
+    if (spec.half && mode != "sample")
+        text += "; on the cube, half rounding's largest change of a sample colour's error is added";
+    return text;
+}
+
+// A linear method (the basis): every row on the sample; the full cube for every row with "cube",
+// for the chosen row with "auto".
+void measure_linear(const Measure& m, const std::string& mode, PlanResult& res) {
+    LinearMaps maps;
+    maps.rows.resize(res.rows.size());
+    const Eigen::MatrixXd Bref = basis_matrix(m.ref);
+    for (const auto& lw : m.scene.lights) maps.ref.push_back(lw.W * Bref);
+    for (size_t i = 0; i < res.rows.size(); ++i)
+        if (m.cand.methods[i]) linear_row_on_sample(m, i, maps, res.rows[i]);
+    if (mode == "cube") {
+        std::vector<size_t> all;
+        for (size_t i = 0; i < res.rows.size(); ++i)
+            if (m.cand.methods[i]) all.push_back(i);
+        linear_rows_on_cube(m, maps, all, res.rows);
+    }
+    res.colours = linear_colours_text(m.spec, mode, m.colours.text);
+    for (auto& row : res.rows)
+        if (row.ok) judge(row, m.spec.max_de);
+    if (mode == "auto") verify_cheapest_on_cube(m, maps, res.rows);
+}
+
+// Another method: every row on the sample, spectra built per colour.
+void measure_nonlinear(const Measure& m, PlanResult& res) {
+    const Colours& c = m.colours;
+    const auto& lights = m.scene.lights;
+    std::vector<Eigen::Matrix3Xd> ref_w;
+    for (const auto& lw : lights) ref_w.push_back(lw.W);
+    const auto ref_xyz = method_xyz(m.ref, ref_w, c.sr, c.sg, c.sb, false, nullptr);
+    for (size_t i = 0; i < res.rows.size(); ++i) {
+        if (!m.cand.methods[i]) continue;
+        std::vector<float> w;
+        if (m.spec.half) w = rgb_weight_for(m.spec, m.scene.observer, m.cand.grids[i]);
+        const auto xyz = method_xyz(*m.cand.methods[i], m.cand.recon[i], c.sr, c.sg, c.sb,
+                                    m.spec.half, m.spec.half ? &w : nullptr);
+        for (size_t j = 0; j < lights.size(); ++j)
+            set_figures(res.rows[i].lights[j],
+                        stats_of(xyz_error(xyz[j], ref_xyz[j], lights[j].white), &c.codes));
+        res.rows[i].colours = m.row_colours;
+        judge(res.rows[i], m.spec.max_de);
+    }
+    res.colours = c.text + " (the method is not linear in RGB: no 3x3 map of the cube)";
+}
+
+// The best row (lowest worst error) and the chosen one: rows are sorted by bins (bytes and time
+// grow with them), so the first that passes, and among equal bins the smaller error; with "auto",
+// only a row checked on the full cube.
+void choose_row(bool cube_only, PlanResult& res) {
     for (size_t i = 0; i < res.rows.size(); ++i)
         if (res.rows[i].ok &&
             (res.best < 0 || res.rows[i].worst < res.rows[static_cast<size_t>(res.best)].worst))
             res.best = static_cast<int>(i);
-    // Rows are sorted by bins (bytes and time grow with them): the first that passes, and among
-    // equal bins the smaller error; with "auto", only a row checked on the full cube.
     for (size_t i = 0; i < res.rows.size(); ++i) {
         const GridRow& row = res.rows[i];
-        if (!row.passes || (linear && mode == "auto" && row.colours != "cube")) continue;
+        if (!row.passes || (cube_only && row.colours != "cube")) continue;
         if (res.chosen < 0) {
             res.chosen = static_cast<int>(i);
         } else {
@@ -378,10 +458,14 @@ PlanResult plan_grids(const PlanSpec& spec) {
             if (row.bins == c.bins && row.worst < c.worst) res.chosen = static_cast<int>(i);
         }
     }
+}
+
+// The verdict of the chosen row and of the rows that pass but were not chosen.
+void explain_choice(double max_de, PlanResult& res) {
     for (size_t i = 0; i < res.rows.size(); ++i) {
         GridRow& row = res.rows[i];
         if (static_cast<int>(i) == res.chosen)
-            row.why = "chosen: the fewest bins within " + fmt(spec.max_de) + " under every light";
+            row.why = "chosen: the fewest bins within " + fmt(max_de) + " under every light";
         else if (row.passes && res.chosen >= 0)
             row.why = "meets the budget, but " +
                       (row.bins > res.rows[static_cast<size_t>(res.chosen)].bins
@@ -389,6 +473,39 @@ PlanResult plan_grids(const PlanSpec& spec) {
                            : std::string("a larger error")) +
                       " than " + grid_label(res.rows[static_cast<size_t>(res.chosen)].grid);
     }
+}
+
+}  // namespace
+
+PlanResult plan_grids(const PlanSpec& spec) {
+    const auto t0 = std::chrono::steady_clock::now();
+    if (spec.lights.empty()) throw Error("no lights to plan for");
+    if (!(spec.max_de > 0)) throw Error("the budget must be a positive ΔE00");
+    const Scene scene = load_scene(spec);
+    const Colours colours = plan_colours(spec);
+    // A texture's colours are all there is: no cube.
+    const std::string mode = spec.texture.empty() ? spec.colours : "sample";
+    const int threads = spec.threads > 0
+                            ? spec.threads
+                            : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+    const std::shared_ptr<const SpectralMethod> ref = build_reference(spec, scene.fine);
+    const bool linear = spec.method.method == "basis";
+
+    PlanResult res;
+    res.method = method_text(spec);
+    Candidates cand;
+    cand.grids = candidate_grids(spec, scene, *ref, linear, threads, &res.search);
+    res.rows = build_rows(spec, cand);
+    reconstruct_lights(spec, scene, cand, res.rows);
+
+    const Measure m{
+        spec, scene, colours, cand, *ref, threads, spec.texture.empty() ? "sample" : "texture"};
+    if (linear)
+        measure_linear(m, mode, res);
+    else
+        measure_nonlinear(m, res);
+    choose_row(linear && mode == "auto", res);
+    explain_choice(spec.max_de, res);
     res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return res;
 }

@@ -66,7 +66,7 @@ struct SearchContext {
         try {
             FitRequest req{Colorimetry::make(observer, exact_under, grid,
                                              primaries_by_name(spec.method.fit.primaries)),
-                           parse_objective(spec.method.fit.objective), false};
+                           spec.method.fit.objective, false};
             const Basis b = fit_basis(req).basis;
             B.resize(static_cast<Eigen::Index>(b.size()), 3);
             for (size_t k = 0; k < b.size(); ++k)

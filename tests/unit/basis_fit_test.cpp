@@ -22,7 +22,7 @@ FitResult fit(const std::string& grid, const std::string& objective = "smooth",
     FitSpec s;
     s.data_dir = kData;
     s.grid = WavelengthGrid::parse(grid);
-    s.objective = objective;
+    s.objective = parse_objective(objective);
     s.primaries = primaries;
     s.observer = observer;
     s.allow_infeasible = allow;
