@@ -189,13 +189,12 @@ void require_one_input(const std::vector<std::string>& files) {
         throw UsageError("one file at a time (got " + std::to_string(files.size()) + ")");
 }
 
-std::string parse_objective_option(const std::string& value) {
+FitObjective parse_objective_option(const std::string& value) {
     try {
-        (void)parse_objective(value);
+        return parse_objective(value);
     } catch (const Error&) {
         throw UsageError("--objective: '" + value + "' is not one of smooth, norm");
     }
-    return value;
 }
 
 uint64_t parse_count(const std::string& option, const std::string& value) {

@@ -7,6 +7,8 @@
 #include <utility>
 #include <vector>
 
+#include "spectral/basis_fit.h"
+
 namespace spectex {
 
 class UsageError : public std::runtime_error {
@@ -52,9 +54,9 @@ double parse_number(const std::string& option, const std::string& value);
 uint64_t parse_count(const std::string& option, const std::string& value);
 // A command that reads one file: "no input file" or "one file at a time (got N)" otherwise.
 void require_one_input(const std::vector<std::string>& files);
-// --objective of a fitted basis, checked against the fitter's own names (spectral/basis_fit);
-// returned as given for the settings that carry it as text.
-std::string parse_objective_option(const std::string& value);
+// --objective of a fitted basis, parsed by the fitter's own names (spectral/basis_fit); an unknown
+// name is a UsageError.
+FitObjective parse_objective_option(const std::string& value);
 // "A,FL11, LED-B3" -> {"A", "FL11", "LED-B3"}; an empty item is a UsageError naming the option.
 std::vector<std::string> split_list(const std::string& value, const std::string& option = "");
 // {"D65", "A"} -> "D65, A".

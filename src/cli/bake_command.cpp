@@ -382,7 +382,7 @@ void check_method_options(BakeCli& c) {
 
 // The output grid: given, read from a file, or chosen by --wavelengths auto.
 void check_grid_options(BakeCli& c) {
-    c.fit.objective = parse_objective(parse_objective_option(c.objective));
+    c.fit.objective = parse_objective_option(c.objective);
     const bool automatic = c.wavelengths == "auto";
     if (automatic) {
         if (!c.wavelengths_file.empty())

@@ -115,7 +115,7 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
                 throw UsageError(e.what());
             }
         }
-        spec.objective = parse_objective(parse_objective_option(objective));
+        spec.objective = parse_objective_option(objective);
         try {
             spec.grid = wavelengths_file.empty() ? WavelengthGrid::parse_exact(wavelengths)
                                                  : WavelengthGrid::from_file(wavelengths_file);

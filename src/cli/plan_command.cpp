@@ -107,9 +107,7 @@ void add_method_options(ArgParser& p, PlanOptions& o) {
                  o.lattice_given = true;
              });
     p.option("--objective", "smooth|norm", "Objective of the fitted basis (default smooth).",
-             [&](const std::string& v) {
-                 spec.method.fit.objective = parse_objective(parse_objective_option(v));
-             });
+             [&](const std::string& v) { spec.method.fit.objective = parse_objective_option(v); });
     p.option("--observer", "NAME|FILE",
              "Observer of the method and of the error (default cie1931-2).",
              [&](const std::string& v) { spec.method.fit.observer = v; });

@@ -7,7 +7,6 @@
 #include <cstdlib>
 #include <memory>
 #include <sstream>
-#include <thread>
 
 #include "pipeline/basis_cache.h"
 #include "pipeline/json_text.h"
@@ -17,6 +16,7 @@
 #include "spectral/error.h"
 #include "spectral/spectrum.h"
 #include "spectral/srgb_axis.h"
+#include "spectral/task_pool.h"
 #include "spectral/text.h"
 
 namespace spectex {
@@ -485,9 +485,7 @@ PlanResult plan_grids(const PlanSpec& spec) {
     const Colours colours = plan_colours(spec);
     // A texture's colours are all there is: no cube.
     const std::string mode = spec.texture.empty() ? spec.colours : "sample";
-    const int threads = spec.threads > 0
-                            ? spec.threads
-                            : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+    const int threads = spec.threads > 0 ? spec.threads : hardware_threads();
     const std::shared_ptr<const SpectralMethod> ref = build_reference(spec, scene.fine);
     const bool linear = spec.method.method == "basis";
 
