@@ -206,6 +206,20 @@ uint64_t parse_count(const std::string& option, const std::string& value) {
     return static_cast<uint64_t>(v);
 }
 
+void list_option(ArgParser& p, const std::string& names, const std::string& metavar,
+                 const std::string& help, std::vector<std::string>& items) {
+    const std::string option = names.substr(names.rfind(',') + 1);
+    p.option(names, metavar, help, [&items, option](const std::string& v) {
+        for (const auto& n : split_list(v, option)) items.push_back(n);
+    });
+}
+
+void observer_option(ArgParser& p, const std::string& whose, std::string& observer) {
+    p.option("--observer", "NAME|FILE",
+             whose + ": cie1931-2 (default), cie1964-10, or a CSV wavelength,x,y,z.",
+             [&observer](const std::string& v) { observer = v; });
+}
+
 std::vector<std::string> split_list(const std::string& value, const std::string& option) {
     std::vector<std::string> out;
     size_t start = 0;

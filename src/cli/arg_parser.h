@@ -59,6 +59,12 @@ void require_one_input(const std::vector<std::string>& files);
 FitObjective parse_objective_option(const std::string& value);
 // "A,FL11, LED-B3" -> {"A", "FL11", "LED-B3"}; an empty item is a UsageError naming the option.
 std::vector<std::string> split_list(const std::string& value, const std::string& option = "");
+// An option whose value is a comma-separated list (split_list), appended to `items`; repeatable.
+void list_option(ArgParser& p, const std::string& names, const std::string& metavar,
+                 const std::string& help, std::vector<std::string>& items);
+// --observer NAME|FILE for the commands whose default is cie1931-2: "<whose>: cie1931-2 (default),
+// cie1964-10, or a CSV wavelength,x,y,z." (whose: "Observer", "Observer of the fitted basis"...).
+void observer_option(ArgParser& p, const std::string& whose, std::string& observer);
 // {"D65", "A"} -> "D65, A".
 std::string join_names(const std::vector<std::string>& names);
 // "X,Y": two whole numbers (negative allowed: data windows may start below 0).

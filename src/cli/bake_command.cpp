@@ -277,9 +277,7 @@ void declare_spectra_options(ArgParser& p, BakeCli& c) {
                  c.objective = v;
                  c.objective_given = true;
              });
-    p.option("--observer", "NAME|FILE",
-             "Observer of the fitted basis: cie1931-2 (default), cie1964-10, or a CSV.",
-             [&](const std::string& v) { c.fit.observer = v; });
+    observer_option(p, "Observer of the fitted basis", c.fit.observer);
     p.option("--illuminant", "NAME|FILE",
              "Illuminant under which the fitted basis is exact: " +
                  shipped_illuminants_list(FitSpec().illuminant) +

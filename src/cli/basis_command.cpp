@@ -72,9 +72,7 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
     p.option("--wavelengths-file", "FILE",
              "One wavelength per line (any strictly increasing list).",
              [&](const std::string& v) { wavelengths_file = v; });
-    p.option("--observer", "NAME|FILE",
-             "cie1931-2 (default) or cie1964-10, or a CSV wavelength,x,y,z.",
-             [&](const std::string& v) { spec.observer = v; });
+    observer_option(p, "Observer", spec.observer);
     p.option(
         "--illuminant", "NAME|FILE",
         shipped_illuminants_list(FitSpec().illuminant) + " (any case), or a CSV wavelength,value.",

@@ -108,9 +108,7 @@ void add_method_options(ArgParser& p, PlanOptions& o) {
              });
     p.option("--objective", "smooth|norm", "Objective of the fitted basis (default smooth).",
              [&](const std::string& v) { spec.method.fit.objective = parse_objective_option(v); });
-    p.option("--observer", "NAME|FILE",
-             "Observer of the method and of the error (default cie1931-2).",
-             [&](const std::string& v) { spec.method.fit.observer = v; });
+    observer_option(p, "Observer of the method and of the error", spec.method.fit.observer);
     p.option("--illuminant", "NAME|FILE",
              "Illuminant the method is exact for (default D65), as in bake.",
              [&](const std::string& v) { spec.method.fit.illuminant = v; });

@@ -41,9 +41,7 @@ int run_plot(const std::vector<std::string>& args) {
              "Draw this light's spectrum behind the spectra: " + shipped_illuminants_list() +
                  " (any case), or a CSV wavelength,value.",
              [&](const std::string& v) { s.light = v; });
-    p.option("--observer", "NAME|FILE",
-             "Observer of the line colours: cie1931-2 (default), cie1964-10, or a CSV.",
-             [&](const std::string& v) { s.observer = v; });
+    observer_option(p, "Observer of the line colours", s.observer);
     p.option("--title", "TEXT", "Title above the plot (default: the file name as given).",
              [&](const std::string& v) { s.title = v; });
     p.option("--size", "WxH", "Size of the SVG in px (default 820x440).",

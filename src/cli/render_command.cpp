@@ -52,17 +52,11 @@ int run_render(const std::vector<std::string>& args) {
     p.option("-o,--output", "OUT.png", "The PNG to write (never a file this command reads).",
              [&](const std::string& v) { output = v; });
     p.section("Colorimetry");
-    p.option("--illuminant", "NAME[,NAME...]",
-             "Light(s): " + shipped_illuminants_list("D65") +
-                 " (any case), or a CSV wavelength,value; repeatable; several make a sheet.",
-             [&](const std::string& v) {
-                 for (const auto& n : split_list(v, "--illuminant")) {
-                     s.illuminants.push_back(n);
-                 }
-             });
-    p.option("--observer", "NAME|FILE",
-             "Observer: cie1931-2 (default), cie1964-10, or a CSV wavelength,x,y,z.",
-             [&](const std::string& v) { s.observer = v; });
+    list_option(p, "--illuminant", "NAME[,NAME...]",
+                "Light(s): " + shipped_illuminants_list("D65") +
+                    " (any case), or a CSV wavelength,value; repeatable; several make a sheet.",
+                s.illuminants);
+    observer_option(p, "Observer", s.observer);
     p.flag("--no-adapt", "No chromatic adaptation: show the light's colour cast.",
            [&] { s.adapt = false; });
     p.section("Resources");

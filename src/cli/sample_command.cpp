@@ -143,17 +143,11 @@ int run_sample(const std::vector<std::string>& args) {
                 "Exit status: 0 ok, 1 unreadable or non-spectral file or a pixel outside the data "
                 "window, 2 usage.");
     p.section("Colorimetry");
-    p.option("--illuminant", "NAME[,NAME...]",
-             "Also show the colour under these lights (repeatable): " + shipped_illuminants_list() +
-                 " (any case), or a CSV wavelength,value.",
-             [&](const std::string& v) {
-                 for (const auto& n : split_list(v, "--illuminant")) {
-                     s.illuminants.push_back(n);
-                 }
-             });
-    p.option("--observer", "NAME|FILE",
-             "Observer: cie1931-2 (default), cie1964-10, or a CSV wavelength,x,y,z.",
-             [&](const std::string& v) { s.observer = v; });
+    list_option(p, "--illuminant", "NAME[,NAME...]",
+                "Also show the colour under these lights (repeatable): " +
+                    shipped_illuminants_list() + " (any case), or a CSV wavelength,value.",
+                s.illuminants);
+    observer_option(p, "Observer", s.observer);
     p.section("Output");
     p.flag("--json", "Print one JSON object (schema_version 1) instead of CSV.",
            [&] { json = true; });

@@ -304,14 +304,13 @@ void declare_verify_options(ArgParser& p, VerifyArgs& a) {
              "The light the file is checked under: the file's by default, else D65; the names "
              "listed below.",
              [&](const std::string& v) { a.s.illuminant = v; });
-    p.option("--illuminant", "NAME[,NAME...]",
-             "Also report each pixel's colour under these lights (Bradford-adapted), next to the "
-             "check light's;\n"
-             "never gated. Repeatable. Names: " +
-                 shipped_illuminants_list("D65") + " (any case), or a CSV wavelength,value.",
-             [&](const std::string& v) {
-                 for (const auto& n : split_list(v, "--illuminant")) a.s.other_lights.push_back(n);
-             });
+    list_option(
+        p, "--illuminant", "NAME[,NAME...]",
+        "Also report each pixel's colour under these lights (Bradford-adapted), next to the "
+        "check light's;\n"
+        "never gated. Repeatable. Names: " +
+            shipped_illuminants_list("D65") + " (any case), or a CSV wavelength,value.",
+        a.s.other_lights);
     p.option("--observer", "NAME|FILE",
              "Observer: the file's, else cie1931-2; cie1964-10, or a CSV wavelength,x,y,z.",
              [&](const std::string& v) { a.s.observer = v; });
