@@ -110,7 +110,8 @@ struct ExrCoreWriter::Impl {
     int next_write = 0;   // index of the next chunk to write
     std::mutex mu;        // guards everything above and the error
     std::mutex write_mu;  // serialises writes to the file
-    // A deflate compressor and its scratch block per compression running at once, reused.
+    // A deflate compressor and its scratch block per compression running at once, kept for the
+    // next chunk.
     struct Deflater {
         libdeflate_compressor* z = nullptr;
         std::vector<uint8_t> scratch;
@@ -456,8 +457,9 @@ ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const SpectralExrL
         I.max_chunk_bytes = I.row_bytes * static_cast<size_t>(I.lines_per_chunk);
     }
 
-    // Memory: one chunk being filled and one per compression under way (L.threads of them at
-    // most, each with a scratch block). Never more, whatever the bin count.
+    // Memory: L.threads + 1 chunk buffers (one being filled, the others compressing or waiting
+    // for a worker), never more, whatever the bin count; a scratch block per compression running
+    // at once, L.threads + 1 at most when the caller finishes the oldest itself (acquire).
     const int compressing = I.compress ? std::max(1, L.threads) : 0;
     I.max_buffers = compressing + 1;
     if (I.compress) TaskPool::shared().reserve(compressing);
