@@ -42,7 +42,7 @@ constexpr double kBasisPrimaryTolerance = 1e-4;
 
 struct BakeCli {
     std::string output, basis = "fit", wavelengths = "380:780:5", type = "half",
-                        compression = "zip";
+                        compression = ExrCompression::kDefault;
     std::string alpha = "associated", range = "clamp", nan = "replace";
     std::string wavelengths_file;
     std::string method = "basis", vertex_prior = "jakob-hanika";

@@ -16,6 +16,9 @@ struct ExrCompression {
     bool core_writer = false;  // written by the core-API writer (io/exr_core_writer.h); else by Imf
     bool lossy = false;        // OpenEXR may change samples (of some channel types or names)
 
+    // spectex's default (bake, the writer): lossless, 16 lines a chunk, read fast by renderers.
+    static constexpr const char* kDefault = "zip";
+
     static const std::vector<ExrCompression>& all();             // in id order
     static ExrCompression parse(const std::string& name);        // throws Error listing valid names
     static const ExrCompression* find(const std::string& name);  // nullptr when unknown

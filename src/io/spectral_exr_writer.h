@@ -21,7 +21,7 @@ struct SpectralExrLayout : PixelWindows {
     bool alpha = false;
     SampleType alpha_type = SampleType::Half;
     bool preview = false;
-    ExrCompression compression = ExrCompression::parse("zip");
+    ExrCompression compression = ExrCompression::parse(ExrCompression::kDefault);
     std::vector<std::pair<std::string, std::string>> attributes;  // extra string attributes
     int threads = 1;  // OpenEXR worker threads for this file (from the global pool)
     // Tiled output (tile_width > 0), optionally MIP-mapped (levels rounded down, as maketx does).

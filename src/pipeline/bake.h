@@ -26,7 +26,7 @@ struct BakeSettings {
     std::string illuminant = "D65";
     WavelengthGrid grid;
     SampleType type = SampleType::Half;
-    ExrCompression compression = ExrCompression::parse("zip");
+    ExrCompression compression = ExrCompression::parse(ExrCompression::kDefault);
     int zip_level = 4;  // deflate level of zip/zips (1 fastest .. 12 smallest)
     bool preview = false;
     AlphaKind alpha = AlphaKind::Associated;  // --alpha: what a source's A means (never None)
