@@ -4,7 +4,6 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <functional>
 #include <limits>
 #include <set>
 
@@ -90,10 +89,6 @@ struct SearchContext {
     }
 };
 
-void parallel_for(size_t n, int threads, const std::function<void(size_t)>& f) {
-    TaskPool::shared().parallel_for(n, threads, f);
-}
-
 }  // namespace
 
 double search_error(const PlanSpec& spec, const Observer& observer, const Spectrum& exact_under,
@@ -115,7 +110,7 @@ NonuniformSearch search_nonuniform(const PlanSpec& spec, const Observer& observe
 
     // The bins to beat: the cheapest uniform candidate within the budget on the same colours.
     std::vector<double> uerr(uniform.size());
-    parallel_for(uniform.size(), threads, [&](size_t i) {
+    TaskPool::shared().parallel_for(uniform.size(), threads, [&](size_t i) {
         uerr[i] = ctx.error(uniform[i]);
         ++trials;
     });
@@ -159,7 +154,7 @@ NonuniformSearch search_nonuniform(const PlanSpec& spec, const Observer& observe
         while (g.size() > 2) {
             std::vector<double> errs(g.size(), kInf);
             std::atomic<double> best{kInf};
-            parallel_for(g.size(), threads, [&](size_t i) {
+            TaskPool::shared().parallel_for(g.size(), threads, [&](size_t i) {
                 std::vector<double> l = g.lambda;
                 l.erase(l.begin() + static_cast<std::ptrdiff_t>(i));
                 errs[i] = ctx.error(WavelengthGrid::from_list(l), best.load());
