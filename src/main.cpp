@@ -16,9 +16,16 @@
 
 namespace spectex {
 
-std::string name_file(const std::string& file, const std::string& message) {
-    if (file.empty() || message.compare(0, file.size() + 2, file + ": ") != 0) return message;
-    return quote_path(file) + message.substr(file.size());
+std::string name_file(const std::string& file, const std::string& message,
+                      const std::string& doing) {
+    if (file.empty()) return message;
+    if (message.compare(0, file.size() + 2, file + ": ") == 0)
+        return quote_path(file) + message.substr(file.size());
+    if (doing.empty()) return message;
+    // The cause is in another file (a source or config the file records, a table), which the
+    // line names first as every error line does; the file it happened to is named after it, so
+    // that the lines of a batch can be told apart.
+    return message + " (" + doing + " " + quote_path(file) + ")";
 }
 
 void print_error(const std::string& message) {

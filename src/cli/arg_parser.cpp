@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <iostream>
+#include <limits>
 #include <sstream>
 
 #include "io/linearizer.h"
@@ -168,10 +169,8 @@ std::string ArgParser::help() const {
 }
 
 int parse_int(const std::string& option, const std::string& value, int min, int max) {
-    char* end = nullptr;
-    errno = 0;
-    long v = std::strtol(value.c_str(), &end, 10);
-    if (value.empty() || *end != '\0' || errno == ERANGE || v < min || v > max)
+    long long v = 0;
+    if (!parse_whole(value, min, max, &v))
         throw UsageError(option + ": '" + value + "' is not a whole number from " +
                          std::to_string(min) + " to " + std::to_string(max));
     return static_cast<int>(v);
@@ -198,10 +197,8 @@ FitObjective parse_objective_option(const std::string& value) {
 }
 
 uint64_t parse_count(const std::string& option, const std::string& value) {
-    char* end = nullptr;
-    errno = 0;
-    unsigned long long v = std::strtoull(value.c_str(), &end, 10);
-    if (value.empty() || value[0] == '-' || *end != '\0' || errno == ERANGE || v == 0)
+    long long v = 0;
+    if (!parse_whole(value, 1, std::numeric_limits<long long>::max(), &v))
         throw UsageError(option + ": '" + value + "' is not a positive whole number");
     return static_cast<uint64_t>(v);
 }
@@ -246,13 +243,12 @@ std::string join_names(const std::vector<std::string>& names) {
 }
 
 std::pair<int, int> parse_pixel(const std::string& option, const std::string& value) {
+    // Any coordinate an OpenEXR data window can hold (an int); whether the file has that pixel
+    // is the reader's question (exit 1, "outside the data window").
     auto whole = [&](const std::string& part, int* out) {
-        char* end = nullptr;
-        errno = 0;
-        long v = std::strtol(part.c_str(), &end, 10);
-        const bool ok = !part.empty() &&
-                        (std::isdigit(static_cast<unsigned char>(part[0])) || part[0] == '-') &&
-                        *end == '\0' && errno != ERANGE && v >= -1000000000L && v <= 1000000000L;
+        long long v = 0;
+        const bool ok =
+            parse_whole(part, std::numeric_limits<int>::min(), std::numeric_limits<int>::max(), &v);
         *out = static_cast<int>(v);
         return ok;
     };

@@ -143,9 +143,8 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
         "the "
         "CPU time of 4 for files about 5 % larger; 6 took 1.7x for 0.5 % smaller (see README).",
         [&](const std::string& v) {
-            char* end = nullptr;
-            long l = std::strtol(v.c_str(), &end, 10);
-            if (v.empty() || *end || l < 1 || l > 12)
+            long long l = 0;
+            if (!parse_whole(v, 1, 12, &l))
                 throw UsageError("--zip-level: '" + v + "' is not a level from 1 to 12");
             c.settings.zip_level = static_cast<int>(l);
         });
@@ -154,14 +153,15 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
     p.option(
         "--tile", "W[xH]", "Write a tiled file with W x H tiles (maketx's default is 64x64).",
         [&](const std::string& v) {
-            int w = 0, h = 0;
-            char x = 0, extra = 0;
-            int got = std::sscanf(v.c_str(), "%d%c%d%c", &w, &x, &h, &extra);
-            if (got == 1) h = w;
-            if (!((got == 1) || (got == 3 && x == 'x')) || w < 1 || h < 1 || w > 4096 || h > 4096)
+            const size_t x = v.find('x');
+            long long w = 0, h = 0;
+            const bool ok = v[0] != '-' && parse_whole(v.substr(0, x), 1, 4096, &w) &&
+                            (x == std::string::npos ? (h = w, true)
+                                                    : parse_whole(v.substr(x + 1), 1, 4096, &h));
+            if (!ok)
                 throw UsageError("--tile: '" + v + "' is not W or WxH with sizes from 1 to 4096");
-            c.settings.tile_width = w;
-            c.settings.tile_height = h;
+            c.settings.tile_width = static_cast<int>(w);
+            c.settings.tile_height = static_cast<int>(h);
         });
     p.flag("--mipmap",
            "Write a MIP-mapped tiled texture (64x64 tiles unless --tile) for renderers' texture "
@@ -307,7 +307,7 @@ void declare_batch_options(ArgParser& p, BakeCli& c) {
     p.option("--json", "FILE",
              "Write one JSON record per file (JSON Lines, schema_version " +
                  std::to_string(kJsonSchemaVersion) + "); '-' = stdout.",
-             [&](const std::string& v) { c.json = v; });
+             [&](const std::string& v) { c.json = stdout_as_dash(v); });
     p.flag("--progress", "Show progress on stderr even when it is not a terminal.",
            [&] { c.progress = true; });
     p.section("Resources");
@@ -410,6 +410,13 @@ void check_grid_options(BakeCli& c) {
 }
 
 // Raised when something every file needs cannot be read before any work (exit 2, no usage hint).
+// --wavelengths auto found no grid within the budget: the work's answer, exit 1 as in plan (the
+// settings themselves were valid).
+class UnmetBudget : public Error {
+  public:
+    explicit UnmetBudget(const std::string& what) : Error(what) {}
+};
+
 class SetupFailure : public std::runtime_error {
   public:
     explicit SetupFailure(const std::string& what) : std::runtime_error(what) {}
@@ -480,7 +487,7 @@ void check_outputs_against_reads(const BakeCli& c, const BatchPlan& plan) {
         if (c.json.back() == '/' || is_directory(c.json))
             throw UsageError("--json: '" + c.json + "' is a folder; give a file name");
         try {
-            check_output_path(c.json);
+            check_output_path(c.json, true);
         } catch (const Error& e) {
             throw UsageError(std::string(e.what()) + " (--json)");
         }
@@ -580,7 +587,7 @@ void choose_auto_grid(BakeCli& c) {
     c.plan.threads = c.threads;
     const PlanResult pr = plan_grids(c.plan);
     if (c.verbose) std::cerr << plan_table(c.plan, pr);
-    if (pr.chosen < 0) throw Error(plan_failure(c.plan, pr));
+    if (pr.chosen < 0) throw UnmetBudget(plan_failure(c.plan, pr));
     const GridRow& row = pr.rows[static_cast<size_t>(pr.chosen)];
     c.settings.grid = row.grid;
     char num[64];
@@ -733,6 +740,9 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
 
     try {
         prepare_settings(c, command_line, plan);
+    } catch (const UnmetBudget& e) {
+        print_error(e.what());
+        return 1;
     } catch (const Error& e) {
         print_error(e.what());
         return 2;

@@ -53,6 +53,7 @@ std::string certificate_text(const FitSpec& spec, const FitResult& fit) {
 int run_basis(const std::vector<std::string>& args, const std::string& command_line) {
     FitSpec spec;
     std::string output, wavelengths = "380:780:5", wavelengths_file;
+    bool stream = false;
     std::string objective = "smooth";  // --objective, parsed into spec.objective once checked
     bool quiet = false;
     ArgParser p(
@@ -66,7 +67,7 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
              "Basis CSV to write (header row wavelength,r,g,b first, 17 significant digits; its "
              "provenance "
              "and certificate go to FILE.provenance); - for stdout (the CSV alone).",
-             [&](const std::string& v) { output = v; });
+             [&](const std::string& v) { output = stdout_as_dash(v); });
     p.option("--wavelengths", "START:END:STEP", "Wavelength grid in nm (default 380:780:5).",
              [&](const std::string& v) { wavelengths = v; });
     p.option("--wavelengths-file", "FILE",
@@ -92,7 +93,17 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
         if (p.parse_or_help(args, pos)) return 0;
         if (!pos.empty()) throw UsageError("unexpected argument '" + pos[0] + "'");
         if (output.empty()) throw UsageError("no output file (-o BASIS.csv, or -o - for stdout)");
-        if (output != "-") {
+        // A stream other than standard output (standard error, a link into /proc/self/fd) gets
+        // the CSV written through, like "-": no sidecar beside it (its folder is /dev or /proc).
+        stream = output != "-" && stream_fd_of(output) >= 0;
+        if (stream) {
+            try {
+                check_output_path(output, true);
+            } catch (const Error& e) {
+                throw UsageError(e.what());
+            }
+        }
+        if (output != "-" && !stream) {
             ReadFiles reads;
             reads.add_data_dir(find_data_dir());
             reads.add(spec.observer, "--observer");
@@ -155,6 +166,10 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
             std::ostringstream text, sidecar;
             write_basis_csv(text, fit.basis);
             for (const auto& l : provenance) sidecar << l << "\n";
+            if (stream) {
+                write_text_atomically(output, text.str());  // written through to the stream
+                return 0;
+            }
             // The sidecar first: a CSV never stands without the record of what made it.
             write_text_atomically(basis_provenance_path(output), sidecar.str());
             write_text_atomically(output, text.str());

@@ -118,6 +118,8 @@ class BatchReport : public BatchListener {
     // name. False (the error printed) when it cannot be created.
     bool open_json() {
         if (plan_.json.empty() || plan_.json == "-") return true;
+        // A stream (standard error, a link into /proc/self/fd) is written through, line by line.
+        if ((json_stream_ = stream_fd_of(plan_.json)) >= 0) return true;
         try {
             json_file_ = std::make_unique<AtomicFile>(plan_.json);
         } catch (const Error& e) {
@@ -130,7 +132,7 @@ class BatchReport : public BatchListener {
     void file_done(const FileRecord& r) override {
         if (plan_.progress && plan_.progress_terminal) std::cerr << "\r\033[K";
         if (r.status == BatchStatus::Failed)
-            print_error(name_file(r.input, r.error));
+            print_error(name_file(r.input, r.error, "baking"));
         else if (!plan_.quiet)
             print_file_notes(r);
         if (plan_.verbose && r.status == BatchStatus::Ok) print_baked(r);
@@ -182,6 +184,12 @@ class BatchReport : public BatchListener {
             std::cout << line << std::flush;
             if (!std::cout && json_error_.empty())
                 json_error_ = "standard output: cannot write the JSON report";
+        } else if (json_stream_ >= 0 && json_error_.empty()) {
+            try {
+                write_all(json_stream_, line, plan_.json);
+            } catch (const Error& e) {
+                json_error_ = std::string(e.what()) + " (--json)";
+            }
         } else if (json_file_ && json_error_.empty()) {
             try {
                 write_all(json_file_->fd(), line, plan_.json);
@@ -254,6 +262,7 @@ class BatchReport : public BatchListener {
     const BatchPlan& plan_;
     const std::chrono::steady_clock::time_point t0_;
     std::unique_ptr<AtomicFile> json_file_;
+    int json_stream_ = -1;
     std::string json_error_;
 };
 

@@ -25,9 +25,12 @@ class ArgParser;
 // were given.
 void add_plan_options(ArgParser& p, PlanSpec& spec, bool& lights_given, bool& budget_given);
 
-// `message` with its leading "<file>: " (when it has one) named as quote_path() names it, so that
-// "spectex: 'my file.png': No such file or directory" is unambiguous and can be pasted back.
-std::string name_file(const std::string& file, const std::string& message);
+// `message` with its leading "<file>: " named as quote_path() names it, so that
+// "spectex: 'my file.png': No such file or directory" is unambiguous and can be pasted back. A
+// message about another file (the cause is in a source or config that `file` records) keeps that
+// file first and, when `doing` is given, ends with "(<doing> <file>)", e.g. "(verifying a.exr)".
+std::string name_file(const std::string& file, const std::string& message,
+                      const std::string& doing = "");
 // Prints "spectex: <message>" to stderr, as one_line().
 void print_error(const std::string& message);
 // Runs a command's work on `file`: 0 when it returns, else the error printed as

@@ -9,7 +9,8 @@
 namespace spectex {
 
 void check_output_against(const std::string& output, const std::string& role,
-                          const std::vector<std::pair<std::string, std::string>>& reads) {
+                          const std::vector<std::pair<std::string, std::string>>& reads,
+                          bool stream_ok) {
     ReadFiles files;
     try {
         files.add_data_dir(find_data_dir());  // the shipped tables are read by name
@@ -19,7 +20,7 @@ void check_output_against(const std::string& output, const std::string& role,
     for (const auto& [path, what] : reads) files.add(path, what);
     if (std::string clash = files.clash(output, role); !clash.empty()) throw UsageError(clash);
     try {
-        check_output_path(output);
+        check_output_path(output, stream_ok);
     } catch (const Error& e) {
         throw UsageError(e.what());
     }

@@ -10,7 +10,10 @@
 namespace spectex {
 
 // reads: (path, role) of every file the command reads besides the shipped data. Throws UsageError.
+// stream_ok: a text output, which may name a stream (/dev/stdout, a link into /proc/self/fd) and
+// is then written through to it.
 void check_output_against(const std::string& output, const std::string& role,
-                          const std::vector<std::pair<std::string, std::string>>& reads);
+                          const std::vector<std::pair<std::string, std::string>>& reads,
+                          bool stream_ok = false);
 
 }  // namespace spectex

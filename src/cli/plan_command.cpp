@@ -162,7 +162,7 @@ void add_measure_options(ArgParser& p, PlanOptions& o) {
              [&](const std::string& v) { spec.threads = parse_int("--threads", v, 0, 1024); });
     p.option("--json", "FILE",
              "Also write the table as JSON ('-' = stdout, instead of the text table).",
-             [&](const std::string& v) { o.json = v; });
+             [&](const std::string& v) { o.json = stdout_as_dash(v); });
 }
 
 // The checks across options, once all are read; throws UsageError.
@@ -182,9 +182,9 @@ void check_plan_options(PlanOptions& o, const std::vector<std::string>& pos) {
     if (!spec.config.empty()) reads.push_back({spec.config, "--config"});
     if ((!spec.colorspace.empty() || !spec.config.empty()) && spec.texture.empty())
         throw UsageError("--colorspace and --config read the colours of --texture");
-    if (!o.json.empty() && o.json != "-") check_output_against(o.json, "--json", reads);
+    if (!o.json.empty() && o.json != "-") check_output_against(o.json, "--json", reads, true);
     if (!o.grid_file.empty()) {
-        check_output_against(o.grid_file, "--grid-file", reads);
+        check_output_against(o.grid_file, "--grid-file", reads, true);
         if (o.grid_file == o.json) throw UsageError("--grid-file and --json name the same file");
     }
 }

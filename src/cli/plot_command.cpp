@@ -60,14 +60,14 @@ int run_plot(const std::vector<std::string>& args) {
         if (output.empty()) throw UsageError("no output: give -o OUT.svg");
         check_output_against(
             output, "-o",
-            {{files[0], "the input"}, {s.light, "--light"}, {s.observer, "--observer"}});
+            {{files[0], "the input"}, {s.light, "--light"}, {s.observer, "--observer"}}, true);
     } catch (const UsageError& e) {
         return usage_error("plot", e.what());
     }
     return run_reporting(files[0], [&] {
         s.data_dir = find_data_dir();
         PlotReport r = plot_file(files[0], output, xy, s);
-        if (!quiet)
+        if (!quiet && stream_fd_of(output) != 1)  // the SVG itself went to standard output
             std::cout << r.output << ": SVG plot of " << r.curves << " spectra of " << r.file
                       << "\n";
     });

@@ -342,7 +342,7 @@ void declare_verify_options(ArgParser& p, VerifyArgs& a) {
     p.option(
         "--json", "FILE",
         "Write one JSON object per file (JSON Lines, schema_version 2) to FILE ('-' = stdout).",
-        [&](const std::string& v) { a.json = v; });
+        [&](const std::string& v) { a.json = stdout_as_dash(v); });
     p.flag("-q, --quiet", "Print nothing but errors and failed gates.", [&] { a.quiet = true; });
     p.option("--jobs", "N", "Verify N files at once (default 1).",
              [&](const std::string& v) { a.jobs = parse_int("--jobs", v, 1, 256); });
@@ -368,10 +368,11 @@ void validate_verify_args(const VerifyArgs& a, const std::vector<std::string>& f
         if (!a.s.config.empty()) throw UsageError("--config needs --source");
     }
     if (!a.json.empty() && a.json != "-") {
-        if (a.json.back() == '/' || std::filesystem::is_directory(a.json))
+        std::error_code ec;  // a link loop must be reported, not thrown past main
+        if (a.json.back() == '/' || std::filesystem::is_directory(a.json, ec))
             throw UsageError("--json: '" + a.json + "' is a folder; give a file name");
         try {
-            check_output_path(a.json);
+            check_output_path(a.json, true);
         } catch (const Error& e) {
             throw UsageError(std::string(e.what()) + " (--json)");
         }
@@ -427,7 +428,7 @@ int report_outcomes(const VerifyArgs& a, const std::vector<std::string>& files,
         const VerifyOutcome& o = outcomes[i];
         if (!o.readable) {
             ++unreadable;
-            print_error(name_file(files[i], o.error));
+            print_error(name_file(files[i], o.error, "verifying"));
             json_text += verify_error_json(files[i], o.error);
             continue;
         }

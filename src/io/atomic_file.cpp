@@ -9,9 +9,11 @@
 #include <cerrno>
 #include <climits>
 #include <cstring>
+#include <filesystem>
 #include <mutex>
 #include <vector>
 
+#include "io/library_stderr.h"
 #include "io/paths.h"
 #include "spectral/bounded_read.h"
 #include "spectral/error.h"
@@ -88,7 +90,106 @@ void install_signal_cleanup() {
     ::signal(SIGXFSZ, SIG_IGN);
 }
 
-void check_output_path(const std::string& path) {
+namespace {
+
+// "N" when s is a whole decimal number of at most 9 digits (a descriptor), else -1.
+int small_number(const std::string& s) {
+    if (s.empty() || s.size() > 9) return -1;
+    for (char c : s)
+        if (c < '0' || c > '9') return -1;
+    return std::stoi(s);
+}
+
+// The descriptor that an absolute, link-free spelling names, or -1.
+int fd_named_by(const std::string& p) {
+    if (p == "/dev/stdout") return 1;
+    if (p == "/dev/stderr") return 2;
+    if (p == "/dev/stdin") return 0;
+    for (const std::string& prefix :
+         {std::string("/dev/fd/"), std::string("/proc/self/fd/"),
+          std::string("/proc/thread-self/fd/"), "/proc/" + std::to_string(::getpid()) + "/fd/"})
+        if (p.compare(0, prefix.size(), prefix) == 0) return small_number(p.substr(prefix.size()));
+    return -1;
+}
+
+// "a/./b//c/../d" -> "a/d" on the text alone (after a link, ".." is taken on the link's text, as
+// the names above are only ever reached that way).
+std::string lexically_normal(const std::string& p) {
+    std::string n = std::filesystem::path(p).lexically_normal().string();
+    if (n.size() > 1 && n.back() == '/') n.pop_back();
+    return n;
+}
+
+// Follows the links of `path` by their text: calls step(spelling) with each absolute spelling, the
+// given one first, stopping when step returns true; returns the last spelling. At most 40 links
+// (the kernel's own limit); a loop is left to the caller's stat to report.
+template <class Step>
+std::string follow_links(const std::string& path, Step step) {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    std::string p = path;
+    if (p.empty() || p[0] != '/') p = (fs::current_path(ec) / p).string();
+    p = lexically_normal(p);
+    for (int hop = 0; hop <= 40; ++hop) {
+        if (step(p)) return p;
+        // Resolve every folder of the spelling, then look at its last name alone.
+        const fs::path fp(p);
+        fs::path dir = fs::weakly_canonical(fp.parent_path(), ec);
+        if (ec) return p;
+        const std::string here = (dir / fp.filename()).string();
+        if (here != p && step(here)) return here;
+        struct stat st;
+        if (::lstat(here.c_str(), &st) != 0 || !S_ISLNK(st.st_mode)) return here;
+        std::vector<char> buf(PATH_MAX + 1);
+        const ssize_t n = ::readlink(here.c_str(), buf.data(), buf.size() - 1);
+        if (n <= 0) return here;
+        const std::string text(buf.data(), static_cast<size_t>(n));
+        p = lexically_normal(text[0] == '/' ? text : (dir / text).string());
+    }
+    return p;
+}
+
+}  // namespace
+
+int stream_fd_of(const std::string& path) {
+    int fd = -1;
+    follow_links(path, [&](const std::string& p) {
+        fd = fd_named_by(p);
+        return fd >= 0;
+    });
+    // Descriptor 2 carries the libraries' messages through a filter: the user's stream is the
+    // real stderr behind it.
+    return fd == 2 ? real_stderr_descriptor() : fd;
+}
+
+std::string stdout_as_dash(const std::string& path) {
+    return path != "-" && stream_fd_of(path) == 1 ? "-" : path;
+}
+
+std::string output_landing(const std::string& path) {
+    struct stat st;
+    if (::lstat(path.c_str(), &st) != 0 || !S_ISLNK(st.st_mode)) return path;
+    struct stat target;
+    if (::stat(path.c_str(), &target) != 0)
+        throw Error(path + ": is a link to " + (errno == ELOOP ? "itself (a loop)" : "nothing") +
+                    "; refusing to write through it");
+    return follow_links(path, [](const std::string&) { return false; });
+}
+
+void check_output_path(const std::string& path, bool stream_ok) {
+    if (const int fd = stream_fd_of(path); fd >= 0) {
+        const std::string what = fd == 1 ? "standard output"
+                                 : fd == real_stderr_descriptor()
+                                     ? "standard error"
+                                     : "descriptor " + std::to_string(fd);
+        if (!stream_ok)
+            throw Error(path + ": names a stream (" + what +
+                        "); this output must be a file: name a regular file");
+        const int flags = ::fcntl(fd, F_GETFL);
+        if (flags < 0 || (flags & O_ACCMODE) == O_RDONLY)
+            throw Error(path + ": names " + what + ", which is not open for writing");
+        return;
+    }
     const std::string base = path.substr(path.find_last_of('/') + 1);
     long name_max = ::pathconf(folder_of(path).c_str(), _PC_NAME_MAX);
     if (name_max <= 0) name_max = NAME_MAX;
@@ -101,10 +202,14 @@ void check_output_path(const std::string& path) {
     if (::lstat(path.c_str(), &st) != 0) return;  // nothing there yet
     if (S_ISREG(st.st_mode)) return;
     if (S_ISLNK(st.st_mode)) {
+        // A link to a regular file is written through (output_landing): the link stays, its
+        // target is replaced. A dangling link or a link loop is refused there.
         struct stat target;
-        // A link to a regular file (or a dangling one) is replaced by the rename; its target is
-        // untouched.
-        if (::stat(path.c_str(), &target) != 0 || S_ISREG(target.st_mode)) return;
+        if (::stat(path.c_str(), &target) != 0) {
+            output_landing(path);  // throws, naming the cause
+            return;
+        }
+        if (S_ISREG(target.st_mode)) return;
         throw Error(path + ": is a link to " + file_kind(target.st_mode) +
                     "; refusing to replace it with an output");
     }
@@ -114,8 +219,9 @@ void check_output_path(const std::string& path) {
 
 AtomicFile::AtomicFile(const std::string& final_path) : final_(final_path) {
     check_output_path(final_path);
-    std::string dir = folder_of(final_path);
-    std::string base = final_path.substr(final_path.find_last_of('/') + 1);
+    landing_ = output_landing(final_path);
+    std::string dir = folder_of(landing_);
+    std::string base = landing_.substr(landing_.find_last_of('/') + 1);
     // The temporary name adds 19 bytes: shorten the name part so that it fits the folder's name
     // limit whenever the final name does.
     static const std::string suffix = ".spectex-XXXXXX.tmp";
@@ -126,7 +232,7 @@ AtomicFile::AtomicFile(const std::string& final_path) : final_(final_path) {
                         ? static_cast<size_t>(name_max) - suffix.size()
                         : 0);
     std::string tmpl =
-        (dir == "." && final_path.find('/') == std::string::npos ? "" : dir + "/") + base + suffix;
+        (dir == "." && landing_.find('/') == std::string::npos ? "" : dir + "/") + base + suffix;
     std::vector<char> buf(tmpl.begin(), tmpl.end());
     buf.push_back('\0');
     current_umask();
@@ -153,10 +259,16 @@ void AtomicFile::commit() {
     int fd = fd_;
     fd_ = -1;
     if (::close(fd) != 0) fail("close failed");
-    check_output_path(final_);  // what the constructor saw may have changed meanwhile
-    if (::rename(temp_.c_str(), final_.c_str()) != 0) fail("cannot rename the temporary file");
+    // What the constructor saw may have changed meanwhile; the landing is never a link.
+    check_output_path(landing_);
+    struct stat st;
+    if (::lstat(landing_.c_str(), &st) == 0 && S_ISLNK(st.st_mode)) {
+        errno = EEXIST;
+        fail("a link appeared where the output lands; not replacing it");
+    }
+    if (::rename(temp_.c_str(), landing_.c_str()) != 0) fail("cannot rename the temporary file");
     committed_ = true;
-    int dfd = ::open(folder_of(final_).c_str(), O_RDONLY | O_DIRECTORY);
+    int dfd = ::open(folder_of(landing_).c_str(), O_RDONLY | O_DIRECTORY);
     if (dfd >= 0) {
         ::fsync(dfd);  // best effort: makes the rename durable
         ::close(dfd);
@@ -178,6 +290,11 @@ void write_all(int fd, const std::string& text, const std::string& path) {
 }
 
 void write_text_atomically(const std::string& path, const std::string& text) {
+    if (const int fd = stream_fd_of(path); fd >= 0) {
+        check_output_path(path, true);
+        write_all(fd, text, path);
+        return;
+    }
     AtomicFile f(path);
     write_all(f.fd(), text, path);
     f.commit();

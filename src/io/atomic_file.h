@@ -9,29 +9,48 @@ namespace spectex {
 
 class AtomicFile {
   public:
-    explicit AtomicFile(const std::string& final_path);  // creates the temporary file
-    ~AtomicFile();                                       // removes it unless committed
+    // Creates the temporary file beside where the output lands (output_landing): a link's target.
+    explicit AtomicFile(const std::string& final_path);
+    ~AtomicFile();  // removes it unless committed
     AtomicFile(const AtomicFile&) = delete;
     AtomicFile& operator=(const AtomicFile&) = delete;
 
     int fd() const { return fd_; }
     const std::string& temp_path() const { return temp_; }
-    const std::string& final_path() const { return final_; }
+    const std::string& final_path() const { return final_; }  // as given, for messages
     // fsync, mode from the umask, close, rename, fsync the folder.
     void commit();
 
   private:
-    std::string final_, temp_;
+    std::string final_, landing_, temp_;
     int fd_ = -1;
     int slot_ = -1;
     bool committed_ = false;
 };
 
+// The descriptor a path names when it names one of this process's open streams: /dev/stdout (1),
+// /dev/stderr (2), /dev/fd/N, /proc/self/fd/N, /proc/thread-self/fd/N or /proc/<our pid>/fd/N,
+// spelt directly or reached through symbolic links (followed by their text, as the kernel
+// would). -1 for any other path. Such a path is written through, like "-": renaming over it would
+// replace the link (as root, the system's /dev/stdout) and the stream would never see the data.
+int stream_fd_of(const std::string& path);
+// "-" when `path` names standard output (stream_fd_of is 1), else `path`: options that take "-"
+// for standard output treat /dev/stdout and links to it the same way.
+std::string stdout_as_dash(const std::string& path);
+
+// Where an atomic output lands: `path` itself, or, when `path` is a symbolic link (a chain of
+// them) to a regular file, that file. The link is never replaced: the rename lands on its target,
+// so the link keeps pointing where its owner made it point. A dangling link is refused (Error):
+// following it would create a file wherever its text points, which the user never named.
+std::string output_landing(const std::string& path);
+
 // Throws Error when `path` cannot be an output: its name is longer than the folder allows, or
 // something that is not a regular file is there (a device such as /dev/full, a FIFO, a socket, a
-// folder, or a link to one of these): a rename would replace it, and it is never ours to replace.
-// AtomicFile checks it too; commands call it before any work, so the mistake costs nothing.
-void check_output_path(const std::string& path);
+// folder, or a link to one of these, or a dangling link): a rename would replace it, and it is
+// never ours to replace. A stream (stream_fd_of) is accepted only when `stream_ok` (text outputs,
+// which are written through to it) and must then be open for writing. AtomicFile checks it too;
+// commands call it before any work, so the mistake costs nothing.
+void check_output_path(const std::string& path, bool stream_ok = false);
 
 // Creates the folder `dir` and its missing parents, like mkdir -p, each with mode 0777 less the
 // umask. Safe when other processes (farm shards) create the same folders at the same time: a
@@ -49,6 +68,7 @@ void install_signal_cleanup();
 namespace spectex {
 // Writes all of text to fd (retrying short writes); throws Error naming path on failure.
 void write_all(int fd, const std::string& text, const std::string& path);
-// Writes a small text file atomically (temporary file, fsync, rename).
+// Writes a small text file atomically (temporary file, fsync, rename), or through to the stream
+// the path names (stream_fd_of).
 void write_text_atomically(const std::string& path, const std::string& text);
 }  // namespace spectex

@@ -29,6 +29,40 @@ int32_t le32(const unsigned char* p) {
     return s;
 }
 
+// The size of OpenEXR's fixed-size attribute types (the file format's own table), -1 for types
+// whose size varies (string, chlist, preview, ...) or that OpenEXR does not know. OpenEXR reads a
+// fixed-size value whatever the size field says, so a wrong size would shift every later byte of
+// the header and surface as a misleading error far from its cause.
+int fixed_attribute_size(const std::string& type) {
+    static const std::pair<const char*, int> kSizes[] = {{"int", 4},
+                                                         {"float", 4},
+                                                         {"double", 8},
+                                                         {"box2i", 16},
+                                                         {"box2f", 16},
+                                                         {"v2i", 8},
+                                                         {"v2f", 8},
+                                                         {"v2d", 16},
+                                                         {"v3i", 12},
+                                                         {"v3f", 12},
+                                                         {"v3d", 24},
+                                                         {"m33f", 36},
+                                                         {"m33d", 72},
+                                                         {"m44f", 64},
+                                                         {"m44d", 128},
+                                                         {"compression", 1},
+                                                         {"lineOrder", 1},
+                                                         {"envmap", 1},
+                                                         {"deepImageState", 1},
+                                                         {"tiledesc", 9},
+                                                         {"rational", 8},
+                                                         {"timecode", 8},
+                                                         {"keycode", 28},
+                                                         {"chromaticities", 32}};
+    for (const auto& [name, size] : kSizes)
+        if (type == name) return size;
+    return -1;
+}
+
 }  // namespace
 
 void exr_preflight(const std::string& path, std::map<std::string, std::string>* part0_strings) {
@@ -93,9 +127,16 @@ void exr_preflight(const std::string& path, std::map<std::string, std::string>* 
             if (!have(pos + 4)) bad("truncated");
             const int32_t size = le32(buf.data() + pos);
             pos += 4;
-            if (size < 0 || (size > 0 && !have(pos + static_cast<size_t>(size))) ||
+            if (size < 0) bad("attribute '" + name + "' has a negative size");
+            if (pos + static_cast<uint64_t>(size) > kMaxHeaderBytes)
+                bad("attribute '" + name + "' is " + std::to_string(size) + " bytes, past the " +
+                    std::to_string(kMaxHeaderBytes >> 20) + " MiB a header may hold here");
+            if ((size > 0 && !have(pos + static_cast<size_t>(size))) ||
                 static_cast<size_t>(size) > n - pos)
                 bad("attribute '" + name + "' is larger than the file");
+            if (const int want = fixed_attribute_size(type); want >= 0 && size != want)
+                bad("attribute '" + name + "' of type " + type + " is " + std::to_string(size) +
+                    " bytes, not " + std::to_string(want));
             const unsigned char* v = buf.data() + pos;
             if (name == "dataWindow" && type == "box2i" && size == 16) {
                 for (int i = 0; i < 4; ++i) dw[i] = le32(v + 4 * i);

@@ -78,6 +78,8 @@ std::string LibraryLineFilter::pass(const std::string& raw) {
 
 bool stderr_is_terminal() { return g_tty; }
 
+int real_stderr_descriptor() { return g_real >= 0 ? g_real : 2; }
+
 void capture_library_stderr() {
     static bool done = false;
     if (done) return;

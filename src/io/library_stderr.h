@@ -36,6 +36,9 @@ void capture_library_stderr();
 // Forwards what the libraries printed last and gives descriptor 2 back to the real stderr; call
 // once, at the end of main.
 void finish_library_stderr();
+// The descriptor of the real stderr: 2 until captured, then the copy that std::cerr writes to.
+// Output that a user sends to standard error (--json /dev/stderr) is written there.
+int real_stderr_descriptor();
 // Whether the real stderr is a terminal (descriptor 2 itself is a pipe once captured).
 bool stderr_is_terminal();
 

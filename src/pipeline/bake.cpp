@@ -22,6 +22,7 @@
 #include "spectral/colorimetry.h"
 #include "spectral/error.h"
 #include "spectral/expand.h"
+#include "spectral/half.h"
 #include "spectral/provenance_keys.h"
 #include "spectral/task_pool.h"
 
@@ -243,7 +244,8 @@ class PixelStages {
           info_(src.info()),
           has_alpha_(info_.alpha != AlphaKind::None),
           premultiply_(has_alpha_ && s.alpha == AlphaKind::Associated),
-          policy_{info_.alpha == AlphaKind::Associated, s.nan, s.range},
+          policy_{info_.alpha == AlphaKind::Associated, s.nan, s.range,
+                  s.type == SampleType::Half ? kHalfMax : 0.0f},
           rgb_weight_(half_rounding_weights(s, method)),
           feedback_(rgb_weight_.empty() ? nullptr : &rgb_weight_),
           bins_(static_cast<size_t>(method.bins())),

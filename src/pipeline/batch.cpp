@@ -3,6 +3,7 @@
 #include <ImfHeader.h>
 #include <ImfMultiPartInputFile.h>
 #include <ImfStringAttribute.h>
+#include <fcntl.h>
 #include <limits.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -28,6 +29,7 @@
 #include "spectral/error.h"
 #include "spectral/fnv1a.h"
 #include "spectral/provenance_keys.h"
+#include "spectral/text.h"
 
 namespace spectex {
 
@@ -93,7 +95,9 @@ std::vector<std::string> expand_tiles(const std::string& path) {
         for (size_t pos; (pos = pattern.find(q)) != std::string::npos;)
             pattern.replace(pos, q.size(), to);
     };
-    replace_all("<UDIM>", "(1[0-9][0-9][1-9]|[2-9][0-9][0-9][0-9])");
+    // UDIM = 1001 + u + 10 v with u in 0..9: every four-digit number from 1001 to 9999 is a tile
+    // (1010 is u = 9 of the first row, 1011 the first tile of the second).
+    replace_all("<UDIM>", "(100[1-9]|10[1-9][0-9]|1[1-9][0-9][0-9]|[2-9][0-9][0-9][0-9])");
     replace_all("<UVTILE>", "u[1-9][0-9]*_v[1-9][0-9]*");
     std::regex re(pattern);
     std::vector<std::string> out;
@@ -115,16 +119,34 @@ std::vector<std::string> expand_tiles(const std::string& path) {
 }
 
 std::vector<std::string> read_list(const std::string& file) {
-    // The list is a regular file of bounded size, checked before it is read (never a device, FIFO
-    // or folder), or standard input ("-"), which may be anything and is read up to the same limit.
-    // It is parsed as it is read, so that binary data is refused at its first bad byte: a NUL or
-    // another control character, or a line longer than PATH_MAX, names the line and stops.
+    // The list is a regular file of bounded size, checked before it is read (never a device or
+    // folder), standard input ("-"), or a pipe (a FIFO, or a shell's <(find ...)), which like
+    // standard input may hold anything and is read up to the same limit. A pipe is opened without
+    // blocking, so one with no writer reads as empty and is refused, never waited on. It is parsed
+    // as it is read, so that binary data is refused at its first bad byte: a NUL or another
+    // control character, or a line longer than PATH_MAX, names the line and stops.
     const bool is_stdin = file == "-";
+    struct stat st;
+    const bool is_pipe = !is_stdin && ::stat(file.c_str(), &st) == 0 && S_ISFIFO(st.st_mode);
     const std::string name = is_stdin ? "standard input (--from-list -)" : file;
     std::unique_ptr<CheckedFile> checked;
-    if (!is_stdin)
+    std::unique_ptr<int, void (*)(int*)> pipe_fd(nullptr, [](int* p) {
+        ::close(*p);
+        delete p;
+    });
+    if (is_pipe) {
+        const int p = ::open(file.c_str(), O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
+        if (p < 0) throw Error(file + ": " + std::strerror(errno));
+        pipe_fd.reset(new int(p));
+        struct stat fst;
+        if (::fstat(p, &fst) != 0 || !S_ISFIFO(fst.st_mode))
+            throw Error(file + ": the file changed while it was being opened");
+        const int fl = ::fcntl(p, F_GETFL);
+        if (fl >= 0) (void)::fcntl(p, F_SETFL, fl & ~O_NONBLOCK);
+    } else if (!is_stdin) {
         checked = std::make_unique<CheckedFile>(file, file_limits::kInputList, "an input list");
-    const int fd = is_stdin ? 0 : checked->fd();
+    }
+    const int fd = is_stdin ? 0 : is_pipe ? *pipe_fd : checked->fd();
 
     std::vector<std::string> out;
     std::string line;
@@ -185,6 +207,8 @@ std::vector<std::string> read_list(const std::string& file) {
         }
     }
     if (!line.empty()) finish_line();
+    if (is_pipe && total == 0)
+        throw Error(file + ": a FIFO with no writer, or nothing written to it: no list to read");
     return out;
 }
 
@@ -280,11 +304,15 @@ std::string output_for(const std::string& input, const std::string& templ,
 }
 
 Shard Shard::parse(const std::string& spec) {
-    int k = 0, n = 0;
-    char extra;
-    if (std::sscanf(spec.c_str(), "%d/%d%c", &k, &n, &extra) != 2 || n < 1 || k < 1 || k > n)
-        throw Error("--shard '" + spec + "': expected K/N with 1 <= K <= N, e.g. 3/10");
-    return Shard{k, n};
+    // Strict: digits only on each side of the one slash, no sign, no wrap-around (4294967297 is
+    // not 1): a farm's array index that went wrong must fail, not bake everything.
+    const size_t slash = spec.find('/');
+    long long k = 0, n = 0;
+    const bool ok = slash != std::string::npos && spec[0] != '-' &&
+                    parse_whole(spec.substr(0, slash), 1, 1000000000, &k) &&
+                    parse_whole(spec.substr(slash + 1), 1, 1000000000, &n) && k <= n;
+    if (!ok) throw Error("--shard '" + spec + "': expected K/N with 1 <= K <= N, e.g. 3/10");
+    return Shard{static_cast<int>(k), static_cast<int>(n)};
 }
 
 std::vector<std::string> select_shard(const std::vector<std::string>& sorted_inputs, Shard s) {

@@ -42,6 +42,16 @@ PolicedCounts police_rgba(float* rgba, size_t n, const Linearizer& lin, const Pi
                     p[c] = std::min(1.0f, std::max(0.0f, p[c]));
                     out_of_range = true;
                 }
+                // Each spectrum is a combination of r, g, b with weights in [0, 1] summing to one
+                // at every wavelength, so no sample is larger in magnitude than the largest of
+                // them: checking the linear values here keeps every sample finite.
+                if (policy.range == RangePolicy::Keep && policy.keep_limit > 0 &&
+                    std::fabs(p[c]) > policy.keep_limit)
+                    throw Error(input + ": linear value " + std::to_string(p[c]) + " " + where(i) +
+                                " is beyond the largest half value (" +
+                                std::to_string(static_cast<int>(policy.keep_limit)) +
+                                "), which --out-of-range keep cannot store; bake with --type "
+                                "float, or --out-of-range clamp");
             }
         }
         counts.replaced += bad;

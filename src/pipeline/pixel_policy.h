@@ -20,6 +20,9 @@ struct PixelPolicy {
     bool straighten = false;  // the file's alpha is associated
     NanPolicy nan = NanPolicy::Replace;
     RangePolicy range = RangePolicy::Clamp;
+    // With RangePolicy::Keep: the largest magnitude the output can store (65504 for half), 0 for
+    // no limit. A kept value beyond it would be written as infinity: the file fails instead.
+    float keep_limit = 0.0f;
 };
 
 struct PolicedCounts {

@@ -10,15 +10,21 @@
 #include "pipeline/look.h"
 #include "spectral/error.h"
 #include "spectral/spectrum.h"
+#include "spectral/text.h"
 #include "spectral/wavelength_grid.h"
 
 namespace spectex {
 
 namespace {
 
-std::string xml(const std::string& s) {
+// Text for an XML 1.0 document declared UTF-8: one_line first (control bytes and bytes that are
+// not UTF-8, such as a Latin-1 file name, become \xNN; line breaks "; "), then the markup
+// characters as entities, and the two non-characters XML forbids (U+FFFE, U+FFFF) as \uXXXX.
+std::string xml(const std::string& raw) {
+    const std::string s = one_line(raw);
     std::string o;
-    for (char c : s) {
+    for (size_t i = 0; i < s.size(); ++i) {
+        const char c = s[i];
         switch (c) {
             case '&':
                 o += "&amp;";
@@ -33,11 +39,13 @@ std::string xml(const std::string& s) {
                 o += "&quot;";
                 break;
             default:
-                // Control bytes are not allowed in XML 1.0.
-                if (static_cast<unsigned char>(c) < 0x20 && c != '\t')
-                    o += '?';
-                else
+                if (s.compare(i, 2, "\xEF\xBF") == 0 && i + 2 < s.size() &&
+                    (s[i + 2] == '\xBE' || s[i + 2] == '\xBF')) {
+                    o += s[i + 2] == '\xBE' ? "\\ufffe" : "\\uffff";
+                    i += 2;
+                } else {
                     o += c;
+                }
         }
     }
     return o;

@@ -6,6 +6,9 @@
 
 namespace spectex {
 
+// The largest finite half value: anything larger in magnitude is stored as infinity.
+constexpr float kHalfMax = 65504.0f;
+
 inline uint16_t float_to_half(float f) {
     uint32_t x;
     std::memcpy(&x, &f, 4);

@@ -15,7 +15,51 @@ bool ends_with_nocase(const std::string& s, const std::string& suffix) {
            lower_ascii(s.substr(s.size() - suffix.size())) == lower_ascii(suffix);
 }
 
+namespace {
+
+// A C1 control or an invisible format character that reorders or hides text (bidi overrides,
+// zero-width marks): one_line writes these as \uXXXX.
+bool hidden_code_point(uint32_t cp) {
+    return (cp >= 0x80 && cp <= 0x9f) || (cp >= 0x200b && cp <= 0x200f) ||
+           (cp >= 0x202a && cp <= 0x202e) || (cp >= 0x2060 && cp <= 0x2069) || cp == 0xfeff ||
+           cp == 0x061c || cp == 0x2028 || cp == 0x2029;
+}
+
+// bash's $'...' quoting: printable text as it is, everything else as an escape bash reads back.
+std::string ansi_c_quote(const std::string& s) {
+    std::string q = "$'";
+    for (size_t i = 0; i < s.size();) {
+        const unsigned char c = static_cast<unsigned char>(s[i]);
+        uint32_t cp = 0;
+        const size_t len = utf8_sequence_length(s, i, &cp);
+        char buf[12];
+        if (len > 1 && !hidden_code_point(cp)) {
+            q.append(s, i, len);
+        } else if (len > 1) {
+            std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned>(cp));
+            q += buf;
+        } else if (c == '\'' || c == '\\') {
+            q += '\\';
+            q += static_cast<char>(c);
+        } else if (c == '\n') {
+            q += "\\n";
+        } else if (c == '\t') {
+            q += "\\t";
+        } else if (len == 1 && c >= 0x20 && c != 0x7f) {
+            q += static_cast<char>(c);
+        } else {
+            std::snprintf(buf, sizeof buf, "\\x%02x", c);
+            q += buf;
+        }
+        i += len ? len : 1;
+    }
+    return q + "'";
+}
+
+}  // namespace
+
 std::string quote_path(const std::string& path) {
+    if (one_line(path) != path || path.find('\t') != std::string::npos) return ansi_c_quote(path);
     bool plain = !path.empty();
     for (unsigned char c : path)
         if (c <= 0x20 || c == 0x7f || c == '\'' || c == '"' || c == '\\' || c == '`' || c == '$' ||
@@ -31,12 +75,27 @@ std::string quote_path(const std::string& path) {
 }
 
 bool parse_finite(const std::string& s, double* out) {
-    if (s.empty() || std::isspace(static_cast<unsigned char>(s[0]))) return false;
+    if (s.empty() || s.find_first_not_of("0123456789.eE+-") != std::string::npos ||
+        s.find_first_of("0123456789") == std::string::npos)
+        return false;
     const char* begin = s.c_str();
     char* end = nullptr;
     errno = 0;
     const double v = std::strtod(begin, &end);
     if (end != begin + s.size() || errno == ERANGE || !std::isfinite(v)) return false;
+    *out = v;
+    return true;
+}
+
+bool parse_whole(const std::string& s, long long min, long long max, long long* out) {
+    const size_t first = !s.empty() && s[0] == '-' ? 1 : 0;
+    if (s.size() == first || s.size() - first > 18 ||
+        s.find_first_not_of("0123456789", first) != std::string::npos)
+        return false;
+    long long v = 0;
+    for (size_t i = first; i < s.size(); ++i) v = v * 10 + (s[i] - '0');  // 18 digits: no overflow
+    if (first) v = -v;
+    if (v < min || v > max) return false;
     *out = v;
     return true;
 }
@@ -93,10 +152,7 @@ std::string one_line(const std::string& text) {
         // overrides, zero-width marks): those are written as \uXXXX. Anything else is \xNN.
         uint32_t cp = 0;
         const size_t len = utf8_sequence_length(text, i, &cp);
-        const bool hidden =
-            len > 1 && ((cp >= 0x80 && cp <= 0x9f) || (cp >= 0x200b && cp <= 0x200f) ||
-                        (cp >= 0x202a && cp <= 0x202e) || (cp >= 0x2060 && cp <= 0x2069) ||
-                        cp == 0xfeff || cp == 0x061c || cp == 0x2028 || cp == 0x2029);
+        const bool hidden = len > 1 && hidden_code_point(cp);
         if (c == '\t') {
             out += ' ';
             ++i;

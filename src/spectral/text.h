@@ -16,9 +16,15 @@ inline std::string lower_ascii(std::string s) {
 // Whether `s` ends with `suffix`, ASCII letters compared without case (".EXR" is ".exr").
 bool ends_with_nocase(const std::string& s, const std::string& suffix);
 
-// A whole token as a finite double, read in the C locale: no leading or trailing characters
-// (space included), no overflow, no inf or nan. False leaves *out untouched.
+// A whole token as a finite double, read in the C locale: decimal digits, a point, a sign and an
+// exponent only: no leading or trailing characters (space included), no overflow, no inf or nan,
+// no hexadecimal ("0x10" is not 16). False leaves *out untouched.
 bool parse_finite(const std::string& s, double* out);
+
+// A whole token as a whole number from min to max: decimal digits, with a leading '-' only (no
+// '+', no space, no hexadecimal or octal reading, no wrap-around: "4294967297" is not 1). False
+// leaves *out untouched.
+bool parse_whole(const std::string& s, long long min, long long max, long long* out);
 
 // The length (1 to 4) of the well-formed UTF-8 sequence starting at s[i], or 0 when none starts
 // there: a stray continuation byte, a truncated sequence, an overlong form, a UTF-16 surrogate or a
@@ -29,8 +35,9 @@ bool is_valid_utf8(const std::string& s);
 
 // A path as messages name it: as it is when a shell would read it back as one word and the
 // "<file>: <cause>" convention stays unambiguous, else in single quotes ('my file.png',
-// 'a: b.png', an empty name as ''), a quote inside written '\''. Control bytes are left to
-// one_line.
+// 'a: b.png', an empty name as ''), a quote inside written '\''. A name holding bytes that one_line
+// would escape (control bytes, bytes that are not UTF-8, invisible format characters) is written
+// in bash's $'...' form instead ($'caf\xe9.png', $'a\nb'), so that the message can be pasted back.
 std::string quote_path(const std::string& path);
 
 // A message as one printable line: line breaks become "; ", control bytes and bytes that are not

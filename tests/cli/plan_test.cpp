@@ -136,7 +136,7 @@ TEST(Plan, BakeAutoRecordsTheChoiceAndUpdateTreatsItAsSettings) {
     // A budget no grid meets: exit 1, the best achievable, no file written.
     r = run_spectex({"bake", d / "in.png", "-o", d / "none.exr", "--wavelengths", "auto",
                      "--lights", "D65", "--max-de", "0.001", "--grids", "380:780:20,380:780:10"});
-    EXPECT_EQ(r.status, 2);  // a setting of every file: checked once, before any input
+    EXPECT_EQ(r.status, 1);  // the work's answer, as in plan (checked once, before any input)
     EXPECT_NE(r.err.find("the best achievable is"), std::string::npos) << r.err;
     EXPECT_FALSE(file_exists(d / "none.exr"));
     // auto needs its lights and budget; they mean nothing without auto.

@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <string>
+#include <vector>
 
 #include "io/paths.h"
 #include "spectral/text.h"
@@ -20,7 +22,8 @@ TEST(Text, ParseFiniteTakesWholeFiniteTokensOnly) {
     EXPECT_EQ(v, 400.0);
     v = 7;
     for (const char* bad :
-         {"", " 1", "1 ", "1x", "x", "inf", "-inf", "nan", "1e400", "0x", ",5", "1,5", "\t2"}) {
+         {"",   " 1",  "1 ",  "1x",   "x",     "inf",  "-inf",     "nan", "1e400", "0x",
+          ",5", "1,5", "\t2", "0x10", "0X1p3", "-0x1", "infinity", ".",   "-",     "e5"}) {
         EXPECT_FALSE(parse_finite(bad, &v)) << "'" << bad << "'";
         EXPECT_EQ(v, 7.0) << "'" << bad << "' changed the output";
     }
@@ -64,5 +67,55 @@ TEST(Text, QuotePathOnlyWhenAShellOrTheMessageConventionNeedsIt) {
     EXPECT_EQ(quote_path("t.<UDIM>.png"), "'t.<UDIM>.png'");
     EXPECT_EQ(quote_path("$HOME.png"), "'$HOME.png'");
     EXPECT_EQ(quote_path(""), "''");
-    EXPECT_EQ(quote_path("a\nb"), "'a\nb'");  // one_line escapes the byte afterwards
+    // Bytes one_line would escape: bash's $'...' form, printable and pasteable.
+    EXPECT_EQ(quote_path("a\nb"), "$'a\\nb'");
+    EXPECT_EQ(quote_path("caf\xe9.png"), "$'caf\\xe9.png'");
+    EXPECT_EQ(quote_path("it's\x01"), "$'it\\'s\\x01'");
+}
+
+TEST(Text, ParseWholeIsStrictAndNeverWraps) {
+    long long v = -7;
+    EXPECT_TRUE(parse_whole("42", 0, 100, &v));
+    EXPECT_EQ(v, 42);
+    EXPECT_TRUE(parse_whole("-3", -5, 5, &v));
+    EXPECT_EQ(v, -3);
+    EXPECT_TRUE(parse_whole("2147483647", 0, 2147483647LL, &v));
+    EXPECT_EQ(v, 2147483647LL);
+    v = -7;
+    for (const char* bad : {"", "+1", " 1", "1 ", "0x10", "1e3", "1.0", "-", "--1", "4294967297",
+                            "99999999999999999999", "1/2"}) {
+        EXPECT_FALSE(parse_whole(bad, -100, 1000000000, &v)) << "'" << bad << "'";
+        EXPECT_EQ(v, -7) << "'" << bad << "' changed the output";
+    }
+    EXPECT_FALSE(parse_whole("-1", 0, 10, &v));
+    EXPECT_FALSE(parse_whole("11", 0, 10, &v));
+}
+
+// What quote_path prints, pasted into bash, is the same bytes: the message can be acted on.
+TEST(Text, QuotedPathsReadBackInBash) {
+    const std::vector<std::string> names = {"plain.png",
+                                            "my file.png",
+                                            "it's.png",
+                                            "a\nb",
+                                            "caf\xe9.png",
+                                            "\x01\x1b[31m",
+                                            "tab\there",
+                                            "back\\slash'",
+                                            "\xe2\x80\xae.png",
+                                            "$HOME.png",
+                                            "\xff\xfe9",
+                                            "t\xc3\xabxt",
+                                            "a: b",
+                                            ""};
+    for (const auto& n : names) {
+        const std::string cmd = "printf %s " + quote_path(n);
+        FILE* p = ::popen(("LC_ALL=C.UTF-8 bash -c " + quote_path(cmd)).c_str(), "r");
+        ASSERT_NE(p, nullptr);
+        std::string got;
+        char buf[256];
+        for (size_t k; (k = std::fread(buf, 1, sizeof buf, p)) > 0;) got.append(buf, k);
+        ::pclose(p);
+        EXPECT_EQ(got, n) << quote_path(n);
+        EXPECT_EQ(one_line(quote_path(n)), quote_path(n)) << "not printable: " << quote_path(n);
+    }
 }
