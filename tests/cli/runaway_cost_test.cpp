@@ -46,7 +46,8 @@ size_t count(const std::string& text, const std::string& what) {
 // A copy of a shipped illuminant table under another name: another light for spectex (a file is
 // one light by identity), the same values.
 std::string light_copy(const ScratchDir& dir, const std::string& name) {
-    static const std::string text = read_file(std::string(SPECTEX_TEST_DATA_DIR) + "/spectral/illuminant_A.csv");
+    static const std::string text =
+        read_file(std::string(SPECTEX_TEST_DATA_DIR) + "/spectral/illuminant_A.csv");
     const std::string path = dir / name;
     std::ofstream(path) << text;
     return path;
@@ -101,9 +102,10 @@ int threads_while_reporting(const std::vector<std::string>& args, RunResult& r) 
 
 TEST(RunawayCost, VerifyThreadsBoundedByWorkAndCap) {
     ScratchDir dir;
-    std::vector<std::string> args = {"verify", "--jobs", "4", "--threads", "1024", "--json", "-",
-                                     "--illuminant",
-                                     "A,D50,D55,D75,FL1,FL2,FL3,FL4,FL5,FL6,FL7,FL8,FL9,FL10,FL11"};
+    std::vector<std::string> args = {
+        "verify",    "--jobs",       "4",
+        "--threads", "1024",         "--json",
+        "-",         "--illuminant", "A,D50,D55,D75,FL1,FL2,FL3,FL4,FL5,FL6,FL7,FL8,FL9,FL10,FL11"};
     for (int i = 0; i < 4; ++i) args.push_back(bake(dir, "v" + std::to_string(i), 16, 16));
     RunResult r;
     const int threads = threads_while_reporting(args, r);
@@ -115,9 +117,10 @@ TEST(RunawayCost, VerifyThreadsBoundedByWorkAndCap) {
 
 TEST(RunawayCost, BakeThreadsCapped) {
     ScratchDir dir;
-    std::vector<std::string> args = {"bake",   "--jobs", "4", "--threads", "1024", "--json",
-                                     "-",      "--output-dir", dir / "out"};
-    for (int i = 0; i < 24; ++i) args.push_back(make_png(dir, "b" + std::to_string(i) + ".png", 16, 16));
+    std::vector<std::string> args = {
+        "bake", "--jobs", "4", "--threads", "1024", "--json", "-", "--output-dir", dir / "out"};
+    for (int i = 0; i < 24; ++i)
+        args.push_back(make_png(dir, "b" + std::to_string(i) + ".png", 16, 16));
     RunResult r;
     const int threads = threads_while_reporting(args, r);
     EXPECT_EQ(r.status, 0);
@@ -164,9 +167,9 @@ TEST(RunawayCost, SampleMergesRepeatedLights) {
 }
 
 TEST(RunawayCost, PlanMergesRepeatedLights) {
-    const RunResult r = run_spectex({"plan", "--lights", "A,a,A,D65,d65", "--grids", "380:780:10",
-                                     "--colours", "sample", "--sample-stride", "51", "--json",
-                                     "-"});
+    const RunResult r =
+        run_spectex({"plan", "--lights", "A,a,A,D65,d65", "--grids", "380:780:10", "--colours",
+                     "sample", "--sample-stride", "51", "--json", "-"});
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_NE(r.out.find("\"lights\":[\"A\",\"D65\"]"), std::string::npos) << r.out;
 }
@@ -234,31 +237,25 @@ TEST(RunawayCost, PlanManyDistinctLightsRefused) {
 TEST(RunawayCost, LatticeAndTableCostRefused) {
     ScratchDir dir;
     const std::string png = make_png(dir, "l.png", 16, 16);
-    const RunResult lattice =
-        run_spectex({"bake", png, "-o", dir / "l.exr", "--method", "lattice", "--lattice-size",
-                     "65", "--wavelengths", "380:780:0.5"});
+    const RunResult lattice = run_spectex({"bake", png, "-o", dir / "l.exr", "--method", "lattice",
+                                           "--lattice-size", "65", "--wavelengths", "380:780:0.5"});
     EXPECT_EQ(lattice.status, 2) << lattice.err;
-    EXPECT_NE(lattice.err.find("spectex bake: --lattice-size: "), std::string::npos)
-        << lattice.err;
+    EXPECT_NE(lattice.err.find("spectex bake: --lattice-size: "), std::string::npos) << lattice.err;
     EXPECT_NE(lattice.err.find("801 bins"), std::string::npos) << lattice.err;
     EXPECT_FALSE(file_exists(dir / "l.exr"));
-    const RunResult jh =
-        run_spectex({"bake", png, "-o", dir / "j.exr", "--method", "jakob-hanika",
-                     "--jh-resolution", "64", "--wavelengths", "360:830:0.25"});
+    const RunResult jh = run_spectex({"bake", png, "-o", dir / "j.exr", "--method", "jakob-hanika",
+                                      "--jh-resolution", "64", "--wavelengths", "360:830:0.25"});
     EXPECT_EQ(jh.status, 2) << jh.err;
     EXPECT_NE(jh.err.find("spectex bake: --jh-resolution: "), std::string::npos) << jh.err;
-    const RunResult plan = run_spectex({"plan", "--method", "lattice", "--lattice-size", "65",
-                                        "--grids", "380:780:0.5"});
+    const RunResult plan = run_spectex(
+        {"plan", "--method", "lattice", "--lattice-size", "65", "--grids", "380:780:0.5"});
     EXPECT_EQ(plan.status, 2) << plan.err;
     EXPECT_NE(plan.err.find("spectex plan: --lattice-size: "), std::string::npos) << plan.err;
 }
 
 TEST(RunawayCost, LimitsAreInTheHelp) {
-    for (const auto& [command, word] :
-         std::vector<std::pair<std::string, std::string>>{{"verify", "1 GiB"},
-                                                          {"render", "sheet"},
-                                                          {"plan", "limit"},
-                                                          {"bake", "limit"}}) {
+    for (const auto& [command, word] : std::vector<std::pair<std::string, std::string>>{
+             {"verify", "1 GiB"}, {"render", "sheet"}, {"plan", "limit"}, {"bake", "limit"}}) {
         const RunResult r = run_spectex({command, "--help"});
         EXPECT_EQ(r.status, 0);
         EXPECT_NE(r.out.find(word), std::string::npos) << command;
