@@ -32,10 +32,13 @@ void print_error(const std::string& message) {
     std::cerr << "spectex: " << one_line(message) << std::endl;
 }
 
-int run_reporting(const std::string& file, const std::function<void()>& work) {
+int run_reporting(const std::string& command, const std::string& file,
+                  const std::function<void()>& work) {
     try {
         work();
         return 0;
+    } catch (const LimitError& e) {
+        return usage_error(command, e.what());
     } catch (const Error& e) {
         print_error(name_file(file, e.what()));
     } catch (const std::exception& e) {

@@ -23,6 +23,7 @@
 #include "pipeline/basis_cache.h"
 #include "pipeline/batch.h"
 #include "pipeline/batch_run.h"
+#include "pipeline/light_list.h"
 #include "pipeline/method_cache.h"
 #include "pipeline/plan.h"
 #include "spectral/basis_fit.h"
@@ -232,7 +233,10 @@ void declare_spectra_options(ArgParser& p, BakeCli& c) {
                                  "' is not one of basis, lattice, jakob-hanika");
             c.method = v;
         });
-    p.option("--lattice-size", "N", "Breakpoints per axis of the lattice (default 9; 2 to 65).",
+    p.option("--lattice-size", "N",
+             "Breakpoints per axis of the lattice (default 9; 2 to 65). N^3 x bins is limited "
+             "to 2^27\n(134,217,728: 65 on a 1 nm grid over 360:830 fits); more is a usage error "
+             "before any work.",
              [&](const std::string& v) {
                  c.lattice_size = parse_int("--lattice-size", v, 2, 65);
                  c.lattice_given = true;
@@ -252,7 +256,8 @@ void declare_spectra_options(ArgParser& p, BakeCli& c) {
     p.option("--jh-resolution", "N",
              "Nodes per axis of the jakob-hanika coefficient table (default 33; pbrt-v4 uses 64, "
              "which takes "
-             "about 6 s to build; 3 to 64).",
+             "about 6 s to build; 3 to 64; N^3 x bins within the same 2^27 limit as the "
+             "lattice).",
              [&](const std::string& v) {
                  c.jh_resolution = parse_int("--jh-resolution", v, 3, 64);
                  c.jh_given = true;
@@ -290,7 +295,9 @@ void declare_batch_options(ArgParser& p, BakeCli& c) {
     p.option("--from-list", "FILE",
              "Read input paths from FILE, one per line ('-' = stdin), after those given.",
              [&](const std::string& v) { c.from_list = v; });
-    p.option("--jobs", "N", "Bake N files at once (default 1); with --threads, N x threads in all.",
+    p.option("--jobs", "N",
+             "Bake N files at once (default 1, at most the number of files); with --threads, N x "
+             "threads in all.",
              [&](const std::string& v) { c.jobs = parse_int("--jobs", v, 1, 256); });
     p.option("--shard", "K/N",
              "Bake only file i (0-based, in the byte-sorted, tile-expanded input list) with i mod "
@@ -312,7 +319,10 @@ void declare_batch_options(ArgParser& p, BakeCli& c) {
            [&] { c.progress = true; });
     p.section("Resources");
     p.option("--threads", "N",
-             "Threads per file for OpenEXR compression and decoding (default: cores / jobs).",
+             "Threads per file for OpenEXR compression and decoding (default: cores / jobs). "
+             "--jobs x --threads\nis held within the process's thread budget, 4 threads per "
+             "core (at least 8): more only share\nthe same cores, and the kernel limits the "
+             "threads of a process.",
              [&](const std::string& v) { c.threads = parse_int("--threads", v, 0, 1024); });
     p.option("--max-pixels", "N",
              "Refuse inputs with more pixels than this (default 268435456 = 16384^2).",
@@ -406,6 +416,37 @@ void check_grid_options(BakeCli& c) {
         } catch (const Error& e) {
             throw UsageError(std::string("--wavelengths: ") + e.what());
         }
+    }
+}
+
+// The method as --wavelengths auto plans with it, from the options.
+void fill_plan_method(BakeCli& c) {
+    c.plan.method.method = c.method;
+    c.plan.method.fit = c.fit;
+    c.plan.method.lattice_size = c.lattice_size;
+    c.plan.method.vertex_prior = c.vertex_prior;
+    c.plan.method.jh_resolution = c.jh_resolution;
+}
+
+// What the options cost, refused before any work when over a documented limit: the method's
+// table on the grid given (method_cache.h), or with --wavelengths auto the plan (plan.h), its
+// lights each once.
+void check_cost_options(BakeCli& c) {
+    try {
+        if (c.wavelengths == "auto") {
+            c.plan.lights = distinct_lights(c.plan.lights);
+            fill_plan_method(c);
+            check_plan_cost(c.plan);
+        } else if (c.wavelengths_file.empty()) {
+            MethodSpec m;
+            m.method = c.method;
+            m.lattice_size = c.lattice_size;
+            m.jh_resolution = c.jh_resolution;
+            check_method_cost(m, c.settings.grid.size(),
+                              std::to_string(c.settings.grid.size()) + " bins");
+        }
+    } catch (const LimitError& e) {
+        throw UsageError(e.what());
     }
 }
 
@@ -578,11 +619,8 @@ std::string method_recipe(const BakeCli& c, const Basis* file_basis, const Obser
 void choose_auto_grid(BakeCli& c) {
     auto& rec = c.settings.plan;
     // Once per batch: every file of it gets the same grid.
-    c.plan.method.method = c.method;
-    c.plan.method.fit = c.fit;
+    fill_plan_method(c);
     c.plan.method.fit.data_dir = c.settings.data_dir;
-    c.plan.method.lattice_size = c.lattice_size;
-    c.plan.method.vertex_prior = c.vertex_prior;
     c.plan.half = c.settings.type == SampleType::Half;
     c.plan.threads = c.threads;
     const PlanResult pr = plan_grids(c.plan);
@@ -719,6 +757,7 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         check_given_options(c, inputs);
         check_method_options(c);
         check_grid_options(c);
+        check_cost_options(c);
     } catch (const UsageError& e) {
         return usage_error("bake", e.what());
     }
@@ -743,6 +782,8 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
     } catch (const UnmetBudget& e) {
         print_error(e.what());
         return 1;
+    } catch (const LimitError& e) {
+        return usage_error("bake", e.what());  // a --wavelengths-file too fine for the method
     } catch (const Error& e) {
         print_error(e.what());
         return 2;

@@ -34,8 +34,10 @@ std::string name_file(const std::string& file, const std::string& message,
 // Prints "spectex: <message>" to stderr, as one_line().
 void print_error(const std::string& message);
 // Runs a command's work on `file`: 0 when it returns, else the error printed as
-// "spectex: <cause>" (an Error names its file) or "spectex: <file>: <cause>", and 1.
-int run_reporting(const std::string& file, const std::function<void()>& work);
+// "spectex: <cause>" (an Error names its file) or "spectex: <file>: <cause>", and 1; a LimitError
+// (a request over a documented limit, found before the work) is a usage error of `command`, 2.
+int run_reporting(const std::string& command, const std::string& file,
+                  const std::function<void()>& work);
 // Prints "spectex <command>: <message>" and a hint to run --help; returns 2.
 int usage_error(const std::string& command, const std::string& message);
 

@@ -6,6 +6,7 @@
 #include "cli/output_check.h"
 #include "io/atomic_file.h"
 #include "io/data_dir.h"
+#include "pipeline/light_list.h"
 #include "pipeline/plan.h"
 #include "spectral/error.h"
 
@@ -60,7 +61,11 @@ void add_plan_options(ArgParser& p, PlanSpec& spec, bool& lights_given, bool& bu
     p.option("--grids", "LIST",
              "Candidate grids instead of the default ones (uniform 1, 2, 2.5, 4, 5, 10, 20 nm over "
              "380:780, "
-             "400:700 and --range), e.g. the grids a renderer supports: 380:780:5,400:700:10.",
+             "400:700 and --range), e.g. the grids a renderer supports: 380:780:5,400:700:10. "
+             "The bins of all\ngrids x the lights x the colours (the sample, or 1,048,576 for "
+             "--texture) must stay within the limit\nof 2e10 (8 times the default table), and "
+             "for the lattice and jakob-hanika the tables within 2^27\nsamples: larger requests "
+             "are usage errors (exit 2) before any work.",
              [&](const std::string& v) {
                  spec.candidates.clear();
                  for (const auto& g : split_list(v, "--grids")) {
@@ -93,7 +98,9 @@ void add_method_options(ArgParser& p, PlanOptions& o) {
                                       "' is not one of basis, lattice, jakob-hanika");
                  spec.method.method = v;
              });
-    p.option("--lattice-size", "N", "Breakpoints per axis of the lattice (default 9).",
+    p.option("--lattice-size", "N",
+             "Breakpoints per axis of the lattice (default 9; N^3 x the bins of every grid and "
+             "of the 1 nm\nreference at most 2^27, the limit of a method's table).",
              [&](const std::string& v) {
                  spec.method.lattice_size = parse_int("--lattice-size", v, 2, 65);
                  o.lattice_given = true;
@@ -158,7 +165,9 @@ void add_measure_options(ArgParser& p, PlanOptions& o) {
     p.option("--config", "FILE",
              "With --texture: the OCIO config, as in bake (default $OCIO, else the shipped one).",
              [&](const std::string& v) { spec.config = v; });
-    p.option("--threads", "N", "Threads (default: all cores).",
+    p.option("--threads", "N",
+             "Threads (default: all cores; at most 4 per core, at least 8: the process's thread "
+             "budget).",
              [&](const std::string& v) { spec.threads = parse_int("--threads", v, 0, 1024); });
     p.option("--json", "FILE",
              "Also write the table as JSON ('-' = stdout, instead of the text table).",
@@ -174,6 +183,12 @@ void check_plan_options(PlanOptions& o, const std::vector<std::string>& pos) {
     if (spec.nonuniform && spec.method.method != "basis")
         throw UsageError("--nonuniform searches with the basis' 3x3 maps: it needs --method basis");
     spec.half = o.type == "half";
+    spec.lights = distinct_lights(spec.lights);
+    try {
+        check_plan_cost(spec);
+    } catch (const LimitError& e) {
+        throw UsageError(e.what());
+    }
     // Outputs are none of the files plan reads (tables given as files).
     std::vector<std::pair<std::string, std::string>> reads = {
         {spec.method.fit.observer, "--observer"}, {spec.method.fit.illuminant, "--illuminant"}};

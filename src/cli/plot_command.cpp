@@ -64,7 +64,7 @@ int run_plot(const std::vector<std::string>& args) {
     } catch (const UsageError& e) {
         return usage_error("plot", e.what());
     }
-    return run_reporting(files[0], [&] {
+    return run_reporting("plot", files[0], [&] {
         s.data_dir = find_data_dir();
         PlotReport r = plot_file(files[0], output, xy, s);
         if (!quiet && stream_fd_of(output) != 1)  // the SVG itself went to standard output

@@ -11,6 +11,7 @@
 #include "io/atomic_file.h"
 #include "io/data_dir.h"
 #include "io/file_identity.h"
+#include "pipeline/light_list.h"
 #include "pipeline/look.h"
 #include "pipeline/render.h"
 #include "spectral/error.h"
@@ -54,14 +55,17 @@ int run_render(const std::vector<std::string>& args) {
     p.section("Colorimetry");
     list_option(p, "--illuminant", "NAME[,NAME...]",
                 "Light(s): " + shipped_illuminants_list("D65") +
-                    " (any case), or a CSV wavelength,value; repeatable; several make a sheet.",
+                    " (any case), or a CSV wavelength,value; repeatable; several make a sheet\n"
+                    "(a light given twice, a name in any case or one CSV file, is one panel).",
                 s.illuminants);
     observer_option(p, "Observer", s.observer);
     p.flag("--no-adapt", "No chromatic adaptation: show the light's colour cast.",
            [&] { s.adapt = false; });
     p.section("Resources");
     p.option("--max-pixels", "N",
-             "Refuse files with more pixels than this (default 268435456 = 16384^2).",
+             "Refuse files with more pixels than this (default 268435456 = 16384^2), and a "
+             "sheet (several\nlights: panels, gaps and label strip) with more: a usage error "
+             "(exit 2), before any pixel is read.",
              [&](const std::string& v) { s.max_pixels = parse_count("--max-pixels", v); });
     p.option("--threads", "N", "Threads integrating pixels (default: all cores).",
              [&](const std::string& v) { s.threads = parse_int("--threads", v, 0, 1024); });
@@ -72,6 +76,7 @@ int run_render(const std::vector<std::string>& args) {
         require_one_input(files);
         if (output.empty()) throw UsageError("no output: give -o OUT.png");
         if (s.illuminants.empty()) s.illuminants.push_back("D65");
+        s.illuminants = distinct_lights(s.illuminants);
         std::vector<std::pair<std::string, std::string>> reads = {{files[0], "the input"},
                                                                   {s.observer, "--observer"}};
         for (const auto& l : s.illuminants) reads.push_back({l, "--illuminant"});
@@ -81,7 +86,7 @@ int run_render(const std::vector<std::string>& args) {
     } catch (const UsageError& e) {
         return usage_error("render", e.what());
     }
-    return run_reporting(files[0], [&] {
+    return run_reporting("render", files[0], [&] {
         s.data_dir = find_data_dir();
         RenderReport r = render_file(files[0], output, s);
         if (!quiet) {

@@ -8,6 +8,7 @@
 #include "cli/commands.h"
 #include "io/data_dir.h"
 #include "pipeline/json_text.h"
+#include "pipeline/light_list.h"
 #include "pipeline/sample.h"
 #include "spectral/error.h"
 #include "spectral/spectrum.h"
@@ -143,10 +144,12 @@ int run_sample(const std::vector<std::string>& args) {
                 "Exit status: 0 ok, 1 unreadable or non-spectral file or a pixel outside the data "
                 "window, 2 usage.");
     p.section("Colorimetry");
-    list_option(p, "--illuminant", "NAME[,NAME...]",
-                "Also show the colour under these lights (repeatable): " +
-                    shipped_illuminants_list() + " (any case), or a CSV wavelength,value.",
-                s.illuminants);
+    list_option(
+        p, "--illuminant", "NAME[,NAME...]",
+        "Also show the colour under these lights (repeatable; a light given twice, a name in "
+        "any case or one CSV file, is shown once): " +
+            shipped_illuminants_list() + " (any case), or a CSV wavelength,value.",
+        s.illuminants);
     observer_option(p, "Observer", s.observer);
     p.section("Output");
     p.flag("--json", "Print one JSON object (schema_version 1) instead of CSV.",
@@ -158,10 +161,11 @@ int run_sample(const std::vector<std::string>& args) {
         if (pos.empty()) throw UsageError("no input file");
         if (pos.size() < 2) throw UsageError("no pixel X,Y given");
         for (size_t i = 1; i < pos.size(); ++i) xy.push_back(parse_pixel("", pos[i]));
+        s.illuminants = distinct_lights(s.illuminants);
     } catch (const UsageError& e) {
         return usage_error("sample", e.what());
     }
-    return run_reporting(pos[0], [&] {
+    return run_reporting("sample", pos[0], [&] {
         s.data_dir = find_data_dir();
         SampleReport r = sample_pixels(pos[0], xy, s);
         if (json)

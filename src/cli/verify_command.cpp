@@ -18,6 +18,7 @@
 #include "io/spectral_exr_info.h"
 #include "pipeline/batch.h"
 #include "pipeline/json_text.h"
+#include "pipeline/light_list.h"
 #include "pipeline/verify.h"
 #include "spectral/error.h"
 #include "spectral/provenance_keys.h"
@@ -308,8 +309,11 @@ void declare_verify_options(ArgParser& p, VerifyArgs& a) {
         p, "--illuminant", "NAME[,NAME...]",
         "Also report each pixel's colour under these lights (Bradford-adapted), next to the "
         "check light's;\n"
-        "never gated. Repeatable. Names: " +
-            shipped_illuminants_list("D65") + " (any case), or a CSV wavelength,value.",
+        "never gated. Repeatable; a light given twice (a name in any case, one CSV file) counts\n"
+        "once. Names: " +
+            shipped_illuminants_list("D65") +
+            " (any case), or a CSV wavelength,value. About 100 KB of memory per light and\n"
+            "measuring thread: past 1 GiB in all (some 10,000 lights on one thread) it is refused.",
         a.s.other_lights);
     p.option("--observer", "NAME|FILE",
              "Observer: the file's, else cie1931-2; cie1964-10, or a CSV wavelength,x,y,z.",
@@ -344,11 +348,13 @@ void declare_verify_options(ArgParser& p, VerifyArgs& a) {
         "Write one JSON object per file (JSON Lines, schema_version 2) to FILE ('-' = stdout).",
         [&](const std::string& v) { a.json = stdout_as_dash(v); });
     p.flag("-q, --quiet", "Print nothing but errors and failed gates.", [&] { a.quiet = true; });
-    p.option("--jobs", "N", "Verify N files at once (default 1).",
+    p.option("--jobs", "N", "Verify N files at once (default 1, at most the number of files).",
              [&](const std::string& v) { a.jobs = parse_int("--jobs", v, 1, 256); });
     p.option(
         "--threads", "N",
-        "Threads measuring pixels per file (default: cores / jobs); decoding runs in one more.",
+        "Threads measuring pixels per file (default: cores / jobs); decoding runs in one more. "
+        "At most\none per 256 pixels of a band, and --jobs x --threads within the process's "
+        "thread budget of\n4 per core (at least 8).",
         [&](const std::string& v) { a.s.threads = parse_int("--threads", v, 0, 1024); });
 }
 
@@ -491,8 +497,17 @@ int run_verify(const std::vector<std::string>& args) {
         return 1;
     }
 
+    // Threads by what the work can use: no more jobs than files, and --jobs x --threads within
+    // the process's thread budget (each file then uses no more than its bands' blocks: verify.h).
     a.jobs = std::min<int>(a.jobs, static_cast<int>(files.size()));
     if (a.s.threads <= 0) a.s.threads = std::max(1, hardware_threads() / a.jobs);
+    a.s.threads = std::min(a.s.threads, std::max(1, thread_budget() / a.jobs));
+    a.s.other_lights = distinct_lights(a.s.other_lights);
+    try {
+        check_verify_memory(a.s.other_lights.size(), a.s.threads, a.jobs, a.s);
+    } catch (const LimitError& e) {
+        return usage_error("verify", e.what());
+    }
     // OpenEXR decodes in verify's own reading thread, overlapped with the measuring threads: its
     // thread pool would hold two decoded chunks per thread (21 MB each at 4K, 81 bins, ZIP), so
     // memory would grow with the core count.

@@ -204,13 +204,18 @@ std::vector<std::pair<std::string, std::string>> name_outputs(
 }
 
 void size_batch_threads(BatchPlan& plan, int jobs, int threads) {
-    plan.jobs = jobs;
-    plan.threads = threads > 0 ? threads : std::max(1, hardware_threads() / jobs);
+    // Threads by what the work can use: no more jobs than files, and jobs x threads within the
+    // process's thread budget (task_pool.h), whatever --jobs x --threads asks.
+    const int files = static_cast<int>(std::min<size_t>(plan.files.size(), 1u << 30));
+    plan.jobs = std::max(1, std::min(jobs, std::max(1, files)));
+    plan.threads = threads > 0 ? threads : std::max(1, hardware_threads() / plan.jobs);
+    plan.threads = std::min(plan.threads, std::max(1, thread_budget() / plan.jobs));
     // The task pool: jobs - 1 workers besides the caller, and per job a strip producer and
-    // `threads` compressions, as many threads as each of those had of its own before the pool.
+    // `threads` compressions, as many threads as each of those had of its own before the pool
+    // (reserve() stops at the budget).
     TaskPool::shared().reserve(plan.jobs * (plan.threads + 2) - 1);
     // OpenEXR's pool is global to the process: size it for all jobs together.
-    Imf::setGlobalThreadCount(plan.jobs * plan.threads);
+    Imf::setGlobalThreadCount(std::min(plan.jobs * plan.threads, thread_budget()));
     set_image_threads(plan.threads);  // applied if and when an image is decoded
 }
 

@@ -1,5 +1,6 @@
 #include "pipeline/method_cache.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <map>
@@ -37,6 +38,7 @@ std::string MethodSpec::describe() const {
 
 MethodResult make_method(const MethodSpec& spec) {
     static std::mutex mutex;
+    check_method_cost(spec, spec.fit.grid.size(), std::to_string(spec.fit.grid.size()) + " bins");
     static std::map<std::string, MethodResult> cache;
     std::string key = spec.describe() + "|" + spec.fit.data_dir;
     for (double l : spec.fit.grid.lambda) key += "|" + format_wavelength(l);
@@ -62,6 +64,30 @@ MethodResult make_method(const MethodSpec& spec) {
     r.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     cache.emplace(key, r);
     return r;
+}
+
+uint64_t method_table_samples(const MethodSpec& spec, uint64_t bins) {
+    uint64_t n = 0;
+    if (spec.method == "lattice")
+        n = static_cast<uint64_t>(std::max(0, spec.lattice_size));
+    else if (spec.method == "jakob-hanika")
+        n = static_cast<uint64_t>(std::max(0, spec.jh_resolution));
+    return n * n * n * bins;
+}
+
+void check_method_cost(const MethodSpec& spec, uint64_t bins, const std::string& what) {
+    const uint64_t samples = method_table_samples(spec, bins);
+    if (samples <= kMethodTableLimit) return;
+    const bool lattice = spec.method == "lattice";
+    const int n = lattice ? spec.lattice_size : spec.jh_resolution;
+    throw LimitError(std::string(lattice ? "--lattice-size: " : "--jh-resolution: ") +
+                     std::to_string(n) + "^3 " + (lattice ? "vertices" : "table nodes") + " x " +
+                     what + " = " + std::to_string(samples) +
+                     " spectral samples to build, over the limit of " +
+                     std::to_string(kMethodTableLimit) +
+                     " (2^27, which holds the largest table on a 1 nm grid over 360:830); use a "
+                     "smaller " +
+                     (lattice ? "--lattice-size" : "--jh-resolution") + " or fewer bins");
 }
 
 }  // namespace spectex

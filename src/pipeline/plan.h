@@ -84,6 +84,22 @@ struct PlanResult {
 // under the table and in the JSON).
 std::string grid_label(const WavelengthGrid& g);
 
+// What a plan costs, known before any of it is done: for every candidate grid, its bins x the
+// lights x the colours measured per row (the sample, or at most texture_cap for --texture), each a
+// spectrum built, half-rounded and integrated. The default table (2,945 bins over its 21 grids,
+// three lights, the 274,625-colour sample) is 2.4e9; a --texture at its 1,048,576-colour cap under
+// three lights, 9.3e9.
+uint64_t plan_cost(const PlanSpec& spec);
+// The most plan_cost() may be: 2e10, twice the largest documented use (a texture at the cap under
+// three lights) and 8 times the default table. Measured: --grids 360:830:0.01 (one grid of 47,001
+// bins, 3.9e10) still ran after 90 s at 2.77 GB; the default table takes 43 s on 2 busy cores.
+constexpr uint64_t kPlanCostLimit = 20000000000ull;
+// Throws LimitError naming the option that weighs most against its default (--grids, --lights,
+// --sample-stride or --texture), the figure and the limit, when plan_cost() is over
+// kPlanCostLimit; and, for the lattice and Jakob-Hanika, when the tables of every candidate and
+// the 1 nm reference, held together, are over kMethodTableLimit (method_cache.h).
+void check_plan_cost(const PlanSpec& spec);
+
 // Throws Error when the lights, observer or range cannot be used, or the reference method cannot be
 // built on the 1 nm range. A candidate grid the method cannot be built on is a failing row.
 PlanResult plan_grids(const PlanSpec& spec);

@@ -91,6 +91,17 @@ RenderReport render_file(const std::string& exr_path, const std::string& png_pat
         throw Error(exr_path + ": a sheet of " + std::to_string(n) + " panels is too wide");
     r.width = static_cast<int>(out_w);
     r.height = h + r.label_height;
+    // The sheet is an image too: --max-pixels bounds it as it bounds the file (its rows are
+    // written a band at a time, but a sheet of 1,000 panels of a 512^2 file is 278 megapixels
+    // that nobody asked for by that name). Refused before any pixel is read.
+    const uint64_t sheet = static_cast<uint64_t>(out_w) * static_cast<uint64_t>(r.height);
+    if (n > 1 && sheet > s.max_pixels)
+        throw LimitError("--max-pixels: a sheet of " + std::to_string(n) + " panels of " +
+                         std::to_string(w) + "x" + std::to_string(h) + " is " +
+                         std::to_string(out_w) + "x" + std::to_string(r.height) + " = " +
+                         std::to_string(sheet) + " pixels, over the limit of " +
+                         std::to_string(s.max_pixels) +
+                         " (--max-pixels); give fewer lights or a larger --max-pixels");
     r.channels = info.alpha ? 4 : 3;
     for (const auto& l : v.lights) r.labels.push_back(l.label);
     const int nch = r.channels;

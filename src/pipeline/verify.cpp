@@ -480,6 +480,16 @@ std::unique_ptr<ImageSource> open_source(const std::string& exr_path, const Spec
     return src;
 }
 
+// The ranges a band is cut into, one thread and one accumulator each: what --threads asks, but no
+// more than the band's blocks of kBlock pixels (a 16x16 file is one block: more threads would
+// only hold empty accumulators) nor thread_budget().
+int measuring_threads(const VerifySettings& s, size_t band_pixels) {
+    const size_t blocks = std::max<size_t>(1, (band_pixels + kBlock - 1) / kBlock);
+    const int asked = s.threads > 0 ? s.threads : hardware_threads();
+    return static_cast<int>(
+        std::min<size_t>(blocks, static_cast<size_t>(std::min(asked, thread_budget()))));
+}
+
 // Reads the file (and the source) a band at a time, the next band while this one is measured;
 // returns one accumulator per range of a band.
 std::vector<Stats> measure_bands(SpectralReader& reader, ImageSource* src, const Linearizer& lin,
@@ -517,7 +527,7 @@ std::vector<Stats> measure_bands(SpectralReader& reader, ImageSource* src, const
         b.clamped = counts.clamped;
     };
 
-    const int nthreads = s.threads > 0 ? s.threads : hardware_threads();
+    const int nthreads = measuring_threads(s, ctx.plane);
     std::vector<Stats> stats(static_cast<size_t>(nthreads));
     // Each band is cut into nthreads ranges, one accumulator each, so the sums do not depend on
     // which thread ran which range.
@@ -784,13 +794,35 @@ std::vector<std::string> gate_failures(const VerifyReport& r, const VerifyGates&
     return f;
 }
 
+uint64_t verify_memory_estimate(size_t lights, int threads, int jobs, const VerifySettings& s) {
+    const uint64_t per_light = sizeof(LightStats) + kHistBins * sizeof(uint64_t) +
+                               3 * kBlock * sizeof(double);  // histogram + XYZ block
+    const uint64_t per_thread = sizeof(Stats) + kHistBins * sizeof(uint64_t) + per_light * lights;
+    // Two bands of spectral samples, and the source's pixels as read and linearised (RGBA float,
+    // at most the same size again).
+    const uint64_t per_job = 4 * static_cast<uint64_t>(s.band_bytes) +
+                             per_thread * static_cast<uint64_t>(std::max(1, threads));
+    return per_job * static_cast<uint64_t>(std::max(1, jobs));
+}
+
+void check_verify_memory(size_t lights, int threads, int jobs, const VerifySettings& s) {
+    const uint64_t need = verify_memory_estimate(lights, threads, jobs, s);
+    if (need <= kVerifyMemoryLimit) return;
+    throw LimitError("--illuminant: " + std::to_string(lights) + " lights x " +
+                     std::to_string(threads) + " threads x " + std::to_string(jobs) +
+                     " jobs need about " + std::to_string(need >> 20) +
+                     " MiB (about 100 KB per light and thread), over the limit of " +
+                     std::to_string(kVerifyMemoryLimit >> 20) +
+                     " MiB (1 GiB); give fewer lights, --threads or --jobs");
+}
+
 std::vector<VerifyOutcome> verify_files(const std::vector<std::string>& files,
                                         const VerifySettings& s, const VerifyGates& g,
                                         bool source_from_header, int jobs) {
     std::vector<VerifyOutcome> outcomes(files.size());
     // Per job: the file's measuring ranges and its band producer, as many threads as they had of
     // their own before the pool.
-    const int threads = s.threads > 0 ? s.threads : hardware_threads();
+    const int threads = std::min(s.threads > 0 ? s.threads : hardware_threads(), thread_budget());
     TaskPool::shared().reserve(std::max(1, jobs) * (threads + 1) - 1);
     TaskPool::shared().parallel_for(files.size(), jobs, [&](size_t i) {
         VerifyOutcome& o = outcomes[i];

@@ -33,6 +33,19 @@ struct VerifySettings {
     int threads = 0;               // compute threads (0 = all cores)
 };
 
+// What verify keeps in memory grows with the other lights and the measuring threads: each thread
+// has, per light, a ΔE00 histogram (ErrorHistogram, 96 KB) and its XYZ block (6 KB), besides the
+// two bands (band_bytes each, and the source's pixels) of every job. The estimate, made before any
+// file is read, for `lights` other lights, `threads` per file (after thread_budget()) and `jobs`.
+uint64_t verify_memory_estimate(size_t lights, int threads, int jobs, const VerifySettings& s);
+// The most verify_memory_estimate() may be: 1 GiB. A 4K, 81-bin file with all 26 shipped lights
+// on 64 threads needs about 190 MB of it; past 1 GiB the request is thousands of lights (10,000
+// on one thread), which no scene has.
+constexpr uint64_t kVerifyMemoryLimit = uint64_t(1) << 30;
+// Throws LimitError ("--illuminant: ...", naming the figure and the limit) when the estimate
+// exceeds kVerifyMemoryLimit.
+void check_verify_memory(size_t lights, int threads, int jobs, const VerifySettings& s);
+
 // ΔE values are binned on a logarithmic scale (1000 bins per decade from 1e-8 to 1e4) so that a
 // percentile costs no per-pixel storage; its relative resolution is 0.23 %.
 class ErrorHistogram {

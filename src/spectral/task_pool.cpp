@@ -141,7 +141,7 @@ void TaskPool::parallel_for(size_t n, int threads, const std::function<void(size
 
 void TaskPool::reserve(int workers) {
     std::lock_guard<std::mutex> lock(impl_->mu);
-    impl_->grow_locked(workers);
+    impl_->grow_locked(std::min(workers, thread_budget()));
 }
 
 int TaskPool::workers() const {
@@ -178,5 +178,7 @@ double produce_consume_strips(size_t count, const std::function<void(size_t k, i
 int hardware_threads() {
     return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
 }
+
+int thread_budget() { return std::max(8, 4 * hardware_threads()); }
 
 }  // namespace spectex

@@ -47,8 +47,8 @@ class TaskPool {
     // the first exception is rethrown here. threads <= 1 runs the loop on the caller, in order.
     void parallel_for(size_t n, int threads, const std::function<void(size_t)>& f);
 
-    // Grows the pool to at least `workers` threads (never shrinks it): callers that promise a
-    // level of concurrency (--jobs, --threads) ask for it here.
+    // Grows the pool to at least `workers` threads, never past thread_budget() (never shrinks
+    // it): callers that promise a level of concurrency (--jobs, --threads) ask for it here.
     void reserve(int workers);
     int workers() const;
 
@@ -68,5 +68,13 @@ double produce_consume_strips(size_t count, const std::function<void(size_t k, i
 
 // The machine's hardware threads, at least 1: the default of every --threads.
 int hardware_threads();
+
+// The most threads spectex starts in one pool, whatever --jobs x --threads asks: 4 per hardware
+// thread, at least 8. Work that waits (the writer, decoding) gains from a few threads more than
+// cores; beyond 4 per core threads only share the same cores, and --jobs 256 --threads 1024 would
+// otherwise start more threads than the kernel allows a process. The task pool never grows past
+// it, and OpenEXR's and OpenImageIO's pools are sized within it (so a process holds at most three
+// such pools, plus its stderr reader, a progress ticker and the main thread).
+int thread_budget();
 
 }  // namespace spectex

@@ -170,7 +170,8 @@ TEST(HostileRound4, UdimExpansionTakesEveryColumn) {
     const std::vector<std::string> tiles = {"1001", "1002", "1005", "1010", "1011",
                                             "1020", "1100", "2000", "9999"};
     for (const auto& t : tiles) make_png(d, "u/wood." + t + ".png", 4, 4);
-    for (const auto& t : {"1000", "0999", "10001", "abcd"}) make_png(d, std::string("u/wood.") + t + ".png", 4, 4);
+    for (const auto& t : {"1000", "0999", "10001", "abcd"})
+        make_png(d, std::string("u/wood.") + t + ".png", 4, 4);
     RunResult r = run_spectex({"bake", d / "u/wood.<UDIM>.png", "-o", "{dir}/{stem}.exr", "-q"});
     ASSERT_EQ(r.status, 0) << r.err;
     for (const auto& t : tiles)
@@ -201,7 +202,8 @@ TEST(HostileRound4, KeepRefusesValuesHalfCannotStore) {
     // Large values half can hold are kept, finite.
     std::vector<float> big(8 * 8 * 3, 60000.0f);
     write_image(d / "big.exr", 8, 8, 3, OIIO::TypeDesc::FLOAT, big.data());
-    RunResult b = run_spectex({"bake", d / "big.exr", "-o", d / "b.exr", "--out-of-range", "keep", "-q"});
+    RunResult b =
+        run_spectex({"bake", d / "big.exr", "-o", d / "b.exr", "--out-of-range", "keep", "-q"});
     ASSERT_EQ(b.status, 0) << b.err;
     size_t n = 0;
     for (const auto& [name, plane] : read_exr(d / "b.exr").pixels)
@@ -314,7 +316,8 @@ TEST(HostileRound4, HeaderSizesAreReportedForWhatTheyAre) {
     ScratchDir d;
     auto le32 = [](int32_t v) {
         std::string s(4, '\0');
-        for (int i = 0; i < 4; ++i) s[i] = static_cast<char>((static_cast<uint32_t>(v) >> (8 * i)) & 0xff);
+        for (int i = 0; i < 4; ++i)
+            s[i] = static_cast<char>((static_cast<uint32_t>(v) >> (8 * i)) & 0xff);
         return s;
     };
     const std::string magic = le32(20000630) + le32(2);
@@ -341,10 +344,10 @@ TEST(HostileRound4, HeaderSizesAreReportedForWhatTheyAre) {
 TEST(HostileRound4, AnUnmetBudgetIsExitOneInPlanAndBake) {
     ScratchDir d;
     const std::string png = make_png(d, "in.png");
-    const std::vector<std::string> budget = {"--lights", "A", "--max-de", "0.0001", "--grids",
-                                             "380:780:20"};
-    std::vector<std::string> plan = {"plan"}, bake = {"bake", png, "-o", d / "o.exr",
-                                                      "--wavelengths", "auto"};
+    const std::vector<std::string> budget = {"--lights", "A",       "--max-de",
+                                             "0.0001",   "--grids", "380:780:20"};
+    std::vector<std::string> plan = {"plan"},
+                             bake = {"bake", png, "-o", d / "o.exr", "--wavelengths", "auto"};
     plan.insert(plan.end(), budget.begin(), budget.end());
     bake.insert(bake.end(), budget.begin(), budget.end());
     RunResult p = run_spectex(plan), b = run_spectex(bake);
@@ -357,8 +360,9 @@ TEST(HostileRound4, AListFromAPipeIsReadLikeStandardInput) {
     ScratchDir d;
     make_png(d, "a.png");
     make_png(d, "b.png");
-    RunResult r = run_shell("cd " + d.path() + " && " + binary() +
-                            " bake --from-list <(printf \"a.png\\nb.png\\n\") -o {dir}/{stem}.exr -q");
+    RunResult r =
+        run_shell("cd " + d.path() + " && " + binary() +
+                  " bake --from-list <(printf \"a.png\\nb.png\\n\") -o {dir}/{stem}.exr -q");
     EXPECT_EQ(r.status, 0) << r.out;
     EXPECT_TRUE(file_exists(d / "a.exr"));
     EXPECT_TRUE(file_exists(d / "b.exr"));

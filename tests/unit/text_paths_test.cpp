@@ -103,7 +103,8 @@ TEST(Text, QuotedPathsReadBackInBash) {
                                             "back\\slash'",
                                             "\xe2\x80\xae.png",
                                             "$HOME.png",
-                                            "\xff\xfe9",
+                                            "\xff\xfe"
+                                            "9",
                                             "t\xc3\xabxt",
                                             "a: b",
                                             ""};
