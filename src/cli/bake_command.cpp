@@ -197,7 +197,7 @@ void declare_colour_options(ArgParser& p, BakeCli& c) {
              [&](const std::string& v) { c.settings.config = v; });
     p.option("--out-of-range", "clamp|keep|error",
              "Linear values outside [0, 1]: clamp per channel (default), keep (spectra may leave "
-             "[0, 1]), or fail.",
+             "[0, 1]; in half, a value beyond 65504 fails the file), or fail.",
              [&](const std::string& v) { c.range = v; });
     p.option("--nan", "replace|error", "NaN and infinite values: replace with 0 (default) or fail.",
              [&](const std::string& v) { c.nan = v; });
@@ -293,7 +293,8 @@ void declare_spectra_options(ArgParser& p, BakeCli& c) {
 void declare_batch_options(ArgParser& p, BakeCli& c) {
     p.section("Batches");
     p.option("--from-list", "FILE",
-             "Read input paths from FILE, one per line ('-' = stdin), after those given.",
+             "Read input paths from FILE, one per line ('-' = stdin; a pipe such as <(find ...) "
+             "too), after those given.",
              [&](const std::string& v) { c.from_list = v; });
     p.option("--jobs", "N",
              "Bake N files at once (default 1, at most the number of files); with --threads, N x "
@@ -301,7 +302,7 @@ void declare_batch_options(ArgParser& p, BakeCli& c) {
              [&](const std::string& v) { c.jobs = parse_int("--jobs", v, 1, 256); });
     p.option("--shard", "K/N",
              "Bake only file i (0-based, in the byte-sorted, tile-expanded input list) with i mod "
-             "N = K-1.",
+             "N = K-1 (K, N whole numbers from 1 to 10^9).",
              [&](const std::string& v) { c.shard = v; });
     p.flag("--update",
            "Skip files whose output was made from this same source (size, modification time, "
@@ -313,7 +314,9 @@ void declare_batch_options(ArgParser& p, BakeCli& c) {
            [&] { c.fail_fast = true; });
     p.option("--json", "FILE",
              "Write one JSON record per file (JSON Lines, schema_version " +
-                 std::to_string(kJsonSchemaVersion) + "); '-' = stdout.",
+                 std::to_string(kJsonSchemaVersion) +
+                 "); '-' = stdout; a stream such as "
+                 "/dev/stderr is written through.",
              [&](const std::string& v) { c.json = stdout_as_dash(v); });
     p.flag("--progress", "Show progress on stderr even when it is not a terminal.",
            [&] { c.progress = true; });
