@@ -12,6 +12,7 @@
 #include "io/linearizer.h"
 #include "spectral/basis_fit.h"
 #include "spectral/error.h"
+#include "spectral/lattice.h"
 #include "spectral/text.h"
 
 namespace spectex {
@@ -186,6 +187,15 @@ void require_one_input(const std::vector<std::string>& files) {
     if (files.empty()) throw UsageError("no input file");
     if (files.size() > 1)
         throw UsageError("one file at a time (got " + std::to_string(files.size()) + ")");
+}
+
+std::string vertex_prior_option(const std::string& value) {
+    try {
+        return to_string(parse_vertex_prior(value));
+    } catch (const Error&) {
+        throw UsageError("--vertex-prior: '" + value +
+                         "' is not one of jakob-hanika, smooth, blend, lhtss");
+    }
 }
 
 FitObjective parse_objective_option(const std::string& value) {

@@ -56,6 +56,9 @@ uint64_t parse_count(const std::string& option, const std::string& value);
 void require_one_input(const std::vector<std::string>& files);
 // --objective of a fitted basis, parsed by the fitter's own names (spectral/basis_fit); an unknown
 // name is a UsageError.
+// --vertex-prior's value by its canonical name (spectral/lattice.h's names); throws UsageError.
+std::string vertex_prior_option(const std::string& value);
+
 FitObjective parse_objective_option(const std::string& value);
 // "A,FL11, LED-B3" -> {"A", "FL11", "LED-B3"}; an empty item is a UsageError naming the option.
 std::vector<std::string> split_list(const std::string& value, const std::string& option = "");

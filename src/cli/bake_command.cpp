@@ -241,16 +241,13 @@ void declare_spectra_options(ArgParser& p, BakeCli& c) {
                  c.lattice_size = parse_int("--lattice-size", v, 2, 65);
                  c.lattice_given = true;
              });
-    p.option("--vertex-prior", "jakob-hanika|smooth|blend",
+    p.option("--vertex-prior", "jakob-hanika|smooth|blend|lhtss",
              "What the lattice's vertex spectra are closest to while exact: jakob-hanika (default: "
-             "the sigmoid "
-             "spectrum, projected), smooth (least first differences), blend (both, smoothness "
-             "weight 100).",
+             "the sigmoid spectrum, projected), smooth (least first differences), blend (both, "
+             "smoothness weight 100), lhtss (the smoothest spectrum in tanh space, Burns 2020: "
+             "bounded by construction).",
              [&](const std::string& v) {
-                 if (v != "jakob-hanika" && v != "smooth" && v != "blend")
-                     throw UsageError("--vertex-prior: '" + v +
-                                      "' is not one of jakob-hanika, smooth, blend");
-                 c.vertex_prior = v;
+                 c.vertex_prior = vertex_prior_option(v);
                  c.lattice_given = true;
              });
     p.option("--jh-resolution", "N",

@@ -105,12 +105,9 @@ void add_method_options(ArgParser& p, PlanOptions& o) {
                  spec.method.lattice_size = parse_int("--lattice-size", v, 2, 65);
                  o.lattice_given = true;
              });
-    p.option("--vertex-prior", "jakob-hanika|smooth|blend",
+    p.option("--vertex-prior", "jakob-hanika|smooth|blend|lhtss",
              "The lattice's vertex prior (default jakob-hanika).", [&](const std::string& v) {
-                 if (v != "jakob-hanika" && v != "smooth" && v != "blend")
-                     throw UsageError("--vertex-prior: '" + v +
-                                      "' is not one of jakob-hanika, smooth, blend");
-                 spec.method.vertex_prior = v;
+                 spec.method.vertex_prior = vertex_prior_option(v);
                  o.lattice_given = true;
              });
     p.option("--objective", "smooth|norm", "Objective of the fitted basis (default smooth).",

@@ -9,6 +9,7 @@
 
 #include "spectral/error.h"
 #include "spectral/jakob_hanika.h"
+#include "spectral/lhtss.h"
 #include "spectral/text.h"
 #include "spectral/vertex_qp.h"
 
@@ -22,6 +23,8 @@ std::string to_string(VertexPrior p) {
             return "smooth";
         case VertexPrior::Blend:
             return "blend";
+        case VertexPrior::Lhtss:
+            return "lhtss";
     }
     return "?";
 }
@@ -31,7 +34,8 @@ VertexPrior parse_vertex_prior(const std::string& s) {
     if (l == "jakob-hanika" || l == "jh" || l == "jakob_hanika") return VertexPrior::JakobHanika;
     if (l == "smooth") return VertexPrior::Smooth;
     if (l == "blend") return VertexPrior::Blend;
-    throw Error("unknown vertex prior '" + s + "' (expected jakob-hanika, smooth or blend)");
+    if (l == "lhtss") return VertexPrior::Lhtss;
+    throw Error("unknown vertex prior '" + s + "' (expected jakob-hanika, smooth, blend or lhtss)");
 }
 
 namespace {
@@ -71,7 +75,8 @@ SpectralLattice SpectralLattice::build(const Colorimetry& c, int n, VertexPrior 
     const Eigen::Matrix3Xd C = c.rgb_weights();
 
     std::vector<JHCoefficients> jh;
-    if (prior != VertexPrior::Smooth) jh = fit_jakob_hanika_nodes(c, ax);
+    if (prior == VertexPrior::JakobHanika || prior == VertexPrior::Blend)
+        jh = fit_jakob_hanika_nodes(c, ax);
 
     TridiagonalHessian H;
     H.size = N;
@@ -103,6 +108,11 @@ SpectralLattice SpectralLattice::build(const Colorimetry& c, int n, VertexPrior 
                 } else {
                     if (prior == VertexPrior::Smooth) {
                         q.setConstant(-0.5 * H.alpha);
+                    } else if (prior == VertexPrior::Lhtss) {
+                        const LhtssResult lh = lhtss_spectrum(C, c.grid, v, kVertexTolerance);
+                        L.prior_unconverged += !lh.converged;
+                        L.solver_iterations += lh.iterations;
+                        q = -lh.s;
                     } else {
                         for (Eigen::Index k = 0; k < N; ++k)
                             q[k] = -jh_eval(jh[idx], c.grid.lambda[static_cast<size_t>(k)]);

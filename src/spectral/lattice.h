@@ -22,8 +22,11 @@ namespace spectex {
 //   dimensionless: differences are measured per 10 nm, so the balance does not depend on the
 //   grid step (blend = 1: a 10 nm step of size x costs as much as a deviation x from the
 //   sigmoid at one bin).
-enum class VertexPrior { JakobHanika, Smooth, Blend };
-std::string to_string(VertexPrior p);                // "jakob-hanika" | "smooth" | "blend"
+// Lhtss: the smoothest spectrum in log-hyperbolic-tangent space (spectral/lhtss.h, Burns 2020),
+//   bounded in (0, 1) by construction, then projected like the sigmoid (a no-op to rounding when
+//   its Newton solve converged, and the guarantee of exactness when it did not).
+enum class VertexPrior { JakobHanika, Smooth, Blend, Lhtss };
+std::string to_string(VertexPrior p);  // "jakob-hanika" | "smooth" | "blend" | "lhtss"
 VertexPrior parse_vertex_prior(const std::string&);  // the same names (and "jh"); throws Error
 
 class SpectralLattice {
@@ -48,6 +51,7 @@ class SpectralLattice {
     double min_value = 0, max_value = 0;
     double build_seconds = 0;
     int fallback_vertices = 0;   // vertices the fast solver left to solve_qp
+    int prior_unconverged = 0;   // lhtss: vertices whose Newton solve stopped short (projected)
     long solver_iterations = 0;  // Newton / active-set iterations over all vertices
 
     // Reference evaluation in double (inputs clamped to [0, 1], NaN to 0); out has bins() values.

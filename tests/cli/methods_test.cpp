@@ -57,6 +57,7 @@ TEST(Methods, TheHeaderAndTheSettingsHashRecordTheMethod) {
         {{"--method", "lattice"}, "lattice", "9", "jakob-hanika"},
         {{"--method", "lattice", "--lattice-size", "5"}, "lattice", "5", "jakob-hanika"},
         {{"--method", "lattice", "--vertex-prior", "smooth"}, "lattice", "9", "smooth"},
+        {{"--method", "lattice", "--vertex-prior", "LHTSS"}, "lattice", "9", "lhtss"},
         {{"--method", "jakob-hanika"}, "jakob-hanika", "", ""},
     };
     std::vector<std::string> hashes, checksums;

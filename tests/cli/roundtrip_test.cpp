@@ -320,9 +320,13 @@ TEST(RoundTrip, LatticeSamplesExactOnOtherGridsObserversAndSizes) {
     ScratchDir dir;
     write_codes_png(dir / "s.png", 256, 256, sample_colours);
     const std::vector<std::vector<std::string>> cases = {
-        {"--lattice-size", "5"},         {"--lattice-size", "17", "--vertex-prior", "smooth"},
-        {"--vertex-prior", "blend"},     {"--wavelengths", "360:830:1"},
+        {"--lattice-size", "5"},
+        {"--lattice-size", "17", "--vertex-prior", "smooth"},
+        {"--vertex-prior", "blend"},
+        {"--wavelengths", "360:830:1"},
         {"--wavelengths", "380:780:20"},
+        {"--vertex-prior", "lhtss"},
+        {"--vertex-prior", "lhtss", "--wavelengths", "380:780:20"},
     };
     auto table = ocio_decode_table();
     for (const auto& extra : cases) {
