@@ -1,0 +1,323 @@
+"""Mitsuba 3 texture plugin for spectex's spectral reflectance OpenEXR files.
+
+    import mitsuba as mi
+    mi.set_variant("llvm_ad_spectral")     # or "scalar_spectral"
+    import spectex_mitsuba
+    spectex_mitsuba.register()             # registers the texture plugin "spectex" in this variant
+    {"type": "spectex", "filename": "albedo.exr", "filter_type": "bilinear", "wrap_mode": "repeat"}
+
+The file is any reflective spectral EXR in the layout of Fichet, Pacanowski & Wilkie (JCGT 2021):
+channels ``T.<λ>nm`` (comma or point as the decimal separator), half or float, scanline, tiled or
+MIP-mapped (only level 0 is read: Mitsuba filters it like its own ``bitmap`` texture, without
+MIP-mapping). It is read with Mitsuba's own ``mi.Bitmap``.
+
+``eval`` returns the reflectance at ``si.wavelengths``: linear in wavelength between the file's
+bins (any grid, uniform or not), the end bins' values held outside the grid; bilinear or nearest
+in uv with Mitsuba's ``bitmap`` conventions (``uv = (0, 0)`` is the first pixel of the first row,
+texel centres at ``(x + 0.5) / width``; ``repeat``, ``mirror``, ``clamp``).
+
+Alpha: an ``A`` channel means premultiplied (associated) spectra, OpenEXR's convention and what
+``spectex bake`` writes by default, unless the header's ``spectex:alpha`` says ``unassociated``.
+Premultiplied files are filtered premultiplied and divided by the filtered alpha (the reflectance
+is 0 where alpha is 0), so ``eval`` always returns the straight reflectance. Alpha itself is not
+applied: give it to Mitsuba's ``mask`` BSDF as the opacity.
+
+Only the spectral variants (``scalar_spectral``, ``llvm_ad_spectral``, ``cuda_ad_spectral`` and
+their ``_polarized`` forms) are supported; an RGB or mono variant is refused. The texture holds no
+differentiable parameters.
+"""
+import math
+import re
+
+import numpy as np
+
+__all__ = ["register", "SpectexTexture", "read_spectral_exr", "SpectexError"]
+__version__ = "0.1.0"
+
+_T_CHANNEL = re.compile(r"^T\.([0-9]+(?:[.,][0-9]*)?(?:[eE][+-]?[0-9]+)?)nm$")
+_WRAP_MODES = ("repeat", "mirror", "clamp")
+_FILTERS = ("bilinear", "nearest")
+
+
+class SpectexError(ValueError):
+    """A file or setting the plugin cannot use; the message names the file."""
+
+
+def _mi():
+    import mitsuba as mi
+    return mi
+
+
+def _check_variant():
+    mi = _mi()
+    variant = mi.variant()
+    if variant is None:
+        raise SpectexError("spectex texture: no Mitsuba variant is set; call mitsuba.set_variant('scalar_spectral') "
+                           "or 'llvm_ad_spectral' first")
+    if not mi.is_spectral:
+        raise SpectexError(f"spectex texture: Mitsuba variant '{variant}' is not spectral; spectral textures need "
+                           "a spectral variant such as 'scalar_spectral' or 'llvm_ad_spectral'")
+    return mi, variant
+
+
+def read_spectral_exr(filename):
+    """Read a reflective spectral EXR with mi.Bitmap.
+
+    Returns (wavelengths [N] float64 ascending, T [H, W, N] float32, alpha [H, W] float32 or None,
+    premultiplied bool, metadata dict of str)."""
+    mi = _mi()
+    try:
+        bitmap = mi.Bitmap(str(filename))
+    except Exception as e:  # Mitsuba's message names the cause; ours names the file as given
+        first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        raise SpectexError(f"spectex texture: {filename}: cannot read: {first}") from None
+    names = [field.name for field in bitmap.struct_()]
+    if len(names) != bitmap.channel_count():
+        raise SpectexError(f"spectex texture: {filename}: unexpected channel list {names}")
+    bins = []
+    for k, name in enumerate(names):
+        m = _T_CHANNEL.match(name)
+        if m:
+            bins.append((float(m.group(1).replace(",", ".")), k, name))
+    if not bins:
+        shown = ", ".join(names[:8]) + (", ..." if len(names) > 8 else "")
+        raise SpectexError(f"spectex texture: {filename}: no reflectance channels 'T.<wavelength>nm' (the file has "
+                           f"{shown}); it is not a reflective spectral EXR (Fichet 2021 layout) such as "
+                           "'spectex bake' writes")
+    bins.sort()
+    lams = np.array([b[0] for b in bins])
+    if np.any(np.diff(lams) <= 0):
+        dup = lams[1:][np.diff(lams) <= 0][0]
+        raise SpectexError(f"spectex texture: {filename}: two channels name the wavelength {dup:g} nm")
+    pixels = np.array(bitmap, copy=False)
+    if pixels.ndim == 2:
+        pixels = pixels[:, :, None]
+    cube = np.ascontiguousarray(pixels[:, :, [b[1] for b in bins]], dtype=np.float32)
+    metadata = {}
+    md = bitmap.metadata()
+    for key in md.keys():
+        try:
+            metadata[key] = str(md[key])
+        except Exception:
+            pass
+    alpha = None
+    premultiplied = False
+    if "A" in names:
+        alpha = np.ascontiguousarray(pixels[:, :, names.index("A")], dtype=np.float32)
+        premultiplied = metadata.get("spectex:alpha", "associated").strip() != "unassociated"
+    if not np.all(np.isfinite(cube)):
+        raise SpectexError(f"spectex texture: {filename}: the reflectance channels hold NaN or Inf")
+    return lams, cube, alpha, premultiplied, metadata
+
+
+def _wrap_index(i, n, mode, dr=None, Int=None):
+    """Texel index i wrapped into [0, n) as Mitsuba's bitmap does (repeat, mirror, clamp)."""
+    if dr is None:  # Python ints
+        if mode == "clamp":
+            return min(max(i, 0), n - 1)
+        if mode == "repeat":
+            return i % n
+        m = i % (2 * n)
+        return m if m < n else 2 * n - 1 - m
+    if mode == "clamp":
+        return dr.clip(i, 0, n - 1)
+    # Python-style modulo for signed Dr.Jit integers: ((i % n) + n) % n
+    if mode == "repeat":
+        m = i % n
+        return dr.select(m < 0, m + n, m)
+    p = 2 * n
+    m = i % p
+    m = dr.select(m < 0, m + p, m)
+    return dr.select(m < n, m, p - 1 - m)
+
+
+class SpectexTexture:
+    """Placeholder replaced by the variant's class in register(); see _make_class."""
+
+
+_classes = {}
+
+
+def _make_class(mi):
+    import drjit as dr
+
+    scalar = mi.variant().startswith("scalar")
+
+    class SpectexTexture(mi.Texture):
+        """The "spectex" texture: spectral reflectance from a Fichet 2021 EXR (see the module doc)."""
+
+        def __init__(self, props):
+            mi.Texture.__init__(self, props)
+            _check_variant()
+            if "filename" not in props:
+                raise SpectexError("spectex texture: the property 'filename' is required")
+            self.filename = str(props["filename"])
+            self.filter_type = str(props["filter_type"]) if "filter_type" in props else "bilinear"
+            self.wrap_mode = str(props["wrap_mode"]) if "wrap_mode" in props else "repeat"
+            if self.filter_type not in _FILTERS:
+                raise SpectexError(f"spectex texture: {self.filename}: filter_type '{self.filter_type}' is not one "
+                                   f"of {', '.join(_FILTERS)}")
+            if self.wrap_mode not in _WRAP_MODES:
+                raise SpectexError(f"spectex texture: {self.filename}: wrap_mode '{self.wrap_mode}' is not one of "
+                                   f"{', '.join(_WRAP_MODES)}")
+            lams, cube, alpha, premultiplied, metadata = read_spectral_exr(self.filename)
+            self.wavelengths_nm = lams
+            self.metadata = metadata
+            self.height, self.width, self.bins = cube.shape
+            self.premultiplied = alpha is not None and premultiplied
+            # Straight spectra for the statistics (mean, max); premultiplied ones stay for filtering.
+            straight = cube
+            if self.premultiplied:
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    straight = np.where(alpha[:, :, None] > 0, cube / alpha[:, :, None], 0.0)
+            # mean(): the mean over texels of the mean over Mitsuba's wavelength range (ends held).
+            lo, hi = float(mi.MI_CIE_MIN), float(mi.MI_CIE_MAX)
+            fine = np.linspace(lo, hi, int(round(hi - lo)) + 1)
+            avg_spec = straight.reshape(-1, self.bins).mean(axis=0)
+            self._mean = float(np.interp(fine, lams, avg_spec).mean())
+            self._max = float(straight.max())
+            self._cube_np = cube
+            self._alpha_np = alpha if self.premultiplied else None
+            self._uniform = self.bins > 1 and np.allclose(np.diff(lams), lams[1] - lams[0], rtol=1e-6, atol=1e-9)
+            if not scalar:
+                self._data = mi.Float(cube.reshape(-1))
+                self._grid = mi.Float(lams.astype(np.float32))
+                self._alpha = mi.Float(alpha.reshape(-1)) if self._alpha_np is not None else None
+
+        # -- sampling positions ------------------------------------------------------------------
+        def _corners_scalar(self, u, v):
+            w, h, mode = self.width, self.height, self.wrap_mode
+            if self.filter_type == "nearest":
+                x, y = math.floor(u * w), math.floor(v * h)
+                return [(_wrap_index(x, w, mode), _wrap_index(y, h, mode), 1.0)]
+            x, y = u * w - 0.5, v * h - 0.5
+            x0, y0 = math.floor(x), math.floor(y)
+            fx, fy = x - x0, y - y0
+            out = []
+            for dy, wy in ((0, 1 - fy), (1, fy)):
+                for dx, wx in ((0, 1 - fx), (1, fx)):
+                    out.append((_wrap_index(x0 + dx, w, mode), _wrap_index(y0 + dy, h, mode), wx * wy))
+            return out
+
+        def _corners_jit(self, uv):
+            Int = mi.Int32
+            w, h, mode = self.width, self.height, self.wrap_mode
+            if self.filter_type == "nearest":
+                x = Int(dr.floor(uv.x * w))
+                y = Int(dr.floor(uv.y * h))
+                xi = _wrap_index(x, w, mode, dr, Int)
+                yi = _wrap_index(y, h, mode, dr, Int)
+                return [(mi.UInt32(yi * w + xi), mi.Float(1.0))]
+            x = uv.x * w - 0.5
+            y = uv.y * h - 0.5
+            x0f, y0f = dr.floor(x), dr.floor(y)
+            fx, fy = x - x0f, y - y0f
+            x0, y0 = Int(x0f), Int(y0f)
+            xs = [_wrap_index(x0, w, mode, dr, Int), _wrap_index(x0 + 1, w, mode, dr, Int)]
+            ys = [_wrap_index(y0, h, mode, dr, Int), _wrap_index(y0 + 1, h, mode, dr, Int)]
+            out = []
+            for dy, wy in ((0, 1 - fy), (1, fy)):
+                for dx, wx in ((0, 1 - fx), (1, fx)):
+                    out.append((mi.UInt32(ys[dy] * w + xs[dx]), wx * wy))
+            return out
+
+        # -- wavelength lookup -------------------------------------------------------------------
+        def _bin_jit(self, lam):
+            """Lower bin index i (so that i + 1 is valid) and the weight t of bin i + 1."""
+            n = self.bins
+            if n == 1:
+                return mi.UInt32(0), mi.Float(0.0), 0
+            lams = self.wavelengths_nm
+            if self._uniform:
+                step = float(lams[1] - lams[0])
+                pos = (lam - float(lams[0])) / step
+                i = mi.UInt32(dr.clip(dr.floor(pos), 0, n - 2))
+                t = dr.clip(pos - mi.Float(i), 0.0, 1.0)
+                return i, t, 1
+            # Non-uniform grid: i = the last bin whose wavelength is <= lam, found by bisection.
+            i = dr.binary_search(0, n - 1, lambda k: dr.gather(mi.Float, self._grid, k) <= lam)
+            i = dr.clip(mi.UInt32(i), 1, n - 1) - 1
+            l0 = dr.gather(mi.Float, self._grid, i)
+            l1 = dr.gather(mi.Float, self._grid, i + 1)
+            t = dr.clip((lam - l0) / (l1 - l0), 0.0, 1.0)
+            return i, t, 1
+
+        # -- Texture interface -------------------------------------------------------------------
+        def eval(self, si, active=True):
+            if scalar:
+                return self._eval_scalar(si)
+            corners = self._corners_jit(si.uv)
+            n = self.bins
+            values = []
+            for j in range(len(si.wavelengths)):
+                i, t, step = self._bin_jit(si.wavelengths[j])
+                acc = mi.Float(0.0)
+                for texel, wgt in corners:
+                    base = texel * n + i
+                    a = dr.gather(mi.Float, self._data, base, active)
+                    b = dr.gather(mi.Float, self._data, base + step, active)
+                    acc += wgt * dr.lerp(a, b, t)
+                values.append(acc)
+            spec = mi.UnpolarizedSpectrum(*values)
+            if self._alpha is not None:
+                alpha = mi.Float(0.0)
+                for texel, wgt in corners:
+                    alpha += wgt * dr.gather(mi.Float, self._alpha, texel, active)
+                spec = dr.select(alpha > 0, spec / dr.select(alpha > 0, alpha, 1.0), 0.0)
+            return spec
+
+        def _eval_scalar(self, si):
+            spec = np.zeros(self.bins)
+            alpha = 0.0
+            for x, y, wgt in self._corners_scalar(float(si.uv[0]), float(si.uv[1])):
+                spec += wgt * self._cube_np[y, x]
+                if self._alpha_np is not None:
+                    alpha += wgt * float(self._alpha_np[y, x])
+            lams = [float(si.wavelengths[j]) for j in range(len(si.wavelengths))]
+            out = np.interp(lams, self.wavelengths_nm, spec) if self.bins > 1 else np.full(len(lams), spec[0])
+            if self._alpha_np is not None:
+                out = out / alpha if alpha > 0 else np.zeros_like(out)
+            return mi.UnpolarizedSpectrum(*[float(o) for o in out])
+
+        def eval_1(self, si, active=True):
+            # A scalar view of the reflectance: its mean over the sampled wavelengths.
+            return dr.mean(self.eval(si, active)) if not scalar else float(np.mean(np.array(self.eval(si, active))))
+
+        def mean(self):
+            return self._mean
+
+        def max(self):
+            return self._max
+
+        def is_spatially_varying(self):
+            return True
+
+        def resolution(self):
+            return mi.ScalarVector2i(self.width, self.height)
+
+        def spectral_resolution(self):
+            return float(np.min(np.diff(self.wavelengths_nm))) if self.bins > 1 else 0.0
+
+        def to_string(self):
+            return (f"SpectexTexture[filename='{self.filename}', {self.width}x{self.height}, {self.bins} bins "
+                    f"{self.wavelengths_nm[0]:g}-{self.wavelengths_nm[-1]:g} nm, filter_type={self.filter_type}, "
+                    f"wrap_mode={self.wrap_mode}, alpha={'premultiplied' if self.premultiplied else 'none/straight'}]")
+
+        def __repr__(self):
+            return self.to_string()
+
+    return SpectexTexture
+
+
+def register(name="spectex"):
+    """Register the texture plugin `name` ("spectex") in the current Mitsuba variant.
+
+    Raises SpectexError with one line in a variant that is not spectral."""
+    global SpectexTexture
+    mi, variant = _check_variant()
+    cls = _classes.get(variant)
+    if cls is None:
+        cls = _classes[variant] = _make_class(mi)
+    SpectexTexture = cls
+    mi.register_texture(name, lambda props: cls(props))
+    return cls
