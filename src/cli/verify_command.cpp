@@ -401,9 +401,15 @@ std::string report_clash(const VerifyArgs& a, const std::vector<std::string>& fi
     for (const auto& f : files) {
         reads.add(f, "a file to verify");
         try {
-            for (const auto& [k, v] : read_spectral_exr_info(f).attributes) {
-                if (k == provenance_key::kSource && a.source_from_header)
-                    reads.add(v, "the source " + f + " records");
+            const auto attributes = read_spectral_exr_info(f).attributes;
+            if (a.source_from_header) {
+                try {
+                    reads.add(recorded_source(f, attributes), "the source " + f + " records");
+                } catch (const Error&) {
+                    // No source found: reported when the file is verified.
+                }
+            }
+            for (const auto& [k, v] : attributes) {
                 if (k == provenance_key::kConfig && a.s.config.empty()) configs.push_back(v);
                 if (k == provenance_key::kObserver || k == provenance_key::kIlluminant)
                     reads.add(v, "a table " + f + " records");

@@ -140,12 +140,19 @@ void record_colour(const SourceInfo& info, const Linearizer& lin, BakeResult& re
 
 // The spectex:* header attributes, in the order that is part of the output's bytes.
 std::vector<std::pair<std::string, std::string>> header_attributes(
-    const BakeSettings& s, const std::string& input, const Linearizer& lin, bool has_alpha,
-    const SpectralMethod& method, const SourceIdentity& identity) {
+    const BakeSettings& s, const std::string& input, const std::string& output,
+    const Linearizer& lin, bool has_alpha, const SpectralMethod& method,
+    const SourceIdentity& identity) {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    const fs::path source = fs::absolute(input, ec).lexically_normal();
+    const fs::path out_dir = fs::absolute(output, ec).lexically_normal().parent_path();
     std::vector<std::pair<std::string, std::string>> a = {
         {provenance_key::kVersion, SPECTEX_VERSION},
         {provenance_key::kCommandLine, s.command_line},
         {provenance_key::kSource, input},
+        {provenance_key::kSourceAbsolute, source.string()},
+        {provenance_key::kSourceFromOutput, source.lexically_relative(out_dir).string()},
         {provenance_key::kWavelengths, s.grid.describe()},
         {provenance_key::kWavelengthList, join_lambda(s.grid.lambda)},
         {provenance_key::kObserver, s.observer},
@@ -460,9 +467,10 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     if (!info.is_float) lin.use_code_table(info.bits);
     record_colour(info, lin, res);
 
-    const SpectralExrLayout layout = output_layout(
-        s, info,
-        header_attributes(s, input, lin, info.alpha != AlphaKind::None, method, src->identity()));
+    const SpectralExrLayout layout =
+        output_layout(s, info,
+                      header_attributes(s, input, output, lin, info.alpha != AlphaKind::None,
+                                        method, src->identity()));
     AtomicFile out(output);
     SpectralExrWriter writer(out, layout);
     PixelStages(input, s, method, *src, lin, writer, layout, res, progress).run();

@@ -4,6 +4,7 @@
 #include <cfloat>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <memory>
 
@@ -816,6 +817,31 @@ void check_verify_memory(size_t lights, int threads, int jobs, const VerifySetti
                      " MiB (1 GiB); give fewer lights, --threads or --jobs");
 }
 
+std::string recorded_source(const std::string& exr,
+                            const std::vector<std::pair<std::string, std::string>>& attributes) {
+    namespace fs = std::filesystem;
+    std::string given, absolute, from_output;
+    for (const auto& [k, v] : attributes) {
+        if (k == provenance_key::kSource) given = v;
+        if (k == provenance_key::kSourceAbsolute) absolute = v;
+        if (k == provenance_key::kSourceFromOutput) from_output = v;
+    }
+    if (given.empty() && absolute.empty() && from_output.empty())
+        throw Error(exr + ": the header records no " + provenance_key::kSource);
+    std::vector<std::string> tried;
+    if (!from_output.empty())
+        tried.push_back((fs::path(exr).parent_path() / from_output).lexically_normal().string());
+    if (!absolute.empty()) tried.push_back(absolute);
+    if (!given.empty()) tried.push_back(given);
+    for (const auto& p : tried) {
+        std::error_code ec;
+        if (fs::exists(p, ec)) return p;
+    }
+    std::string list;
+    for (const auto& p : tried) list += (list.empty() ? "" : ", ") + quote_path(p);
+    throw Error(exr + ": the source it records is not found (tried " + list + ")");
+}
+
 std::vector<VerifyOutcome> verify_files(const std::vector<std::string>& files,
                                         const VerifySettings& s, const VerifyGates& g,
                                         bool source_from_header, int jobs) {
@@ -828,13 +854,8 @@ std::vector<VerifyOutcome> verify_files(const std::vector<std::string>& files,
         VerifyOutcome& o = outcomes[i];
         VerifySettings fs = s;
         try {
-            if (source_from_header) {
-                fs.source.clear();
-                for (const auto& [k, v] : read_spectral_exr_info(files[i]).attributes)
-                    if (k == provenance_key::kSource) fs.source = v;
-                if (fs.source.empty())
-                    throw Error(files[i] + ": the header records no " + provenance_key::kSource);
-            }
+            if (source_from_header)
+                fs.source = recorded_source(files[i], read_spectral_exr_info(files[i]).attributes);
             o.report = verify_file(files[i], fs);
             o.failures = gate_failures(o.report, g);
             o.readable = true;

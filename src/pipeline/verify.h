@@ -165,6 +165,14 @@ struct VerifyOutcome {
 // Verifies `files`, `jobs` at once, each against s.source or, with source_from_header, the source
 // its header records; the outcomes are in the files' order. Never throws for a file: its error is
 // in its outcome.
+// The source that the header of `exr` records (`attributes`: its attributes as read), found from
+// wherever the command runs: relative to the EXR's folder (spectex:sourceFromOutput: the source
+// and output trees moved together), then absolute (spectex:sourceAbsolute), then as given at bake
+// time (spectex:source, relative to this working folder): the first that exists. Throws Error
+// naming the EXR and every place tried when none does, or when the header records no source.
+std::string recorded_source(const std::string& exr,
+                            const std::vector<std::pair<std::string, std::string>>& attributes);
+
 std::vector<VerifyOutcome> verify_files(const std::vector<std::string>& files,
                                         const VerifySettings& s, const VerifyGates& g,
                                         bool source_from_header, int jobs);

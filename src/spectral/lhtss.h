@@ -16,11 +16,11 @@
 namespace spectex {
 
 struct LhtssResult {
-    Eigen::VectorXd s;          // the reflectance, in (0, 1)
-    Eigen::VectorXd z;          // its tanh-space coordinates: s = (tanh(z) + 1) / 2
-    bool converged = false;     // colour residual <= tolerance and stationarity reached
-    int iterations = 0;         // Newton steps
-    double colour_residual = 0; // max |C s - v|
+    Eigen::VectorXd s;           // the reflectance, in (0, 1)
+    Eigen::VectorXd z;           // its tanh-space coordinates: s = (tanh(z) + 1) / 2
+    bool converged = false;      // colour residual <= tolerance and stationarity reached
+    int iterations = 0;          // Newton steps
+    double colour_residual = 0;  // max |C s - v|
 };
 
 // v must lie strictly inside the object-colour solid of C (black and white do not: their only

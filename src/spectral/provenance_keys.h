@@ -11,7 +11,11 @@ constexpr const char* kPrefix = "spectex:";  // every key below starts with it
 // The bake: tool, command, input and output grid.
 constexpr const char* kVersion = "spectex:version";
 constexpr const char* kCommandLine = "spectex:commandLine";
-constexpr const char* kSource = "spectex:source";
+constexpr const char* kSource = "spectex:source";  // as given on the command line
+// The same file found from anywhere: absolute and normalised, and relative to the output's folder
+// (which survives moving the source and output trees together to another machine or mount).
+constexpr const char* kSourceAbsolute = "spectex:sourceAbsolute";
+constexpr const char* kSourceFromOutput = "spectex:sourceFromOutput";
 constexpr const char* kWavelengths = "spectex:wavelengths";
 constexpr const char* kWavelengthList = "spectex:wavelengthList";
 constexpr const char* kObserver = "spectex:observer";
@@ -57,6 +61,8 @@ constexpr const char* kAll[] = {
     kVersion,
     kCommandLine,
     kSource,
+    kSourceAbsolute,
+    kSourceFromOutput,
     kWavelengths,
     kWavelengthList,
     kObserver,

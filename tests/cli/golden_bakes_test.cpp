@@ -39,8 +39,10 @@ namespace {
 // the settings (pipeline/batch.cpp), so a checkout elsewhere gives another; the settings themselves
 // are in the attributes that are hashed.
 const std::set<std::string> kLocal = {
-    "spectex:source",     "spectex:commandLine", "spectex:config",     "spectex:version",
-    "spectex:sourceSize", "spectex:sourceMtime", "spectex:sourceHash", "spectex:settingsHash",
+    "spectex:source",       "spectex:commandLine",    "spectex:config",
+    "spectex:version",      "spectex:sourceAbsolute", "spectex:sourceFromOutput",
+    "spectex:sourceSize",   "spectex:sourceMtime",    "spectex:sourceHash",
+    "spectex:settingsHash",
 };
 
 uint64_t fnv1a(uint64_t h, const char* p, size_t n) {

@@ -278,8 +278,9 @@ TEST(HostileRound4, EveryPerFileMessageNamesItsFile) {
         run_spectex({"verify", d / "h1.exr", d / "h2.exr", "--source-from-header", "--jobs", "2"});
     EXPECT_EQ(r.status, 1) << r.err;
     for (const std::string exr : {d / "h1.exr", d / "h2.exr"})
-        EXPECT_TRUE(has(r.err, "(verifying " + exr + ")\n")) << "no line names " << exr << ":\n"
-                                                             << r.err;
+        EXPECT_TRUE(has(r.err, "spectex: " + exr + ": ") || has(r.err, "(verifying " + exr + ")\n"))
+            << "no line names " << exr << ":\n"
+            << r.err;
 }
 
 // Item: a pixel coordinate was limited to +-1e9, below what a data window may hold.
@@ -386,4 +387,39 @@ TEST(HostileRound4, TheCommandWasCanBePastedBackIntoAShell) {
     std::fwrite(script.data(), 1, script.size(), p);
     ::pclose(p);
     EXPECT_EQ(read_file(d / "word"), missing) << line;
+}
+
+// A file baked with a relative source path is verified from another working folder, and after the
+// source and output trees moved together (to another mount or machine).
+TEST(FilesThatTravel, TheRecordedSourceIsFoundFromAnywhere) {
+    ScratchDir d;
+    ASSERT_EQ(::mkdir((d / "proj").c_str(), 0755), 0);
+    ASSERT_EQ(::mkdir((d / "proj/img").c_str(), 0755), 0);
+    ASSERT_EQ(::mkdir((d / "proj/t6").c_str(), 0755), 0);
+    make_png(d, "proj/img/albedo.png");
+    // Bake from inside proj/t6 with a relative source, as a studio's script did.
+    RunResult b = run_shell("cd " + d.path() + "/proj/t6 && " + binary() +
+                            " bake ../img/albedo.png -o albedo.exr -q");
+    ASSERT_EQ(b.status, 0) << b.out;
+    const ExrImage img = read_exr(d / "proj/t6/albedo.exr");
+    EXPECT_EQ(img.attr("spectex:source"), "../img/albedo.png");
+    EXPECT_EQ(img.attr("spectex:sourceAbsolute"), d.path() + "/proj/img/albedo.png");
+    EXPECT_EQ(img.attr("spectex:sourceFromOutput"), "../img/albedo.png");
+    // From another working folder.
+    RunResult v = run_shell("cd / && " + binary() + " verify " + d.path() +
+                            "/proj/t6/albedo.exr --source-from-header -q");
+    EXPECT_EQ(v.status, 0) << v.out;
+    // The whole tree moved: the absolute path is gone, the relative one holds.
+    ASSERT_EQ(::rename((d / "proj").c_str(), (d / "moved").c_str()), 0);
+    RunResult m = run_shell("cd / && " + binary() + " verify " + d.path() +
+                            "/moved/t6/albedo.exr --source-from-header -q");
+    EXPECT_EQ(m.status, 0) << m.out;
+    // Nowhere to be found: the EXR is named, with every place tried.
+    ASSERT_EQ(::unlink((d / "moved/img/albedo.png").c_str()), 0);
+    RunResult g = run_spectex({"verify", d / "moved/t6/albedo.exr", "--source-from-header"});
+    EXPECT_EQ(g.status, 1) << g.err;
+    EXPECT_TRUE(has(g.err, "spectex: " + d.path() +
+                               "/moved/t6/albedo.exr: the source it records "
+                               "is not found (tried "))
+        << g.err;
 }
