@@ -511,6 +511,21 @@ void check_outputs_against_reads(const BakeCli& c, const BatchPlan& plan) {
     reads.add(c.wavelengths_file, "--wavelengths-file");
     if (c.wavelengths == "auto")
         for (const auto& l : c.plan.lights) reads.add(l, "--lights");
+    // Every collision, before any work: a batch that found them as it went had already baked the
+    // first of each pair (and exited 1 after a long run).
+    {
+        const std::vector<std::string> clashes = output_clashes(plan.files);
+        std::string list;
+        size_t n = 0;
+        for (const auto& c : clashes)
+            if (!c.empty() && n++ < 5) list += (list.empty() ? "" : "; ") + c;
+        if (n)
+            throw UsageError(
+                std::to_string(n) + " input" + (n == 1 ? "" : "s") +
+                " would write an output another input writes: " + list + (n > 5 ? "; ..." : "") +
+                ". Name the outputs apart: {ext} tells a.png from a.tif, and --base-dir DIR with "
+                "{reldir} (or --output-dir) keeps each input's folder");
+    }
     std::vector<OutputTarget> targets;
     for (const auto& [in, out] : plan.files) {
         if (std::string clash = reads.clash(out, "the output of " + in); !clash.empty())

@@ -20,11 +20,6 @@
 
 namespace spectex {
 
-namespace {
-
-// Two inputs must never race for one output inside a batch: outputs are compared by where they
-// land (folders resolved, links followed), not by how they are spelt. Per file: "" or why it is
-// not baked.
 std::vector<std::string> output_clashes(
     const std::vector<std::pair<std::string, std::string>>& files) {
     const size_t total = files.size();
@@ -43,10 +38,12 @@ std::vector<std::string> output_clashes(
         if (first != i)
             clash[i] = files[i].first + ": its output " + files[i].second +
                        " is also the output of " + files[first].first + " (as " +
-                       files[first].second + "); not baked twice";
+                       files[first].second + ")";
     }
     return clash;
 }
+
+namespace {
 
 // A log's progress cadence: SPECTEX_PROGRESS_SECONDS (default 10); a terminal's, 250 ms.
 std::chrono::milliseconds progress_period(bool terminal) {
@@ -98,7 +95,7 @@ struct BatchRun {
 
     // File i: skipped when up to date, else its folders made and baked in `slot`.
     void bake_one(size_t i, JobSlot& slot, FileRecord& r) {
-        if (!clash[i].empty()) throw Error(clash[i]);
+        if (!clash[i].empty()) throw Error(clash[i] + "; not baked twice");
         UpdateCheck check;
         if (plan.update)
             check = i < plan.prechecked.size()

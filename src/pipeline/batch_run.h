@@ -46,6 +46,13 @@ std::vector<std::pair<std::string, std::string>> name_outputs(
 
 // `jobs` files at once with `threads` threads each (0: the cores shared among the jobs). Sizes
 // OpenEXR's global pool for all jobs together and the image decoders' threads.
+// Two inputs must never race for one output: outputs compared by where they land (folders
+// resolved, links followed), not by how they are spelt. Per file: "" or why it is not baked
+// ("<input>: its output ... is also the output of ..."). bake checks the whole list before any
+// work; the batch checks again as it goes.
+std::vector<std::string> output_clashes(
+    const std::vector<std::pair<std::string, std::string>>& files);
+
 void size_batch_threads(BatchPlan& plan, int jobs, int threads);
 
 // What one job is baking, for a progress line.

@@ -143,22 +143,30 @@ TEST(OutputIdentity, TwoInputsNeverBakeIntoOneOutput) {
         {d / "dir/a.png", d / "alias/a.tif"},
         {d / "dir/a.png", d.path() + "/./dir/a.tif"},
     };
+    // Found before any work (a usage error, exit 2, nothing baked), with the way out.
     for (const auto& p : pairs) {
         ::unlink((d / "dir/a.exr").c_str());
         RunResult r = run_spectex({"bake", "-q", p[0], p[1], "-o", "{dir}/{stem}.exr"});
-        EXPECT_EQ(r.status, 1) << p[1] << ": " << r.err;
-        EXPECT_TRUE(contains(r.err, "not baked twice")) << r.err;
-        EXPECT_TRUE(file_exists(d / "dir/a.exr"));
+        EXPECT_EQ(r.status, 2) << p[1] << ": " << r.err;
+        EXPECT_TRUE(contains(r.err, "would write an output another input writes")) << r.err;
+        EXPECT_TRUE(contains(r.err, "--base-dir")) << r.err;
+        EXPECT_FALSE(file_exists(d / "dir/a.exr")) << "work started before the check";
         EXPECT_TRUE(temp_files_in(d / "dir").empty());
     }
     // An existing hard link between two outputs is one file too.
     write_png(d / "dir/b.png", 10);
     ASSERT_EQ(run_spectex({"bake", d / "dir/a.png", "-o", d / "dir/a.exr"}).status, 0);
     ASSERT_EQ(::link((d / "dir/a.exr").c_str(), (d / "dir/b.exr").c_str()), 0);
+    struct stat before;
+    ASSERT_EQ(::stat((d / "dir/a.exr").c_str(), &before), 0);
     RunResult r =
         run_spectex({"bake", "-q", d / "dir/a.png", d / "dir/b.png", "-o", "{dir}/{stem}.exr"});
-    EXPECT_EQ(r.status, 1) << r.err;
-    EXPECT_TRUE(contains(r.err, "not baked twice")) << r.err;
+    EXPECT_EQ(r.status, 2) << r.err;
+    EXPECT_TRUE(contains(r.err, "would write an output another input writes")) << r.err;
+    struct stat after;
+    ASSERT_EQ(::stat((d / "dir/a.exr").c_str(), &after), 0);
+    EXPECT_EQ(after.st_mtim.tv_nsec, before.st_mtim.tv_nsec) << "an output was rewritten";
+    EXPECT_EQ(after.st_mtim.tv_sec, before.st_mtim.tv_sec);
 }
 
 TEST(OutputIdentity, ATemplateNeverClimbsOutOfItsFolder) {
