@@ -6,9 +6,10 @@
 
 The 24 ColorChecker spectra of N. Ohta (colour-science's table) become 8-bit sRGB codes under D65
 (colour-science's sRGB, clipped: one patch lies outside sRGB), laid out 6 x 4 in a 192 x 96 PNG and
-baked with `--method basis` and `--method lattice` (float). The measured spectra are written as a
-Fichet EXR of the same layout ("truth"). All three are rendered with python/spectex_mitsuba exactly
-as tests/python/test_mitsuba.py renders (llvm_ad_spectral, uniform light, orthographic camera,
+baked with `--method basis` and `--method lattice` (float), and given as is to Mitsuba's own RGB
+`bitmap` texture (Mitsuba's upsampling, for comparison). The measured spectra are written as a
+Fichet EXR of the same layout ("truth"). All are rendered exactly as tests/python/test_mitsuba.py
+renders (the EXRs through python/spectex_mitsuba) (llvm_ad_spectral, uniform light, orthographic camera,
 direct integrator, XYZ film, here 256 spp) under D65, A and FL11; patch means -> L*a*b* relative to
 the light's white as rendered -> CIEDE2000 of each bake against the truth. A reported figure, never
 a gate (README, "Rendering with Mitsuba 3").
@@ -50,13 +51,15 @@ for light in ('D65','A','FL11'):
     il = T.illuminant(light)
     white = T.reference_xyz(lams, np.ones(81), il)[0]
     res = {}
-    for f in ('truth','basis','lattice'):
-        img = T.render(f'{D}/{f}.exr', il, width=W, spp=256)  # film 192x96: patches 32x24 px
+    for f in ('truth','basis','lattice','mitsuba_rgb'):
+        # mitsuba_rgb: Mitsuba's own `bitmap` texture of the PNG, which upsamples RGB its own way
+        tex = {'type': 'bitmap', 'filename': f'{D}/ohta.png'} if f == 'mitsuba_rgb' else None
+        img = T.render(f'{D}/{f}.exr', il, width=W, spp=256, texture=tex)  # film 192x96: patches 32x24 px
         out=[]
         for k in range(24):
             r,c=divmod(k,6)
             out.append(img[r*24+3:(r+1)*24-3, c*32+3:(c+1)*32-3].reshape(-1,3).mean(0))
         res[f] = colour.XYZ_to_Lab(np.array(out)/white[1], colour.XYZ_to_xy(white))
-    for f in ('basis','lattice'):
+    for f in ('basis','lattice','mitsuba_rgb'):
         de = colour.delta_E(res['truth'], res[f], method='CIE 2000')
-        print(f'{light:5s} {f:8s} dE00 mean {de.mean():.2f} max {de.max():.2f}')
+        print(f'{light:5s} {f:11s} dE00 mean {de.mean():.2f} max {de.max():.2f}')

@@ -217,7 +217,8 @@ def reference_xyz(lams_file, spectra, light):
     return (rho * e) @ CMF / CMF[:, 1].sum()
 
 
-def render(exr, light, width=256, spp=64):
+def render(exr, light, width=256, spp=64, texture=None):
+    """`texture`: another reflectance texture (a dict) instead of the spectex one of `exr`."""
     use(JIT)
     wl, val = light
     scene = mi.load_dict({
@@ -234,7 +235,8 @@ def render(exr, light, width=256, spp=64):
                                                    "wavelengths": ",".join(f"{w:g}" for w in wl),
                                                    "values": ",".join(f"{v:.9g}" for v in val)}},
         "plane": {"type": "rectangle", "to_world": mi.ScalarTransform4f().scale([1, 0.5, 1]),
-                  "bsdf": {"type": "diffuse", "reflectance": {"type": "spectex", "filename": exr}}},
+                  "bsdf": {"type": "diffuse",
+                           "reflectance": texture or {"type": "spectex", "filename": exr}}},
     })
     img = np.array(mi.render(scene, seed=1), dtype=np.float64)
     return img[::-1]  # Mitsuba's rectangle has v upwards; row 0 is now the texture's first row
