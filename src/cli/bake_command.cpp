@@ -327,7 +327,10 @@ void declare_batch_options(ArgParser& p, BakeCli& c) {
     p.option("--max-pixels", "N",
              "Refuse inputs with more pixels than this (default 268435456 = 16384^2).",
              [&](const std::string& v) { c.settings.max_pixels = parse_count("--max-pixels", v); });
-    p.flag("-q, --quiet", "Print errors only.", [&] { c.quiet = true; });
+    p.flag("-q, --quiet",
+           "Print errors and warnings about the data only (clamped or replaced pixels, a level "
+           "or subimage left out, a colour space chosen by a config's default rule).",
+           [&] { c.quiet = true; });
     p.flag("-v, --verbose", "Print what was done for each file.", [&] { c.verbose = true; });
 }
 

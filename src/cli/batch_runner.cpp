@@ -133,8 +133,8 @@ class BatchReport : public BatchListener {
         if (plan_.progress && plan_.progress_terminal) std::cerr << "\r\033[K";
         if (r.status == BatchStatus::Failed)
             print_error(name_file(r.input, r.error, "baking"));
-        else if (!plan_.quiet)
-            print_file_notes(r);
+        else if (r.status == BatchStatus::Ok)
+            print_file_notes(r);  // warnings about the data: --quiet does not silence them
         if (plan_.verbose && r.status == BatchStatus::Ok) print_baked(r);
         if (plan_.verbose && r.status == BatchStatus::Skipped)
             std::cerr << "spectex: " << one_line(quote_path(r.output) + ": " + r.reason) << "\n";
@@ -162,8 +162,8 @@ class BatchReport : public BatchListener {
             std::cerr << " of " << n.total << " in " << seconds_text(el) << "\n";
             print_colour_spaces(plan_, outcome.baked, outcome.was_baked);
         }
-        if (!plan_.quiet)
-            warn_default_rule_to_linear(plan_, settings, outcome.baked, outcome.was_baked);
+        // A warning about the data: printed under --quiet too.
+        warn_default_rule_to_linear(plan_, settings, outcome.baked, outcome.was_baked);
         if (json_file_ && json_error_.empty()) {
             try {
                 json_file_->commit();
@@ -199,17 +199,12 @@ class BatchReport : public BatchListener {
         }
     }
 
-    // Notes, clamped and replaced pixels of a file that did not fail.
+    // What the data of a baked file went through (file_warnings, less the default-rule warning,
+    // which the batch gives once for all its files).
     static void print_file_notes(const FileRecord& r) {
         const std::string named = one_line(quote_path(r.input));
-        for (const auto& n : r.result.notes)
-            std::cerr << "spectex: " << named << ": note: " << one_line(n) << "\n";
-        if (r.result.clamped_pixels)
-            std::cerr << "spectex: " << named << ": " << r.result.clamped_pixels
-                      << " pixels had linear values outside [0, 1] and were clamped\n";
-        if (r.result.replaced_pixels)
-            std::cerr << "spectex: " << named << ": " << r.result.replaced_pixels
-                      << " pixels had NaN/Inf values replaced with 0\n";
+        for (const auto& w : file_warnings(r.result, false))
+            std::cerr << "spectex: " << named << ": " << one_line(w) << "\n";
     }
 
     // --verbose: what a baked file became, and where its time went.

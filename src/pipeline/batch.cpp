@@ -428,6 +428,23 @@ const char* to_string(BatchStatus s) {
     return "failed";
 }
 
+std::vector<std::string> file_warnings(const BakeResult& r, bool default_rule) {
+    std::vector<std::string> w = r.notes;
+    if (r.clamped_pixels)
+        w.push_back(std::to_string(r.clamped_pixels) +
+                    " pixels had linear values outside [0, 1] and were clamped");
+    if (r.replaced_pixels)
+        w.push_back(std::to_string(r.replaced_pixels) +
+                    " pixels had NaN/Inf values replaced with 0");
+    if (default_rule && r.integer_to_linear_by_default_rule)
+        w.push_back("an integer (display-referred) file read as '" + r.colorspace +
+                    "', a scene-linear space, only because the OCIO config's default file rule '" +
+                    r.colorspace_rule +
+                    "' names it; if it is an sRGB texture, bake it with "
+                    "--colorspace");
+    return w;
+}
+
 std::string json_record(const FileRecord& r) {
     Json j;
     j["schema_version"] = kJsonSchemaVersion;
@@ -442,6 +459,9 @@ std::string json_record(const FileRecord& r) {
     j["clamped_pixels"] = r.result.clamped_pixels;
     j["replaced_pixels"] = r.result.replaced_pixels;
     put_text(j, "colorspace", r.result.colorspace);
+    put_text(j, "colorspace_from", r.result.colorspace_how);  // how it was chosen
+    put_texts(j, "warnings",
+              r.status == BatchStatus::Ok ? file_warnings(r.result) : std::vector<std::string>());
     put_text(j, "settings_hash", r.settings_hash);
     if (r.status == BatchStatus::Skipped)
         put_text(j, "reason", r.reason);  // why nothing was done, for a script

@@ -79,6 +79,13 @@ struct FileRecord {
 // \udcXX, which strict JSON parsers refuse.
 constexpr int kJsonSchemaVersion = 2;
 // The record of one file: one line of JSON, with its line break.
+// What a baked file's data went through that its user must hear of, even under --quiet (which
+// silences progress and information, never these): the input's notes (a MIP level or subimage
+// left out), pixels clamped or replaced, and an integer file read as scene-linear only because the
+// OCIO config's default rule says so (left out with default_rule = false: a batch gives that one
+// once for all its files). One sentence each, without the file's name.
+std::vector<std::string> file_warnings(const BakeResult& r, bool default_rule = true);
+
 std::string json_record(const FileRecord& r);
 
 }  // namespace spectex

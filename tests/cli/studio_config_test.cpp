@@ -228,7 +228,12 @@ TEST(StudioConfig, DefaultRuleToSceneLinearWarnsOncePerBatch) {
         run_spectex({"bake", s.d / "a.tif", s.d / "b.tif", "--output-dir", s.d / "quiet", "-q"},
                     {"OCIO=" + s.config});
     ASSERT_EQ(quiet.status, 0) << quiet.err;
-    EXPECT_EQ(quiet.err, "");
+    // --quiet silences the summary and the colour-space lines (information), not the warnings
+    // about the data: the once-per-batch warning and each file's clamped pixels stay.
+    EXPECT_FALSE(has(quiet.err, "baked")) << quiet.err;
+    EXPECT_FALSE(has(quiet.err, "colour space '")) << quiet.err;
+    EXPECT_EQ(lines_with(quiet.err, "warning: 2 integer").size(), 1u) << quiet.err;
+    EXPECT_EQ(lines_with(quiet.err, "were clamped").size(), 2u) << quiet.err;
 }
 
 // One file is a batch too: the warning comes without a summary; an explicit rule, a float file and
@@ -252,4 +257,30 @@ TEST(StudioConfig, OneFileAndTheCasesThatDoNotWarn) {
     RunResult shipped = run_spectex({"bake", s.d / "a.tif", "-o", s.d / "shipped.exr"}, {"OCIO="});
     ASSERT_EQ(shipped.status, 0) << shipped.err;
     EXPECT_FALSE(has(shipped.err, "warning")) << shipped.err;
+}
+
+// --quiet silences progress and information, not warnings about the data: the studio-config
+// warning and the clamped pixels still reach stderr, and the JSON record carries how the colour
+// space was chosen and the warnings given.
+TEST(StudioConfig, WarningsAboutTheDataSurviveQuietAndReachTheJsonRecord) {
+    Studio s;
+    write_tiff16(s.d / "tex16.tif");
+    RunResult r = run_spectex(
+        {"bake", s.d / "tex16.tif", "-o", s.d / "q16.exr", "-q", "--json", s.d / "r.jsonl"},
+        {"OCIO=" + s.config});
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(lines_with(r.err, "warning: 1 integer (display-referred) file").size(), 1u) << r.err;
+    const std::string json = read_file(s.d / "r.jsonl");
+    EXPECT_TRUE(has(json, "\"colorspace_from\":\"config file rule 'Default'\"")) << json;
+    EXPECT_TRUE(has(json, "\"warnings\":[")) << json;
+    EXPECT_TRUE(has(json, "only because the OCIO config's default file rule 'Default' names it"))
+        << json;
+    // A file with nothing to report has an empty list, and -q prints nothing for it.
+    write_float_exr(s.d / "f.exr");
+    RunResult q = run_spectex(
+        {"bake", s.d / "f.exr", "-o", s.d / "f_out.exr", "-q", "--json", s.d / "f.jsonl"},
+        {"OCIO=" + s.config});
+    ASSERT_EQ(q.status, 0) << q.err;
+    EXPECT_EQ(q.err, "");
+    EXPECT_TRUE(has(read_file(s.d / "f.jsonl"), "\"warnings\":[]")) << read_file(s.d / "f.jsonl");
 }
