@@ -95,6 +95,27 @@ inline RunResult run_spectex(const std::vector<std::string>& args,
     return run_spectex_io(args, "", "", extra_env);
 }
 
+// Runs a bash command line (for what needs a shell: process substitution, make, cd), capturing
+// standard output and standard error together in `out`, and the exit status.
+inline RunResult run_shell(const std::string& script) {
+    RunResult r;
+    const std::string cmd = "bash -c '" + [&] {
+        std::string q;
+        for (char c : script) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+        return q;
+    }() + "' 2>&1";
+    FILE* p = ::popen(cmd.c_str(), "r");
+    if (!p) return r;
+    char buf[4096];
+    for (size_t k; (k = std::fread(buf, 1, sizeof buf, p)) > 0;) r.out.append(buf, k);
+    const int st = ::pclose(p);
+    r.status = WIFEXITED(st) ? WEXITSTATUS(st) : 128;
+    return r;
+}
+
+// The spectex binary the tests run ($SPECTEX_TEST_BINARY or the build's).
+inline std::string spectex_binary() { return spectex_argv({})[0]; }
+
 // A scratch folder removed (with its files) at the end of the test.
 class ScratchDir {
   public:

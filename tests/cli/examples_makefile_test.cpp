@@ -14,19 +14,9 @@ using namespace spectex_test;
 
 namespace {
 
-// Runs make in `dir` with extra variables; returns its output (stdout and stderr) and status.
+// Runs make in `dir` with extra variables; its output (stdout and stderr) and status.
 RunResult make_in(const std::string& dir, const std::string& vars) {
-    const char* other = std::getenv("SPECTEX_TEST_BINARY");
-    const std::string bin = other && *other ? other : SPECTEX_BINARY;
-    const std::string cmd = "make -C '" + dir + "' SPECTEX='" + bin + "' " + vars + " 2>&1";
-    RunResult r;
-    FILE* p = ::popen(cmd.c_str(), "r");
-    if (!p) return r;
-    char buf[4096];
-    for (size_t k; (k = std::fread(buf, 1, sizeof buf, p)) > 0;) r.out.append(buf, k);
-    const int st = ::pclose(p);
-    r.status = WIFEXITED(st) ? WEXITSTATUS(st) : 128;
-    return r;
+    return run_shell("make -C '" + dir + "' SPECTEX='" + spectex_binary() + "' " + vars);
 }
 
 }  // namespace

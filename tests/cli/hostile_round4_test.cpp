@@ -45,23 +45,6 @@ void write_bytes(const std::string& path, const std::string& bytes) {
     std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
 }
 
-// Runs a shell command line, capturing standard output and the exit status.
-RunResult run_shell(const std::string& script) {
-    RunResult r;
-    FILE* p = ::popen(("bash -c " + std::string("'") + script + "' 2>&1").c_str(), "r");
-    if (!p) return r;
-    char buf[4096];
-    for (size_t k; (k = std::fread(buf, 1, sizeof buf, p)) > 0;) r.out.append(buf, k);
-    const int st = ::pclose(p);
-    r.status = WIFEXITED(st) ? WEXITSTATUS(st) : 128;
-    return r;
-}
-
-std::string binary() {
-    const char* other = std::getenv("SPECTEX_TEST_BINARY");
-    return other && *other ? other : SPECTEX_BINARY;
-}
-
 }  // namespace
 
 // Item: an output that is a link into /proc/self/fd (or /dev/stdout itself) used to be replaced
@@ -362,7 +345,7 @@ TEST(HostileRound4, AListFromAPipeIsReadLikeStandardInput) {
     make_png(d, "a.png");
     make_png(d, "b.png");
     RunResult r =
-        run_shell("cd " + d.path() + " && " + binary() +
+        run_shell("cd " + d.path() + " && " + spectex_binary() +
                   " bake --from-list <(printf \"a.png\\nb.png\\n\") -o {dir}/{stem}.exr -q");
     EXPECT_EQ(r.status, 0) << r.out;
     EXPECT_TRUE(file_exists(d / "a.exr"));
@@ -398,7 +381,7 @@ TEST(FilesThatTravel, TheRecordedSourceIsFoundFromAnywhere) {
     ASSERT_EQ(::mkdir((d / "proj/t6").c_str(), 0755), 0);
     make_png(d, "proj/img/albedo.png");
     // Bake from inside proj/t6 with a relative source, as a studio's script did.
-    RunResult b = run_shell("cd " + d.path() + "/proj/t6 && " + binary() +
+    RunResult b = run_shell("cd " + d.path() + "/proj/t6 && " + spectex_binary() +
                             " bake ../img/albedo.png -o albedo.exr -q");
     ASSERT_EQ(b.status, 0) << b.out;
     const ExrImage img = read_exr(d / "proj/t6/albedo.exr");
@@ -406,12 +389,12 @@ TEST(FilesThatTravel, TheRecordedSourceIsFoundFromAnywhere) {
     EXPECT_EQ(img.attr("spectex:sourceAbsolute"), d.path() + "/proj/img/albedo.png");
     EXPECT_EQ(img.attr("spectex:sourceFromOutput"), "../img/albedo.png");
     // From another working folder.
-    RunResult v = run_shell("cd / && " + binary() + " verify " + d.path() +
+    RunResult v = run_shell("cd / && " + spectex_binary() + " verify " + d.path() +
                             "/proj/t6/albedo.exr --source-from-header -q");
     EXPECT_EQ(v.status, 0) << v.out;
     // The whole tree moved: the absolute path is gone, the relative one holds.
     ASSERT_EQ(::rename((d / "proj").c_str(), (d / "moved").c_str()), 0);
-    RunResult m = run_shell("cd / && " + binary() + " verify " + d.path() +
+    RunResult m = run_shell("cd / && " + spectex_binary() + " verify " + d.path() +
                             "/moved/t6/albedo.exr --source-from-header -q");
     EXPECT_EQ(m.status, 0) << m.out;
     // Nowhere to be found: the EXR is named, with every place tried.

@@ -239,22 +239,24 @@ TEST(Lattice, CellLocationAtAndAroundBreakpoints) {
 }
 
 TEST(Lattice, HardColoursExact) {
-    const SpectralLattice L = SpectralLattice::build(d65(), 9, VertexPrior::JakobHanika);
-    const Eigen::Matrix3Xd C = d65().rgb_weights();
-    const Eigen::Vector3d cases[] = {
-        {1, 0, 0},        {0, 1, 0},    {0, 0, 1},          {1, 1, 0},    {0, 1, 1},
-        {1, 0, 1},        {1e-6, 0, 0}, {1e-6, 1e-6, 1e-6}, {0, 0, 1e-6}, {1, 1, 1 - 1e-6},
-        {1 - 1e-6, 1, 1}, {0.5, 0, 0},  {1, 0.5, 0},        {0, 0.2, 1},  {0.999, 0.001, 0.5}};
-    for (const auto& rgb : cases) {
-        const Eigen::VectorXd s = eval(L, rgb);
-        EXPECT_LE((C * s - rgb).cwiseAbs().maxCoeff(), 1e-12) << rgb.transpose();
-        EXPECT_GE(s.minCoeff(), 0.0);
-        EXPECT_LE(s.maxCoeff(), 1.0);
+    for (VertexPrior prior : {VertexPrior::JakobHanika, VertexPrior::Lhtss}) {
+        const SpectralLattice L = SpectralLattice::build(d65(), 9, prior);
+        const Eigen::Matrix3Xd C = d65().rgb_weights();
+        const Eigen::Vector3d cases[] = {
+            {1, 0, 0},        {0, 1, 0},    {0, 0, 1},          {1, 1, 0},    {0, 1, 1},
+            {1, 0, 1},        {1e-6, 0, 0}, {1e-6, 1e-6, 1e-6}, {0, 0, 1e-6}, {1, 1, 1 - 1e-6},
+            {1 - 1e-6, 1, 1}, {0.5, 0, 0},  {1, 0.5, 0},        {0, 0.2, 1},  {0.999, 0.001, 0.5}};
+        for (const auto& rgb : cases) {
+            const Eigen::VectorXd s = eval(L, rgb);
+            EXPECT_LE((C * s - rgb).cwiseAbs().maxCoeff(), 1e-12) << rgb.transpose();
+            EXPECT_GE(s.minCoeff(), 0.0);
+            EXPECT_LE(s.maxCoeff(), 1.0);
+        }
+        const Eigen::VectorXd black = eval(L, Eigen::Vector3d::Zero()),
+                              white = eval(L, Eigen::Vector3d::Ones());
+        EXPECT_EQ(black.cwiseAbs().maxCoeff(), 0.0);
+        EXPECT_EQ((white.array() - 1.0).abs().maxCoeff(), 0.0);
     }
-    const Eigen::VectorXd black = eval(L, Eigen::Vector3d::Zero()),
-                          white = eval(L, Eigen::Vector3d::Ones());
-    EXPECT_EQ(black.cwiseAbs().maxCoeff(), 0.0);
-    EXPECT_EQ((white.array() - 1.0).abs().maxCoeff(), 0.0);
 }
 
 TEST(Lattice, OtherGridsObserversIlluminants) {
@@ -518,22 +520,5 @@ TEST(Lattice, LhtssVerticesConvergeAndAreTheirPriorsOptima) {
             worst = std::max(worst, (A * lam - kz).cwiseAbs().maxCoeff() / wmax);
         }
         EXPECT_LE(worst, 1e-6) << what;
-    }
-}
-
-// The hard colours of the cube (saturated corners and faces, near-black, near-white) through the
-// LHTSS lattice: exact and bounded, as for the other priors.
-TEST(Lattice, LhtssHardColoursExact) {
-    const SpectralLattice L = SpectralLattice::build(d65(), 9, VertexPrior::Lhtss);
-    const Eigen::Matrix3Xd C = d65().rgb_weights();
-    const Eigen::Vector3d cases[] = {
-        {1, 0, 0},        {0, 1, 0},    {0, 0, 1},          {1, 1, 0},    {0, 1, 1},
-        {1, 0, 1},        {1e-6, 0, 0}, {1e-6, 1e-6, 1e-6}, {0, 0, 1e-6}, {1, 1, 1 - 1e-6},
-        {1 - 1e-6, 1, 1}, {0.5, 0, 0},  {1, 0.5, 0},        {0, 0.2, 1},  {0.999, 0.001, 0.5}};
-    for (const auto& rgb : cases) {
-        const Eigen::VectorXd s = eval(L, rgb);
-        EXPECT_LE((C * s - rgb).cwiseAbs().maxCoeff(), 1e-12) << rgb.transpose();
-        EXPECT_GE(s.minCoeff(), 0.0);
-        EXPECT_LE(s.maxCoeff(), 1.0);
     }
 }
