@@ -771,6 +771,9 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         if (p.parse_or_help(args, inputs)) return 0;
         check_given_options(c, inputs);
         check_method_options(c);
+        check_observer_setting("--observer", c.fit.observer);
+        check_illuminant_setting("--illuminant", c.fit.illuminant);
+        for (const auto& l : c.plan.lights) check_illuminant_setting("--lights", l);
         check_grid_options(c);
         check_cost_options(c);
     } catch (const UsageError& e) {

@@ -61,6 +61,8 @@ int run_plot(const std::vector<std::string>& args) {
         check_output_against(
             output, "-o",
             {{files[0], "the input"}, {s.light, "--light"}, {s.observer, "--observer"}}, true);
+        check_observer_setting("--observer", s.observer);
+        check_illuminant_setting("--light", s.light);
     } catch (const UsageError& e) {
         return usage_error("plot", e.what());
     }
