@@ -9,10 +9,12 @@
 #include <limits>
 #include <sstream>
 
+#include "io/data_dir.h"
 #include "io/linearizer.h"
 #include "spectral/basis_fit.h"
 #include "spectral/error.h"
 #include "spectral/lattice.h"
+#include "spectral/spectrum.h"
 #include "spectral/text.h"
 
 namespace spectex {
@@ -223,8 +225,31 @@ void list_option(ArgParser& p, const std::string& names, const std::string& meta
 
 void observer_option(ArgParser& p, const std::string& whose, std::string& observer) {
     p.option("--observer", "NAME|FILE",
-             whose + ": cie1931-2 (default), cie1964-10, or a CSV wavelength,x,y,z.",
+             whose +
+                 ": cie1931-2 (default), cie1964-10, or a CSV wavelength,x,y,z (header: a "
+                 "wavelength column, e.g. \"Wavelength (nm)\", then 3 named columns). A singular "
+                 "one (x, y, z linearly dependent) is refused.",
              [&observer](const std::string& v) { observer = v; });
+}
+
+void check_observer_setting(const std::string& option, const std::string& name) {
+    if (name.empty()) return;
+    const std::string data_dir = find_data_dir();
+    try {
+        load_observer(data_dir, name);
+    } catch (const Error& e) {
+        throw UsageError(option + ": " + e.what());
+    }
+}
+
+void check_illuminant_setting(const std::string& option, const std::string& name) {
+    if (name.empty()) return;
+    const std::string data_dir = find_data_dir();
+    try {
+        load_illuminant(data_dir, name);
+    } catch (const Error& e) {
+        throw UsageError(option + ": " + e.what());
+    }
 }
 
 std::vector<std::string> split_list(const std::string& value, const std::string& option) {

@@ -68,6 +68,14 @@ void list_option(ArgParser& p, const std::string& names, const std::string& meta
 // --observer NAME|FILE for the commands whose default is cie1931-2: "<whose>: cie1931-2 (default),
 // cie1964-10, or a CSV wavelength,x,y,z." (whose: "Observer", "Observer of the fitted basis"...).
 void observer_option(ArgParser& p, const std::string& whose, std::string& observer);
+
+// The one check of the observer and lights a command is given, made by every command before it
+// reads any input: the table is loaded as the work will load it, and an unknown name, an unreadable
+// or malformed table, or a singular one (an observer whose x, y and z are linearly dependent, a
+// light with no power) is a UsageError "<option>: <why>". An empty name (the default, or the one a
+// file records) is not checked here.
+void check_observer_setting(const std::string& option, const std::string& name);
+void check_illuminant_setting(const std::string& option, const std::string& name);
 // {"D65", "A"} -> "D65, A".
 std::string join_names(const std::vector<std::string>& names);
 // "X,Y": two whole numbers (negative allowed: data windows may start below 0).

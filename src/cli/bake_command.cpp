@@ -49,6 +49,7 @@ struct BakeCli {
     std::string method = "basis", vertex_prior = "jakob-hanika";
     int lattice_size = 9, jh_resolution = 33;
     bool jh_given = false;
+    bool allow_lossy = false;  // --allow-lossy: a compression that changes samples is wanted
     bool basis_given = false, objective_given = false, lattice_given = false,
          wavelengths_given = false;
     std::string objective = "smooth";  // --objective, parsed into fit.objective
@@ -136,8 +137,14 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
     p.option("--type", "half|float", "Sample type of the spectral channels (default half).",
              [&](const std::string& v) { c.type = v; });
     p.option("--compression", "NAME",
-             ExrCompression::list(", ", " or ") + " (default " + c.compression + ").",
+             ExrCompression::list(", ", " or ") + " (default " + c.compression +
+                 "). A lossy one (it changes samples of the --type written) is refused unless "
+                 "--allow-lossy.",
              [&](const std::string& v) { c.compression = v; });
+    p.flag("--allow-lossy",
+           "Accept a lossy --compression: samples may leave [0, 1] and colours change, the file "
+           "records spectex:lossyCompression and verify's failures name it.",
+           [&] { c.allow_lossy = true; });
     p.option(
         "--zip-level", "L",
         "Deflate level of zip and zips, 1 (fastest) to 12 (smallest); default 4. Level 1 took 0.6x "
@@ -376,6 +383,14 @@ void check_method_options(BakeCli& c) {
     } catch (const Error& e) {
         throw UsageError(std::string("--compression: ") + e.what());
     }
+    const ExrCompression& z = c.settings.compression;
+    if (z.lossy_for(c.settings.type == SampleType::Half) && !c.allow_lossy)
+        throw UsageError("--compression: " + z.name + " is " + z.lossy_text() +
+                         ": OpenEXR changes " + c.type +
+                         " samples with it (values leave [0, 1], colours shift); use a lossless "
+                         "one (" +
+                         ExrCompression::lossless_list(", ", " or ") +
+                         "), or add --allow-lossy to accept the loss");
     if (c.method != "basis" && (c.basis_given || c.objective_given || c.fit.allow_infeasible))
         throw UsageError(
             "--basis, --objective and --allow-infeasible choose the basis of --method basis, "
@@ -774,6 +789,9 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         if (p.parse_or_help(args, inputs)) return 0;
         check_given_options(c, inputs);
         check_method_options(c);
+        check_observer_setting("--observer", c.fit.observer);
+        check_illuminant_setting("--illuminant", c.fit.illuminant);
+        for (const auto& l : c.plan.lights) check_illuminant_setting("--lights", l);
         check_grid_options(c);
         check_cost_options(c);
     } catch (const UsageError& e) {

@@ -93,6 +93,8 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
         if (p.parse_or_help(args, pos)) return 0;
         if (!pos.empty()) throw UsageError("unexpected argument '" + pos[0] + "'");
         if (output.empty()) throw UsageError("no output file (-o BASIS.csv, or -o - for stdout)");
+        check_observer_setting("--observer", spec.observer);
+        check_illuminant_setting("--illuminant", spec.illuminant);
         // A stream other than standard output (standard error, a link into /proc/self/fd) gets
         // the CSV written through, like "-": no sidecar beside it (its folder is /dev or /proc).
         stream = output != "-" && stream_fd_of(output) >= 0;

@@ -13,6 +13,15 @@ namespace spectex {
 
 namespace {
 
+// The grid with its unit once: "380:780:5 nm", "list of 7 wavelengths 400-700 nm", "550 nm
+// (1 wavelength)". WavelengthGrid::describe() names the unit only for lists (and is recorded as
+// it is in spectex:wavelengths).
+std::string grid_text(const WavelengthGrid& grid) {
+    if (grid.size() == 1) return format_wavelength(grid.lambda[0]) + " nm (1 wavelength)";
+    const std::string d = grid.describe();
+    return d.size() >= 3 && d.compare(d.size() - 3, 3, " nm") == 0 ? d : d + " nm";
+}
+
 std::string levels_text(const SpectralExrInfo& info) {
     std::string out;
     auto size = [](int w, int h) { return std::to_string(w) + "x" + std::to_string(h); };
@@ -143,7 +152,7 @@ int run_info(const std::vector<std::string>& args) {
             std::cout << "  layout:          spectralLayoutVersion "
                       << (info.layout_version.empty() ? "(absent)" : info.layout_version)
                       << ", reflective\n";
-            std::cout << "  wavelengths:     " << grid.describe() << " nm\n";
+            std::cout << "  wavelengths:     " << grid_text(grid) << "\n";
             std::cout << "  bins:            " << info.reflective.size() << "\n";
             std::cout << "  sample type:     " << info.sample_type << "\n";
             std::cout << "  compression:     " << info.compression << "\n";

@@ -181,6 +181,9 @@ void check_plan_options(PlanOptions& o, const std::vector<std::string>& pos) {
         throw UsageError("--nonuniform searches with the basis' 3x3 maps: it needs --method basis");
     spec.half = o.type == "half";
     spec.lights = distinct_lights(spec.lights);
+    check_observer_setting("--observer", spec.method.fit.observer);
+    check_illuminant_setting("--illuminant", spec.method.fit.illuminant);
+    for (const auto& l : spec.lights) check_illuminant_setting("--lights", l);
     try {
         check_plan_cost(spec);
     } catch (const LimitError& e) {

@@ -11,6 +11,7 @@
 #include "pipeline/plot.h"
 #include "spectral/error.h"
 #include "spectral/spectrum.h"
+#include "spectral/text.h"
 
 namespace spectex {
 
@@ -35,7 +36,8 @@ int run_plot(const std::vector<std::string>& args) {
                 "usage error.");
     p.option("--pixel", "X,Y", "A pixel to plot (repeatable).",
              [&](const std::string& v) { xy.push_back(parse_pixel("--pixel", v)); });
-    p.option("-o,--output", "OUT.svg", "The SVG to write (never a file this command reads).",
+    p.option("-o,--output", "OUT.svg",
+             "The SVG to write; the name ends in .svg (never a file this command reads).",
              [&](const std::string& v) { output = v; });
     p.option("--light", "NAME|FILE",
              "Draw this light's spectrum behind the spectra: " + shipped_illuminants_list() +
@@ -58,9 +60,13 @@ int run_plot(const std::vector<std::string>& args) {
         require_one_input(files);
         if (xy.empty()) throw UsageError("no --pixel X,Y given");
         if (output.empty()) throw UsageError("no output: give -o OUT.svg");
+        if (!ends_with_nocase(output, ".svg"))
+            throw UsageError("-o: '" + output + "' does not end in .svg (plot writes SVG)");
         check_output_against(
             output, "-o",
             {{files[0], "the input"}, {s.light, "--light"}, {s.observer, "--observer"}}, true);
+        check_observer_setting("--observer", s.observer);
+        check_illuminant_setting("--light", s.light);
     } catch (const UsageError& e) {
         return usage_error("plot", e.what());
     }
@@ -68,8 +74,8 @@ int run_plot(const std::vector<std::string>& args) {
         s.data_dir = find_data_dir();
         PlotReport r = plot_file(files[0], output, xy, s);
         if (!quiet && stream_fd_of(output) != 1)  // the SVG itself went to standard output
-            std::cout << r.output << ": SVG plot of " << r.curves << " spectra of " << r.file
-                      << "\n";
+            std::cout << r.output << ": SVG plot of " << r.curves
+                      << (r.curves == 1 ? " spectrum" : " spectra") << " of " << r.file << "\n";
     });
 }
 

@@ -81,6 +81,8 @@ int run_render(const std::vector<std::string>& args) {
                                                                   {s.observer, "--observer"}};
         for (const auto& l : s.illuminants) reads.push_back({l, "--illuminant"});
         check_output_against(output, "-o", reads);
+        check_observer_setting("--observer", s.observer);
+        for (const auto& l : s.illuminants) check_illuminant_setting("--illuminant", l);
         if (!ends_with_png(output))
             throw UsageError("-o: '" + output + "' does not end in .png (render writes PNG)");
     } catch (const UsageError& e) {

@@ -162,6 +162,8 @@ int run_sample(const std::vector<std::string>& args) {
         if (pos.size() < 2) throw UsageError("no pixel X,Y given");
         for (size_t i = 1; i < pos.size(); ++i) xy.push_back(parse_pixel("", pos[i]));
         s.illuminants = distinct_lights(s.illuminants);
+        check_observer_setting("--observer", s.observer);
+        for (const auto& l : s.illuminants) check_illuminant_setting("--illuminant", l);
     } catch (const UsageError& e) {
         return usage_error("sample", e.what());
     }

@@ -496,6 +496,9 @@ int run_verify(const std::vector<std::string>& args) {
             throw UsageError(a.from_list.empty() ? "no input file"
                                                  : "the input list names no files");
         validate_verify_args(a, files);
+        check_observer_setting("--observer", a.s.observer);
+        check_illuminant_setting("--check-illuminant", a.s.illuminant);
+        for (const auto& l : a.s.other_lights) check_illuminant_setting("--illuminant", l);
     } catch (const UsageError& e) {
         return usage_error("verify", e.what());
     } catch (const Error& e) {

@@ -58,12 +58,43 @@ std::vector<std::string> ExrCompression::names() {
     return v;
 }
 
-std::string ExrCompression::list(const std::string& separator, const std::string& last_separator) {
-    const auto& t = all();
+bool ExrCompression::lossy_for(bool half_samples) const {
+    if (!lossy) return false;
+    if (name == "pxr24") return !half_samples;                 // 24-bit floats: half is kept whole
+    if (name == "b44" || name == "b44a") return half_samples;  // float channels are kept whole
+    return true;
+}
+
+std::string ExrCompression::lossy_text() const {
+    const bool h = lossy_for(true), f = lossy_for(false);
+    return h && f ? "lossy" : h ? "lossy for half" : f ? "lossy for float" : "";
+}
+
+namespace {
+
+std::string join(const std::vector<std::string>& v, const std::string& separator,
+                 const std::string& last_separator) {
     std::string s;
-    for (size_t i = 0; i < t.size(); ++i)
-        s += (i == 0 ? "" : i + 1 == t.size() ? last_separator : separator) + t[i].name;
+    for (size_t i = 0; i < v.size(); ++i)
+        s += (i == 0 ? "" : i + 1 == v.size() ? last_separator : separator) + v[i];
     return s;
+}
+
+}  // namespace
+
+std::string ExrCompression::lossless_list(const std::string& separator,
+                                          const std::string& last_separator) {
+    std::vector<std::string> v;
+    for (const auto& c : all())
+        if (!c.lossy) v.push_back(c.name);
+    return join(v, separator, last_separator);
+}
+
+std::string ExrCompression::list(const std::string& separator, const std::string& last_separator) {
+    std::vector<std::string> v;
+    for (const auto& c : all())
+        v.push_back(c.lossy ? c.name + " (" + c.lossy_text() + ")" : c.name);
+    return join(v, separator, last_separator);
 }
 
 }  // namespace spectex

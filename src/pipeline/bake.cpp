@@ -177,6 +177,9 @@ std::vector<std::pair<std::string, std::string>> header_attributes(
         {provenance_key::kSourceMtime, identity.mtime_text()},
         {provenance_key::kSourceHash, source_hash_placeholder()},
     };
+    if (s.compression.lossy_for(s.type == SampleType::Half))
+        a.push_back({provenance_key::kLossyCompression,
+                     s.compression.name + " (" + s.compression.lossy_text() + ")"});
     if (!s.plan.lights.empty()) {
         a.push_back({provenance_key::kPlanLights, s.plan.lights});
         a.push_back({provenance_key::kPlanMaxDe, s.plan.max_de});

@@ -8,6 +8,7 @@
 #include <limits>
 #include <memory>
 
+#include "io/exr_compression.h"
 #include "io/file_identity.h"
 #include "io/image_source.h"
 #include "io/linearizer.h"
@@ -373,6 +374,13 @@ void read_recorded_settings(const Recorded& recorded, const VerifySettings& s, V
     if (const std::string v = recorded(provenance_key::kOutOfRange); !v.empty()) r.out_of_range = v;
     if (const std::string v = recorded(provenance_key::kNan); !v.empty()) r.nan = v;
     r.half_rounding = recorded(provenance_key::kHalfRounding);
+    r.lossy_compression = recorded(provenance_key::kLossyCompression);
+    if (r.lossy_compression.empty())
+        if (const ExrCompression* c = ExrCompression::find(r.compression)) {
+            const bool half = r.sample_type == "half" || r.sample_type == "mixed";
+            if (c->lossy_for(half) || (r.sample_type == "mixed" && c->lossy_for(false)))
+                r.lossy_compression = c->name + " (" + c->lossy_text() + ")";
+        }
     r.illuminant =
         recorded.choose(s.illuminant, provenance_key::kIlluminant, "D65", "--check-illuminant");
     r.observer = recorded.choose(s.observer, provenance_key::kObserver, "cie1931-2", "--observer");
@@ -791,7 +799,12 @@ std::vector<Gate> gates_of(const VerifyReport& r, const VerifyGates& g) {
 std::vector<std::string> gate_failures(const VerifyReport& r, const VerifyGates& g) {
     std::vector<std::string> f;
     for (const Gate& x : gates_of(r, g))
-        if (!x.passed) f.push_back(x.what + ": " + x.measured + ", gate " + x.limit);
+        if (!x.passed)
+            f.push_back(x.what + ": " + x.measured + ", gate " + x.limit +
+                        (r.lossy_compression.empty()
+                             ? ""
+                             : " (the file's compression, " + r.lossy_compression +
+                                   ", changed the samples)"));
     return f;
 }
 

@@ -90,6 +90,9 @@ struct VerifyReport {
     std::string out_of_range = "clamp",
                 nan = "replace";  // the bake's policies (defaults when absent)
     std::string half_rounding;    // spectex:halfRounding ("colour", "nearest", "n/a", "")
+    // The file's compression when it changes samples of the file's type ("b44 (lossy for half)",
+    // from spectex:lossyCompression or the header's compression); "" when lossless.
+    std::string lossy_compression;
     std::vector<std::string>
         warnings;  // settings given that differ from the file's, config not found, ...
     std::vector<OtherLightReport> other_lights;

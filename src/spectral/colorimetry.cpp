@@ -101,6 +101,7 @@ Colorimetry Colorimetry::make(const Observer& obs, const Spectrum& illuminant,
         c.W(1, k) = w * y[k];
         c.W(2, k) = w * z[k];
     }
+    check_observer_independent(x, y, z, "observer " + obs.name, grid.describe());
     c.white_xyz = c.W.rowwise().sum();
     if (!(c.white_xyz.minCoeff() > 0))
         throw Error("illuminant white has a non-positive XYZ component");

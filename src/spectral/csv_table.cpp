@@ -43,10 +43,38 @@ std::vector<std::string> split_commas(const std::string& line) {
 
 bool to_double(const std::string& s, double* v) { return parse_finite(s, v); }
 
+// "wavelength", "Wavelength (nm)", " WAVELENGTH(nm) ": a name of the wavelength column.
+bool names_wavelength(const std::string& field) {
+    std::string f = lower_ascii(trim(field));
+    if (!f.empty() && f.back() == ')') {
+        const size_t open = f.rfind('(');
+        if (open == std::string::npos) return false;
+        f = trim(f.substr(0, open));
+    }
+    return f == "wavelength";
+}
+
+// A header row's matches of `expected` (see CsvHeader).
+bool header_matches(const std::vector<std::string>& fields,
+                    const std::vector<std::string>& expected, CsvHeader header) {
+    if (fields.size() != expected.size()) return false;
+    if (header == CsvHeader::WavelengthFirst) {
+        if (!names_wavelength(fields[0])) return false;
+        for (size_t i = 1; i < fields.size(); ++i) {
+            double v;
+            if (fields[i].empty() || parse_finite(fields[i], &v)) return false;
+        }
+        return true;
+    }
+    for (size_t i = 0; i < fields.size(); ++i)
+        if (lower_ascii(fields[i]) != lower_ascii(expected[i])) return false;
+    return true;
+}
+
 }  // namespace
 
 CsvTable parse_csv_table(const std::string& text, const std::string& source,
-                         const std::vector<std::string>& expected) {
+                         const std::vector<std::string>& expected, CsvHeader header) {
     if (text.size() > kMaxBytes) throw Error(source + ": file too large for a spectral table");
     CsvTable t;
     std::istringstream in(text);
@@ -67,14 +95,16 @@ CsvTable parse_csv_table(const std::string& text, const std::string& source,
             if (fields.size() < 2 || fields.size() > kMaxColumns)
                 throw Error(where + "expected a header line such as 'wavelength,value'");
             if (!expected.empty()) {
-                bool ok = fields.size() == expected.size();
-                for (size_t i = 0; ok && i < fields.size(); ++i)
-                    ok = lower_ascii(fields[i]) == lower_ascii(expected[i]);
-                if (!ok) {
+                if (!header_matches(fields, expected, header)) {
                     std::string want;
                     for (size_t i = 0; i < expected.size(); ++i)
                         want += (i ? "," : "") + expected[i];
-                    throw Error(where + "header is '" + s + "', expected '" + want + "'");
+                    throw Error(where + "header is '" + s + "', expected '" + want + "'" +
+                                (header == CsvHeader::WavelengthFirst
+                                     ? " (a wavelength column, e.g. 'Wavelength (nm)', then " +
+                                           std::to_string(expected.size() - 1) + " named column" +
+                                           (expected.size() == 2 ? "" : "s") + ")"
+                                     : ""));
                 }
             }
             t.columns = fields;
@@ -102,11 +132,12 @@ CsvTable parse_csv_table(const std::string& text, const std::string& source,
     return t;
 }
 
-CsvTable read_csv_table(const std::string& path, const std::vector<std::string>& expected) {
+CsvTable read_csv_table(const std::string& path, const std::vector<std::string>& expected,
+                        CsvHeader header) {
     // A regular file of bounded size, checked before it is read: never a device, FIFO or folder.
     static_assert(kMaxBytes == file_limits::kSpectralTable, "one limit for spectral tables");
     return parse_csv_table(read_file_bounded(path, file_limits::kSpectralTable, "a spectral table"),
-                           path, expected);
+                           path, expected, header);
 }
 
 void write_csv_table(std::ostream& out, const CsvTable& table) {

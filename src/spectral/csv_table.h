@@ -15,11 +15,22 @@ struct CsvTable {
     size_t rows() const { return data.empty() ? 0 : data[0].size(); }
 };
 
+// How a header must match `expected`.
+enum class CsvHeader {
+    Exact,  // every name equals expected's (case-insensitive, surrounding blanks ignored)
+    // The first column names a wavelength ("wavelength", any case, optionally followed by a unit
+    // in parentheses: "Wavelength (nm)") and the others are any text that is not a number, as
+    // many as expected has: the tables people export ("Wavelength (nm),Relative Power").
+    WavelengthFirst,
+};
+
 // Parses text; `source` names the file in error messages. When `expected` is not empty the header
-// must equal it (case-insensitive, surrounding blanks ignored).
+// must match it as `header` says.
 CsvTable parse_csv_table(const std::string& text, const std::string& source,
-                         const std::vector<std::string>& expected = {});
-CsvTable read_csv_table(const std::string& path, const std::vector<std::string>& expected = {});
+                         const std::vector<std::string>& expected = {},
+                         CsvHeader header = CsvHeader::Exact);
+CsvTable read_csv_table(const std::string& path, const std::vector<std::string>& expected = {},
+                        CsvHeader header = CsvHeader::Exact);
 
 // Writes comments as "# ..." lines, the header, and values with 17 significant digits.
 void write_csv_table(std::ostream& out, const CsvTable& table);

@@ -33,6 +33,9 @@ constexpr const char* kOutOfRange = "spectex:outOfRange";
 constexpr const char* kNan = "spectex:nan";
 constexpr const char* kZipLevel = "spectex:zipLevel";
 constexpr const char* kHalfRounding = "spectex:halfRounding";
+// Written only when the compression changes samples of the file's type (bake --allow-lossy):
+// "b44 (lossy for half)". verify names it when a gate fails.
+constexpr const char* kLossyCompression = "spectex:lossyCompression";
 // --update: the settings and the source's identity (io/source_identity.h).
 constexpr const char* kSettingsHash = "spectex:settingsHash";
 constexpr const char* kSourceSize = "spectex:sourceSize";
@@ -78,6 +81,7 @@ constexpr const char* kAll[] = {
     kNan,
     kZipLevel,
     kHalfRounding,
+    kLossyCompression,
     kSettingsHash,
     kSourceSize,
     kSourceMtime,

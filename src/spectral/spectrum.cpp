@@ -2,10 +2,14 @@
 
 #include <sys/stat.h>
 
+#include <Eigen/Dense>
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 
 #include "spectral/csv_table.h"
 #include "spectral/error.h"
+#include "spectral/wavelength_grid.h"
 
 namespace spectex {
 
@@ -16,6 +20,22 @@ namespace {
 bool exists(const std::string& path) {
     struct stat st;
     return ::stat(path.c_str(), &st) == 0;
+}
+
+// A power or a colour-matching value is finite, not negative and at most 1e12, as
+// Colorimetry::make checks it on a grid: checked on the table when it is loaded, so that a bad
+// value is reported as such (not as a singular observer or a dark light) before any work.
+void check_table_values(const std::vector<double>& lambda, const std::vector<double>& v,
+                        const std::string& what) {
+    for (size_t k = 0; k < v.size(); ++k)
+        if (!std::isfinite(v[k]) || v[k] < 0 || v[k] > 1e12) {
+            char buf[160];
+            std::snprintf(buf, sizeof buf,
+                          " has the value %.9g at %s nm: values must be finite, not negative and "
+                          "below 1e12",
+                          v[k], format_wavelength(lambda[k]).c_str());
+            throw Error(what + buf);
+        }
 }
 
 std::string upper(std::string s) {
@@ -54,15 +74,46 @@ std::vector<double> Spectrum::sample(const WavelengthGrid& grid) const {
 }
 
 Spectrum load_illuminant_csv(const std::string& path, const std::string& name) {
-    CsvTable t = read_csv_table(path, {"wavelength", "value"});
+    CsvTable t = read_csv_table(path, {"wavelength", "value"}, CsvHeader::WavelengthFirst);
+    // A user's file is named once ("ill.csv: illuminant has ..."), a shipped one by its path and
+    // its name.
+    const std::string illuminant = path + ": illuminant" + (name == path ? "" : " " + name);
+    check_table_values(t.data[0], t.data[1], illuminant);
+    // No light at all: every colour under it would be black and its white undefined.
+    if (std::none_of(t.data[1].begin(), t.data[1].end(), [](double v) { return v != 0; }))
+        throw Error(illuminant + " has zero power at every wavelength");
     return Spectrum{name, t.data[0], t.data[1]};
 }
 
 Observer load_observer_csv(const std::string& path, const std::string& name) {
-    CsvTable t = read_csv_table(path, {"wavelength", "x", "y", "z"});
-    return Observer{name, Spectrum{name + " x", t.data[0], t.data[1]},
-                    Spectrum{name + " y", t.data[0], t.data[2]},
-                    Spectrum{name + " z", t.data[0], t.data[3]}};
+    CsvTable t = read_csv_table(path, {"wavelength", "x", "y", "z"}, CsvHeader::WavelengthFirst);
+    const std::string observer =
+        path + ": observer" + (name == path ? "" : " " + name);  // as above
+    for (int i = 1; i <= 3; ++i)
+        check_table_values(t.data[0], t.data[static_cast<size_t>(i)],
+                           observer + " (" + "xyz"[i - 1] + ")");
+    Observer o{name, Spectrum{name + " x", t.data[0], t.data[1]},
+               Spectrum{name + " y", t.data[0], t.data[2]},
+               Spectrum{name + " z", t.data[0], t.data[3]}};
+    check_observer_independent(o.x.value, o.y.value, o.z.value, observer, "its table");
+    return o;
+}
+
+void check_observer_independent(const std::vector<double>& x, const std::vector<double>& y,
+                                const std::vector<double>& z, const std::string& what,
+                                const std::string& where) {
+    // x, y and z must span three dimensions, or XYZ -> RGB has no inverse and every colour maps
+    // to a line or plane. The Gram matrix's eigenvalues relative to its largest say how close
+    // to dependent they are; 1e-12 is far below any real observer's (the CIE's are above 1e-3).
+    Eigen::Matrix3d g = Eigen::Matrix3d::Zero();
+    const std::vector<double>* v[3] = {&x, &y, &z};
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            for (size_t k = 0; k < x.size(); ++k) g(i, j) += (*v[i])[k] * (*v[j])[k];
+    const Eigen::Vector3d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(g).eigenvalues();
+    if (!(ev.maxCoeff() > 0) || !(ev.minCoeff() > 1e-12 * ev.maxCoeff()))
+        throw Error(what + " is singular on " + where +
+                    ": its x, y and z are linearly dependent, so colours cannot be told apart");
 }
 
 std::vector<std::string> shipped_observers() { return {"cie1931-2", "cie1964-10"}; }

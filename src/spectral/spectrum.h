@@ -24,6 +24,12 @@ struct Observer {
 // Loaders for the CSV formats of config/spectral/ ("wavelength,value" and "wavelength,x,y,z").
 Spectrum load_illuminant_csv(const std::string& path, const std::string& name);
 Observer load_observer_csv(const std::string& path, const std::string& name);
+// Throws Error("<what> is singular on <where>: ...") when x, y and z (sampled alike) are linearly
+// dependent: the one check of an observer, made by load_observer_csv on its table and by
+// Colorimetry::make on a grid.
+void check_observer_independent(const std::vector<double>& x, const std::vector<double>& y,
+                                const std::vector<double>& z, const std::string& what,
+                                const std::string& where);
 
 // Named data shipped in <data_dir>/spectral/: observers "cie1931-2", "cie1964-10"; illuminants as
 // listed by shipped_illuminants(), matched case-insensitively ("led-b3" is LED-B3; the Spectrum

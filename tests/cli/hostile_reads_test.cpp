@@ -6,6 +6,9 @@
 //   Conventions (as in hard_inputs_test.cpp): a failure exits 1 (2 for usage errors) at once, in
 //   bounded memory, with "spectex: <file>: <cause>" as the first line of stderr (a failed file in a
 //   batch is followed by the batch's summary line), and leaves no output and no temporary file.
+//   An observer or light table (--observer, --illuminant) is a setting every command checks before
+//   any input: a usage error, exit 2, "spectex <command>: <option>: <file>: <cause>" then the
+//   "Try 'spectex <command> --help'." line.
 //
 // Every run goes through run_limited(): a child with a 2 GiB address-space limit (so that a
 // regression allocating without bound fails fast instead of taking the machine's memory), killed
@@ -150,14 +153,19 @@ Limited run_limited(const std::vector<std::string>& args,
 }
 
 // The checks after a hostile read: not hung, exit `status`, first line "spectex: <file>: ...",
-// at most the batch summary after it, no output, no temporary file.
+// at most the batch summary after it, no output, no temporary file. With `option` (a setting of
+// `command`, e.g. "basis" and "--observer"): the usage-error form, exit 2, first line
+// "spectex <command>: <option>: <file>: ..." and then only the Try line.
 void expect_refused(const std::string& what, const Limited& r, const std::string& file,
-                    const std::string& output, const std::string& cause = "", int status = 1) {
+                    const std::string& output, const std::string& cause = "", int status = 1,
+                    const std::string& command = "", const std::string& option = "") {
     SCOPED_TRACE(what);
     ASSERT_FALSE(r.hung) << "hung: killed after " << kTimeout << " s";
     EXPECT_EQ(r.status, status) << r.err;
-    EXPECT_EQ(r.first_line().rfind("spectex: " + file + ": ", 0), 0u)
-        << "stderr does not start with 'spectex: " << file << ": ':\n"
+    const std::string lead =
+        option.empty() ? "spectex: " : "spectex " + command + ": " + option + ": ";
+    EXPECT_EQ(r.first_line().rfind(lead + file + ": ", 0), 0u)
+        << "stderr does not start with '" << lead << file << ": ':\n"
         << r.err;
     if (!cause.empty())
         EXPECT_TRUE(contains(r.first_line(), cause)) << "no '" << cause << "' in:\n" << r.err;
@@ -169,6 +177,7 @@ void expect_refused(const std::string& what, const Limited& r, const std::string
             rest = rest.substr(std::min(rest.size(), rest.find('\n') + 1));
     };
     drop_line("spectex: 0 baked");
+    if (!option.empty()) drop_line("Try 'spectex " + command + " --help'.");
     if (r.status == 1) {
         EXPECT_EQ(rest.rfind("spectex: the command was: ", 0), 0u)
             << "a failed run ends with its command:\n"
@@ -327,10 +336,15 @@ void refuse_in_every_slot(const std::string& label,
             std::string(s.name).rfind("basis", 0) == 0 ? d / "basis.csv" : d / "out.exr";
         // bake's settings the same for every file (config, grid, tables) are checked once, before
         // any input: a usage error, exit 2; an input, a list, a source or an EXR is work: exit 1.
+        // Observer and light tables are settings of every command (bake and basis here), refused
+        // in the usage-error form that names the option as well as the file.
         const std::string n = s.name;
+        const std::string command = n.substr(0, n.find(' ')), option = n.substr(n.find(' ') + 1);
+        const bool table = option == "--observer" || option == "--illuminant";
         const bool setting =
-            n.rfind("bake", 0) == 0 && n != "bake INPUT" && n != "bake --from-list";
-        expect_refused(n + " " + label, r, file, out, cause, setting ? 2 : 1);
+            table || (command == "bake" && n != "bake INPUT" && n != "bake --from-list");
+        expect_refused(n + " " + label, r, file, out, cause, setting ? 2 : 1, command,
+                       table ? option : "");
     }
 }
 

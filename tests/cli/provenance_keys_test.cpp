@@ -35,10 +35,11 @@ TEST(ProvenanceKeys, EveryKeyABakeWritesIsAConstant) {
     const std::vector<uint8_t> px = {255, 0,   0, 255, 0,  255, 0,  128, 0,
                                      0,   255, 0, 128, 64, 32,  200};  // RGBA: spectex:alpha too
     write_image(d / "in.png", 2, 2, 4, OIIO::TypeDesc::UINT8, px.data());
-    // Each method, and a grid chosen by --wavelengths auto (the plan's keys).
+    // Each method, a grid chosen by --wavelengths auto (the plan's keys), and a lossy compression
+    // accepted with --allow-lossy (spectex:lossyCompression, written only then).
     const std::vector<std::vector<std::string>> bakes = {
         {},
-        {"--method", "lattice", "--lattice-size", "3"},
+        {"--method", "lattice", "--lattice-size", "3", "--compression", "b44", "--allow-lossy"},
         {"--method", "jakob-hanika", "--jh-resolution", "4"},
         {"--wavelengths", "auto", "--lights", "D65", "--grids", "380:780:20", "--max-de", "5"},
     };
@@ -56,6 +57,8 @@ TEST(ProvenanceKeys, EveryKeyABakeWritesIsAConstant) {
                 << name << " is written but is not in src/spectral/provenance_keys.h";
             written.insert(name);
         }
+        // Only the lossy bake (the second) records a lossy compression.
+        EXPECT_EQ(spectex_attributes(out).count(key::kLossyCompression), i == 1 ? 1u : 0u) << i;
     }
     // planGrids needs --nonuniform, whose search takes about 30 CPU-s (plan_test.cpp, PlanSlow).
     for (const std::string& k : known)

@@ -305,8 +305,12 @@ TEST(Sample, ErrorsNameThePixelTheWindowOrTheFile) {
         EXPECT_NE(r.err.find("is not a pixel X,Y"), std::string::npos) << r.err;
     }
     EXPECT_EQ(run_spectex({"sample", d / "in.exr"}).status, 2);
-    EXPECT_EQ(run_spectex({"sample", d / "in.exr", "1,1", "--illuminant", "nosuchlight"}).status,
-              1);
+    // An unknown light is a setting, checked before the file is read: a usage error naming the
+    // option.
+    r = run_spectex({"sample", d / "in.exr", "1,1", "--illuminant", "nosuchlight"});
+    EXPECT_EQ(r.status, 2) << r.err;
+    EXPECT_EQ(r.err.rfind("spectex sample: --illuminant: unknown illuminant 'nosuchlight'", 0), 0u)
+        << r.err;
 
     // Not spectral: an RGB OpenEXR, and a PNG.
     std::vector<float> rgb(static_cast<size_t>(w) * h * 3, 0.5f);
@@ -495,7 +499,9 @@ TEST(Render, RefusesToOverwriteItsInputAndBadArguments) {
     EXPECT_NE(r.err.find("(--max-pixels)"), std::string::npos) << r.err;
     EXPECT_FALSE(file_exists(d / "x.png"));
     r = run_spectex({"render", d / "a.exr", "-o", d / "x.png", "--illuminant", "nosuchlight"});
-    EXPECT_EQ(r.status, 1);
+    EXPECT_EQ(r.status, 2) << r.err;  // a setting: a usage error naming the option
+    EXPECT_EQ(r.err.rfind("spectex render: --illuminant: unknown illuminant 'nosuchlight'", 0), 0u)
+        << r.err;
     EXPECT_FALSE(file_exists(d / "x.png"));
     EXPECT_TRUE(temp_files_in(d.path()).empty());
     EXPECT_EQ(run_spectex({"render", "--help"}).status, 0);

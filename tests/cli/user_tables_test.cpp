@@ -73,28 +73,41 @@ TEST(UserTables, ABasisThatMissesThePrimariesIsReported) {
 TEST(UserTables, ObserverAndIlluminantValuesAreChecked) {
     ScratchDir d;
     write_png(d / "in.png");
-    auto write_table = [&](const std::string& path, const std::string& header,
-                           const std::string& row_at_550) {
+    // A table on 360:830:5 whose row at 550 nm (line 40) is `row_at_550` and whose other rows are
+    // valid: a constant light, or an observer whose x, y and z are linearly independent (a
+    // constant one would be singular and refused for that instead).
+    auto write_table = [&](const std::string& path, bool observer, const std::string& row_at_550) {
         std::ofstream o(path);
-        o << header << "\n";
-        for (int l = 360; l <= 830; l += 5)
-            o << l << ","
-              << (l == 550             ? row_at_550
-                  : header.size() > 20 ? "0.5,0.5,0.5"
-                                       : "100")
-              << "\n";
+        o << (observer ? "wavelength,x,y,z" : "wavelength,value") << "\n";
+        for (int l = 360; l <= 830; l += 5) {
+            const double t = (l - 360) / 470.0;
+            o << l << ",";
+            if (l == 550)
+                o << row_at_550;
+            else if (observer)
+                o << t << "," << 1 - t << "," << t * t;
+            else
+                o << "100";
+            o << "\n";
+        }
     };
     for (const std::string v : {"1e308", "-1", "inf"}) {
-        write_table(d / "ill.csv", "wavelength,value", v);
+        // Tables are settings of every file, checked once before any input: a usage error (exit 2)
+        // naming the option, the file and where the bad value is (the line of a non-number, the
+        // wavelength of a number out of range; never reported as a singular observer).
+        write_table(d / "ill.csv", false, v);
         RunResult r =
             run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--illuminant", d / "ill.csv"});
-        EXPECT_EQ(r.status, 2) << v << ": "
-                               << r.err;  // a setting of every file: checked once, exit 2
-        EXPECT_TRUE(contains(r.err, "ill.csv")) << r.err;
-        write_table(d / "obs.csv", "wavelength,x,y,z", v + ",0.5,0.5");
+        EXPECT_EQ(r.status, 2) << v << ": " << r.err;
+        const std::string shown = v == "1e308" ? "1e+308" : v;  // as %g prints it
+        const std::string at = v == "inf" ? ":40: " : ": illuminant has the value " + shown;
+        EXPECT_TRUE(contains(r.err, "--illuminant: " + (d / "ill.csv") + at)) << r.err;
+        write_table(d / "obs.csv", true, v + ",0.5,0.5");
         r = run_spectex({"basis", "-o", d / "b.csv", "--observer", d / "obs.csv"});
-        EXPECT_EQ(r.status, 1) << v << ": " << r.err;
-        EXPECT_TRUE(contains(r.err, "obs.csv")) << r.err;
+        EXPECT_EQ(r.status, 2) << v << ": " << r.err;
+        const std::string at_x = v == "inf" ? ":40: " : ": observer (x) has the value " + shown;
+        EXPECT_TRUE(contains(r.err, "--observer: " + (d / "obs.csv") + at_x)) << r.err;
+        EXPECT_FALSE(contains(r.err, "singular")) << r.err;
         EXPECT_FALSE(file_exists(d / "o.exr"));
         EXPECT_FALSE(file_exists(d / "b.csv"));
     }

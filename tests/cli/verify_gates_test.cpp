@@ -330,7 +330,10 @@ TEST(VerifyGates, OtherLightsAreReportedNotGated) {
     EXPECT_TRUE(has(s.out, "under A (Bradford to D65's white)")) << s.out;
     EXPECT_TRUE(has(s.out, "(reported, not gated)")) << s.out;
     EXPECT_EQ(run_spectex({"verify", basis, "--illuminant", "A,,FL11"}).status, 2);
-    EXPECT_EQ(run_spectex({"verify", basis, "--illuminant", "nosuch"}).status, 1);
+    // An unknown light is a setting, refused before the file is read: exit 2, naming the option.
+    RunResult u = run_spectex({"verify", basis, "--illuminant", "nosuch"});
+    EXPECT_EQ(u.status, 2) << u.err;
+    EXPECT_TRUE(has(u.err, "--illuminant: unknown illuminant 'nosuch'")) << u.err;
 }
 
 // Issue 15, item 6: the code-match check re-encodes through the config's own inverse transform,

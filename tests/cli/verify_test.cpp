@@ -285,9 +285,13 @@ TEST(Verify, OtherIlluminantAndObserver) {
     EXPECT_GT(json_number(rep.out, "\"other_lights\":[{", "mean"), 0.1) << rep.out;
     RunResult o = run_spectex({"verify", exr, "--observer", "cie1964-10"});
     EXPECT_EQ(o.status, 0) << o.err;
+    // An unknown light is a setting, refused before the file is read: a usage error (exit 2) that
+    // names the option rather than the file.
     RunResult bad = run_spectex({"verify", exr, "--illuminant", "nope"});
-    EXPECT_EQ(bad.status, 1);
-    EXPECT_NE(bad.err.find("spectex: " + exr + ": "), std::string::npos) << bad.err;
+    EXPECT_EQ(bad.status, 2) << bad.err;
+    EXPECT_EQ(bad.err.rfind("spectex verify: --illuminant: unknown illuminant 'nope'", 0), 0u)
+        << bad.err;
+    EXPECT_EQ(bad.err.find(exr), std::string::npos) << bad.err;
 }
 
 TEST(Verify, RejectsNonSpectralFilesMismatchedSourcesAndBadUsage) {

@@ -131,14 +131,16 @@ TEST(ExrCompression, IdsAreTheTableOrderAndNamesAreUnique) {
     EXPECT_EQ(ExrCompression::find(static_cast<int>(t.size())), nullptr);
     EXPECT_EQ(ExrCompression::find("zstd"), nullptr);
     EXPECT_EQ(ExrCompression::list(", ", " or "),
-              "none, rle, zips, zip, piz, pxr24, b44, b44a, dwaa or dwab");
+              "none, rle, zips, zip, piz, pxr24 (lossy for float), b44 (lossy for half), b44a "
+              "(lossy for half), dwaa (lossy) or dwab (lossy)");
     try {
         ExrCompression::parse("zstd");
         FAIL() << "parse accepted an unknown name";
     } catch (const Error& e) {
         EXPECT_EQ(std::string(e.what()),
-                  "unknown compression 'zstd' (known: none, rle, zips, zip, piz, "
-                  "pxr24, b44, b44a, dwaa, dwab)");
+                  "unknown compression 'zstd' (known: none, rle, zips, zip, piz, pxr24 (lossy for "
+                  "float), b44 (lossy for half), b44a (lossy for half), dwaa (lossy), dwab "
+                  "(lossy))");
     }
 }
 
@@ -178,6 +180,7 @@ TEST(ExrCompression, LossyIsWhetherOpenExrChangesSamples) {
             const bool expect = c.lossy && !(c.name == "pxr24" && type == SampleType::Half) &&
                                 !(b44 && type == SampleType::Float);
             EXPECT_EQ(changed, expect) << c.name << (type == SampleType::Half ? " half" : " float");
+            EXPECT_EQ(c.lossy_for(type == SampleType::Half), expect) << c.name;
         }
     }
 }
