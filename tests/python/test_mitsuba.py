@@ -373,3 +373,25 @@ def test_scalar_variant_renders_the_same(chart, renders):
             sigma = jit[(r, c)].std(axis=0, ddof=1)
             bound = 5 * sigma / np.sqrt(len(px)) + 2e-4 * white_y
             assert np.all(np.abs(px.mean(axis=0) - want[6 * r + c]) <= bound), (r, c, px.mean(axis=0), want[6 * r + c])
+
+
+@pytest.mark.parametrize("bit_depth", ["float16", "float32"])
+def test_foreign_fichet_file_from_colour_science(tmp, bit_depth):
+    """A Fichet 2021 file another tool wrote (colour-science's writer: its own channel order and
+    header, no spectex attributes) is read the same way: linear in wavelength between its bins."""
+    wl = np.arange(400.0, 701.0, 20.0)
+    rng = np.random.default_rng(3)
+    cube = rng.uniform(0.05, 0.95, (6, 8, len(wl)))
+    path = os.path.join(tmp, f"foreign_{bit_depth}.exr")
+    assert colour.io.write_spectral_image_Fichet2021({"T": (wl, cube)}, path, bit_depth)
+    lams_file, stored, _ = read_exr(path)
+    assert np.allclose(lams_file, wl)
+    use(JIT)
+    tex = mi.load_dict({"type": "spectex", "filename": path, "filter_type": "nearest"})
+    xy = np.stack([rng.integers(0, 8, 50), rng.integers(0, 6, 50)], axis=1)
+    uv = (xy + 0.5) / [8, 6]
+    lams = rng.uniform(380, 720, (50, 4))
+    got = eval_texture(tex, uv, lams)
+    want = np.array([np.interp(lams[k], lams_file, stored[xy[k, 1], xy[k, 0]]) for k in range(50)])
+    # float32 arithmetic in the plugin against float64 here, as above.
+    assert np.abs(got - want).max() < 2e-6
