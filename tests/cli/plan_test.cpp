@@ -269,3 +269,25 @@ TEST(Plan, TextureColoursDecide) {
               2);
     EXPECT_EQ(read_file(d / "grey.png"), before);
 }
+
+// --wavelengths auto plans with the table the bake will use: a Jakob-Hanika bake at
+// --jh-resolution 5 records the worst error of a 5³ table, not of the default 33³ one (the plan
+// used to build its own method description and leave the resolution out).
+TEST(Plan, AutoPlansWithTheMethodTheBakeBuilds) {
+    ScratchDir d;
+    write_png(d / "in.png");
+    std::vector<std::string> worst;
+    for (const std::string res : {"5", "33"}) {
+        const std::string out = d / ("jh" + res + ".exr");
+        RunResult r = run_spectex({"bake", d / "in.png", "-o", out, "--method", "jakob-hanika",
+                                   "--jh-resolution", res, "--wavelengths", "auto", "--lights",
+                                   "D65", "--max-de", "50", "--grids", "380:780:20", "-q"});
+        ASSERT_EQ(r.status, 0) << r.err;
+        const ExrImage img = read_exr(out);
+        EXPECT_EQ(img.attr("spectex:jhTableResolution"), res);
+        worst.push_back(img.attr("spectex:planWorstDe"));
+        EXPECT_FALSE(worst.back().empty());
+    }
+    // A 5³ table misses colours a 33³ table gets: the planned worst error differs.
+    EXPECT_NE(worst[0], worst[1]) << "both planned with the same table";
+}
