@@ -102,6 +102,10 @@ Observer load_observer_csv(const std::string& path, const std::string& name) {
 void check_observer_independent(const std::vector<double>& x, const std::vector<double>& y,
                                 const std::vector<double>& z, const std::string& what,
                                 const std::string& where) {
+    // Fewer than three wavelengths cannot hold three independent functions: say so plainly.
+    if (x.size() < 3)
+        throw Error(what + " on " + where + ": colours need at least 3 wavelengths to be told " +
+                    "apart (got " + std::to_string(x.size()) + ")");
     // x, y and z must span three dimensions, or XYZ -> RGB has no inverse and every colour maps
     // to a line or plane. The Gram matrix's eigenvalues relative to its largest say how close
     // to dependent they are; 1e-12 is far below any real observer's (the CIE's are above 1e-3).
