@@ -110,6 +110,7 @@ int run(int argc, char** argv) {
     // Channel names hold commas and numbers are parsed with strtod: one locale, always.
     std::setlocale(LC_ALL, "C");
     std::locale::global(std::locale::classic());
+    spectex::note_inherited_descriptors();  // before anything is opened: only these are streams
     spectex::install_signal_cleanup();
     spectex::capture_library_stderr();
 

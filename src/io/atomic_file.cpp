@@ -149,14 +149,29 @@ std::string follow_links(const std::string& path, Step step) {
     return p;
 }
 
-}  // namespace
+// The descriptors open when main started (note_inherited_descriptors); empty: not recorded.
+constexpr int kInheritedMax = 1024;
+std::vector<bool> g_inherited;
 
-int stream_fd_of(const std::string& path) {
+// The descriptor the path's spelling names (before standard error is mapped), or -1.
+int named_fd(const std::string& path) {
     int fd = -1;
     follow_links(path, [&](const std::string& p) {
         fd = fd_named_by(p);
         return fd >= 0;
     });
+    return fd;
+}
+
+}  // namespace
+
+void note_inherited_descriptors() {
+    g_inherited.assign(kInheritedMax, false);
+    for (int fd = 0; fd < kInheritedMax; ++fd) g_inherited[fd] = ::fcntl(fd, F_GETFD) != -1;
+}
+
+int stream_fd_of(const std::string& path) {
+    const int fd = named_fd(path);
     // Descriptor 2 carries the libraries' messages through a filter: the user's stream is the
     // real stderr behind it.
     return fd == 2 ? real_stderr_descriptor() : fd;
@@ -185,6 +200,12 @@ void check_output_path(const std::string& path, bool stream_ok) {
         if (!stream_ok)
             throw Error(path + ": names a stream (" + what +
                         "); this output must be a file: name a regular file");
+        const int named = named_fd(path);
+        if (!g_inherited.empty() &&
+            (named >= kInheritedMax || !g_inherited[static_cast<size_t>(named)]))
+            throw Error(path + ": names descriptor " + std::to_string(named) +
+                        ", which spectex was not given (one it opens itself, such as an output "
+                        "being written); name a stream the shell passed, or a file");
         const int flags = ::fcntl(fd, F_GETFL);
         if (flags < 0 || (flags & O_ACCMODE) == O_RDONLY)
             throw Error(path + ": names " + what + ", which is not open for writing");

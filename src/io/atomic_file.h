@@ -34,6 +34,12 @@ class AtomicFile {
 // would). -1 for any other path. Such a path is written through, like "-": renaming over it would
 // replace the link (as root, the system's /dev/stdout) and the stream would never see the data.
 int stream_fd_of(const std::string& path);
+// Records which descriptors the process was given (call first thing in main, before anything is
+// opened). Only those can be a user's stream: a /proc/self/fd/N that names a descriptor spectex
+// opened itself (an output being written, a library's file) is refused by check_output_path, so a
+// report can never be written into another output. Without the call every descriptor is taken.
+void note_inherited_descriptors();
+
 // "-" when `path` names standard output (stream_fd_of is 1), else `path`: options that take "-"
 // for standard output treat /dev/stdout and links to it the same way.
 std::string stdout_as_dash(const std::string& path);

@@ -406,3 +406,25 @@ TEST(FilesThatTravel, TheRecordedSourceIsFoundFromAnywhere) {
                                "is not found (tried "))
         << g.err;
 }
+
+// A /proc/self/fd/N the shell passed is a stream; one spectex would open itself (an output being
+// written, a library's file) is not: a report written there could land inside another output.
+TEST(HostileRound4, OnlyDescriptorsTheShellPassedAreStreams) {
+    ScratchDir d;
+    const std::string png = make_png(d, "in.png"), exr = d / "a.exr";
+    ASSERT_EQ(run_spectex({"bake", png, "-o", exr, "-q"}).status, 0);
+    RunResult given = run_shell(spectex_binary() + " verify " + exr +
+                                " -q --json /proc/self/fd/9 9>" + d.path() + "/report.json");
+    EXPECT_EQ(given.status, 0) << given.out;
+    EXPECT_TRUE(has(read_file(d / "report.json"), "\"schema_version\"")) << given.out;
+    // Descriptors 20 and 250 are not open when spectex starts: refused before any work.
+    for (const std::string fd : {"20", "250"}) {
+        RunResult r = run_spectex({"verify", exr, "--json", "/proc/self/fd/" + fd});
+        EXPECT_EQ(r.status, 2) << fd << ": " << r.err;
+        EXPECT_TRUE(has(r.err, "which spectex was not given")) << r.err;
+        RunResult b = run_spectex(
+            {"bake", png, "-o", d / "b.exr", "--jobs", "1", "--json", "/proc/self/fd/" + fd});
+        EXPECT_EQ(b.status, 2) << fd << ": " << b.err;
+        EXPECT_FALSE(file_exists(d / "b.exr"));
+    }
+}
