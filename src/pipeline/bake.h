@@ -42,7 +42,7 @@ struct BakeSettings {
     int tile_width = 0, tile_height = 0;  // tiled output when > 0
     bool mipmap = false;          // MIP-mapped (tiled) output, levels filtered on linear RGB
     bool colour_rounding = true;  // half: round bins to keep the integrated colour closest
-    // --wavelengths auto (issue 13): what chose the grid, recorded as spectex:plan* and hashed.
+    // --wavelengths auto: what chose the grid, recorded as spectex:plan* and hashed.
     struct Plan {
         std::string lights, max_de, reconstruction, range, worst_de;  // empty: the grid was given
         bool nonuniform = false;  // --nonuniform: non-uniform grids were candidates too

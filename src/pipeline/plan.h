@@ -1,5 +1,5 @@
 #pragma once
-// "How many bins does my scene need?" (issue 13): the error of candidate wavelength grids under
+// "How many bins does my scene need?": the error of candidate wavelength grids under
 // the scene's lights as a renderer sees them (spectral/grid_error.h), and the cheapest grid that
 // meets an error budget under every light.
 #include <cstddef>

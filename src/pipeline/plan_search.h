@@ -1,5 +1,5 @@
 #pragma once
-// Non-uniform wavelength grids for `spectex plan --nonuniform` (issue 13, item 3).
+// Non-uniform wavelength grids for `spectex plan --nonuniform`.
 //
 // The layout allows any wavelengths, so a grid may place its bins where the scene needs them. The
 // search is greedy removal, with the real basis fitted on every trial grid:

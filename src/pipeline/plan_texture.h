@@ -1,5 +1,5 @@
 #pragma once
-// The colours of a texture for `spectex plan --texture FILE` (issue 13, item 1): the grid's error
+// The colours of a texture for `spectex plan --texture FILE`: the grid's error
 // over the colours a texture really has, instead of the whole 8-bit cube.
 #include <array>
 #include <cstdint>

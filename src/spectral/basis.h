@@ -16,7 +16,7 @@ struct Basis {
     std::string checksum() const;
 };
 
-// CSV with header "wavelength,r,g,b" (DESIGN.md conventions). Written with the header row first
+// CSV with header "wavelength,r,g,b". Written with the header row first
 // and nothing else, so that generic CSV readers load it; read with or without leading '#' lines
 // (files written before carry their provenance there).
 Basis read_basis_csv(const std::string& path, const std::string& name);

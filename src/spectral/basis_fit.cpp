@@ -44,7 +44,7 @@ Eigen::SparseMatrix<double> objective_matrix(FitObjective o, const WavelengthGri
 
 // Equality rows: colour of S_r and S_g (6 rows), then N sum-to-one rows. The colour rows of S_b
 // follow from these when the white is consistent (sum of the colour rows = RGB of the perfect
-// reflector = (1,1,1)), so they are left out: the 9 + N rows have rank N + 6 (DESIGN.md).
+// reflector = (1,1,1)), so they are left out: the 9 + N rows have rank N + 6.
 void equality_rows(const Eigen::Matrix3Xd& R, int n, Eigen::SparseMatrix<double>* A,
                    Eigen::VectorXd* b, bool all_nine) {
     const int colour_rows = all_nine ? 9 : 6;

@@ -1,7 +1,7 @@
 #pragma once
 // Colorimetry on a wavelength grid: spectrum -> XYZ -> RGB, with the RGB<->XYZ matrix derived from
 // the primaries and from the white of the illuminant integrated on the same grid, so that the
-// perfect reflector maps exactly to RGB (1,1,1) (DESIGN.md, "White point consistency").
+// perfect reflector maps exactly to RGB (1,1,1).
 #include <Eigen/Dense>
 #include <string>
 #include <vector>

@@ -1,6 +1,6 @@
 #pragma once
 // Numeric CSV tables: optional '#' provenance lines, a header line, then rows of numbers.
-// The first column is a wavelength in nm, strictly increasing (DESIGN.md, "Conventions: CSV").
+// The first column is a wavelength in nm, strictly increasing.
 #include <iosfwd>
 #include <string>
 #include <vector>

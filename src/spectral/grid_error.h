@@ -1,5 +1,5 @@
 #pragma once
-// How far a baked wavelength grid is from what a renderer sees (issue 13). A renderer samples
+// How far a baked wavelength grid is from what a renderer sees. A renderer samples
 // wavelengths continuously and reconstructs the reflectance between the file's bins; outside the
 // grid it holds the end values. The error of a grid G for a colour c under a light L is ΔE00
 // between

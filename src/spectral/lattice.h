@@ -1,5 +1,5 @@
 #pragma once
-// The spectral lattice (DESIGN.md, "Beyond three spectra"): a spectrum at every vertex of an
+// The spectral lattice: a spectrum at every vertex of an
 // n³ lattice over linear RGB [0, 1]³, each reproducing its vertex colour exactly under the
 // colorimetry's light and lying in [0, 1]; tetrahedral (Kuhn) interpolation between them. The
 // barycentric weights reproduce the RGB, so every colour is exact and every spectrum is a convex

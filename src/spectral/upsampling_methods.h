@@ -1,5 +1,5 @@
 #pragma once
-// The methods behind SpectralMethod besides the basis: the exact lattice (issue 11) and plain
+// The methods behind SpectralMethod besides the basis: the exact lattice and plain
 // Jakob-Hanika sigmoids (not exact; for comparison and for consistency with pbrt-v4 / Mitsuba 3).
 #include <memory>
 #include <string>

@@ -9,11 +9,11 @@ clock starts (`--whole`), with the same grid, sample type, compression, ZIP leve
 threads. Floor and bake run alternately, --repeat times each; the best wall time of each is kept
 (the machines are shared: compare within one run, never across runs).
 
-Targets (issue 4), checked from child processes (os.wait4 rusage):
+Targets, checked from child processes (os.wait4 rusage):
   * 81 bins, half, zip: bake wall <= 1.15 x floor wall; CPU time / wall close to the thread count;
     peak RSS < 2 x decoded float RGB + 64 MiB (466 MiB at 4096²);
   * 401 bins (380:780:1): peak RSS < 512 MiB.
-With --methods basis,lattice (issue 11) every method is baked and given its own floor (the floor
+With --methods basis,lattice every method is baked and given its own floor (the floor
 writes that method's spectra, expanded by the same SpectralMethod and half rounding), alternately
 in one run, and two more targets are checked: each method's bake within 1.15x its own floor (the
 kernel hides under the encoder), and the lattice bake within 1.10x the basis bake (which measures

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Per-file overhead of a batch of small textures (issue 14, item 6).
+"""Per-file overhead of a batch of small textures.
 
     build/venv/bin/python tests/bench/per_file_overhead.py --spectex build/src/spectex \\
         [--files 1000] [--size 512] [--repeat 2] [--profile 100] [--check] [--json]

@@ -1,4 +1,4 @@
-// Asset trees (issue 14, item 1): --base-dir and {reldir} mirror a tree under --output-dir,
+// Asset trees: --base-dir and {reldir} mirror a tree under --output-dir,
 // creating folders as needed with the umask's mode; inputs outside the base are refused; {dir}
 // under
 // --output-dir never doubles a slash or climbs out; a template's folders are created.

@@ -1,4 +1,4 @@
-// The basis CSV that `spectex basis -o` writes (issue 14, item 10): the header row first and
+// The basis CSV that `spectex basis -o` writes: the header row first and
 // nothing but the table, so that Python's csv module, numpy.genfromtxt(names=True) and
 // colour-science's read_sds_from_csv_file load it without options; the provenance (command, fit,
 // checksum, certificate) in a sidecar FILE.provenance. Files in the older format, with '#' lines

@@ -130,7 +130,7 @@ TEST(Batch, UpdateSkipsOnlyWhatIsCurrent) {
         {"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update", "--json", "-"});
     EXPECT_EQ(r.status, 0);
     EXPECT_EQ(count_lines(r.out, "\"status\":\"skipped\""), 2u) << r.out;
-    // A skipped record says why (issue 14, item 9).
+    // A skipped record says why.
     EXPECT_EQ(count_lines(
                   r.out,
                   "\"reason\":\"up to date: same settings hash, source size and modification time"),

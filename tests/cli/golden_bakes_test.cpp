@@ -1,4 +1,4 @@
-// Refactoring guard (issue 15): a fixed set of bakes must give the same bytes before and after a
+// Refactoring guard: a fixed set of bakes must give the same bytes before and after a
 // behaviour-preserving change. tests/cli/golden_bakes.txt holds one hash per bake; a change that
 // alters any output byte fails here, naming the bake.
 //

@@ -1,9 +1,9 @@
-// Issue 10, tried again as an attacker would after the first fixes (each case failed before its
-// fix): outputs that were files the command reads by another route (the shipped tables, the
-// sources and configs a header records, a file redirected into --from-list -), outputs that were
-// not ours to replace (devices, FIFOs), output lost on a full standard output with exit 0, names
-// too long found only after the work, invisible characters and invalid UTF-8 reaching the terminal
-// and the JSON, truncated MIP-mapped files passing verify, and inputs that took minutes.
+// The earlier attack cases, tried again as an attacker would after the first fixes (each case
+// failed before its fix): outputs that were files the command reads by another route (the shipped
+// tables, the sources and configs a header records, a file redirected into --from-list -), outputs
+// that were not ours to replace (devices, FIFOs), output lost on a full standard output with exit
+// 0, names too long found only after the work, invisible characters and invalid UTF-8 reaching the
+// terminal and the JSON, truncated MIP-mapped files passing verify, and inputs that took minutes.
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>

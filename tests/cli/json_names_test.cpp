@@ -1,4 +1,4 @@
-// Issue 15, item 10: every JSON document spectex writes stays valid JSON (a strict parser reads
+// Every JSON document spectex writes stays valid JSON (a strict parser reads
 // it) when a file name is not UTF-8 — here a Latin-1 'é' (0xe9) and a control character (0x01),
 // both possible in a Linux file name — and "<field>_bytes_hex" gives the exact bytes back.
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// spectex plan (issue 13): a budget picks a known grid, an impossible one is exit 1 with the best
+// spectex plan: a budget picks a known grid, an impossible one is exit 1 with the best
 // achievable figure, --json is JSON, and the usage errors are exit 2.
 #include <gtest/gtest.h>
 
@@ -147,7 +147,7 @@ TEST(Plan, BakeAutoRecordsTheChoiceAndUpdateTreatsItAsSettings) {
     EXPECT_EQ(run_spectex({"bake", d / "in.png", "-o", d / "x.exr", "--max-de", "0.5"}).status, 2);
 }
 
-// --nonuniform (issue 13, item 3): under D65 and FL11 at 0.5 the search finds a grid with fewer
+// --nonuniform: under D65 and FL11 at 0.5 the search finds a grid with fewer
 // bins than the uniform candidates (20 against 31 when this was written), the plan's own evaluation
 // on the dense sample confirms it, --grid-file writes it for bake --wavelengths-file, and bake
 // --wavelengths auto --nonuniform records it and treats --nonuniform as a setting. Slow: about 30
@@ -227,7 +227,7 @@ TEST(Plan, NonuniformUsageErrors) {
     EXPECT_EQ(read_file(d / "light.csv"), "wavelength,value\n360,1\n830,1\n");
 }
 
-// --texture (issue 13, item 1): the texture's own colours decide. Greys are flat spectra under the
+// --texture: the texture's own colours decide. Greys are flat spectra under the
 // basis (S_r + S_g + S_b = 1), which every reconstruction holds exactly, so a grey texture meets a
 // budget of 0.05 on the coarsest candidate (only half rounding is left), where the cube needs 5 nm;
 // pixels with alpha 0 (here saturated blue, the cube's worst colour) are left out.

@@ -1,4 +1,4 @@
-// Progress (issue 14, item 7): within a file, not only between files; on a terminal one line
+// Progress: within a file, not only between files; on a terminal one line
 // rewritten a few times a second; in a log (--progress, not a terminal) plain timestamped lines
 // with no control codes, every SPECTEX_PROGRESS_SECONDS (default 10).
 #include <gtest/gtest.h>

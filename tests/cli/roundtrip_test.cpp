@@ -28,7 +28,7 @@ struct Stats {
 //    default colour-error-feedback rounding may take the neighbour of the nearest half), |s|·2^-24
 //    for float files; the expansion in float adds <= 4 ulps of 1 (5e-7);
 //    these propagate through |rgb_weight|, whose rows sum to about 2-3;
-//  - the published basis reproduces the primaries to 3.5e-8 (DESIGN.md), and OCIO's sRGB curve
+//  - the published basis reproduces the primaries to 3.5e-8, and OCIO's sRGB curve
 //    differs from the IEC formula by up to 7.6e-7: 1e-6 absolute covers both.
 // Linear value of each 8-bit code through the shipped OCIO config (OCIO directly, not spectex).
 std::array<double, 256> ocio_decode_table() {
@@ -163,7 +163,7 @@ TEST(RoundTripSlow, EveryEightBitColourHalfFittedBasis) {
         static_cast<unsigned long long>(st.code_match), static_cast<unsigned long long>(st.pixels));
     EXPECT_EQ(st.over_bound, 0u);
     // Plain rounding leaves one colour of the 16,777,216 a code off; the default colour-error
-    // feedback rounding keeps every one exact (issue 4).
+    // feedback rounding keeps every one exact.
     EXPECT_EQ(st.code_match, st.pixels);
 }
 
@@ -287,7 +287,7 @@ TEST(RoundTrip, CheckFailsWhenAChannelIsDropped) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// The lattice method (issue 11): exact under D65 by construction (the barycentric weights
+// The lattice method: exact under D65 by construction (the barycentric weights
 // reproduce the RGB), so the same bounds hold as for the fitted basis; Jakob-Hanika is not exact
 // and is measured, never hidden.
 

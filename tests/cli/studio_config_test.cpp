@@ -1,4 +1,4 @@
-// Issue 14, item 2: a studio config whose default file rule is a scene-linear space. With $OCIO set
+// A studio config whose default file rule is a scene-linear space. With $OCIO set
 // to an ACES-style config (reference ACES2065-1, default rule to it), an untagged 16-bit sRGB TIFF
 // was read as ACES2065-1 and the only hint was a count of clamped pixels. Now the header records
 // the config (path, where it came from, name, checksum) and how the colour space was chosen, the

@@ -1,4 +1,4 @@
-// What a no-op costs (issue 14, item 5): starting the tool does not load OpenImageIO (it lives in
+// What a no-op costs: starting the tool does not load OpenImageIO (it lives in
 // the module spectex-oiio.so, loaded by what decodes or writes an image), and an --update run whose
 // files are all up to date reads only the outputs' headers and builds nothing. Checked by what the
 // process used (peak RSS, page faults: robust on a loaded machine, where times are not) and by

@@ -1,4 +1,4 @@
-// --update decides by the source's identity recorded in the output's header (issue 14, item 4):
+// --update decides by the source's identity recorded in the output's header:
 // spectex:sourceSize, spectex:sourceMtime and spectex:sourceHash (FNV-1a 64 of the source's bytes,
 // computed here independently). A source replaced by an older-dated file is rebuilt; a source
 // touched without a change is not.

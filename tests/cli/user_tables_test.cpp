@@ -114,7 +114,7 @@ TEST(UserTables, ObserverAndIlluminantValuesAreChecked) {
 }
 
 TEST(UserTables, TheInfeasibleGridHintIsTrue) {
-    // 380:780:40 with CIE 1931 2° has no exact basis (DESIGN.md). bake's message names
+    // 380:780:40 with CIE 1931 2° has no exact basis. bake's message names
     // --allow-infeasible, and bake accepts it: the closest basis, with a warning giving the miss.
     ScratchDir d;
     write_png(d / "in.png");

@@ -1,4 +1,4 @@
-// spectex verify, right by default (issue 12, items 1-4): it checks a file under what the file
+// spectex verify, right by default: it checks a file under what the file
 // records (colour space, illuminant, observer, config, policies) without repeating options; its
 // default gates pass every correct bake and fail wrong, out-of-range and NaN files, naming the
 // gate; it takes many files, lists and JSON Lines like bake; other lights are reported, never
@@ -336,7 +336,7 @@ TEST(VerifyGates, OtherLightsAreReportedNotGated) {
     EXPECT_TRUE(has(u.err, "--illuminant: unknown illuminant 'nosuch'")) << u.err;
 }
 
-// Issue 15, item 6: the code-match check re-encodes through the config's own inverse transform,
+// The code-match check re-encodes through the config's own inverse transform,
 // never by the names of our config's spaces: a studio config that calls its sRGB texture space
 // something else keeps the check (100 % of the 8-bit codes).
 TEST(VerifyGates, CodeMatchFollowsTheTransformNotTheSpacesName) {

@@ -169,7 +169,7 @@ def read_basis(path):
                 rows.append([float(v) for v in line.split(",")])
     assert header == "wavelength,r,g,b"
     assert not comments, "the CSV holds the table alone; its provenance is in FILE.provenance"
-    # The provenance and certificate, one "key: value" line each (issue 14, item 10).
+    # The provenance and certificate, one "key: value" line each.
     with open(path + ".provenance") as f:
         comments = [line.rstrip("\n") for line in f]
     data = np.array(rows)
@@ -394,7 +394,7 @@ def test_shipped_basis_matches_fresh_fit(tmp):
     assert r.returncode == 0, r.stderr
     assert data_lines(shipped) == data_lines(fresh)
 
-    def checksum(p):  # the provenance sidecar (issue 14, item 10)
+    def checksum(p):  # the provenance sidecar
         with open(p + ".provenance") as f:
             return [l for l in f.read().splitlines() if l.startswith("checksum:")]
 
@@ -403,7 +403,7 @@ def test_shipped_basis_matches_fresh_fit(tmp):
 
 def test_basis_csv_loads_in_generic_readers(tmp):
     # The header row first, nothing else: Python's csv module, numpy.genfromtxt(names=True) and
-    # colour-science's read_sds_from_csv_file load it without options (issue 14, item 10).
+    # colour-science's read_sds_from_csv_file load it without options.
     import csv
     import colour
 

@@ -6,7 +6,7 @@ compares the spectra with the measured reflectances under A, FL2, FL11, D50 and 
 priors and sizes were chosen; the ColorCheckers (Ohta, shipped in config/spectral/, and BabelColor)
 are held out: nothing was tuned on them.
 
-Issue 11's rule for the default method: lattice becomes the default only if it is exact under D65
+The rule for the default method: lattice becomes the default only if it is exact under D65
 and, on the measured ColorChecker the tests ship (Ohta), it is at least as good as Jakob-Hanika
 within 0.03 ΔE00 under every light, mean and max, and better on average. This test measures the
 rule and checks that the shipped default follows it, whichever way it falls.

@@ -97,7 +97,7 @@ TEST(BasisFit, ShippedDefaultBasisEqualsAFreshFit) {
 }
 
 TEST(BasisFit, PublishedBasisCertificate) {
-    // The published table: colour residual ~3.5e-8 and sum-to-one only within 1e-5 (DESIGN.md).
+    // The published table: colour residual ~3.5e-8 and sum-to-one only within 1e-5.
     Basis b = load_basis(kData, "mallett2019");
     auto grid = WavelengthGrid::from_list(b.lambda);
     auto c = certify_basis(

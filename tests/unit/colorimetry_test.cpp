@@ -36,7 +36,7 @@ TEST(Colorimetry, PerfectReflectorIsWhiteWithConsistentMatrix) {
         Eigen::Vector3d rgb = c.rgb_weights() * ones;
         // Exact up to double rounding of the 3x3 inverse.
         EXPECT_NEAR((rgb - Eigen::Vector3d::Ones()).cwiseAbs().maxCoeff(), 0.0, 1e-13) << spec;
-        // The nominal sRGB matrix misses by ~1e-4..1e-3 (DESIGN.md): report, and check it is not
+        // The nominal sRGB matrix misses by ~1e-4..1e-3: report, and check it is not
         // exact.
         Eigen::Vector3d nominal = c.nominal_xyz_to_rgb * c.W * ones;
         EXPECT_GT((nominal - Eigen::Vector3d::Ones()).cwiseAbs().maxCoeff(), 1e-5) << spec;
@@ -55,7 +55,7 @@ TEST(Colorimetry, PublishedBasisReproducesPrimaries) {
     M.col(0) = c.rgb_weights() * r;
     M.col(1) = c.rgb_weights() * g;
     M.col(2) = c.rgb_weights() * bb;
-    // DESIGN.md measured 3.5e-8 with the white-consistent matrix; allow 1e-7.
+    // The design notes measured 3.5e-8 with the white-consistent matrix; allow 1e-7.
     EXPECT_LT((M - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff(), 1e-7);
 }
 

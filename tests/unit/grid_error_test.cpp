@@ -1,4 +1,4 @@
-// The error of a wavelength grid as a renderer sees it (issue 13): the reconstruction rules on
+// The error of a wavelength grid as a renderer sees it: the reconstruction rules on
 // hand-computed cases, the light's 1 nm weights, the histogram's percentiles, and the linear
 // structure (the 3×3 maps of the full cube agree with spectra expanded and integrated).
 #include "spectral/grid_error.h"

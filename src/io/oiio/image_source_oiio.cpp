@@ -458,7 +458,7 @@ void OiioImageSource::read_rgba(int y0, int y1, float* rgba) {
     if (I.tiled) {
         // OIIO 2.4's read_scanlines divides by zero on tiled TIFFs when it converts types, and
         // bands of rows need not be tile-aligned: read the whole level once (the RGB input is the
-        // one thing DESIGN.md allows to be whole in memory).
+        // one thing allowed to be whole in memory: the spectral planes are streamed).
         if (I.whole.empty()) {
             I.whole.resize(w * static_cast<size_t>(info_.height) * static_cast<size_t>(nch));
             if (!in->read_image(0, 0, I.chbegin, I.chend, OIIO::TypeDesc::FLOAT, I.whole.data()))
