@@ -232,24 +232,31 @@ void observer_option(ArgParser& p, const std::string& whose, std::string& observ
              [&observer](const std::string& v) { observer = v; });
 }
 
-void check_observer_setting(const std::string& option, const std::string& name) {
+namespace {
+
+// A table option's value, loaded now so that an unknown name, an unreadable or malformed file or
+// a singular table is a usage error naming the option, before any input is read.
+template <class Load>
+void check_table_setting(const std::string& option, const std::string& name, Load load) {
     if (name.empty()) return;
-    const std::string data_dir = find_data_dir();
+    const std::string data_dir = find_data_dir();  // no data folder: the command's own error
     try {
-        load_observer(data_dir, name);
+        load(data_dir, name);
     } catch (const Error& e) {
         throw UsageError(option + ": " + e.what());
     }
 }
 
+}  // namespace
+
+void check_observer_setting(const std::string& option, const std::string& name) {
+    check_table_setting(option, name,
+                        [](const std::string& d, const std::string& n) { load_observer(d, n); });
+}
+
 void check_illuminant_setting(const std::string& option, const std::string& name) {
-    if (name.empty()) return;
-    const std::string data_dir = find_data_dir();
-    try {
-        load_illuminant(data_dir, name);
-    } catch (const Error& e) {
-        throw UsageError(option + ": " + e.what());
-    }
+    check_table_setting(option, name,
+                        [](const std::string& d, const std::string& n) { load_illuminant(d, n); });
 }
 
 std::vector<std::string> split_list(const std::string& value, const std::string& option) {
