@@ -1,5 +1,5 @@
 #!/bin/sh
-# Regenerates the pictures of the README's "See the spectra" section (docs/images/) from
+# Regenerates the pictures of the README and docs/inspecting.md (docs/images/) from
 # examples/textures/colour_chart.png with the built binary. Run from the repository root:
 #   examples/make_pictures.sh [path/to/spectex]
 # Same bytes each run for the same build (no timestamps are written).

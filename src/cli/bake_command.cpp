@@ -149,7 +149,8 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
         "--zip-level", "L",
         "Deflate level of zip and zips, 1 (fastest) to 12 (smallest); default 4. Level 1 took 0.6x "
         "the "
-        "CPU time of 4 for files about 5 % larger; 6 took 1.7x for 0.5 % smaller (see README).",
+        "CPU time of 4 for files about 5 % larger; 6 took 1.7x for 0.5 % smaller "
+        "(docs/performance.md).",
         [&](const std::string& v) {
             long long l = 0;
             if (!parse_whole(v, 1, 12, &l))

@@ -3,7 +3,7 @@
 // called, its id in the header, how many scanlines a chunk holds, which of our writers writes it
 // and whether OpenEXR may change samples with it. Options, help, the writers, the header readers
 // and the preflight all read this table; tests/unit/exr_compression_test.cpp checks it against
-// OpenEXR and checks the lists in the README and the man page against it.
+// OpenEXR and checks the lists in docs/file-format.md and the man page against it.
 #include <string>
 #include <vector>
 

@@ -44,7 +44,8 @@ struct PlanSpec {
 std::vector<WavelengthGrid> default_candidates(double range_start, double range_end);
 
 // Bake time relative to the default 81 bins, modelled as a fixed part and a part proportional to
-// the bins: 0.24 + 0.76 · bins / 81 (fitted to the 4K bakes at 81 and 401 bins in the README).
+// the bins: 0.24 + 0.76 · bins / 81 (fitted to the 4K bakes at 81 and 401 bins in
+// docs/performance.md).
 double relative_bake_time(int bins);
 
 struct LightError {

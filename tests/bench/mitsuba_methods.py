@@ -12,7 +12,7 @@ Fichet EXR of the same layout ("truth"). All are rendered exactly as tests/pytho
 renders (the EXRs through python/spectex_mitsuba) (llvm_ad_spectral, uniform light, orthographic camera,
 direct integrator, XYZ film, here 256 spp) under D65, A and FL11; patch means -> L*a*b* relative to
 the light's white as rendered -> CIEDE2000 of each bake against the truth. A reported figure, never
-a gate (README, "Rendering with Mitsuba 3").
+a gate (docs/mitsuba.md).
 """
 import os, sys, subprocess, tempfile, warnings
 import numpy as np

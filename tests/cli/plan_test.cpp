@@ -12,7 +12,7 @@ using namespace spectex_test;
 
 namespace {
 
-// Three grids under D65 alone (about 1.2, 0.27 and 0.07 ΔE00 worst, README table): fast enough.
+// Three grids under D65 alone (about 1.2, 0.27 and 0.07 ΔE00 worst, docs/plan.md): fast enough.
 const std::vector<std::string> kThree = {"--lights", "D65", "--grids",
                                          "380:780:20,380:780:10,380:780:5"};
 
@@ -112,7 +112,7 @@ TEST(Plan, BakeAutoRecordsTheChoiceAndUpdateTreatsItAsSettings) {
     EXPECT_EQ(img.attr("spectex:planReconstruction"), "linear");
     EXPECT_EQ(img.attr("spectex:planRange"), "360:830");
     const double worst = std::atof(img.attr("spectex:planWorstDe").c_str());
-    EXPECT_GT(worst, 0.2);  // 0.29 on the full cube under D65 (README)
+    EXPECT_GT(worst, 0.2);  // 0.29 on the full cube under D65 (docs/plan.md)
     EXPECT_LT(worst, 0.5);
 
     // Same settings: skipped. Another budget that picks the same grid: rebuilt (the budget is a

@@ -35,7 +35,7 @@ for task in range(1, ntasks + 1):
             problems.append(f"{where}: not JSON ({e})")
             continue
         src = rec.get("input")
-        if rec.get("schema_version") != 2:  # the bake report's schema (README, "JSON report")
+        if rec.get("schema_version") != 2:  # the bake report's schema (docs/pipelines.md, "Reports")
             problems.append(f"{where}: schema_version {rec.get('schema_version')!r}")
         if src not in shard_of:
             problems.append(f"{where}: {src!r} is not in the list")

@@ -1,6 +1,6 @@
 // The compression table (io/exr_compression.h) against OpenEXR itself (ids, chunk heights, which
-// compressions change samples), and the lists that cannot be generated from it (the README, the
-// man page) against the table.
+// compressions change samples), and the lists that cannot be generated from it
+// (docs/file-format.md, the man page) against the table.
 #include "io/exr_compression.h"
 
 #include <ImfChannelList.h>
@@ -185,23 +185,24 @@ TEST(ExrCompression, LossyIsWhetherOpenExrChangesSamples) {
     }
 }
 
-// The README and the man page are written by hand: their lists must be the table's.
+// docs/file-format.md and the man page are written by hand: their lists must be the table's.
 TEST(ExrCompressionDocs, ReadmeAndManPageListTheTable) {
-    const std::string readme = read_text("README.md"), man = read_text("man/spectex.1");
+    const std::string readme = read_text("docs/file-format.md"), man = read_text("man/spectex.1");
     ASSERT_FALSE(readme.empty());
     ASSERT_FALSE(man.empty());
     const std::vector<std::string> all = ExrCompression::names(), core = core_names();
 
-    // README: "`--compression\n  none|rle|...` (default zip)" and
+    // docs/file-format.md: "`--compression\n  none|rle|...` (default zip)" and
     // "- none/zips/zip files (the default)".
     const auto readme_all = lists_in(readme, "--compression\\s+([a-z0-9]+(?:\\|[a-z0-9]+)+)`");
-    ASSERT_EQ(readme_all.size(), 1u) << "README.md: no `--compression a|b|...` list";
+    ASSERT_EQ(readme_all.size(), 1u) << "docs/file-format.md: no `--compression a|b|...` list";
     EXPECT_EQ(readme_all[0], all)
-        << "README.md's --compression list is not the table's (io/exr_compression.cpp)";
+        << "docs/file-format.md's --compression list is not the table's (io/exr_compression.cpp)";
     const auto readme_core =
         lists_in(readme, "\n- ([a-z0-9]+(?:/[a-z0-9]+)+) files \\(the default\\)");
-    ASSERT_EQ(readme_core.size(), 1u) << "README.md: no list of the core writer's compressions";
-    EXPECT_EQ(readme_core[0], core) << "README.md's core-writer list is not the table's";
+    ASSERT_EQ(readme_core.size(), 1u)
+        << "docs/file-format.md: no list of the core writer's compressions";
+    EXPECT_EQ(readme_core[0], core) << "docs/file-format.md's core-writer list is not the table's";
 
     // man: ".BI \%\-\-compression " \%NAME"" then the list on the next line (where it has one), and
     // "Files compressed with none, zips or zip (the default)".

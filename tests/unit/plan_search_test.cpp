@@ -74,7 +74,8 @@ TEST(PlanSearch, ReturnedGridsMeetTheBudgetWithFewerBinsThanAnyUniformOne) {
 
 TEST(PlanSearch, SearchErrorIsThePlansErrorOnItsColours) {
     // The search's error is the plan's on 4,096 colours: a 20 nm grid is about 1.2 ΔE00 under D65
-    // (README), a 5 nm one below 0.1, and an infeasible grid (one bin cannot be exact) is +inf.
+    // (docs/plan.md), a 5 nm one below 0.1, and an infeasible grid (one bin cannot be exact) is
+    // +inf.
     Scene s({"D65"}, 0.5);
     EXPECT_NEAR(s.error(WavelengthGrid::parse("380:780:20")), 1.2, 0.1);
     EXPECT_LT(s.error(WavelengthGrid::parse("380:780:5")), 0.1);
