@@ -28,8 +28,6 @@
 
 namespace spectex {
 
-int run_verify(const std::vector<std::string>& args);
-
 namespace {
 
 std::string num(double v, const char* fmt = "%.6g") { return number_text(v, fmt); }

@@ -65,11 +65,6 @@ ImageLibrary& image_library() {
     return *g_library;
 }
 
-bool image_library_loaded() {
-    std::lock_guard<std::mutex> lock(g_mutex);
-    return g_library != nullptr;
-}
-
 void set_image_threads(int threads) {
     std::lock_guard<std::mutex> lock(g_mutex);
     g_threads = threads;

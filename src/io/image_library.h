@@ -44,8 +44,6 @@ class ImageLibrary {
 
 // The library, loaded on the first call. Throws Error when the module cannot be loaded.
 ImageLibrary& image_library();
-// Whether it has been loaded (tests and benchmarks; `spectex` loads it only when it decodes).
-bool image_library_loaded();
 // OpenImageIO's thread count: applied now when the library is loaded, else when it loads.
 void set_image_threads(int threads);
 // For programs that link the implementation (image_library_static.cpp).

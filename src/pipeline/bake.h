@@ -76,13 +76,13 @@ struct BakeResult {
     std::vector<std::string> notes;  // e.g. "input has 3 MIP levels: the first was used"
 };
 
-// Throws Error ("<file>: <cause>") on failure; the output then does not exist under its name.
 // Rows of one bake written so far, for a progress display on another thread (MIP levels count their
 // own rows: rows_total is the sum over levels). Set once the input's header is read.
 struct BakeProgress {
     std::atomic<long> rows_done{0}, rows_total{0};
 };
 
+// Throws Error ("<file>: <cause>") on failure; the output then does not exist under its name.
 BakeResult bake_file(const std::string& input, const std::string& output, const BakeSettings& s,
                      BakeProgress* progress = nullptr);
 

@@ -97,8 +97,6 @@ class FreeSystem {
         }
     }
 
-    const std::vector<Eigen::Index>& free_indices() const { return F_; }
-
   private:
     const Eigen::Matrix3Xd& C_;
     std::vector<Eigen::Index> F_;
