@@ -12,33 +12,16 @@
 
 #include "spectral/csv_table.h"
 #include "spectral/error.h"
+#include "spectral/fnv1a.h"
 
 namespace spectex {
 
-namespace {
-
-void fnv1a(uint64_t& h, const std::vector<double>& v) {
-    for (double d : v) {
-        uint64_t bits;
-        std::memcpy(&bits, &d, sizeof bits);
-        for (int i = 0; i < 8; ++i) {
-            h ^= (bits >> (8 * i)) & 0xffu;
-            h *= 0x100000001b3ull;
-        }
-    }
-}
-
-}  // namespace
-
+// FNV-1a over the grid and the three spectra, each double's bytes as stored (little-endian IEEE).
 std::string Basis::checksum() const {
-    uint64_t h = 0xcbf29ce484222325ull;
-    fnv1a(h, lambda);
-    fnv1a(h, r);
-    fnv1a(h, g);
-    fnv1a(h, b);
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "fnv1a64:%016llx", static_cast<unsigned long long>(h));
-    return buf;
+    Fnv1a64 h;
+    for (const std::vector<double>* v : {&lambda, &r, &g, &b})
+        h.add(v->data(), v->size() * sizeof(double));
+    return h.text();
 }
 
 Basis read_basis_csv(const std::string& path, const std::string& name) {

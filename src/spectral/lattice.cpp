@@ -8,6 +8,7 @@
 #include <cstring>
 
 #include "spectral/error.h"
+#include "spectral/fnv1a.h"
 #include "spectral/jakob_hanika.h"
 #include "spectral/lhtss.h"
 #include "spectral/text.h"
@@ -145,20 +146,11 @@ SpectralLattice SpectralLattice::build(const Colorimetry& c, int n, VertexPrior 
 }
 
 std::string SpectralLattice::checksum() const {
-    uint64_t h = 0xcbf29ce484222325ull;
-    auto bytes = [&h](const void* p, size_t len) {
-        const unsigned char* b = static_cast<const unsigned char*>(p);
-        for (size_t i = 0; i < len; ++i) {
-            h ^= b[i];
-            h *= 0x100000001b3ull;
-        }
-    };
+    Fnv1a64 h;
     const int32_t n = n_;
-    bytes(&n, sizeof n);
-    bytes(table_.data(), table_.size() * sizeof(float));
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "fnv1a64:%016llx", static_cast<unsigned long long>(h));
-    return buf;
+    h.add(&n, sizeof n);
+    h.add(table_.data(), table_.size() * sizeof(float));
+    return h.text();
 }
 
 void SpectralLattice::spectrum(const double rgb[3], double* out) const {

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <cstring>
 
+#include "spectral/fnv1a.h"
 #include "spectral/provenance_keys.h"
 
 namespace spectex {
@@ -39,11 +40,8 @@ JakobHanikaMethod::JakobHanikaMethod(JakobHanikaTable table, std::vector<double>
                                      std::string conditions)
     : table_(std::move(table)), lambda_(std::move(lambda)), conditions_(std::move(conditions)) {
     // FNV-1a over the resolution and every node's coefficients (little-endian IEEE doubles).
-    uint64_t h = 0xcbf29ce484222325ull;
-    auto add = [&](const void* p, size_t n) {
-        const unsigned char* c = static_cast<const unsigned char*>(p);
-        for (size_t i = 0; i < n; ++i) h = (h ^ c[i]) * 0x100000001b3ull;
-    };
+    Fnv1a64 h;
+    auto add = [&h](const void* p, size_t n) { h.add(p, n); };
     const int res = table_.res();
     add(&res, sizeof res);
     for (double l : lambda_) add(&l, sizeof l);
@@ -54,9 +52,7 @@ JakobHanikaMethod::JakobHanikaMethod(JakobHanikaTable table, std::vector<double>
                     const JHCoefficients k = table_.node(l, z, y, x);
                     add(&k.c0, sizeof k.c0), add(&k.c1, sizeof k.c1), add(&k.c2, sizeof k.c2);
                 }
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "fnv1a64:%016llx", static_cast<unsigned long long>(h));
-    checksum_ = buf;
+    checksum_ = h.text();
 }
 
 std::vector<std::pair<std::string, std::string>> JakobHanikaMethod::provenance() const {
