@@ -1,5 +1,6 @@
 #include "cli/arg_parser.h"
 
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
@@ -133,40 +134,68 @@ std::vector<std::string> ArgParser::parse(const std::vector<std::string>& args) 
     return pos;
 }
 
+void ArgParser::common(std::vector<std::string> names) { common_ = std::move(names); }
+
+void ArgParser::describe(std::ostringstream& o, const Entry& e) const {
+    std::string label = "  " + e.label;
+    if (label.size() < 28) {
+        o << label << std::string(28 - label.size(), ' ');
+    } else {
+        o << label << "\n" << std::string(28, ' ');
+    }
+    // Wrap the help at 100 columns.
+    std::istringstream words(e.help);
+    std::string word;
+    size_t col = 28;
+    bool first = true;
+    while (words >> word) {
+        if (!first && col + 1 + word.size() > 100) {
+            o << "\n" << std::string(28, ' ');
+            col = 28;
+            first = true;
+        }
+        if (!first) {
+            o << ' ';
+            ++col;
+        }
+        o << word;
+        col += word.size();
+        first = false;
+    }
+    o << "\n";
+}
+
 std::string ArgParser::help() const {
     std::ostringstream o;
     o << "Usage: " << synopsis_ << "\n\n" << description_ << "\n";
-    for (const auto& e : entries_) {
+    std::vector<const Entry*> shown;
+    if (!common_.empty()) {
+        o << "\nCommon options:\n";
+        for (const std::string& name : common_) {
+            const Entry* e = find(name);
+            if (e == nullptr)
+                throw std::logic_error("common option '" + name + "' is not declared");
+            describe(o, *e);
+            shown.push_back(e);
+        }
+    }
+    // A section whose options are all common is left out with them; options declared outside any
+    // section follow the common ones under a heading of their own.
+    bool headed = common_.empty();
+    for (size_t i = 0; i < entries_.size(); ++i) {
+        const Entry& e = entries_[i];
+        if (std::find(shown.begin(), shown.end(), &e) != shown.end()) continue;
         if (e.is_section) {
-            o << "\n" << e.label << ":\n";
+            bool any = false;
+            for (size_t j = i + 1; j < entries_.size() && !entries_[j].is_section; ++j)
+                any = any || std::find(shown.begin(), shown.end(), &entries_[j]) == shown.end();
+            if (any) o << "\n" << e.label << ":\n";
+            headed = true;
             continue;
         }
-        std::string label = "  " + e.label;
-        if (label.size() < 28) {
-            o << label << std::string(28 - label.size(), ' ');
-        } else {
-            o << label << "\n" << std::string(28, ' ');
-        }
-        // Wrap the help at 100 columns.
-        std::istringstream words(e.help);
-        std::string word;
-        size_t col = 28;
-        bool first = true;
-        while (words >> word) {
-            if (!first && col + 1 + word.size() > 100) {
-                o << "\n" << std::string(28, ' ');
-                col = 28;
-                first = true;
-            }
-            if (!first) {
-                o << ' ';
-                ++col;
-            }
-            o << word;
-            col += word.size();
-            first = false;
-        }
-        o << "\n";
+        if (!headed) o << "\nOther options:\n";
+        headed = true;
+        describe(o, e);
     }
     return o.str();
 }

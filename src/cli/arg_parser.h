@@ -2,6 +2,7 @@
 // A small declarative option parser: every option is declared once, with its help text, and the
 // same table drives parsing, --help and usage errors (exit status 2).
 #include <functional>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -21,6 +22,9 @@ class ArgParser {
     ArgParser(std::string command, std::string synopsis, std::string description);
 
     void section(const std::string& title);
+    // The options most runs need, by one of their names, in the order --help lists them first (in
+    // a section of their own, before the sections by task, which then leave them out).
+    void common(std::vector<std::string> names);
     void flag(const std::string& names, const std::string& help, std::function<void()> on);
     void option(const std::string& names, const std::string& metavar, const std::string& help,
                 std::function<void(const std::string&)> on);
@@ -42,9 +46,11 @@ class ArgParser {
         bool is_section = false;
     };
     const Entry* find(const std::string& name) const;
+    void describe(std::ostringstream& o, const Entry& e) const;
 
     std::string command_, synopsis_, description_;
     std::vector<Entry> entries_;
+    std::vector<std::string> common_;
     bool help_ = false;
 };
 

@@ -117,7 +117,7 @@ void check_output_option(const std::string& output, const std::string& output_di
 }
 
 void declare_output_options(ArgParser& p, BakeCli& c) {
-    p.section("Output");
+    p.section("Output file");
     p.option("-o, --output", "FILE|TEMPLATE",
              "Output OpenEXR file, or a template with {dir}, {reldir} (with --base-dir), {stem}, "
              "{ext} (e.g. "
@@ -212,7 +212,7 @@ void declare_colour_options(ArgParser& p, BakeCli& c) {
 }
 
 void declare_spectra_options(ArgParser& p, BakeCli& c) {
-    p.section("Spectra");
+    p.section("Wavelength grid");
     p.option("--wavelengths", "START:END:STEP|auto",
              "Output wavelength grid in nm (default 380:780:5). auto: the cheapest grid within "
              "--max-de under "
@@ -226,6 +226,7 @@ void declare_spectra_options(ArgParser& p, BakeCli& c) {
              "Output wavelengths, one per line (any strictly increasing list).",
              [&](const std::string& v) { c.wavelengths_file = v; });
     add_plan_options(p, c.plan, c.plan_lights, c.plan_budget);
+    p.section("Method");
     p.option(
         "--method", "basis|lattice|jakob-hanika",
         "How a linear RGB becomes a spectrum. basis: r·S_r + g·S_g + b·S_b with --basis (exact "
@@ -296,7 +297,7 @@ void declare_spectra_options(ArgParser& p, BakeCli& c) {
 }
 
 void declare_batch_options(ArgParser& p, BakeCli& c) {
-    p.section("Batches");
+    p.section("Batches and farms");
     p.option("--from-list", "FILE",
              "Read input paths from FILE, one per line ('-' = stdin; a pipe such as <(find ...) "
              "too), after those given.",
@@ -348,6 +349,9 @@ void declare_bake_options(ArgParser& p, BakeCli& c) {
     declare_colour_options(p, c);
     declare_spectra_options(p, c);
     declare_batch_options(p, c);
+    // What most runs set; everything else is in the sections by task below them.
+    p.common({"--output", "--output-dir", "--colorspace", "--method", "--wavelengths", "--type",
+              "--update", "--jobs", "--json", "--quiet", "--verbose", "--help"});
 }
 
 // What must be given, and what goes with what (throws UsageError).

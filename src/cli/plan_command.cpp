@@ -252,6 +252,8 @@ int run_plan(const std::vector<std::string>& args) {
     add_plan_options(p, o.spec, o.lights_given, o.budget_given);
     add_method_options(p, o);
     add_measure_options(p, o);
+    p.common({"--lights", "--max-de", "--method", "--nonuniform", "--texture", "--grid-file",
+              "--json", "--help"});
     try {
         std::vector<std::string> pos;
         if (p.parse_or_help(args, pos)) return 0;

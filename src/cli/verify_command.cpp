@@ -483,6 +483,8 @@ int run_verify(const std::vector<std::string>& args) {
     VerifyArgs a;
     ArgParser p("verify", "spectex verify [options] FILE.exr [FILE.exr ...]", kVerifyDescription);
     declare_verify_options(p, a);
+    p.common({"--source", "--source-from-header", "--from-list", "--illuminant", "--report-only",
+              "--json", "--jobs", "--quiet", "--help"});
     std::vector<std::string> files;
     try {
         if (p.parse_or_help(args, files)) return 0;

@@ -4,8 +4,10 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <random>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -81,6 +83,42 @@ TEST(CliHelp, BakeHelpListsOptions) {
           "--threads", "--max-pixels", "--quiet", "--verbose"})
         EXPECT_TRUE(contains(r.out, opt)) << "bake --help does not mention " << opt << ":\n"
                                           << r.out;
+}
+
+// The options most runs need come first, under "Common options:", and every option is listed once
+// (the sections by task below leave the common ones out), so a newcomer reads a screenful, not the
+// whole table, before the first bake.
+TEST(CliHelp, CommonOptionsComeFirstAndEachOptionOnce) {
+    const std::vector<std::pair<std::string, std::string>> first = {
+        {"bake", "  -o, --output"}, {"verify", "  --source "}, {"plan", "  --lights "}};
+    for (const auto& [command, first_option] : first) {
+        RunResult r = run_spectex({command, "--help"});
+        ASSERT_EQ(r.status, 0) << command << ": " << r.err;
+        std::istringstream in(r.out);
+        std::string line, heading;
+        std::vector<std::string> headings, options;
+        bool next_is_first = false;
+        std::string after_common;
+        while (std::getline(in, line)) {
+            if (!line.empty() && line[0] != ' ' && line.back() == ':') headings.push_back(line);
+            if (line.rfind("  -", 0) == 0) {
+                const std::string names = line.substr(0, line.find("  ", 2));
+                options.push_back(names.substr(0, names.find(' ', names.find("--"))));
+                if (next_is_first) after_common = line;
+                next_is_first = false;
+            }
+            if (line == "Common options:") next_is_first = true;
+        }
+        ASSERT_FALSE(headings.empty()) << command << ":\n" << r.out;
+        EXPECT_EQ(headings.front(), "Common options:") << command << ":\n" << r.out;
+        EXPECT_EQ(after_common.rfind(first_option, 0), 0u) << command << ":\n" << r.out;
+        std::vector<std::string> sorted = options;
+        std::sort(sorted.begin(), sorted.end());
+        EXPECT_EQ(std::adjacent_find(sorted.begin(), sorted.end()), sorted.end())
+            << command << " --help lists an option twice:\n"
+            << r.out;
+        EXPECT_GT(options.size(), 10u) << command << ":\n" << r.out;
+    }
 }
 
 TEST(CliHelp, BakeHelpWinsOverOtherArguments) {
