@@ -311,7 +311,9 @@ void declare_batch_options(ArgParser& p, BakeCli& c) {
              [&](const std::string& v) { c.shard = v; });
     p.flag("--update",
            "Skip files whose output was made from this same source (size, modification time, "
-           "content hash) with the same settings.",
+           "content hash) with the same settings and the same colour transform (what the OCIO "
+           "config does to the file, spectex:colorTransform: a comment in the config rebuilds "
+           "nothing).",
            [&] { c.update = true; });
     p.flag("--force", "Rebuild every file even with --update.", [&] { c.force = true; });
     p.flag("--fail-fast",

@@ -322,7 +322,8 @@ void declare_verify_options(ArgParser& p, VerifyArgs& a) {
              "The image the EXR was baked from (anything OpenImageIO reads); same size. One file.",
              [&](const std::string& v) { a.s.source = v; });
     p.flag("--source-from-header",
-           "Compare each file with the source its header records (spectex:source).",
+           "Compare each file with the source its header records (spectex:source); one whose "
+           "size or bytes changed since the bake is STALE, not compared.",
            [&] { a.source_from_header = true; });
     p.option("--colorspace", "NAME",
              "Colour space of the source. Default: the file's spectex:inputColorSpace.",

@@ -68,7 +68,9 @@ std::string replace_all(std::string s, const std::string& from, const std::strin
     return s;
 }
 
-std::string shipped_config() { return read_file(std::string(SPECTEX_TEST_DATA_DIR) + "/spectex.ocio"); }
+std::string shipped_config() {
+    return read_file(std::string(SPECTEX_TEST_DATA_DIR) + "/spectex.ocio");
+}
 
 // Single-quoted for bash.
 std::string sh(const std::string& s) { return "'" + replace_all(s, "'", "'\\''") + "'"; }
@@ -156,8 +158,8 @@ std::string update_after_edit(const ScratchDir& d, const std::string& edited) {
     write_png(d / "a.png", 1);
     write_png(d / "b.png", 2);
     write_text(d / "c.ocio", shipped_config());
-    const std::vector<std::string> bake = {
-        "bake", d / "a.png", d / "b.png", "--config", d / "c.ocio", "--output-dir", d / "out"};
+    const std::vector<std::string> bake = {"bake",       d / "a.png",    d / "b.png", "--config",
+                                           d / "c.ocio", "--output-dir", d / "out"};
     RunResult r = run_spectex(bake);
     EXPECT_EQ(r.status, 0) << r.err;
     EXPECT_FALSE(read_exr(d / "out/a.exr").attr("spectex:colorTransform").empty());
@@ -176,9 +178,10 @@ TEST(ProvenanceTruth, UpdateKeepsOutputsWhenTheConfigOnlyGainsACommentOrAnUnused
     std::string cfg = "# edited by the show's colour team\n" + shipped_config();
     cfg = replace_all(cfg, "description: spectex texture colour spaces",
                       "description: the show's texture colour spaces");
-    cfg += "\n  - !<ColorSpace>\n    name: show_log\n    isdata: false\n"
-           "    from_scene_reference: !<ExponentTransform> {value: 1.8, style: pass_thru, "
-           "direction: inverse}\n";
+    cfg +=
+        "\n  - !<ColorSpace>\n    name: show_log\n    isdata: false\n"
+        "    from_scene_reference: !<ExponentTransform> {value: 1.8, style: pass_thru, "
+        "direction: inverse}\n";
     // A transform the files do not use changes too (gamma 2.2 space).
     cfg = replace_all(cfg, "{value: 2.2, style: pass_thru", "{value: 2.3, style: pass_thru");
     const std::string out = update_after_edit(d, cfg);
@@ -199,9 +202,8 @@ TEST(ProvenanceTruth, UpdateRebakesAnOutputThatRecordsNoColourTransformOnce) {
     ScratchDir d;
     write_png(d / "a.png", 1);
     write_text(d / "c.ocio", shipped_config());
-    const std::vector<std::string> bake = {"bake", d / "a.png", "--config", d / "c.ocio",
-                                           "-o",   d / "a.exr", "--update", "--json",
-                                           "-"};
+    const std::vector<std::string> bake = {"bake",      d / "a.png", "--config", d / "c.ocio", "-o",
+                                           d / "a.exr", "--update",  "--json",   "-"};
     ASSERT_EQ(run_spectex(bake).status, 0);
     ASSERT_TRUE(read_exr(d / "a.exr").has_attr("spectex:colorTransform"));
     // As an output made before the key was recorded (its settings hash included the config's
@@ -266,8 +268,7 @@ TEST(ProvenanceTruth, EachOutputOfABatchRecordsACommandThatRebuildsItAlone) {
         const std::string cmd = read_exr(d / name).attr("spectex:commandLine");
         ASSERT_EQ(cmd.rfind("spectex ", 0), 0u) << cmd;
         ASSERT_EQ(::unlink((d / name).c_str()), 0);
-        const RunResult again =
-            run_shell("cd " + sh(d.path()) + " && " + sh(bin) + cmd.substr(7));
+        const RunResult again = run_shell("cd " + sh(d.path()) + " && " + sh(bin) + cmd.substr(7));
         ASSERT_EQ(again.status, 0) << cmd << "\n" << again.out;
         EXPECT_TRUE(read_file(d / name) == before) << name << " rebuilt differently by: " << cmd;
     }
