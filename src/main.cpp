@@ -132,7 +132,7 @@ int run(int argc, char** argv) {
     for (const auto& a : args) command_line += " " + spectex::quote_path(a);
     g_command_line = command_line;
     std::vector<std::string> rest(args.begin() + 1, args.end());
-    if (cmd == "bake") return spectex::run_bake(rest, command_line);
+    if (cmd == "bake") return spectex::run_bake(rest);
     if (cmd == "info") return spectex::run_info(rest);
     if (cmd == "basis") return spectex::run_basis(rest, command_line);
     if (cmd == "verify") return spectex::run_verify(rest);

@@ -117,6 +117,7 @@ std::vector<std::string> ArgParser::parse(const std::vector<std::string>& args) 
         if (e->on_flag) {
             if (inline_value) throw UsageError("option '" + name + "' takes no value");
             e->on_flag();
+            given_.push_back({e->names.back(), "", false});
             if (help_) return pos;
             continue;
         }
@@ -130,6 +131,7 @@ std::vector<std::string> ArgParser::parse(const std::vector<std::string>& args) 
         if (value.empty())
             throw UsageError("option '" + name + "' needs a value (" + e->metavar + "), not ''");
         e->on_value(value);
+        given_.push_back({e->names.back(), value, true});
     }
     return pos;
 }

@@ -37,6 +37,16 @@ class ArgParser {
     std::string help() const;
     const std::string& command() const { return command_; }
 
+    // The options parse() took, in order: each by its long name (the last name it is declared
+    // with: "--output" for "-o, --output"), with its value when it takes one. A command rebuilds
+    // a narrower command line from them (bake records, in each output, the options that make
+    // that one file).
+    struct Given {
+        std::string name, value;
+        bool has_value = false;
+    };
+    const std::vector<Given>& given() const { return given_; }
+
   private:
     struct Entry {
         std::vector<std::string> names;
@@ -51,6 +61,7 @@ class ArgParser {
     std::string command_, synopsis_, description_;
     std::vector<Entry> entries_;
     std::vector<std::string> common_;
+    std::vector<Given> given_;
     bool help_ = false;
 };
 

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <filesystem>
 #include <iostream>
+#include <set>
 
 #include "cli/arg_parser.h"
 #include "cli/batch_runner.h"
@@ -312,7 +313,9 @@ void declare_batch_options(ArgParser& p, BakeCli& c) {
              [&](const std::string& v) { c.shard = v; });
     p.flag("--update",
            "Skip files whose output was made from this same source (size, modification time, "
-           "content hash) with the same settings.",
+           "content hash) with the same settings and the same colour transform (what the OCIO "
+           "config does to the file, spectex:colorTransform: a comment in the config rebuilds "
+           "nothing).",
            [&] { c.update = true; });
     p.flag("--force", "Rebuild every file even with --update.", [&] { c.force = true; });
     p.flag("--fail-fast",
@@ -471,6 +474,23 @@ void check_cost_options(BakeCli& c) {
     } catch (const LimitError& e) {
         throw UsageError(e.what());
     }
+}
+
+// The options given that make each file what it is, shell-quoted, each after a space, for the
+// command line each output records (file_command_line): every option but those that list, name,
+// select, skip or report the batch's files, or only say how much to print. The one input and its
+// output take the place of the batch's.
+std::string file_options(const std::vector<ArgParser::Given>& given) {
+    static const std::set<std::string> batch_only = {
+        "--output", "--output-dir", "--base-dir",  "--from-list", "--shard", "--jobs",    "--json",
+        "--update", "--force",      "--fail-fast", "--progress",  "--quiet", "--verbose", "--help"};
+    std::string out;
+    for (const auto& g : given) {
+        if (batch_only.count(g.name)) continue;
+        out += " " + quote_path(g.name);
+        if (g.has_value) out += " " + quote_path(g.value);
+    }
+    return out;
 }
 
 // Raised when something every file needs cannot be read before any work (exit 2, no usage hint).
@@ -735,7 +755,7 @@ void build_method(BakeCli& c, std::shared_ptr<Basis> file_basis, const Observer&
 // auto's search, an OCIO processor), so that --update checks the outputs' headers first and a
 // run whose files are all up to date builds nothing.
 // Throws Error (exit 2).
-void prepare_settings(BakeCli& c, const std::string& command_line, BatchPlan& plan) {
+void prepare_settings(BakeCli& c, BatchPlan& plan) {
     if (!c.wavelengths_file.empty())
         c.settings.grid = WavelengthGrid::from_file(c.wavelengths_file);
     const bool automatic = c.wavelengths == "auto";
@@ -747,13 +767,13 @@ void prepare_settings(BakeCli& c, const std::string& command_line, BatchPlan& pl
     const Spectrum illuminant = load_illuminant(c.settings.data_dir, c.settings.illuminant);
     c.settings.method_recipe = method_recipe(c, file_basis.get(), observer, illuminant);
     // Reads the colour config (checked: a regular file of bounded size): an Error, exit 2.
-    c.settings.command_line = command_line;
     c.settings.settings_hash = settings_hash(c.settings);
+    c.settings.legacy_settings_hash = legacy_settings_hash(c.settings);
     bool all_up_to_date = false;
     if (c.update && !c.force) {
         all_up_to_date = true;
         for (const auto& [in, out] : plan.files) {
-            plan.prechecked.push_back(check_update(in, out, c.settings.settings_hash));
+            plan.prechecked.push_back(check_update(in, out, c.settings));
             all_up_to_date = all_up_to_date && plan.prechecked.back().up_to_date;
         }
     }
@@ -778,7 +798,7 @@ void finish_batch_plan(BakeCli& c, BatchPlan& plan) {
 
 }  // namespace
 
-int run_bake(const std::vector<std::string>& args, const std::string& command_line) {
+int run_bake(const std::vector<std::string>& args) {
     BakeCli c;
     ArgParser p(
         "bake", "spectex bake [options] INPUT... (-o OUTPUT.exr | -o TEMPLATE | --output-dir DIR)",
@@ -799,6 +819,7 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         for (const auto& l : c.plan.lights) check_illuminant_setting("--lights", l);
         check_grid_options(c);
         check_cost_options(c);
+        c.settings.file_options = file_options(p.given());
     } catch (const UsageError& e) {
         return usage_error("bake", e.what());
     }
@@ -819,7 +840,7 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
     }
 
     try {
-        prepare_settings(c, command_line, plan);
+        prepare_settings(c, plan);
     } catch (const UnmetBudget& e) {
         print_error(e.what());
         return 1;

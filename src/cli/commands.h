@@ -9,7 +9,7 @@
 
 namespace spectex {
 
-int run_bake(const std::vector<std::string>& args, const std::string& command_line);
+int run_bake(const std::vector<std::string>& args);
 int run_info(const std::vector<std::string>& args);
 int run_basis(const std::vector<std::string>& args, const std::string& command_line);
 int run_verify(const std::vector<std::string>& args);

@@ -2,6 +2,7 @@
 #include <OpenEXR/ImfThreading.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -68,6 +69,9 @@ void print_text(const VerifyReport& r, const VerifyGates& g,
     o << "  linear RGB range:     R " << num(r.rgb_min[0]) << " .. " << num(r.rgb_max[0]) << ", G "
       << num(r.rgb_min[1]) << " .. " << num(r.rgb_max[1]) << ", B " << num(r.rgb_min[2]) << " .. "
       << num(r.rgb_max[2]) << "\n";
+    if (r.source_changed)
+        o << "  source:               " << r.change.file << ": changed since this file was baked ("
+          << r.change.why << "); colours not compared\n";
     if (r.compared) {
         o << "  source:               " << r.source << " ("
           << (r.source_float ? std::to_string(r.source_bits) + "-bit float"
@@ -111,13 +115,21 @@ void print_text(const VerifyReport& r, const VerifyGates& g,
     if (failures.empty())
         o << "  result:               ok\n";
     else
-        for (const auto& f : failures) o << "  result:               FAILED: " << f << "\n";
+        for (const auto& f : failures)
+            o << "  result:               " << (f == stale_failure(r) ? "STALE: " : "FAILED: ") << f
+              << "\n";
+}
+
+// "ok", "FAILED", or "STALE" when the source changed since the bake (a failure of its own kind).
+std::string result_word(const VerifyReport& r, const std::vector<std::string>& failures) {
+    if (failures.empty()) return "ok";
+    return r.source_changed && failures.front() == stale_failure(r) ? "STALE" : "FAILED";
 }
 
 // One line per file when several are verified.
 void print_line(const VerifyReport& r, const std::vector<std::string>& failures) {
     std::ostringstream o;
-    o << r.file << ": " << (failures.empty() ? "ok" : "FAILED");
+    o << r.file << ": " << result_word(r, failures);
     o << " (" << r.bins << " bins, " << r.sample_type;
     if (r.nonfinite) o << ", " << r.nonfinite << " non-finite";
     if (r.below_tol + r.above_tol) o << ", " << r.below_tol + r.above_tol << " outside [0, 1]";
@@ -218,6 +230,18 @@ std::string verify_json(const VerifyReport& r, const VerifyGates& t,
     } else {
         j["source"] = nullptr;
     }
+    if (r.source_changed) {
+        Json c;
+        put_text(c, "file", r.change.file);
+        put_text(c, "why", r.change.why);
+        put_text(c, "recorded_size", r.change.recorded_size);
+        put_text(c, "size", r.change.size);
+        put_text_or_null(c, "recorded_hash", r.change.recorded_hash);
+        put_text_or_null(c, "hash", r.change.hash);
+        j["source_changed"] = std::move(c);
+    } else {
+        j["source_changed"] = nullptr;
+    }
     j["thresholds"] = {{"max_de", t.de ? json_num(t.max_de) : Json(nullptr)},
                        {"max_rgb_error", t.rgb ? json_num(t.max_rgb) : Json(nullptr)},
                        {"min_code_match_percent", t.code ? json_num(t.min_code) : Json(nullptr)}};
@@ -225,6 +249,9 @@ std::string verify_json(const VerifyReport& r, const VerifyGates& t,
     put_texts(j, "gates", gates_applied(r, t));
     put_texts(j, "failures", failures);
     j["passed"] = failures.empty();
+    std::string word = result_word(r, failures);
+    for (char& ch : word) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+    j["result"] = word;  // "ok", "failed" or "stale"
     j["seconds"] = json_num(r.seconds);
     return json_line(j);
 }
@@ -268,8 +295,11 @@ constexpr const char* kVerifyDescription =
     "keep\n"
     "16-bit codes, linear RGB error <= 1e-4, 5e-4 with plain rounding). Files baked with\n"
     "--method jakob-hanika (not exact) get no colour gates unless thresholds are given.\n"
-    "Exit status: 0 every file passed, 1 a gate failed or a file could not be read, 2 usage "
-    "error.";
+    "A file whose source changed since the bake (its size or bytes differ from the header's\n"
+    "spectex:sourceSize and spectex:sourceHash) is STALE: its colours are not compared, and it\n"
+    "fails (the JSON record's \"result\" is \"stale\").\n"
+    "Exit status: 0 every file passed, 1 a gate failed, a file was stale or could not be read, 2 "
+    "usage error.";
 
 // The command line of verify, parsed.
 struct VerifyArgs {
@@ -290,7 +320,8 @@ void declare_verify_options(ArgParser& p, VerifyArgs& a) {
              "The image the EXR was baked from (anything OpenImageIO reads); same size. One file.",
              [&](const std::string& v) { a.s.source = v; });
     p.flag("--source-from-header",
-           "Compare each file with the source its header records (spectex:source).",
+           "Compare each file with the source its header records (spectex:source); one whose "
+           "size or bytes changed since the bake is STALE, not compared.",
            [&] { a.source_from_header = true; });
     p.option("--colorspace", "NAME",
              "Colour space of the source. Default: the file's spectex:inputColorSpace.",
@@ -433,7 +464,7 @@ int report_outcomes(const VerifyArgs& a, const std::vector<std::string>& files,
                     const std::vector<VerifyOutcome>& outcomes) {
     const bool json_stdout = a.json == "-";
     std::string json_text;
-    size_t failed = 0, unreadable = 0;
+    size_t failed = 0, unreadable = 0, stale = 0;
     for (size_t i = 0; i < files.size(); ++i) {
         const VerifyOutcome& o = outcomes[i];
         if (!o.readable) {
@@ -445,6 +476,7 @@ int report_outcomes(const VerifyArgs& a, const std::vector<std::string>& files,
         for (const auto& w : o.report.warnings)
             print_error("warning: " + quote_path(files[i]) + ": " + w);
         if (!o.failures.empty()) ++failed;
+        if (result_word(o.report, o.failures) == "STALE") ++stale;
         if (!json_stdout && !a.quiet) {
             if (files.size() == 1)
                 print_text(o.report, a.t, o.failures);
@@ -456,7 +488,9 @@ int report_outcomes(const VerifyArgs& a, const std::vector<std::string>& files,
     }
     if (files.size() > 1 && !json_stdout && !a.quiet)
         std::cout << files.size() << " files: " << files.size() - failed - unreadable << " passed, "
-                  << failed << " failed, " << unreadable << " unreadable\n";
+                  << failed << " failed"
+                  << (stale ? " (" + std::to_string(stale) + " with a changed source)" : "") << ", "
+                  << unreadable << " unreadable\n";
     std::cout.flush();
     int status = failed || unreadable ? 1 : 0;
     if (json_stdout) {

@@ -256,6 +256,50 @@ std::string describe_config(const OCIO::ConstConfigRcPtr& cfg) {
     return name.empty() ? desc : desc.empty() ? name : name + ": " + desc;
 }
 
+// The input colour space of a request: 1. --colorspace, 2. the file's own metadata when the config
+// knows it, 3. the file rules. Sets how it was chosen, the file rule and whether it is the default
+// rule. Throws Error.
+std::string choose_space(const OCIO::ConstConfigRcPtr& cfg, const std::string& path,
+                         const ColourRequest& req, std::string& how, std::string& rule_name,
+                         bool& default_rule) {
+    std::string src;
+    if (!req.colorspace.empty()) {
+        src = find_space(cfg, req.colorspace);
+        if (src.empty()) {
+            std::string msg = "unknown colour space '" + req.colorspace + "' in " + path;
+            auto close = close_colour_space_names(all_names(cfg), req.colorspace);
+            if (!close.empty()) {
+                msg += " (did you mean";
+                for (size_t i = 0; i < close.size(); ++i)
+                    msg += (i ? ", '" : " '") + close[i] + "'";
+                msg += "?)";
+            }
+            throw Error(msg);
+        }
+        how = "--colorspace";
+    }
+    if (src.empty() && !req.file_hint.empty()) {
+        src = find_first(cfg, names_for_hint(req.file_hint));
+        if (!src.empty()) how = "file metadata (" + req.file_hint + ")";
+    }
+    if (src.empty()) {
+        try {
+            size_t rule = 0;
+            src = cfg->getColorSpaceFromFilepath(req.file_path.c_str(), rule);
+            OCIO::ConstFileRulesRcPtr rules = cfg->getFileRules();
+            rule_name = rules->getName(rule);
+            // OCIO keeps the default rule last: it matches what no other rule does.
+            default_rule = rule + 1 == rules->getNumEntries();
+        } catch (const OCIO::Exception& e) {
+            throw Error(path + ": file rules failed: " + e.what());
+        }
+        src = find_space(cfg, src);
+        if (src.empty()) throw Error(path + ": the config's file rules name no known colour space");
+        how = "config file rule '" + rule_name + "'";
+    }
+    return src;
+}
+
 }  // namespace
 
 struct Linearizer::Impl {
@@ -303,49 +347,14 @@ Linearizer Linearizer::make(const ColourRequest& req) {
 
     OCIO::ConstConfigRcPtr cfg = load_ocio_config(path);
     lin.config_name_ = describe_config(cfg);
-
-    // 1. --colorspace, 2. the file's own metadata when the config knows it, 3. the file rules.
-    std::string src;
-    if (!req.colorspace.empty()) {
-        src = find_space(cfg, req.colorspace);
-        if (src.empty()) {
-            std::string msg = "unknown colour space '" + req.colorspace + "' in " + path;
-            auto close = close_colour_space_names(all_names(cfg), req.colorspace);
-            if (!close.empty()) {
-                msg += " (did you mean";
-                for (size_t i = 0; i < close.size(); ++i)
-                    msg += (i ? ", '" : " '") + close[i] + "'";
-                msg += "?)";
-            }
-            throw Error(msg);
-        }
-        lin.how_ = "--colorspace";
-    }
-    if (src.empty() && !req.file_hint.empty()) {
-        src = find_first(cfg, names_for_hint(req.file_hint));
-        if (!src.empty()) lin.how_ = "file metadata (" + req.file_hint + ")";
-    }
-    if (src.empty()) {
-        try {
-            size_t rule = 0;
-            src = cfg->getColorSpaceFromFilepath(req.file_path.c_str(), rule);
-            OCIO::ConstFileRulesRcPtr rules = cfg->getFileRules();
-            lin.rule_ = rules->getName(rule);
-            // OCIO keeps the default rule last: it matches what no other rule does.
-            lin.default_rule_ = rule + 1 == rules->getNumEntries();
-        } catch (const OCIO::Exception& e) {
-            throw Error(path + ": file rules failed: " + e.what());
-        }
-        src = find_space(cfg, src);
-        if (src.empty()) throw Error(path + ": the config's file rules name no known colour space");
-        lin.how_ = "config file rule '" + lin.rule_ + "'";
-    }
+    const std::string src = choose_space(cfg, path, req, lin.how_, lin.rule_, lin.default_rule_);
     lin.input_space_ = src;
 
     try {
         // A foreign config without linear Rec.709 is bridged to ours through ACES2065-1.
         const std::string dst = find_first(cfg, kLinearRec709Names);
         OCIO::ConstProcessorRcPtr proc = processor_to_linear(cfg, src, path, shipped);
+        lin.transform_id_ = proc->getCacheID();
         lin.identity_ = proc->isNoOp();
         lin.impl_->crosstalk = proc->hasChannelCrosstalk();
         // Full-precision ops only: no LUT approximations of the transfer curves.
@@ -371,6 +380,23 @@ Linearizer Linearizer::make(const ColourRequest& req) {
                     "' to linear Rec.709: " + e.what());
     }
     return lin;
+}
+
+ColourTransform colour_transform(const ColourRequest& req) {
+    const std::string path = ocio_config_path(req.data_dir, req.config_override);
+    OCIO::ConstConfigRcPtr cfg = load_ocio_config(path);
+    std::string how, rule;
+    bool default_rule = false;
+    ColourTransform t;
+    t.space = choose_space(cfg, path, req, how, rule, default_rule);
+    try {
+        t.id =
+            processor_to_linear(cfg, t.space, path, req.data_dir + "/spectex.ocio")->getCacheID();
+    } catch (const OCIO::Exception& e) {
+        throw Error(path + ": cannot build the transform from '" + t.space +
+                    "' to linear Rec.709: " + e.what());
+    }
+    return t;
 }
 
 bool Linearizer::use_code_table(int bits) {

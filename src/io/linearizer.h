@@ -37,6 +37,12 @@ class Linearizer {
     // the space is called or tagged).
     bool scene_linear() const { return scene_linear_; }
     bool is_identity() const { return identity_; }
+    // What the config does to this file: OpenColorIO's cache ID of the processor from the input
+    // space to linear Rec.709 (the bridge through the shipped config included). It changes with
+    // the transform (a curve's gamma, a matrix, a LUT's values), not with the config's comments,
+    // order, description or colour spaces this file does not use. Recorded as
+    // spectex:colorTransform; --update compares it (colour_transform_id below).
+    const std::string& transform_id() const { return transform_id_; }
 
     // In place on `pixels` packed RGBA float pixels (alpha passes through).
     void apply_rgba(float* rgba, long pixels) const;
@@ -62,9 +68,17 @@ class Linearizer {
   private:
     struct Impl;
     std::unique_ptr<Impl> impl_;
-    std::string input_space_, config_path_, config_from_, config_name_, how_, rule_;
+    std::string input_space_, config_path_, config_from_, config_name_, how_, rule_, transform_id_;
     bool identity_ = false, default_rule_ = false, scene_linear_ = false;
 };
+
+// The colour space `req` chooses and the transform_id() of its processor, as Linearizer::make would
+// find them, without building the CPU processors: for --update, which asks it of every file of a
+// batch (the config is parsed once, OCIO keeps its processors). Throws Error as make() does.
+struct ColourTransform {
+    std::string space, id;
+};
+ColourTransform colour_transform(const ColourRequest& req);
 
 // Closest names (colour spaces and aliases) to `name` in a config, for "did you mean" messages.
 std::vector<std::string> close_colour_space_names(const std::vector<std::string>& known,

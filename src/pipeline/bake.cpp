@@ -141,15 +141,15 @@ void record_colour(const SourceInfo& info, const Linearizer& lin, BakeResult& re
 // The spectex:* header attributes, in the order that is part of the output's bytes.
 std::vector<std::pair<std::string, std::string>> header_attributes(
     const BakeSettings& s, const std::string& input, const std::string& output,
-    const Linearizer& lin, bool has_alpha, const SpectralMethod& method,
-    const SourceIdentity& identity) {
+    const Linearizer& lin, const std::string& colorspace_hint, bool has_alpha,
+    const SpectralMethod& method, const SourceIdentity& identity) {
     namespace fs = std::filesystem;
     std::error_code ec;
     const fs::path source = fs::absolute(input, ec).lexically_normal();
     const fs::path out_dir = fs::absolute(output, ec).lexically_normal().parent_path();
     std::vector<std::pair<std::string, std::string>> a = {
         {provenance_key::kVersion, SPECTEX_VERSION},
-        {provenance_key::kCommandLine, s.command_line},
+        {provenance_key::kCommandLine, file_command_line(input, output, s.file_options)},
         {provenance_key::kSource, input},
         {provenance_key::kSourceAbsolute, source.string()},
         {provenance_key::kSourceFromOutput, source.lexically_relative(out_dir).string()},
@@ -159,11 +159,13 @@ std::vector<std::pair<std::string, std::string>> header_attributes(
         {provenance_key::kIlluminant, s.illuminant},
         {provenance_key::kInputColorSpace, lin.input_space()},
         {provenance_key::kInputColorSpaceFrom, lin.how_chosen()},
+        {provenance_key::kInputColorSpaceMetadata, colorspace_hint},
         {provenance_key::kConfig,
          std::filesystem::absolute(lin.config_path()).lexically_normal().string()},
         {provenance_key::kConfigFrom, lin.config_from()},
         {provenance_key::kConfigName, lin.config_name()},
         {provenance_key::kConfigChecksum, config_checksum(lin.config_path())},
+        {provenance_key::kColorTransform, lin.transform_id()},
         {provenance_key::kAlpha, to_string(has_alpha ? s.alpha : AlphaKind::None)},
         {provenance_key::kOutOfRange, to_string(s.range)},
         {provenance_key::kNan, to_string(s.nan)},
@@ -472,8 +474,8 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
 
     const SpectralExrLayout layout =
         output_layout(s, info,
-                      header_attributes(s, input, output, lin, info.alpha != AlphaKind::None,
-                                        method, src->identity()));
+                      header_attributes(s, input, output, lin, info.colorspace_hint,
+                                        info.alpha != AlphaKind::None, method, src->identity()));
     AtomicFile out(output);
     SpectralExrWriter writer(out, layout);
     PixelStages(input, s, method, *src, lin, writer, layout, res, progress).run();

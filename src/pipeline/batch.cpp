@@ -323,8 +323,17 @@ std::vector<std::string> select_shard(const std::vector<std::string>& sorted_inp
     return out;
 }
 
-std::string settings_hash(const BakeSettings& s) {
-    Fnv1a64 h;
+std::string file_command_line(const std::string& input, const std::string& output,
+                              const std::string& options) {
+    if (!input.empty() && input[0] == '-')
+        return "spectex bake -o " + quote_path(output) + options + " -- " + quote_path(input);
+    return "spectex bake " + quote_path(input) + " -o " + quote_path(output) + options;
+}
+
+namespace {
+
+// The settings both hashes share (everything but the colour config).
+void hash_settings(Fnv1a64& h, const BakeSettings& s) {
     fnv(h, SPECTEX_VERSION);
     fnv(h, !s.method_recipe.empty() ? s.method_recipe : s.method->checksum());
     for (double l : s.grid.lambda)
@@ -348,7 +357,22 @@ std::string settings_hash(const BakeSettings& s) {
     if (!s.plan.lights.empty())
         fnv(h, "plan " + s.plan.lights + "|" + s.plan.max_de + "|" + s.plan.reconstruction + "|" +
                    s.plan.range + (s.plan.nonuniform ? "|nonuniform" : ""));
-    // The colour config decides the linearisation: its path and its contents.
+}
+
+}  // namespace
+
+std::string settings_hash(const BakeSettings& s) {
+    Fnv1a64 h;
+    hash_settings(h, s);
+    // The colour config is judged per file by what it does (spectex:colorTransform), not here.
+    fnv(h, "colour by transform");
+    return h.text();
+}
+
+std::string legacy_settings_hash(const BakeSettings& s) {
+    Fnv1a64 h;
+    hash_settings(h, s);
+    // The colour config's path and bytes, as spectex hashed them before it recorded the transform.
     const std::string config = ocio_config_path(s.data_dir, s.config);
     fnv(h, config);
     fnv(h, file_contents(config));
@@ -362,7 +386,7 @@ std::string config_checksum(const std::string& config_path) {
 }
 
 UpdateCheck check_update(const std::string& input, const std::string& output,
-                         const std::string& hash) {
+                         const BakeSettings& s) {
     UpdateCheck c;
     struct stat si;
     if (::stat(input.c_str(), &si) != 0 || !S_ISREG(si.st_mode)) {
@@ -380,9 +404,39 @@ UpdateCheck check_update(const std::string& input, const std::string& output,
         auto it = h.find(name);
         return it == h.end() ? std::string() : it->second;
     };
-    if (value(provenance_key::kSettingsHash) != hash) {
-        c.reason = "other settings";
+    // An output that records its colour transform has a settings hash without the config, and the
+    // transform is compared below; one made before has the config's bytes in its hash (judged as
+    // then: rebaked once when the config's bytes changed, and then it records the transform).
+    const std::string recorded_transform = value(provenance_key::kColorTransform);
+    const bool by_transform = !recorded_transform.empty();
+    if (value(provenance_key::kSettingsHash) !=
+        (by_transform ? s.settings_hash : s.legacy_settings_hash)) {
+        c.reason = by_transform ? "other settings"
+                                : "other settings or OCIO config (the output records no colour "
+                                  "transform: it was baked by an older spectex)";
         return c;
+    }
+    if (by_transform) {
+        // The space this file would be read as now, from the same request as the bake's (the
+        // metadata it recorded), and what the config does to it.
+        try {
+            const ColourTransform now =
+                colour_transform(ColourRequest{s.data_dir, s.config, s.colorspace, input,
+                                               value(provenance_key::kInputColorSpaceMetadata)});
+            if (now.space != value(provenance_key::kInputColorSpace)) {
+                c.reason = "the OCIO config now reads the source as '" + now.space + "', not '" +
+                           value(provenance_key::kInputColorSpace) + "'";
+                return c;
+            }
+            if (now.id != recorded_transform) {
+                c.reason = "the OCIO config's transform from '" + now.space +
+                           "' to linear Rec.709 changed";
+                return c;
+            }
+        } catch (const std::exception& e) {
+            c.reason = std::string("the colour transform cannot be made: ") + e.what();
+            return c;
+        }
     }
     const std::string size = value(provenance_key::kSourceSize);
     const std::string mtime = value(provenance_key::kSourceMtime);

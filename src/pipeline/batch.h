@@ -40,17 +40,34 @@ struct Shard {
 };
 std::vector<std::string> select_shard(const std::vector<std::string>& sorted_inputs, Shard s);
 
+// The command that rebuilds one output of a batch alone, shell-quoted as `quote_path` quotes:
+// "spectex bake <input> -o <output><options>" (options: BakeSettings::file_options). An input
+// that starts with '-' goes last, after "--", where it cannot be taken for an option. Its size
+// depends on this file's names and the options, never on how many files the batch had.
+std::string file_command_line(const std::string& input, const std::string& output,
+                              const std::string& options);
+
 // Hash of every setting that can change the output's pixels or layout (not threads, jobs, verbosity
-// or the command line): "fnv1a64:<hex>".
+// or the command line): "fnv1a64:<hex>". The OCIO config is not in it: what the config does to a
+// file is its spectex:colorTransform, compared file by file (check_update), so that a comment, a
+// reordering or a colour space the file does not use changes nothing.
 std::string settings_hash(const BakeSettings& s);
+// The hash as spectex made it before it recorded spectex:colorTransform: the same settings, then
+// the config's path and bytes. Outputs that record no colour transform are judged with it.
+std::string legacy_settings_hash(const BakeSettings& s);
 
 // "fnv1a64:<hex>" of an OCIO config's bytes (recorded as spectex:configChecksum, so that verify
 // knows whether the config a file was baked with is still the same). Throws Error as every reader.
 std::string config_checksum(const std::string& config_path);
 
-// --update: whether `output` need not be baked again from `input`. It must be a readable OpenEXR
-// (only its header is read) carrying the same spectex:settingsHash and the identity of the source
-// it was baked from (io/source_identity.h). Up to date when the source has the recorded size and
+// --update: whether `output` need not be baked again from `input` with settings `s` (whose
+// settings_hash and legacy_settings_hash are set). It must be a readable OpenEXR (only its header
+// is read) carrying the same spectex:settingsHash, the same spectex:colorTransform as the config
+// gives the colour space chosen for `input` now (chosen again as the bake chose it, from the
+// metadata the header recorded: io/linearizer.h colour_transform), and the identity of the source
+// it was baked from (io/source_identity.h). An output that records no colour transform (an older
+// spectex's) is judged by legacy_settings_hash instead: kept while the config's bytes are the
+// same, rebaked once when they changed. Up to date when the source has the recorded size and
 // modification time; when only the time differs (a `touch`, a checkout), the source's bytes are
 // hashed (read, not decoded) and compared with the recorded hash. Anything else rebuilds: a
 // missing or unreadable output, other settings, another size or other bytes, and outputs made
@@ -60,7 +77,7 @@ struct UpdateCheck {
     std::string reason;  // why it is up to date (for --json and --verbose), or why not
 };
 UpdateCheck check_update(const std::string& input, const std::string& output,
-                         const std::string& hash);
+                         const BakeSettings& s);
 
 // What became of one file of a batch; to_string gives the word the report writes.
 enum class BatchStatus { Ok, Skipped, Failed };

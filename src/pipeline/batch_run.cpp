@@ -98,9 +98,8 @@ struct BatchRun {
         if (!clash[i].empty()) throw Error(clash[i] + "; not baked twice");
         UpdateCheck check;
         if (plan.update)
-            check = i < plan.prechecked.size()
-                        ? plan.prechecked[i]
-                        : check_update(r.input, r.output, settings.settings_hash);
+            check = i < plan.prechecked.size() ? plan.prechecked[i]
+                                               : check_update(r.input, r.output, settings);
         if (check.up_to_date) {
             r.status = BatchStatus::Skipped;
             r.reason = check.reason;

@@ -1,5 +1,7 @@
 #include "pipeline/verify.h"
 
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <cfloat>
 #include <chrono>
@@ -12,6 +14,7 @@
 #include "io/file_identity.h"
 #include "io/image_source.h"
 #include "io/linearizer.h"
+#include "io/source_identity.h"
 #include "io/spectral_exr_info.h"
 #include "io/spectral_reader.h"
 #include "pipeline/batch.h"
@@ -413,11 +416,14 @@ Colorimetry file_colorimetry(const std::string& exr_path, const SpectralExrInfo&
 }
 
 // The OCIO config for the source: the one given, else the one the bake used when it is still
-// there; a changed or missing config is warned about.
+// there; a missing config is warned about, and a changed one when the file records no colour
+// transform (open_source compares the transform itself when it does).
 std::string choose_config(const Recorded& recorded, const VerifySettings& s, VerifyReport& r) {
     std::string config = s.config;
     const std::string rec_config = recorded(provenance_key::kConfig),
-                      rec_sum = recorded(provenance_key::kConfigChecksum);
+                      rec_sum = recorded(provenance_key::kColorTransform).empty()
+                                    ? recorded(provenance_key::kConfigChecksum)
+                                    : std::string();
     if (config.empty() && !rec_config.empty()) {
         if (file_id(rec_config)) {
             config = rec_config;
@@ -433,6 +439,44 @@ std::string choose_config(const Recorded& recorded, const VerifySettings& s, Ver
                              rec_config + ")");
     }
     return config;
+}
+
+// Whether `source` names the file the header records as its source (found as recorded_source finds
+// it): the same file, links followed.
+bool is_recorded_source(const std::string& exr, const SpectralExrInfo& info,
+                        const std::string& source) {
+    try {
+        std::error_code ec;
+        return std::filesystem::equivalent(recorded_source(exr, info.attributes), source, ec);
+    } catch (const Error&) {
+        return false;  // the header records no source, or it is not found
+    }
+}
+
+// Whether `source` is the file the header records: its size first (a stat), then its bytes' hash
+// (read, not decoded). Sets r.source_changed and r.change when it is not; nothing when the header
+// records no identity. Throws Error naming the source when it cannot be read.
+void check_source_identity(const std::string& source, const Recorded& recorded, VerifyReport& r) {
+    VerifyReport::SourceChange c;
+    c.file = source;
+    c.recorded_size = recorded(provenance_key::kSourceSize);
+    c.recorded_hash = recorded(provenance_key::kSourceHash);
+    if (c.recorded_size.empty() && c.recorded_hash.empty()) return;
+    struct stat st;
+    if (::stat(source.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return;  // open_source says why
+    c.size = SourceIdentity::of(st).size_text();
+    if (!c.recorded_size.empty() && c.size != c.recorded_size) {
+        c.why = "it has " + c.size + " bytes; it had " + c.recorded_size + " when this was baked";
+    } else if (!c.recorded_hash.empty()) {
+        c.hash = hash_file(source);
+        if (c.hash == c.recorded_hash) return;
+        c.why = "same size, other bytes: " + c.hash + ", not the " + c.recorded_hash +
+                " this was baked from";
+    } else {
+        return;
+    }
+    r.source_changed = true;
+    r.change = c;
 }
 
 // The code check, when the source's codes can be checked: what the report says of it, and the
@@ -471,6 +515,14 @@ std::unique_ptr<ImageSource> open_source(const std::string& exr_path, const Spec
     ColourRequest req{s.data_dir, config, s.colorspace.empty() ? rec_space : s.colorspace, s.source,
                       si.colorspace_hint};
     lin = Linearizer::make(req);
+    // What the config does to the source, against what it did at the bake: a comment or a colour
+    // space the file does not use is no change.
+    const std::string rec_transform = recorded(provenance_key::kColorTransform);
+    if (!rec_transform.empty() && lin.input_space() == rec_space &&
+        lin.transform_id() != rec_transform)
+        r.warnings.push_back("the OCIO config " + lin.config_path() + " transforms '" + rec_space +
+                             "' otherwise than the one this file was baked with (" +
+                             provenance_key::kColorTransform + ")");
     if (!s.colorspace.empty() && !rec_space.empty() && lin.input_space() != rec_space)
         r.warnings.push_back("--colorspace '" + s.colorspace + "' ('" + lin.input_space() +
                              "') overrides the file's '" + rec_space + "' (" +
@@ -679,7 +731,14 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
     const Eigen::Matrix3Xd wrgb = col.rgb_weights();
     std::unique_ptr<ImageSource> src;
     Linearizer lin;
-    if (!s.source.empty()) src = open_source(exr_path, info, s, recorded, r, lin, ctx);
+    if (!s.source.empty()) {
+        // The source the header records, changed since the bake, is not compared: the file is
+        // stale, whatever the colours would say. Another file given with --source (a conversion
+        // of the source, say) is compared as given.
+        if (is_recorded_source(exr_path, info, s.source))
+            check_source_identity(s.source, recorded, r);
+        if (!r.source_changed) src = open_source(exr_path, info, s, recorded, r, lin, ctx);
+    }
 
     try {
         // Whole chunks (or tile rows) per band when they fit the budget, so that no chunk is
@@ -739,6 +798,9 @@ struct Gate {
 std::vector<Gate> gates_of(const VerifyReport& r, const VerifyGates& g) {
     std::vector<Gate> out;
     if (g.report_only) return out;
+    if (r.source_changed)
+        out.push_back({"source", "unchanged since the bake (spectex:sourceSize, sourceHash)", false,
+                       r.change.why});
     out.push_back({"non-finite samples", "none", r.nonfinite == 0,
                    std::to_string(r.nonfinite) + " (" + pct(r.nonfinite, r.samples) + ")"});
     if (r.out_of_range != "keep") {
@@ -796,10 +858,18 @@ std::vector<Gate> gates_of(const VerifyReport& r, const VerifyGates& g) {
 
 }  // namespace
 
+std::string stale_failure(const VerifyReport& r) {
+    if (!r.source_changed) return "";
+    return "the source " + quote_path(r.change.file) + " changed since this file was baked (" +
+           r.change.why + ")";
+}
+
 std::vector<std::string> gate_failures(const VerifyReport& r, const VerifyGates& g) {
     std::vector<std::string> f;
     for (const Gate& x : gates_of(r, g))
-        if (!x.passed)
+        if (x.what == "source" && r.source_changed)
+            f.push_back(stale_failure(r));
+        else if (!x.passed)
             f.push_back(x.what + ": " + x.measured + ", gate " + x.limit +
                         (r.lossy_compression.empty()
                              ? ""

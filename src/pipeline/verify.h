@@ -105,6 +105,20 @@ struct VerifyReport {
     // Integrated linear RGB (straight colour) over the pixels with finite values.
     double rgb_min[3] = {0, 0, 0}, rgb_max[3] = {0, 0, 0};
 
+    // The source is not the one this file was baked from: its size, or else its bytes (FNV-1a 64),
+    // differ from what the header records (spectex:sourceSize, spectex:sourceHash; its date is not
+    // looked at: a touch or a checkout of the same bytes changes nothing). Its colours are then not
+    // compared: the file is stale, not a bad bake (a failed gate of its own). Not checked when the
+    // header records no identity (files baked before spectex recorded it, other tools' files).
+    struct SourceChange {
+        std::string file;                 // the source looked at
+        std::string why;                  // "its size is ... bytes, ..." / "same size, other bytes"
+        std::string recorded_size, size;  // bytes, in decimal
+        std::string recorded_hash, hash;  // "fnv1a64:<hex>"; hash "" when the size told already
+    };
+    bool source_changed = false;
+    SourceChange change;
+
     // With a source.
     bool compared = false;
     std::string source, source_colorspace, source_colorspace_how;
@@ -155,8 +169,11 @@ struct VerifyGates {
     double max_de = 0, max_rgb = 0, min_code = 0;  // min_code in percent
 };
 constexpr double kDefaultMaxDe = 0.5;
-// One line per failed gate, naming it and by how much it failed; empty when all pass.
+// One line per failed gate, naming it and by how much it failed; empty when all pass. A changed
+// source is the first line, stale_failure(r).
 std::vector<std::string> gate_failures(const VerifyReport& r, const VerifyGates& g);
+// "the source <file> changed since this file was baked (<why>)" ("" when it did not).
+std::string stale_failure(const VerifyReport& r);
 
 // One file of a verify run: its report and the gates it failed, or why it could not be verified.
 struct VerifyOutcome {

@@ -23,10 +23,17 @@ constexpr const char* kIlluminant = "spectex:illuminant";
 // The colour: the input's space and how it was chosen, the OCIO config.
 constexpr const char* kInputColorSpace = "spectex:inputColorSpace";
 constexpr const char* kInputColorSpaceFrom = "spectex:inputColorSpaceFrom";
+// The colour space the input's own metadata named (OpenImageIO's oiio:ColorSpace; "" when none),
+// whether or not the config knew it: --update chooses the space again with it.
+constexpr const char* kInputColorSpaceMetadata = "spectex:inputColorSpaceMetadata";
 constexpr const char* kConfig = "spectex:config";
 constexpr const char* kConfigFrom = "spectex:configFrom";
 constexpr const char* kConfigName = "spectex:configName";
 constexpr const char* kConfigChecksum = "spectex:configChecksum";
+// What the config does to this file: OpenColorIO's cache ID of the processor from the input space
+// to linear Rec.709 (io/linearizer.h, transform_id()). --update compares it instead of the config's
+// bytes; a file without it was baked when the settings hash still held the config's bytes.
+constexpr const char* kColorTransform = "spectex:colorTransform";
 // Pixel policies and the encoding.
 constexpr const char* kAlpha = "spectex:alpha";
 constexpr const char* kOutOfRange = "spectex:outOfRange";
@@ -72,10 +79,12 @@ constexpr const char* kAll[] = {
     kIlluminant,
     kInputColorSpace,
     kInputColorSpaceFrom,
+    kInputColorSpaceMetadata,
     kConfig,
     kConfigFrom,
     kConfigName,
     kConfigChecksum,
+    kColorTransform,
     kAlpha,
     kOutOfRange,
     kNan,

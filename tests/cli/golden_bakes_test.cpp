@@ -35,9 +35,9 @@ using namespace spectex_test;
 
 namespace {
 
-// spectex:settingsHash is left out too: it hashes the tool's version and the config's path with
-// the settings (pipeline/batch.cpp), so a checkout elsewhere gives another; the settings themselves
-// are in the attributes that are hashed.
+// spectex:settingsHash is left out too: it hashes the tool's version with the settings
+// (pipeline/batch.cpp), so another version gives another; the settings themselves are in the
+// attributes that are hashed (the colour config by what it does, spectex:colorTransform).
 const std::set<std::string> kLocal = {
     "spectex:source",       "spectex:commandLine",    "spectex:config",
     "spectex:version",      "spectex:sourceAbsolute", "spectex:sourceFromOutput",

@@ -145,9 +145,26 @@ TEST(VerifyGates, TheRecordedConfigIsUsedAndItsChangesAreSaid) {
         std::ofstream out(cfg, std::ios::app);
         out << "\n# edited after the bake\n";
     }
+    // A comment changes nothing the file went through: no warning (the file records its colour
+    // transform, spectex:colorTransform, and the config still makes the same one).
+    RunResult commented = run_spectex({"verify", exr, "--source", png});
+    EXPECT_EQ(commented.status, 0) << commented.err;
+    EXPECT_FALSE(has(commented.err, "warning")) << commented.err;
+    // The sRGB curve's gamma changed: the colours differ, and the warning says why.
+    {
+        std::ifstream in(cfg);
+        std::stringstream text;
+        text << in.rdbuf();
+        std::string s = text.str();
+        const size_t at = s.find("gamma: 2.4, offset: 0.055");
+        ASSERT_NE(at, std::string::npos);
+        s.replace(at, 10, "gamma: 2.5");
+        std::ofstream out(cfg);
+        out << s;
+    }
     RunResult changed = run_spectex({"verify", exr, "--source", png});
-    EXPECT_EQ(changed.status, 0) << changed.err;
-    EXPECT_TRUE(has(changed.err, "has changed since the bake")) << changed.err;
+    EXPECT_EQ(changed.status, 1) << changed.err;
+    EXPECT_TRUE(has(changed.err, "otherwise than the one this file was baked with")) << changed.err;
     std::remove(cfg.c_str());
     RunResult gone = run_spectex({"verify", exr, "--source", png});
     EXPECT_EQ(gone.status, 0) << gone.err;  // the shipped config is the same

@@ -1,0 +1,275 @@
+// What a baked file's header says must be true of that file:
+//  * verify tells a source that changed since the bake (its size or bytes differ from the recorded
+//    spectex:sourceSize / spectex:sourceHash) from a bad bake, and says so in its own words;
+//  * --update decides by what the OCIO config does to each file (OpenColorIO's cache ID of the
+//    processor from its colour space to linear Rec.709), not by the config's bytes;
+//  * spectex:commandLine is a command that rebuilds this one file, whatever the batch it came from.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+
+#include <cstdint>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "cli/cli_util.h"
+#include "cli/exr_read.h"
+
+using namespace spectex_test;
+
+namespace {
+
+void write_png(const std::string& path, int seed, int w = 8, int h = 8) {
+    std::vector<uint8_t> px(static_cast<size_t>(w * h * 3));
+    for (size_t i = 0; i < px.size(); ++i)
+        px[i] = static_cast<uint8_t>((i * 37 + static_cast<size_t>(seed) * 11) & 255);
+    write_image(path, w, h, 3, OIIO::TypeDesc::UINT8, px.data());
+}
+
+// A binary PPM: every picture of one size has the same byte size, so a replacement keeps it and
+// only the hash can tell.
+void write_ppm(const std::string& path, int seed) {
+    std::string bytes = "P6\n4 4\n255\n";
+    for (int i = 0; i < 48; ++i) bytes.push_back(static_cast<char>((i * 29 + seed * 13) & 255));
+    FILE* f = std::fopen(path.c_str(), "wb");
+    ASSERT_NE(f, nullptr);
+    std::fwrite(bytes.data(), 1, bytes.size(), f);
+    std::fclose(f);
+}
+
+void write_text(const std::string& path, const std::string& text) {
+    FILE* f = std::fopen(path.c_str(), "wb");
+    ASSERT_NE(f, nullptr);
+    std::fwrite(text.data(), 1, text.size(), f);
+    std::fclose(f);
+}
+
+size_t count(const std::string& s, const std::string& needle) {
+    size_t n = 0;
+    for (size_t p = s.find(needle); p != std::string::npos; p = s.find(needle, p + 1)) ++n;
+    return n;
+}
+
+// Renames header attributes in place (same length), as a file made before spectex wrote them.
+void hide_attributes(const std::string& exr, const std::vector<std::string>& keys) {
+    std::string bytes = read_file(exr);
+    for (const std::string& key : keys) {
+        const size_t at = bytes.find(key + std::string(1, '\0'));
+        ASSERT_NE(at, std::string::npos) << key;
+        bytes[at + key.size() - 1] = 'X';
+    }
+    write_text(exr, bytes);
+}
+
+std::string replace_all(std::string s, const std::string& from, const std::string& to) {
+    for (size_t p = s.find(from); p != std::string::npos; p = s.find(from, p + to.size()))
+        s.replace(p, from.size(), to);
+    return s;
+}
+
+std::string shipped_config() {
+    return read_file(std::string(SPECTEX_TEST_DATA_DIR) + "/spectex.ocio");
+}
+
+// Single-quoted for bash.
+std::string sh(const std::string& s) { return "'" + replace_all(s, "'", "'\\''") + "'"; }
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// verify: a stale file is not a bad bake
+
+TEST(ProvenanceTruth, VerifyReportsASourceReplacedSinceTheBakeAsChanged) {
+    ScratchDir d;
+    write_png(d / "a.png", 1);
+    ASSERT_EQ(run_spectex({"bake", d / "a.png", "-o", d / "a.exr"}).status, 0);
+    // The texture is repainted after the bake (same size in pixels, other colours).
+    write_png(d / "a.png", 7);
+    RunResult r = run_spectex({"verify", d / "a.exr", "--source-from-header"});
+    EXPECT_EQ(r.status, 1) << r.out << r.err;
+    EXPECT_NE(r.out.find("result:               STALE: the source"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("changed since this file was baked"), std::string::npos) << r.out;
+    EXPECT_EQ(r.out.find("CIEDE2000 max"), std::string::npos) << "no colour verdict: " << r.out;
+    EXPECT_NE(r.err.find("changed since this file was baked"), std::string::npos) << r.err;
+    // The JSON record says so.
+    r = run_spectex({"verify", d / "a.exr", "--source-from-header", "--json", "-"});
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_NE(r.out.find("\"result\":\"stale\""), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("\"source_changed\":{"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("\"passed\":false"), std::string::npos) << r.out;
+    // --source naming the same file: the same verdict.
+    r = run_spectex({"verify", d / "a.exr", "--source", d / "a.png"});
+    EXPECT_EQ(r.status, 1) << r.out << r.err;
+    EXPECT_NE(r.out.find("STALE"), std::string::npos) << r.out;
+}
+
+TEST(ProvenanceTruth, VerifyTellsASameSizeReplacementByItsBytesAndIgnoresATouch) {
+    ScratchDir d;
+    write_ppm(d / "a.ppm", 1);
+    write_ppm(d / "b.ppm", 1);
+    ASSERT_EQ(run_spectex({"bake", d / "a.ppm", d / "b.ppm", "--output-dir", d / "out"}).status, 0);
+    write_ppm(d / "a.ppm", 2);  // same byte size, other bytes
+    struct timespec ts[2] = {{946684800, 0}, {946684800, 0}};
+    ASSERT_EQ(::utimensat(AT_FDCWD, (d / "b.ppm").c_str(), ts, 0), 0);  // a touch: same bytes
+    const RunResult r = run_spectex(
+        {"verify", d / "out/a.exr", d / "out/b.exr", "--source-from-header", "--json", "-"});
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_EQ(count(r.out, "\"result\":\"stale\""), 1u) << r.out;
+    EXPECT_EQ(count(r.out, "\"result\":\"ok\""), 1u) << r.out;
+    EXPECT_NE(r.out.find("b.exr\",\"width\""), std::string::npos) << r.out;
+}
+
+TEST(ProvenanceTruth, VerifyStillCallsABadBakeOfTheRightSourceAColourFailure) {
+    ScratchDir d;
+    write_png(d / "a.png", 1);
+    ASSERT_EQ(run_spectex({"bake", d / "a.png", "-o", d / "a.exr"}).status, 0);
+    // The source is the one recorded; its colours are read as something else than at the bake:
+    // the colours differ, and that is a colour failure, not a stale file.
+    const RunResult r = run_spectex(
+        {"verify", d / "a.exr", "--source-from-header", "--colorspace", "lin_srgb", "--json", "-"});
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_NE(r.out.find("CIEDE2000 max"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("\"result\":\"failed\""), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("\"source_changed\":null"), std::string::npos) << r.out;
+}
+
+TEST(ProvenanceTruth, VerifyOfAFileThatRecordsNoIdentityComparesColoursAsBefore) {
+    ScratchDir d;
+    write_png(d / "a.png", 1);
+    ASSERT_EQ(run_spectex({"bake", d / "a.png", "-o", d / "a.exr"}).status, 0);
+    hide_attributes(d / "a.exr", {"spectex:sourceHash", "spectex:sourceSize"});
+    write_png(d / "a.png", 7);
+    const RunResult r = run_spectex({"verify", d / "a.exr", "--source-from-header"});
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_NE(r.out.find("result:               FAILED: CIEDE2000 max"), std::string::npos)
+        << r.out;
+    EXPECT_EQ(r.out.find("STALE"), std::string::npos) << r.out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// --update: the config by what it does
+
+namespace {
+
+// Bakes a.png and b.png with config `cfg` into out/, then rewrites the config as `edited` and runs
+// --update: returns its JSON Lines.
+std::string update_after_edit(const ScratchDir& d, const std::string& edited) {
+    write_png(d / "a.png", 1);
+    write_png(d / "b.png", 2);
+    write_text(d / "c.ocio", shipped_config());
+    const std::vector<std::string> bake = {"bake",       d / "a.png",    d / "b.png", "--config",
+                                           d / "c.ocio", "--output-dir", d / "out"};
+    RunResult r = run_spectex(bake);
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_FALSE(read_exr(d / "out/a.exr").attr("spectex:colorTransform").empty());
+    write_text(d / "c.ocio", edited);
+    std::vector<std::string> update = bake;
+    update.insert(update.end(), {"--update", "--json", "-"});
+    r = run_spectex(update);
+    EXPECT_EQ(r.status, 0) << r.err;
+    return r.out;
+}
+
+}  // namespace
+
+TEST(ProvenanceTruth, UpdateKeepsOutputsWhenTheConfigOnlyGainsACommentOrAnUnusedSpace) {
+    ScratchDir d;
+    std::string cfg = "# edited by the show's colour team\n" + shipped_config();
+    cfg = replace_all(cfg, "description: spectex texture colour spaces",
+                      "description: the show's texture colour spaces");
+    cfg +=
+        "\n  - !<ColorSpace>\n    name: show_log\n    isdata: false\n"
+        "    from_scene_reference: !<ExponentTransform> {value: 1.8, style: pass_thru, "
+        "direction: inverse}\n";
+    // A transform the files do not use changes too (gamma 2.2 space).
+    cfg = replace_all(cfg, "{value: 2.2, style: pass_thru", "{value: 2.3, style: pass_thru");
+    const std::string out = update_after_edit(d, cfg);
+    EXPECT_EQ(count(out, "\"status\":\"skipped\""), 2u) << out;
+}
+
+TEST(ProvenanceTruth, UpdateRebakesWhenTheTransformTheFilesUseChanges) {
+    ScratchDir d;
+    const std::string cfg =
+        replace_all(shipped_config(), "gamma: 2.4, offset: 0.055", "gamma: 2.5, offset: 0.055");
+    ASSERT_NE(cfg, shipped_config());
+    const std::string out = update_after_edit(d, cfg);
+    EXPECT_EQ(count(out, "\"status\":\"ok\""), 2u) << out;
+    EXPECT_EQ(count(out, "\"status\":\"skipped\""), 0u) << out;
+}
+
+TEST(ProvenanceTruth, UpdateRebakesAnOutputThatRecordsNoColourTransformOnce) {
+    ScratchDir d;
+    write_png(d / "a.png", 1);
+    write_text(d / "c.ocio", shipped_config());
+    const std::vector<std::string> bake = {"bake",      d / "a.png", "--config", d / "c.ocio", "-o",
+                                           d / "a.exr", "--update",  "--json",   "-"};
+    ASSERT_EQ(run_spectex(bake).status, 0);
+    ASSERT_TRUE(read_exr(d / "a.exr").has_attr("spectex:colorTransform"));
+    // As an output made before the key was recorded (its settings hash included the config's
+    // bytes): not taken as up to date on the new key's absence.
+    hide_attributes(d / "a.exr", {"spectex:colorTransform"});
+    RunResult r = run_spectex(bake);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(count(r.out, "\"status\":\"ok\""), 1u) << r.out;
+    EXPECT_TRUE(read_exr(d / "a.exr").has_attr("spectex:colorTransform"));
+    r = run_spectex(bake);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(count(r.out, "\"status\":\"skipped\""), 1u) << r.out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// spectex:commandLine: this file's command, not the batch's
+
+TEST(ProvenanceTruth, EachOutputOfABatchRecordsACommandThatRebuildsItAlone) {
+    ScratchDir d;
+    const std::string bin = spectex_binary();
+    ASSERT_EQ(::mkdir((d / "tex").c_str(), 0755), 0);
+    std::string list;
+    const int n = 60;
+    for (int i = 0; i < n; ++i) {
+        char name[32];
+        std::snprintf(name, sizeof name, "tex/t%03d.png", i);
+        write_png(d / name, i, 4, 4);
+        list += std::string(name) + "\n";
+    }
+    // Names a shell must be told about: a space and a quote, and a leading dash.
+    write_png(d / "tex/it's a tile.png", 3, 4, 4);
+    write_png(d / "tex/-dash.png", 4, 4, 4);
+    list += "tex/it's a tile.png\ntex/-dash.png\n";
+    write_text(d / "list.txt", list);
+    const RunResult r = run_shell("cd " + sh(d.path()) + " && " + sh(bin) +
+                                  " bake --from-list list.txt --shard 1/1 --jobs 2 --json "
+                                  "report.json -q --output-dir out --zip-level 5 --type float");
+    ASSERT_EQ(r.status, 0) << r.out;
+
+    size_t size = 0;
+    for (int i = 0; i < n; ++i) {
+        char name[32];
+        std::snprintf(name, sizeof name, "out/t%03d.exr", i);
+        const std::string cmd = read_exr(d / name).attr("spectex:commandLine");
+        if (i == 0) size = cmd.size();
+        // Constant size: one input and one output of the same length each time.
+        EXPECT_EQ(cmd.size(), size) << cmd;
+        char want[128];
+        std::snprintf(want, sizeof want, "spectex bake tex/t%03d.png -o out/t%03d.exr", i, i);
+        EXPECT_EQ(cmd.rfind(want, 0), 0u) << cmd;
+        for (const char* batch_only : {"--from-list", "--shard", "--jobs", "--json", "list.txt",
+                                       "--output-dir", "t001.png t002"})
+            EXPECT_EQ(cmd.find(batch_only), std::string::npos) << batch_only << " in " << cmd;
+        EXPECT_NE(cmd.find("--zip-level 5"), std::string::npos) << cmd;
+        EXPECT_NE(cmd.find("--type float"), std::string::npos) << cmd;
+        EXPECT_LT(cmd.size(), 200u) << cmd;
+    }
+    // Run in a shell, each recorded command rebuilds its file byte for byte.
+    for (const std::string name : {"out/t007.exr", "out/it's a tile.exr", "out/-dash.exr"}) {
+        const std::string before = read_file(d / name);
+        ASSERT_FALSE(before.empty()) << name;
+        const std::string cmd = read_exr(d / name).attr("spectex:commandLine");
+        ASSERT_EQ(cmd.rfind("spectex ", 0), 0u) << cmd;
+        ASSERT_EQ(::unlink((d / name).c_str()), 0);
+        const RunResult again = run_shell("cd " + sh(d.path()) + " && " + sh(bin) + cmd.substr(7));
+        ASSERT_EQ(again.status, 0) << cmd << "\n" << again.out;
+        EXPECT_TRUE(read_file(d / name) == before) << name << " rebuilt differently by: " << cmd;
+    }
+}
