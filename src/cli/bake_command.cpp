@@ -675,8 +675,8 @@ void choose_auto_grid(BakeCli& c) {
 void build_method(BakeCli& c, std::shared_ptr<Basis> file_basis, const Observer& observer,
                   const Spectrum& illuminant) {
     if (!c.settings.colorspace.empty())
-        (void)Linearizer::make(
-            ColourRequest{c.settings.data_dir, c.settings.config, c.settings.colorspace, "", ""});
+        (void)Linearizer::make(ColourRequest{c.settings.data_dir, c.settings.config,
+                                             c.settings.colorspace, "", ColourTags{}});
     if (c.method != "basis") {
         MethodSpec spec;
         spec.method = c.method;

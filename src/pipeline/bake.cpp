@@ -127,8 +127,10 @@ void note_source_shape(const SourceInfo& info, BakeResult& res) {
                             " channels: only RGB(A) were used");
 }
 
-// The colour space chosen for the file and how, for the summary and the JSON record.
+// The colour space chosen for the file and how, for the summary and the JSON record; what the file
+// states that the config cannot name is a warning of the file (file_warnings: shown under -q too).
 void record_colour(const SourceInfo& info, const Linearizer& lin, BakeResult& res) {
+    res.notes.insert(res.notes.end(), lin.warnings().begin(), lin.warnings().end());
     res.colorspace = lin.input_space();
     res.colorspace_how = lin.how_chosen();
     res.colorspace_rule = lin.file_rule();
@@ -465,8 +467,8 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     const SourceInfo& info = src->info();
     note_source_shape(info, res);
 
-    Linearizer lin = Linearizer::make(
-        ColourRequest{s.data_dir, s.config, s.colorspace, input, info.colorspace_hint});
+    Linearizer lin =
+        Linearizer::make(ColourRequest{s.data_dir, s.config, s.colorspace, input, info.colour});
     if (!info.is_float) lin.use_code_table(info.bits);
     record_colour(info, lin, res);
 
