@@ -17,7 +17,8 @@ struct ColourTags {
     std::string hint;    // OpenImageIO's oiio:ColorSpace ("sRGB", "linear", "Gamma2.2", ...)
     // What in the file states the hint ("sRGB chunk", "gAMA chunk", "Exif ColorSpace", "DPX
     // transfer", ...); "" when OpenImageIO assumed it for the format: an untagged PNG, JPEG, GIF or
-    // WebP is sRGB to it, an OpenEXR or Radiance HDR file linear, whatever the file holds.
+    // WebP is sRGB to it, an OpenEXR or Radiance HDR file linear, a PNM file Rec709, whatever
+    // the file holds.
     std::string hint_from;
     std::vector<unsigned char> icc;     // the embedded ICC profile's bytes (io/icc_profile.h)
     bool icc_refused = false;           // PNG: an iCCP chunk that libpng refused as malformed

@@ -297,6 +297,9 @@ TEST(ColourTruth, OriginLabelsSayWhatChoseTheSpace) {
     write_tagged(d / "tagged.png", {}, {{"oiio:ColorSpace", "sRGB"}});  // an sRGB chunk
     write_tagged(d / "untagged_tiff.tif", {});
     std::vector<float> px(4 * 4 * 3, 0.25f);
+    const std::vector<uint16_t> codes(4 * 4 * 3, 20000);
+    write_image(d / "lin_dpx.dpx", 4, 4, 3, OIIO::TypeDesc::UINT16, codes.data(),
+                {{"oiio:ColorSpace", "Linear"}});  // DPX transfer: linear
     write_image(d / "plain.exr", 4, 4, 3, OIIO::TypeDesc::FLOAT, px.data());
     {
         OIIO::ImageSpec spec(4, 4, 3, OIIO::TypeDesc::FLOAT);
@@ -321,6 +324,7 @@ TEST(ColourTruth, OriginLabelsSayWhatChoseTheSpace) {
         {"untagged.png", "sRGB - Texture | OpenImageIO's default for png files (sRGB)"},
         {"tagged.png", "sRGB - Texture | file metadata: sRGB chunk (sRGB)"},
         {"untagged_tiff.tif", "sRGB - Texture | config file rule 'Default'"},
+        {"lin_dpx.dpx", "Linear Rec.709 (sRGB) | file metadata: DPX transfer (Linear)"},
         {"plain.exr", "Linear Rec.709 (sRGB) | config file rule 'OpenEXR'"},
         {"acescg.exr", "ACEScg | OpenEXR chromaticities (ACES AP1)"},
         {"wall_nrm.png", "Raw | config file rule 'Normals'"},

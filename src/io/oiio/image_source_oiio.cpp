@@ -317,12 +317,13 @@ ColourTags colour_tags(const OIIO::ImageSpec& spec, const std::string& format,
             t.hint_from = "Exif ColorSpace";
     } else if (format == "openexr") {
         if (lower_ascii(t.hint) != "linear") t.hint_from = "OpenEXR header";
-    } else if (format == "hdr") {
     } else if (format == "dpx") {
         t.hint_from = "DPX transfer";
-    } else {
-        t.hint_from = format + " metadata";
+    } else if (format == "tiff") {
+        t.hint_from = "TIFF metadata";
     }
+    // Any other reader's value (HDR's "linear", PNM's "Rec709", ...) is its assumption for the
+    // format, not something the file says.
     if (const OIIO::ParamValue* p = spec.find_attribute("ICCProfile");
         p && p->type().basetype == OIIO::TypeDesc::UINT8 && p->datasize() > 0) {
         const auto* b = static_cast<const unsigned char*>(p->data());
