@@ -199,7 +199,9 @@ void declare_colour_options(ArgParser& p, BakeCli& c) {
     p.option(
         "--colorspace", "NAME",
         "Colour space of the input (an OCIO name or alias, e.g. srgb_tx, lin_srgb, acescg, raw). "
-        "Default: the file's own metadata when the config knows it, else the config's file rules.",
+        "Default: what the file states (its ICC profile, OpenEXR chromaticities, a tag such as "
+        "PNG's sRGB chunk) when the config can name it, else the config's file rules; a profile "
+        "it cannot name is a warning.",
         [&](const std::string& v) { c.settings.colorspace = v; });
     p.option("--config", "FILE",
              "OCIO config to use instead of $OCIO or the shipped config/spectex.ocio.",
@@ -700,8 +702,8 @@ void choose_auto_grid(BakeCli& c) {
 void build_method(BakeCli& c, std::shared_ptr<Basis> file_basis, const Observer& observer,
                   const Spectrum& illuminant) {
     if (!c.settings.colorspace.empty())
-        (void)Linearizer::make(
-            ColourRequest{c.settings.data_dir, c.settings.config, c.settings.colorspace, "", ""});
+        (void)Linearizer::make(ColourRequest{c.settings.data_dir, c.settings.config,
+                                             c.settings.colorspace, "", ColourTags{}});
     if (c.method != "basis") {
         MethodSpec spec;
         spec.method = c.method;

@@ -257,11 +257,13 @@ std::string verify_json(const VerifyReport& r, const VerifyGates& t,
 }
 
 // A file that could not be verified: its error, which is also its one failure.
-std::string verify_error_json(const std::string& file, const std::string& error) {
+std::string verify_error_json(const std::string& file, const std::string& error,
+                              const std::vector<std::string>& warnings) {
     Json j;
     j["schema_version"] = 2;
     put_text(j, "file", file);
     put_text(j, "error", error);
+    put_texts(j, "warnings", warnings);
     put_texts(j, "failures", {error});
     j["passed"] = false;
     return json_line(j);
@@ -469,8 +471,10 @@ int report_outcomes(const VerifyArgs& a, const std::vector<std::string>& files,
         const VerifyOutcome& o = outcomes[i];
         if (!o.readable) {
             ++unreadable;
+            for (const auto& w : o.warnings)
+                print_error("warning: " + quote_path(files[i]) + ": " + w);
             print_error(name_file(files[i], o.error, "verifying"));
-            json_text += verify_error_json(files[i], o.error);
+            json_text += verify_error_json(files[i], o.error, o.warnings);
             continue;
         }
         for (const auto& w : o.report.warnings)

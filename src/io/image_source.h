@@ -11,6 +11,23 @@
 
 namespace spectex {
 
+// What a file says of its colour, as its reader found it (io/linearizer chooses from it).
+struct ColourTags {
+    std::string format;  // OIIO's format name
+    std::string hint;    // OpenImageIO's oiio:ColorSpace ("sRGB", "linear", "Gamma2.2", ...)
+    // What in the file states the hint ("sRGB chunk", "gAMA chunk", "Exif ColorSpace", "DPX
+    // transfer", ...); "" when OpenImageIO assumed it for the format: an untagged PNG, JPEG, GIF or
+    // WebP is sRGB to it, an OpenEXR or Radiance HDR file linear, a PNM file Rec709, whatever
+    // the file holds.
+    std::string hint_from;
+    std::vector<unsigned char> icc;  // the embedded ICC profile's bytes (io/icc_profile.h)
+    bool icc_refused = false;        // PNG: an iCCP chunk that libpng refused as malformed
+    // The profile as read back from a header (colour_tags_from_record): its description, or why
+    // none could be read; the bytes are not recorded.
+    std::string icc_description, icc_problem;
+    std::vector<float> chromaticities;  // OpenEXR's chromaticities: R, G, B, white x,y (8 values)
+};
+
 struct SourceInfo : PixelWindows {
     std::string path;
     std::string format_name;  // OIIO's format name: "png", "openexr", ...
@@ -18,9 +35,9 @@ struct SourceInfo : PixelWindows {
     int alpha_channel = -1;   // index in the file, -1 when none (only a channel named A/alpha
                               // in OpenEXR; never depth or other data)
     AlphaKind alpha = AlphaKind::None;
-    bool is_float = false;        // float or half samples
-    int bits = 8;                 // bits per sample in the file (8, 16, 32, ...)
-    std::string colorspace_hint;  // oiio:ColorSpace
+    bool is_float = false;  // float or half samples
+    int bits = 8;           // bits per sample in the file (8, 16, 32, ...)
+    ColourTags colour;      // what the file says of its colour
     int subimages = 1;
     int miplevels = 1;
     std::vector<std::string>

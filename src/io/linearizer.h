@@ -4,14 +4,16 @@
 #include <string>
 #include <vector>
 
+#include "io/image_source.h"
+
 namespace spectex {
 
 struct ColourRequest {
     std::string data_dir;         // shipped config lives here
     std::string config_override;  // --config; empty: $OCIO, else the shipped config
-    std::string colorspace;       // --colorspace; empty: file metadata, then file rules
+    std::string colorspace;       // --colorspace; empty: what the file states, then file rules
     std::string file_path;        // for the config's file_rules
-    std::string file_hint;        // OIIO's oiio:ColorSpace of the file ("sRGB", "Linear", ...)
+    ColourTags tags;              // what the file says of its colour (io/image_source.h)
 };
 
 class Linearizer {
@@ -26,8 +28,22 @@ class Linearizer {
     // The config's name and description ("name: description"; either alone when the other is
     // empty).
     const std::string& config_name() const { return config_name_; }
-    // "--colorspace", "file metadata (sRGB)", "config file rule 'Default'".
+    // Where the colour space came from, first that applies:
+    //   "--colorspace"
+    //   "ICC profile 'Adobe RGB (1998)'"              the embedded profile, named by the config
+    //   "OpenEXR chromaticities (ACES AP1)"          primaries the file states
+    //   "file metadata: sRGB chunk (sRGB)"           a tag the file carries (PNG sRGB/gAMA chunk,
+    //                                                Exif ColorSpace, DPX transfer, ...)
+    //   "config file rule 'OpenEXR'"                 a rule of the config other than its default
+    //   "OpenImageIO's default for png files (sRGB)"  what the reader assumes
+    //   "config file rule 'Default'"                 the config's default rule
+    // When the file states a colour space the config cannot name (an ICC profile "ProPhoto RGB",
+    // primaries of no known space), the fallback's origin is followed by "; not the file's ..."
+    // and warnings() says so.
     const std::string& how_chosen() const { return how_; }
+    // What the choice could not honour (an ICC profile or tag the config cannot name, a damaged
+    // profile): one sentence each, naming what the file states and suggesting --colorspace.
+    const std::vector<std::string>& warnings() const { return warnings_; }
     // The file rule that chose the input space ("" when --colorspace or metadata did), and whether
     // it is the config's default rule (the one that matches every file no other rule names).
     const std::string& file_rule() const { return rule_; }
@@ -69,6 +85,7 @@ class Linearizer {
     struct Impl;
     std::unique_ptr<Impl> impl_;
     std::string input_space_, config_path_, config_from_, config_name_, how_, rule_, transform_id_;
+    std::vector<std::string> warnings_;
     bool identity_ = false, default_rule_ = false, scene_linear_ = false;
 };
 
@@ -80,9 +97,25 @@ struct ColourTransform {
 };
 ColourTransform colour_transform(const ColourRequest& req);
 
+// The facts of a file's colour tags that choose its colour space (format, OpenImageIO's hint and
+// what stated it, the ICC profile's description, OpenEXR chromaticities) as one line of JSON,
+// recorded as spectex:inputColorSpaceMetadata, and back: --update chooses the space again from
+// them without reading the file. A record that is not such JSON gives no tags.
+std::string colour_tags_record(const ColourTags& tags);
+ColourTags colour_tags_from_record(const std::string& text);
+
 // Closest names (colour spaces and aliases) to `name` in a config, for "did you mean" messages.
 std::vector<std::string> close_colour_space_names(const std::vector<std::string>& known,
                                                   const std::string& name, size_t max = 3);
+// The same, preferring names of the same kind: `linear[i]` says whether known[i] is a linear
+// space (1), an encoded one (0) or unknown (-1); a name whose words say "linear" (Linear, lin_,
+// ACEScg, ...) or "encoded" (sRGB, Gamma, Encoded, _tx, Texture, log, ...) is offered spaces of its
+// kind first, so that "sRGB Encoded Rec.2020" is not answered with "Linear Rec.2020" alone.
+std::vector<std::string> close_colour_space_names(const std::vector<std::string>& known,
+                                                  const std::vector<int>& linear,
+                                                  const std::string& name, size_t max = 3);
+// What the words of a colour space name say: 1 linear, 0 encoded, -1 neither.
+int name_says_linear(const std::string& name);
 
 }  // namespace spectex
 

@@ -127,8 +127,10 @@ void note_source_shape(const SourceInfo& info, BakeResult& res) {
                             " channels: only RGB(A) were used");
 }
 
-// The colour space chosen for the file and how, for the summary and the JSON record.
+// The colour space chosen for the file and how, for the summary and the JSON record; what the file
+// states that the config cannot name is a warning of the file (file_warnings: shown under -q too).
 void record_colour(const SourceInfo& info, const Linearizer& lin, BakeResult& res) {
+    res.notes.insert(res.notes.end(), lin.warnings().begin(), lin.warnings().end());
     res.colorspace = lin.input_space();
     res.colorspace_how = lin.how_chosen();
     res.colorspace_rule = lin.file_rule();
@@ -141,7 +143,7 @@ void record_colour(const SourceInfo& info, const Linearizer& lin, BakeResult& re
 // The spectex:* header attributes, in the order that is part of the output's bytes.
 std::vector<std::pair<std::string, std::string>> header_attributes(
     const BakeSettings& s, const std::string& input, const std::string& output,
-    const Linearizer& lin, const std::string& colorspace_hint, bool has_alpha,
+    const Linearizer& lin, const std::string& colour_tags, bool has_alpha,
     const SpectralMethod& method, const SourceIdentity& identity) {
     namespace fs = std::filesystem;
     std::error_code ec;
@@ -159,7 +161,7 @@ std::vector<std::pair<std::string, std::string>> header_attributes(
         {provenance_key::kIlluminant, s.illuminant},
         {provenance_key::kInputColorSpace, lin.input_space()},
         {provenance_key::kInputColorSpaceFrom, lin.how_chosen()},
-        {provenance_key::kInputColorSpaceMetadata, colorspace_hint},
+        {provenance_key::kInputColorSpaceMetadata, colour_tags},
         {provenance_key::kConfig,
          std::filesystem::absolute(lin.config_path()).lexically_normal().string()},
         {provenance_key::kConfigFrom, lin.config_from()},
@@ -467,14 +469,14 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     const SourceInfo& info = src->info();
     note_source_shape(info, res);
 
-    Linearizer lin = Linearizer::make(
-        ColourRequest{s.data_dir, s.config, s.colorspace, input, info.colorspace_hint});
+    Linearizer lin =
+        Linearizer::make(ColourRequest{s.data_dir, s.config, s.colorspace, input, info.colour});
     if (!info.is_float) lin.use_code_table(info.bits);
     record_colour(info, lin, res);
 
     const SpectralExrLayout layout =
         output_layout(s, info,
-                      header_attributes(s, input, output, lin, info.colorspace_hint,
+                      header_attributes(s, input, output, lin, colour_tags_record(info.colour),
                                         info.alpha != AlphaKind::None, method, src->identity()));
     AtomicFile out(output);
     SpectralExrWriter writer(out, layout);

@@ -420,9 +420,9 @@ UpdateCheck check_update(const std::string& input, const std::string& output,
         // The space this file would be read as now, from the same request as the bake's (the
         // metadata it recorded), and what the config does to it.
         try {
-            const ColourTransform now =
-                colour_transform(ColourRequest{s.data_dir, s.config, s.colorspace, input,
-                                               value(provenance_key::kInputColorSpaceMetadata)});
+            const ColourTransform now = colour_transform(ColourRequest{
+                s.data_dir, s.config, s.colorspace, input,
+                colour_tags_from_record(value(provenance_key::kInputColorSpaceMetadata))});
             if (now.space != value(provenance_key::kInputColorSpace)) {
                 c.reason = "the OCIO config now reads the source as '" + now.space + "', not '" +
                            value(provenance_key::kInputColorSpace) + "'";

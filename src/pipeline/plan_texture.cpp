@@ -34,7 +34,7 @@ TextureColours texture_colours(const std::string& path, const std::string& data_
     auto src = ImageSource::open(path, max_pixels);
     const SourceInfo& info = src->info();
     Linearizer lin =
-        Linearizer::make(ColourRequest{data_dir, config, colorspace, path, info.colorspace_hint});
+        Linearizer::make(ColourRequest{data_dir, config, colorspace, path, info.colour});
     if (!info.is_float) lin.use_code_table(info.bits);
     TextureColours out;
     out.colorspace = lin.input_space() + " (" + lin.how_chosen() + ")";

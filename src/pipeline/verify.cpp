@@ -6,6 +6,7 @@
 #include <cfloat>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <limits>
 #include <memory>
@@ -431,8 +432,11 @@ std::string choose_config(const Recorded& recorded, const VerifySettings& s, Ver
                 r.warnings.push_back("the OCIO config the file records (" + rec_config +
                                      ") has changed since the bake");
         } else {
-            r.warnings.push_back("the OCIO config the file records (" + rec_config +
-                                 ") is not there; using " + ocio_config_path(s.data_dir, ""));
+            const char* env = std::getenv("OCIO");
+            r.warnings.push_back(
+                "the OCIO config the file records (" + rec_config + ") is not there; using " +
+                (env && *env ? "$OCIO's " : "the shipped config ") +
+                ocio_config_path(s.data_dir, "") + " instead (--config FILE chooses another)");
         }
     } else if (!config.empty() && !rec_sum.empty() && config_checksum(config) != rec_sum) {
         r.warnings.push_back("--config " + config + " differs from the config the file records (" +
@@ -513,7 +517,7 @@ std::unique_ptr<ImageSource> open_source(const std::string& exr_path, const Spec
     const std::string config = choose_config(recorded, s, r);
     const std::string rec_space = recorded(provenance_key::kInputColorSpace);
     ColourRequest req{s.data_dir, config, s.colorspace.empty() ? rec_space : s.colorspace, s.source,
-                      si.colorspace_hint};
+                      si.colour};
     lin = Linearizer::make(req);
     // What the config does to the source, against what it did at the bake: a comment or a colour
     // space the file does not use is no change.
@@ -737,7 +741,13 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
         // of the source, say) is compared as given.
         if (is_recorded_source(exr_path, info, s.source))
             check_source_identity(s.source, recorded, r);
-        if (!r.source_changed) src = open_source(exr_path, info, s, recorded, r, lin, ctx);
+        if (!r.source_changed) {
+            try {
+                src = open_source(exr_path, info, s, recorded, r, lin, ctx);
+            } catch (const Error& e) {
+                throw VerifyError(e.what(), r.warnings);
+            }
+        }
     }
 
     try {
@@ -942,6 +952,9 @@ std::vector<VerifyOutcome> verify_files(const std::vector<std::string>& files,
             o.report = verify_file(files[i], fs);
             o.failures = gate_failures(o.report, g);
             o.readable = true;
+        } catch (const VerifyError& e) {
+            o.error = e.what();
+            o.warnings = e.warnings;
         } catch (const Error& e) {
             o.error = e.what();
         } catch (const std::exception& e) {

@@ -6,9 +6,11 @@
 // Memory is bounded by the band size, never by the image size.
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "io/alpha_kind.h"
+#include "spectral/error.h"
 
 namespace spectex {
 
@@ -181,6 +183,16 @@ struct VerifyOutcome {
     VerifyReport report;
     std::string error;
     std::vector<std::string> failures;
+    // An unreadable file's warnings found before its error (a recorded config not there): they
+    // often say why it failed, so they are printed before it.
+    std::vector<std::string> warnings;
+};
+// A file verify_file could not check, with the warnings it had given by then.
+class VerifyError : public Error {
+  public:
+    VerifyError(const std::string& what, std::vector<std::string> warnings)
+        : Error(what), warnings(std::move(warnings)) {}
+    std::vector<std::string> warnings;
 };
 // Verifies `files`, `jobs` at once, each against s.source or, with source_from_header, the source
 // its header records; the outcomes are in the files' order. Never throws for a file: its error is

@@ -246,7 +246,7 @@ int main(int argc, char** argv) {
             std::vector<float> rgba(static_cast<size_t>(sw) * sh * 4);
             src->read_rgba(0, sh, rgba.data());
             Linearizer lin = Linearizer::make(
-                ColourRequest{SPECTEX_TEST_DATA_DIR, "", "", source, src->info().colorspace_hint});
+                ColourRequest{SPECTEX_TEST_DATA_DIR, "", "", source, src->info().colour});
             lin.apply_rgba(rgba.data(), static_cast<long>(rgba.size() / 4));
             auto c01 = [](float v) {
                 return std::isfinite(v) ? std::min(1.0f, std::max(0.0f, v)) : 0.0f;
@@ -281,7 +281,7 @@ int main(int argc, char** argv) {
                 throw std::runtime_error(
                     "--whole needs --width/--height equal to the source's size");
             Linearizer lin = Linearizer::make(
-                ColourRequest{SPECTEX_TEST_DATA_DIR, "", "", source, src->info().colorspace_hint});
+                ColourRequest{SPECTEX_TEST_DATA_DIR, "", "", source, src->info().colour});
             std::vector<float> rgba;
             for (int y0 = 0; y0 < height; y0 += strip) {
                 const int rows = std::min(strip, height - y0);

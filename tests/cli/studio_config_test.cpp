@@ -203,8 +203,8 @@ TEST(StudioConfig, DefaultRuleToSceneLinearWarnsOncePerBatch) {
     EXPECT_TRUE(has(w, "--colorspace 'sRGB Encoded Rec.709 (sRGB)'")) << w;
 
     // The summary: every file with its colour space and how it was chosen, one line per space and
-    // way, in input order (the float EXR says it is linear: OIIO's "Linear" is the scene_linear
-    // role).
+    // way, in input order (the float EXR is linear to OpenImageIO, which assumes it of every
+    // OpenEXR file: its "Linear" is the scene_linear role, labelled as OpenImageIO's default).
     const auto spaces = lines_with(r.err, "colour space '");
     ASSERT_EQ(spaces.size(), 3u) << r.err;
     EXPECT_TRUE(has(spaces[0], "colour space 'ACES2065-1' (config file rule 'Default'): " +
@@ -213,8 +213,10 @@ TEST(StudioConfig, DefaultRuleToSceneLinearWarnsOncePerBatch) {
     EXPECT_TRUE(has(spaces[1], "colour space 'ACES2065-1' (config file rule 'LinearTiffs'): " +
                                    s.d / "c_lin.tif"))
         << spaces[1];
-    EXPECT_TRUE(
-        has(spaces[2], "colour space 'ACES2065-1' (file metadata (Linear)): " + s.d / "d.exr"))
+    EXPECT_TRUE(has(spaces[2],
+                    "colour space 'ACES2065-1' (OpenImageIO's default for openexr files "
+                    "(Linear)): " +
+                        s.d / "d.exr"))
         << spaces[2];
 
     // --colorspace: no warning; -q: no warning and no summary.

@@ -376,7 +376,9 @@ TEST(VerifyGates, CodeMatchFollowsTheTransformNotTheSpacesName) {
     };
     ASSERT_GT(replace_all("sRGB - Texture", "Studio Albedo 8bit"), 3u);
     ASSERT_EQ(
-        replace_all("aliases: [srgb_tx, srgb_texture, Utility - Studio Albedo 8bit, sRGB, srgb]",
+        replace_all("aliases: [srgb_tx, srgb_texture, Utility - Studio Albedo 8bit, sRGB, srgb, "
+                    "sRGB Encoded Rec.709 (sRGB), srgb_encoded_rec709_srgb, srgb_rec709_scene, "
+                    "Input - Generic - Studio Albedo 8bit]",
                     "aliases: [albedo8]"),
         1u);
     std::ofstream(cfg) << text;

@@ -25,7 +25,10 @@ double iec_srgb_to_linear(double v) {
 
 Linearizer make(const std::string& cs, const std::string& config = "",
                 const std::string& file = "x.png", const std::string& hint = "") {
-    return Linearizer::make(ColourRequest{kData, config, cs, file, hint});
+    ColourTags tags;
+    tags.format = file.substr(file.find_last_of('.') + 1);
+    tags.hint = hint;  // as OpenImageIO assumes it for the format (no tag in the file)
+    return Linearizer::make(ColourRequest{kData, config, cs, file, tags});
 }
 
 std::vector<float> linearize(const Linearizer& lin, const std::vector<float>& grey) {

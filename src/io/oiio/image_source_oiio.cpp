@@ -131,8 +131,10 @@ std::string channel_list(const std::vector<std::string>& names) {
 
 // PNG: the chunks must run to an IEND chunk inside the file. libpng stops once it has the rows it
 // needs, so a file cut in its last IDAT's checksum or in IEND would otherwise read as whole. Reads
-// 8 bytes per chunk.
-void check_png_chunks(const CheckedFile& f, const std::string& path) {
+// 8 bytes per chunk. Returns the colour chunks the file has (sRGB, gAMA, iCCP, cHRM), in order:
+// OpenImageIO reports an untagged PNG as sRGB too, so only they say whether the file states it.
+std::vector<std::string> check_png_chunks(const CheckedFile& f, const std::string& path) {
+    std::vector<std::string> colour;
     unsigned char sig[8];
     if (::pread(f.fd(), sig, 8, 0) != 8) throw Error(path + ": truncated PNG (no signature)");
     uint64_t pos = 8;
@@ -149,7 +151,9 @@ void check_png_chunks(const CheckedFile& f, const std::string& path) {
             throw Error(path + ": truncated PNG: chunk '" + printable_excerpt(type, 64) +
                         "' at byte " + std::to_string(pos) + " runs past the end of the file (" +
                         std::to_string(f.size()) + " bytes)");
-        if (type == "IEND") return;
+        if (type == "IEND") return colour;
+        if (type == "sRGB" || type == "gAMA" || type == "iCCP" || type == "cHRM")
+            colour.push_back(type);
         pos += 12 + len;
     }
 }
@@ -293,12 +297,55 @@ std::string format_from_signature(const unsigned char* b, size_t n) {
     return "";
 }
 
+// What the file says of its colour. OpenImageIO fills oiio:ColorSpace with a default for some
+// formats whatever the file holds: the hint counts as stated only when something in the file says
+// it (for PNG its chunks, for JPEG, GIF and WebP the Exif ColorSpace tag; OpenEXR's "Linear" and
+// HDR's "linear" are the reader's own).
+ColourTags colour_tags(const OIIO::ImageSpec& spec, const std::string& format,
+                       const std::vector<std::string>& png_chunks) {
+    ColourTags t;
+    t.format = format;
+    t.hint = spec.get_string_attribute("oiio:ColorSpace");
+    auto has_chunk = [&](const char* c) {
+        return std::find(png_chunks.begin(), png_chunks.end(), c) != png_chunks.end();
+    };
+    if (t.hint.empty()) {
+    } else if (format == "png") {
+        t.hint_from = has_chunk("sRGB") ? "sRGB chunk" : has_chunk("gAMA") ? "gAMA chunk" : "";
+    } else if (format == "jpeg" || format == "gif" || format == "webp") {
+        if (spec.get_int_attribute("Exif:ColorSpace", 0) == 1 && lower_ascii(t.hint) == "srgb")
+            t.hint_from = "Exif ColorSpace";
+    } else if (format == "openexr") {
+        if (lower_ascii(t.hint) != "linear") t.hint_from = "OpenEXR header";
+    } else if (format == "dpx") {
+        t.hint_from = "DPX transfer";
+    } else if (format == "tiff") {
+        t.hint_from = "TIFF metadata";
+    }
+    // Any other reader's value (HDR's "linear", PNM's "Rec709", ...) is its assumption for the
+    // format, not something the file says.
+    if (const OIIO::ParamValue* p = spec.find_attribute("ICCProfile");
+        p && p->type().basetype == OIIO::TypeDesc::UINT8 && p->datasize() > 0) {
+        const auto* b = static_cast<const unsigned char*>(p->data());
+        t.icc.assign(b, b + p->datasize());
+    }
+    t.icc_refused = t.icc.empty() && has_chunk("iCCP");
+    if (const OIIO::ParamValue* p = spec.find_attribute("chromaticities");
+        p && p->type().basetype == OIIO::TypeDesc::FLOAT &&
+        p->type().numelements() * p->type().aggregate == 8) {
+        const auto* f = static_cast<const float*>(p->data());
+        t.chromaticities.assign(f, f + 8);
+    }
+    return t;
+}
+
 }  // namespace
 
 std::unique_ptr<ImageSource> OiioImageSource::open(const std::string& path, uint64_t max_pixels) {
     // A regular file, checked before any library opens it: a FIFO, device or folder is refused
     // at once (OIIO would block on a FIFO, or read /dev/zero forever).
     std::string format;  // the reader chosen by the file's first bytes, "" when they say nothing
+    std::vector<std::string> png_colour_chunks;
     auto file = std::make_unique<CheckedFile>(path, file_limits::kImage, "an input image");
     struct stat fst;
     if (::fstat(file->fd(), &fst) != 0)
@@ -309,7 +356,8 @@ std::unique_ptr<ImageSource> OiioImageSource::open(const std::string& path, uint
         if (f.size() == 0) throw Error(path + ": empty file");
         unsigned char sig[16] = {0};
         const ssize_t got = ::pread(f.fd(), sig, sizeof sig, 0);
-        if (got == 16 && std::memcmp(sig, "\x89PNG\r\n\x1a\n", 8) == 0) check_png_chunks(f, path);
+        if (got == 16 && std::memcmp(sig, "\x89PNG\r\n\x1a\n", 8) == 0)
+            png_colour_chunks = check_png_chunks(f, path);
         if (got > 0) format = format_from_signature(sig, static_cast<size_t>(got));
     }
 
@@ -416,7 +464,7 @@ std::unique_ptr<ImageSource> OiioImageSource::open(const std::string& path, uint
     info.bits = static_cast<int>(spec.format.size() * 8);
     if (int b = spec.get_int_attribute("oiio:BitsPerSample", 0); b > 0 && !info.is_float)
         info.bits = b;
-    info.colorspace_hint = spec.get_string_attribute("oiio:ColorSpace");
+    info.colour = colour_tags(spec, info.format_name, png_colour_chunks);
 
     // Channels: by name where the format has names (OpenEXR), else by position.
     const ChannelChoice choice = info.format_name == "openexr"
