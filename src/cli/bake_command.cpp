@@ -289,8 +289,8 @@ void declare_spectra_options(ArgParser& p, BakeCli& c) {
     observer_option(p, "Observer of the fitted basis", c.fit.observer);
     p.option("--illuminant", "NAME|FILE",
              "Illuminant under which the fitted basis is exact: " +
-                 shipped_illuminants_list(FitSpec().illuminant) +
-                 " (any case), or a CSV wavelength,value.",
+                 shipped_illuminants_list(FitSpec().illuminant) + " (any case), " +
+                 colour_temperature_help() + ", or a CSV wavelength,value.",
              [&](const std::string& v) { c.fit.illuminant = v; });
 }
 
@@ -791,6 +791,7 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         check_method_options(c);
         check_observer_setting("--observer", c.fit.observer);
         check_illuminant_setting("--illuminant", c.fit.illuminant);
+        c.fit.illuminant = light_name(c.fit.illuminant);  // recorded: 3200K, however written
         for (const auto& l : c.plan.lights) check_illuminant_setting("--lights", l);
         check_grid_options(c);
         check_cost_options(c);
