@@ -55,9 +55,11 @@ struct BakeCli {
     std::string objective = "smooth";  // --objective, parsed into fit.objective
     FitSpec fit;
     std::string output_dir, base_dir, from_list, json, shard;
+    std::string wrap, swrap, twrap;  // --wrap MODE[,MODE], --swrap, --twrap
+    bool wrap_given = false, swrap_given = false, twrap_given = false;
     int threads = 0, jobs = 1;
     bool quiet = false, verbose = false, progress = false, update = false, force = false,
-         fail_fast = false;
+         fail_fast = false, dry_run = false;
     BakeSettings settings;
     PlanSpec plan;  // --wavelengths auto
     bool plan_lights = false, plan_budget = false;
@@ -176,6 +178,26 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
            "systems; "
            "levels are filtered on linear RGB before expansion.",
            [&] { c.settings.mipmap = true; });
+    p.option("--wrap", "MODE[,MODE]",
+             "Record the texture wrap mode, maketx's: black, clamp, periodic or mirror, one for "
+             "both directions or s,t (e.g. periodic,clamp); written as the wrapmodes attribute "
+             "OpenImageIO's texture system reads. Tiled outputs record black,black without it, "
+             "scanline ones nothing. It changes no pixel (MIP levels are box-filtered inside the "
+             "image whatever the mode).",
+             [&](const std::string& v) {
+                 c.wrap = v;
+                 c.wrap_given = true;
+             });
+    p.option("--swrap", "MODE", "The wrap mode in s (horizontally) only, as maketx's --swrap.",
+             [&](const std::string& v) {
+                 c.swrap = v;
+                 c.swrap_given = true;
+             });
+    p.option("--twrap", "MODE", "The wrap mode in t (vertically) only, as maketx's --twrap.",
+             [&](const std::string& v) {
+                 c.twrap = v;
+                 c.twrap_given = true;
+             });
     p.option("--half-rounding", "colour|nearest",
              "colour (default): round each half bin up or down so that the spectrum's integrated "
              "colour stays "
@@ -364,8 +386,34 @@ void check_given_options(const BakeCli& c, const std::vector<std::string>& input
     }
 }
 
+// One of maketx's wrap modes, in any case, as maketx writes it (lower case). Throws UsageError
+// naming the option.
+std::string wrap_mode(const std::string& option, const std::string& value) {
+    const std::string m = lower_ascii(value);
+    for (const char* known : {"black", "clamp", "periodic", "mirror"})
+        if (m == known) return m;
+    throw UsageError(option + ": '" + value +
+                     "' is not a wrap mode (black, clamp, periodic or mirror)");
+}
+
+// --wrap MODE[,MODE], --swrap, --twrap as the "s,t" maketx records (--swrap and --twrap over
+// --wrap, a direction given no mode black); "" when none was given. Throws UsageError.
+std::string wrap_modes(const BakeCli& c) {
+    if (!c.wrap_given && !c.swrap_given && !c.twrap_given) return "";
+    std::string s = "black", t = "black";
+    if (c.wrap_given) {
+        const size_t comma = c.wrap.find(',');
+        s = wrap_mode("--wrap", c.wrap.substr(0, comma));
+        t = comma == std::string::npos ? s : wrap_mode("--wrap", c.wrap.substr(comma + 1));
+    }
+    if (c.swrap_given) s = wrap_mode("--swrap", c.swrap);
+    if (c.twrap_given) t = wrap_mode("--twrap", c.twrap);
+    return s + "," + t;
+}
+
 // Sample type, alpha, range and NaN policies, compression; the options of each method.
 void check_method_options(BakeCli& c) {
+    c.settings.wrapmodes = wrap_modes(c);
     c.settings.type = pick<SampleType>("--type", c.type,
                                        {{"half", SampleType::Half}, {"float", SampleType::Float}});
     c.settings.alpha =

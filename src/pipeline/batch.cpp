@@ -343,6 +343,10 @@ std::string settings_hash(const BakeSettings& s) {
     fnv(h, s.colour_rounding ? "colour-rounding" : "nearest");
     fnv(h, std::to_string(s.tile_width) + "x" + std::to_string(s.tile_height) +
                (s.mipmap ? "mip" : ""));
+    // The wrapmodes recorded, when they differ from what the output records without --wrap
+    // (black,black in a tiled file, nothing in a scanline one): those hashes stay as they were.
+    const std::string no_wrap = s.tile_width > 0 || s.mipmap ? "black,black" : "";
+    if (!s.wrapmodes.empty() && s.wrapmodes != no_wrap) fnv(h, "wrapmodes " + s.wrapmodes);
     // --wavelengths auto: the choice's settings (the chosen grid is hashed above); nothing when the
     // grid was given, so those hashes stay as they were.
     if (!s.plan.lights.empty())

@@ -97,6 +97,81 @@ std::vector<json> parse_lines(const std::string& text) {
 
 }  // namespace
 
+// The "wrapmodes" attribute as maketx writes it: "s,t"; black,black in every tiled file without
+// --wrap, nothing in a scanline one; --swrap and --twrap over --wrap. OpenImageIO reads it (what
+// `iinfo -v` prints), from both OpenEXR writers (zip: the core writer; piz: OpenEXR's Imf).
+TEST(MaketxHabits, WrapModesAreRecordedAsMaketxRecordsThem) {
+    ScratchDir d;
+    const std::string a = make_png(d / "a.png", 1);
+    struct Case {
+        std::vector<std::string> args;
+        std::string expected;  // "" absent
+    };
+    const std::vector<Case> cases = {
+        {{"--mipmap"}, "black,black"},
+        {{"--mipmap", "--wrap", "periodic"}, "periodic,periodic"},
+        {{"--mipmap", "--wrap", "clamp,mirror"}, "clamp,mirror"},
+        {{"--tile", "4", "--swrap", "periodic"}, "periodic,black"},
+        {{"--mipmap", "--wrap", "clamp", "--twrap", "Mirror"}, "clamp,mirror"},
+        {{"--mipmap", "--compression", "piz", "--wrap", "mirror"}, "mirror,mirror"},
+        {{"--wrap", "periodic"}, "periodic,periodic"},
+        {{"--compression", "piz", "--twrap", "clamp"}, "black,clamp"},
+        {{}, ""},
+    };
+    for (const auto& c : cases) {
+        std::string label;
+        for (const auto& s : c.args) label += s + " ";
+        SCOPED_TRACE(label);
+        const std::string out = d / "out.exr";
+        RunResult r = run_spectex(with({"bake", a, "-o", out, "-q"}, c.args));
+        ASSERT_EQ(r.status, 0) << r.err;
+        EXPECT_EQ(oiio_attribute(out, "wrapmodes"), c.expected);
+        EXPECT_EQ(read_exr(out).attr("wrapmodes"), c.expected);  // a string attribute
+    }
+}
+
+TEST(MaketxHabits, UnknownWrapModeIsAUsageErrorNamingTheOption) {
+    ScratchDir d;
+    const std::string a = make_png(d / "a.png", 1);
+    for (const auto& [option, value] :
+         std::vector<std::pair<std::string, std::string>>{{"--wrap", "repeat"},
+                                                          {"--wrap", "clamp,"},
+                                                          {"--wrap", "clamp,periodic,black"},
+                                                          {"--swrap", "edge"},
+                                                          {"--twrap", "periodic,"}}) {
+        RunResult r = run_spectex({"bake", a, "-o", d / "o.exr", option, value});
+        EXPECT_EQ(r.status, 2) << option << " " << value << ": " << r.err;
+        EXPECT_TRUE(contains(r.err, option + ": '")) << r.err;
+        EXPECT_TRUE(contains(r.err, "black, clamp, periodic or mirror")) << r.err;
+        EXPECT_FALSE(file_exists(d / "o.exr"));
+    }
+}
+
+// The wrap mode is a setting --update compares (another mode rebuilds the file; --wrap black on a
+// tiled file writes what no --wrap writes, and rebuilds nothing), and it changes no pixel of any
+// MIP level: the box filter averages inside the image whatever the mode.
+TEST(MaketxHabits, WrapIsASettingOfUpdateAndChangesNoPixel) {
+    ScratchDir d;
+    const std::string a = make_png(d / "a.png", 1, 13, 7);  // odd sizes: fractional boxes
+    const std::string out = d / "t.exr";
+    const std::vector<std::string> bake = {"bake", a, "-o", out, "--mipmap", "--type", "float",
+                                           "--update", "--json", "-", "-q"};
+    RunResult r = run_spectex(bake);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto levels = all_levels(out);
+    ASSERT_EQ(levels.size(), 4u);  // 13x7, 6x3, 3x1, 1x1
+    r = run_spectex(with(bake, {"--wrap", "black"}));
+    EXPECT_EQ(count(r.out, "\"status\":\"skipped\""), 1u) << r.out;
+    r = run_spectex(with(bake, {"--wrap", "periodic"}));
+    EXPECT_EQ(count(r.out, "\"status\":\"ok\""), 1u) << r.out;
+    EXPECT_EQ(oiio_attribute(out, "wrapmodes"), "periodic,periodic");
+    EXPECT_EQ(all_levels(out), levels);
+    r = run_spectex(with(bake, {"--wrap", "periodic"}));
+    EXPECT_EQ(count(r.out, "\"status\":\"skipped\""), 1u) << r.out;
+    r = run_spectex(with(bake, {"--wrap", "periodic,clamp"}));
+    EXPECT_EQ(count(r.out, "\"status\":\"ok\""), 1u) << r.out;
+}
+
 // A light by colour temperature, in every command that takes one; the name is canonical (3200K)
 // in headers, reports and JSON, and 3200K and 3200k are one light.
 TEST(MaketxHabits, ColourTemperaturesInEveryCommandThatTakesALight) {
