@@ -330,6 +330,13 @@ void declare_batch_options(ArgParser& p, BakeCli& c) {
              "Bake only file i (0-based, in the byte-sorted, tile-expanded input list) with i mod "
              "N = K-1 (K, N whole numbers from 1 to 10^9).",
              [&](const std::string& v) { c.shard = v; });
+    p.flag("-n, --dry-run",
+           "List each input -> output and what this command would do with it (bake, skip as up "
+           "to date with --update, fail, and why; without --update, whether --update would skip "
+           "it), on stdout, after the same checks as a real run (usage, collisions: exit 2; a "
+           "file that would fail: exit 1). Reads headers only: no pixel is decoded, the method "
+           "is not built, and nothing is written or created but the --json report.",
+           [&] { c.dry_run = true; });
     p.flag("--update",
            "Skip files whose output was made from this same source (size, modification time, "
            "content hash) with the same settings.",
@@ -538,7 +545,7 @@ BatchPlan plan_bake_files(BakeCli& c, const std::vector<std::string>& inputs) {
         throw UsageError("--base-dir: '" + c.base_dir + "' is not a folder");
     // --output-dir is created (with its parents) when missing, like mkdir -p; the folders below
     // it (a mirrored tree, a template's folders) as each file is baked.
-    make_folders(c.output_dir);
+    if (!c.dry_run) make_folders(c.output_dir);
     const std::vector<std::string> listed = list_inputs(inputs, c.from_list);
     std::vector<std::string> expanded = expand_inputs(listed);
     const OutputNaming naming{c.output, c.output_dir, c.base_dir};
@@ -719,12 +726,17 @@ void choose_auto_grid(BakeCli& c) {
                   << pr.seconds << " s)\n";
 }
 
-// The spectral method every file is baked with: built, fitted or checked once.
-void build_method(BakeCli& c, std::shared_ptr<Basis> file_basis, const Observer& observer,
-                  const Spectrum& illuminant) {
+// --colorspace, checked against the config once for every file.
+void check_colour_space(const BakeCli& c) {
     if (!c.settings.colorspace.empty())
         (void)Linearizer::make(
             ColourRequest{c.settings.data_dir, c.settings.config, c.settings.colorspace, "", ""});
+}
+
+// The spectral method every file is baked with: built, fitted or checked once.
+void build_method(BakeCli& c, std::shared_ptr<Basis> file_basis, const Observer& observer,
+                  const Spectrum& illuminant) {
+    check_colour_space(c);
     if (c.method != "basis") {
         MethodSpec spec;
         spec.method = c.method;
@@ -792,6 +804,8 @@ void prepare_settings(BakeCli& c, const std::string& command_line, BatchPlan& pl
     // Reads the colour config (checked: a regular file of bounded size): an Error, exit 2.
     c.settings.command_line = command_line;
     c.settings.settings_hash = settings_hash(c.settings);
+    // A dry run lists the files from the settings hash and the headers: nothing is built.
+    if (c.dry_run) return check_colour_space(c);
     bool all_up_to_date = false;
     if (c.update && !c.force) {
         all_up_to_date = true;
@@ -874,7 +888,7 @@ int run_bake(const std::vector<std::string>& args, const std::string& command_li
         return 2;
     }
     finish_batch_plan(c, plan);
-    return run_batch(plan, c.settings);
+    return c.dry_run ? run_dry_run(plan, c.settings) : run_batch(plan, c.settings);
 }
 
 }  // namespace spectex

@@ -487,4 +487,38 @@ std::string json_record(const FileRecord& r) {
     return json_line(j);
 }
 
+const char* to_string(DryRunAction a) {
+    switch (a) {
+        case DryRunAction::Bake:
+            return "would_bake";
+        case DryRunAction::Skip:
+            return "would_skip";
+        case DryRunAction::Fail:
+            return "would_fail";
+    }
+    return "would_fail";
+}
+
+std::string json_dry_run_record(const DryRunFile& f, const std::string& settings_hash) {
+    Json j;
+    j["schema_version"] = kJsonSchemaVersion;
+    j["dry_run"] = true;
+    put_text(j, "input", f.input);
+    put_text(j, "output", f.output);
+    j["status"] = to_string(f.action);
+    put_text_or_null(j, "error", f.error);
+    j["update_would_skip"] = f.update.up_to_date;
+    put_text(j, "reason", f.update.reason);  // why --update skips it, or why it does not
+    if (f.action == DryRunAction::Bake) {
+        j["width"] = f.width;
+        j["height"] = f.height;
+        j["channels"] = f.channels;
+        put_text(j, "format", f.format);
+        put_text(j, "colorspace", f.colorspace);
+        put_text(j, "colorspace_from", f.colorspace_how);
+    }
+    put_text(j, "settings_hash", settings_hash);
+    return json_line(j);
+}
+
 }  // namespace spectex

@@ -97,6 +97,176 @@ std::vector<json> parse_lines(const std::string& text) {
 
 }  // namespace
 
+// --dry-run lists each input -> output, what would be done and what --update would say, and
+// creates nothing: no output, no --output-dir, no temporary file.
+TEST(MaketxHabits, DryRunListsEachInputAndWritesNothing) {
+    ScratchDir d;
+    run_shell("mkdir '" + d / "in" + "'");
+    const std::string a = make_png(d / "in/a.png", 1), b = make_png(d / "in/b.png", 2);
+    const std::string before = tree(d.path());
+    RunResult r = run_spectex({"bake", a, b, "--output-dir", d / "out", "--dry-run"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto lines = lines_of(r.out);
+    ASSERT_EQ(lines.size(), 2u) << r.out;
+    EXPECT_EQ(lines[0].rfind("bake " + a + " -> " + d / "out/a.exr" + ": 8x8, 3 channels, png, " +
+                                 "colour space '",
+                             0),
+              0u)
+        << lines[0];
+    EXPECT_TRUE(contains(lines[0], "--update would bake it: no readable output")) << lines[0];
+    EXPECT_EQ(lines[1].rfind("bake " + b + " -> " + d / "out/b.exr", 0), 0u) << lines[1];
+    EXPECT_TRUE(contains(r.err, "dry run: 2 would be baked, 0 skipped as up to date, 0 would "
+                                "fail, of 2"))
+        << r.err;
+    EXPECT_FALSE(file_exists(d / "out"));
+    EXPECT_EQ(tree(d.path()), before);
+
+    // -n, as oiiotool spells it, with a template whose folders a real run would create.
+    r = run_spectex({"bake", a, "-o", d / "new/{stem}.spectral.exr", "-n", "-q"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(r.out.rfind("bake " + a + " -> " + d / "new/a.spectral.exr" + ": ", 0), 0u) << r.out;
+    EXPECT_EQ(r.err, "");  // -q: the listing only
+    EXPECT_EQ(tree(d.path()), before);
+}
+
+// No pixel is read: an OpenEXR whose header is valid but whose pixel data is destroyed fails a
+// real bake and dry-runs as one that would be baked.
+TEST(MaketxHabits, DryRunReadsHeadersOnly) {
+    ScratchDir d;
+    const int w = 256, h = 256;
+    std::vector<float> px(static_cast<size_t>(w) * h * 3);
+    for (size_t i = 0; i < px.size(); ++i)
+        px[i] = 0.5f + 0.4f * std::sin(0.01f * static_cast<float>(i % 977) + (i % 3));
+    const std::string in = d / "damaged.exr";
+    write_image(in, w, h, 3, OIIO::TypeDesc::FLOAT, px.data(), {{"compression", "zip"}});
+    struct stat st;
+    ASSERT_EQ(::stat(in.c_str(), &st), 0);
+    ASSERT_GT(st.st_size, 20000);  // the pixel data is most of the file
+    {
+        // The last half of the file: compressed pixel data, well past the header and offsets.
+        std::fstream f(in, std::ios::in | std::ios::out | std::ios::binary);
+        f.seekp(st.st_size / 2);
+        const std::string junk(static_cast<size_t>(st.st_size - st.st_size / 2), '\x5a');
+        f.write(junk.data(), static_cast<std::streamsize>(junk.size()));
+    }
+    RunResult real = run_spectex({"bake", in, "-o", d / "real.exr", "-q"});
+    EXPECT_EQ(real.status, 1) << real.err;  // the data really is unreadable
+    EXPECT_FALSE(file_exists(d / "real.exr"));
+    RunResult dry = run_spectex({"bake", in, "-o", d / "dry.exr", "--dry-run"});
+    EXPECT_EQ(dry.status, 0) << dry.err;
+    EXPECT_EQ(dry.out.rfind("bake " + in + " -> " + d / "dry.exr" + ": 256x256, 3 channels, " +
+                                "openexr, ",
+                            0),
+              0u)
+        << dry.out;
+    EXPECT_FALSE(file_exists(d / "dry.exr"));
+}
+
+// With --update, each file is skipped or baked for the reason --update gives: up to date, its
+// source changed, no output, other settings. Nothing is touched.
+TEST(MaketxHabits, DryRunSaysWhatUpdateWouldDoAndWhy) {
+    ScratchDir d;
+    run_shell("mkdir '" + d / "in" + "'");
+    const std::string a = make_png(d / "in/a.png", 1), b = make_png(d / "in/b.png", 2),
+                      c = make_png(d / "in/c.png", 3);
+    const std::vector<std::string> bake = {"bake", a, b, c, "--output-dir", d / "out", "-q"};
+    ASSERT_EQ(run_spectex(bake).status, 0);
+    make_png(b, 7);  // another picture under the same name
+    ASSERT_EQ(std::remove((d / "out/c.exr").c_str()), 0);
+    const std::string before = tree(d.path());
+
+    RunResult r = run_spectex(with(bake, {"--update", "--dry-run"}));
+    ASSERT_EQ(r.status, 0) << r.err;
+    auto lines = lines_of(r.out);
+    ASSERT_EQ(lines.size(), 3u) << r.out;
+    EXPECT_EQ(lines[0], "skip " + a + " -> " + d / "out/a.exr" +
+                            ": up to date: same settings hash, source size and modification time");
+    EXPECT_EQ(lines[1].rfind("bake " + b + " -> " + d / "out/b.exr", 0), 0u) << lines[1];
+    EXPECT_TRUE(contains(lines[1], "; not up to date: the source's")) << lines[1];
+    EXPECT_TRUE(contains(lines[2], "; not up to date: no readable output")) << lines[2];
+
+    // Without --update every file would be baked; the listing says what --update would do.
+    r = run_spectex(with(bake, {"--dry-run"}));
+    ASSERT_EQ(r.status, 0) << r.err;
+    lines = lines_of(r.out);
+    ASSERT_EQ(lines.size(), 3u) << r.out;
+    EXPECT_EQ(lines[0].rfind("bake " + a, 0), 0u) << lines[0];
+    EXPECT_TRUE(contains(lines[0], "; --update would skip it: up to date")) << lines[0];
+    EXPECT_TRUE(contains(lines[1], "; --update would bake it: the source's")) << lines[1];
+
+    // Other settings: every file.
+    r = run_spectex(with(bake, {"--update", "--dry-run", "--zip-level", "6"}));
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(count(r.out, "; not up to date: other settings\n"), 2u) << r.out;
+    EXPECT_TRUE(contains(r.out, "; not up to date: no readable output")) << r.out;
+    EXPECT_EQ(tree(d.path()), before);
+}
+
+// The checks of a real run, with its exit status: two inputs for one output is a usage error
+// (2) before any file; a missing input or an output folder that cannot be made fails that file
+// (1), named on stderr as a real run names it, the other files listed.
+TEST(MaketxHabits, DryRunChecksAsARealRun) {
+    ScratchDir d;
+    const std::string a = make_png(d / "a.png", 1);
+    std::vector<uint8_t> px(8 * 8 * 3, 100);
+    write_image(d / "a.tif", 8, 8, 3, OIIO::TypeDesc::UINT8, px.data());
+    RunResult r =
+        run_spectex({"bake", a, d / "a.tif", "--output-dir", d / "out", "--dry-run"});
+    EXPECT_EQ(r.status, 2) << r.err;
+    EXPECT_TRUE(contains(r.err, "would write an output another input writes")) << r.err;
+    EXPECT_EQ(r.out, "");
+
+    const std::string missing = d / "missing.png";
+    RunResult real = run_spectex({"bake", a, missing, "--output-dir", d / "real", "-q"});
+    r = run_spectex({"bake", a, missing, "--output-dir", d / "out", "--dry-run"});
+    EXPECT_EQ(real.status, 1);
+    EXPECT_EQ(r.status, 1) << r.err;
+    auto lines = lines_of(r.out);
+    ASSERT_EQ(lines.size(), 2u) << r.out;
+    EXPECT_EQ(lines[0].rfind("bake " + a, 0), 0u) << lines[0];
+    EXPECT_EQ(lines[1].rfind("fail " + missing + " -> " + d / "out/missing.exr" + ": ", 0), 0u)
+        << lines[1];
+    EXPECT_TRUE(contains(r.err, "spectex: " + missing)) << r.err;
+    EXPECT_TRUE(contains(r.err, "1 would be baked, 0 skipped as up to date, 1 would fail")) << r.err;
+    EXPECT_FALSE(file_exists(d / "out"));
+
+    // One -o into a folder that does not exist (a real run does not create it) and one below a
+    // file (no folder can be made there).
+    r = run_spectex({"bake", a, "-o", d / "nowhere/a.exr", "--dry-run"});
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_TRUE(contains(r.out, "the output's folder does not exist")) << r.out;
+    r = run_spectex({"bake", a, "-o", d / "a.png/x/{stem}.exr", "--dry-run"});
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_TRUE(contains(r.out, "cannot create the output folder")) << r.out;
+
+    // Usage errors are usage errors.
+    EXPECT_EQ(run_spectex({"bake", a, "--dry-run"}).status, 2);
+}
+
+// --json: one record per file, "dry_run": true, a status that cannot be taken for a real run's,
+// and nothing else on stdout.
+TEST(MaketxHabits, DryRunJsonRecords) {
+    ScratchDir d;
+    const std::string a = make_png(d / "a.png", 1), b = make_png(d / "b.png", 2);
+    ASSERT_EQ(run_spectex({"bake", a, "-o", d / "{stem}.exr", "-q"}).status, 0);
+    RunResult r = run_spectex(
+        {"bake", a, b, "-o", d / "{stem}.exr", "--update", "--dry-run", "--json", "-"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto records = parse_lines(r.out);
+    ASSERT_EQ(records.size(), 2u) << r.out;
+    EXPECT_EQ(records[0]["dry_run"], true);
+    EXPECT_EQ(records[0]["status"], "would_skip");
+    EXPECT_EQ(records[0]["update_would_skip"], true);
+    EXPECT_EQ(records[0]["input"], a);
+    EXPECT_EQ(records[1]["status"], "would_bake");
+    EXPECT_EQ(records[1]["reason"], "no readable output");
+    EXPECT_EQ(records[1]["width"], 8);
+    EXPECT_EQ(records[1]["channels"], 3);
+    EXPECT_FALSE(records[1]["colorspace"].get<std::string>().empty());
+    EXPECT_EQ(records[1]["error"], nullptr);
+    EXPECT_FALSE(file_exists(d / "b.exr"));
+}
+
 // The "wrapmodes" attribute as maketx writes it: "s,t"; black,black in every tiled file without
 // --wrap, nothing in a scanline one; --swrap and --twrap over --wrap. OpenImageIO reads it (what
 // `iinfo -v` prints), from both OpenEXR writers (zip: the core writer; piz: OpenEXR's Imf).
