@@ -3,10 +3,10 @@
 // wrap modes recorded as maketx records them (--wrap, --swrap, --twrap: the "wrapmodes"
 // attribute OpenImageIO reads), and lights given by colour temperature ("3200K") in every
 // command that takes a light.
+#include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
-#include <OpenImageIO/imageio.h>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -115,8 +115,9 @@ TEST(MaketxHabits, DryRunListsEachInputAndWritesNothing) {
         << lines[0];
     EXPECT_TRUE(contains(lines[0], "--update would bake it: no readable output")) << lines[0];
     EXPECT_EQ(lines[1].rfind("bake " + b + " -> " + d / "out/b.exr", 0), 0u) << lines[1];
-    EXPECT_TRUE(contains(r.err, "dry run: 2 would be baked, 0 skipped as up to date, 0 would "
-                                "fail, of 2"))
+    EXPECT_TRUE(contains(r.err,
+                         "dry run: 2 would be baked, 0 skipped as up to date, 0 would "
+                         "fail, of 2"))
         << r.err;
     EXPECT_FALSE(file_exists(d / "out"));
     EXPECT_EQ(tree(d.path()), before);
@@ -154,10 +155,10 @@ TEST(MaketxHabits, DryRunReadsHeadersOnly) {
     EXPECT_FALSE(file_exists(d / "real.exr"));
     RunResult dry = run_spectex({"bake", in, "-o", d / "dry.exr", "--dry-run"});
     EXPECT_EQ(dry.status, 0) << dry.err;
-    EXPECT_EQ(dry.out.rfind("bake " + in + " -> " + d / "dry.exr" + ": 256x256, 3 channels, " +
-                                "openexr, ",
-                            0),
-              0u)
+    EXPECT_EQ(
+        dry.out.rfind(
+            "bake " + in + " -> " + d / "dry.exr" + ": 256x256, 3 channels, " + "openexr, ", 0),
+        0u)
         << dry.out;
     EXPECT_FALSE(file_exists(d / "dry.exr"));
 }
@@ -210,8 +211,7 @@ TEST(MaketxHabits, DryRunChecksAsARealRun) {
     const std::string a = make_png(d / "a.png", 1);
     std::vector<uint8_t> px(8 * 8 * 3, 100);
     write_image(d / "a.tif", 8, 8, 3, OIIO::TypeDesc::UINT8, px.data());
-    RunResult r =
-        run_spectex({"bake", a, d / "a.tif", "--output-dir", d / "out", "--dry-run"});
+    RunResult r = run_spectex({"bake", a, d / "a.tif", "--output-dir", d / "out", "--dry-run"});
     EXPECT_EQ(r.status, 2) << r.err;
     EXPECT_TRUE(contains(r.err, "would write an output another input writes")) << r.err;
     EXPECT_EQ(r.out, "");
@@ -227,7 +227,8 @@ TEST(MaketxHabits, DryRunChecksAsARealRun) {
     EXPECT_EQ(lines[1].rfind("fail " + missing + " -> " + d / "out/missing.exr" + ": ", 0), 0u)
         << lines[1];
     EXPECT_TRUE(contains(r.err, "spectex: " + missing)) << r.err;
-    EXPECT_TRUE(contains(r.err, "1 would be baked, 0 skipped as up to date, 1 would fail")) << r.err;
+    EXPECT_TRUE(contains(r.err, "1 would be baked, 0 skipped as up to date, 1 would fail"))
+        << r.err;
     EXPECT_FALSE(file_exists(d / "out"));
 
     // One -o into a folder that does not exist (a real run does not create it) and one below a
@@ -249,8 +250,8 @@ TEST(MaketxHabits, DryRunJsonRecords) {
     ScratchDir d;
     const std::string a = make_png(d / "a.png", 1), b = make_png(d / "b.png", 2);
     ASSERT_EQ(run_spectex({"bake", a, "-o", d / "{stem}.exr", "-q"}).status, 0);
-    RunResult r = run_spectex(
-        {"bake", a, b, "-o", d / "{stem}.exr", "--update", "--dry-run", "--json", "-"});
+    RunResult r =
+        run_spectex({"bake", a, b, "-o", d / "{stem}.exr", "--update", "--dry-run", "--json", "-"});
     ASSERT_EQ(r.status, 0) << r.err;
     const auto records = parse_lines(r.out);
     ASSERT_EQ(records.size(), 2u) << r.out;
@@ -324,8 +325,8 @@ TEST(MaketxHabits, WrapIsASettingOfUpdateAndChangesNoPixel) {
     ScratchDir d;
     const std::string a = make_png(d / "a.png", 1, 13, 7);  // odd sizes: fractional boxes
     const std::string out = d / "t.exr";
-    const std::vector<std::string> bake = {"bake", a, "-o", out, "--mipmap", "--type", "float",
-                                           "--update", "--json", "-", "-q"};
+    const std::vector<std::string> bake = {"bake",  a,          "-o",     out, "--mipmap", "--type",
+                                           "float", "--update", "--json", "-", "-q"};
     RunResult r = run_spectex(bake);
     ASSERT_EQ(r.status, 0) << r.err;
     const auto levels = all_levels(out);
@@ -348,8 +349,8 @@ TEST(MaketxHabits, ColourTemperaturesInEveryCommandThatTakesALight) {
     ScratchDir d;
     const std::string a = make_png(d / "a.png", 1);
     const std::string exr = d / "warm.exr";
-    RunResult r = run_spectex({"bake", a, "-o", exr, "--type", "float", "-q", "--illuminant",
-                               "3200 k"});
+    RunResult r =
+        run_spectex({"bake", a, "-o", exr, "--type", "float", "-q", "--illuminant", "3200 k"});
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_EQ(read_exr(exr).attr("spectex:illuminant"), "3200K");
     // verify integrates under the light the file records: exact under 3200 K.
@@ -359,8 +360,8 @@ TEST(MaketxHabits, ColourTemperaturesInEveryCommandThatTakesALight) {
     EXPECT_TRUE(contains(r.out, "integrated under:     3200K")) << r.out;
     EXPECT_EQ(count(r.out, "under 6500K (Bradford"), 1u) << r.out;
     EXPECT_EQ(count(r.out, "under 2700K (Bradford"), 1u) << r.out;
-    r = run_spectex({"verify", exr, "--check-illuminant", "3200K", "--source", a, "--max-de",
-                     "0.01"});
+    r = run_spectex(
+        {"verify", exr, "--check-illuminant", "3200K", "--source", a, "--max-de", "0.01"});
     EXPECT_EQ(r.status, 0) << r.out << r.err;
 
     r = run_spectex({"sample", exr, "1,1", "--illuminant", "5000K,5000k", "--json"});
@@ -416,7 +417,8 @@ TEST(MaketxHabits, ColourTemperatureOutsideTheRangeIsAUsageError) {
         {{"verify", exr, "--illuminant", "6500.5K"}, "--illuminant", "6500.5K"},
         {{"sample", exr, "0,0", "--illuminant", "26000K"}, "--illuminant", "26000K"},
         {{"render", exr, "-o", d / "x.png", "--illuminant", "-3200K"}, "--illuminant", "-3200K"},
-        {{"plot", exr, "--pixel", "0,0", "-o", d / "x.svg", "--light", "40000K"}, "--light",
+        {{"plot", exr, "--pixel", "0,0", "-o", d / "x.svg", "--light", "40000K"},
+         "--light",
          "40000K"},
         {{"basis", "-o", d / "x.csv", "--illuminant", "900K"}, "--illuminant", "900K"},
         {{"plan", "--lights", "D65,500K"}, "--lights", "500K"},

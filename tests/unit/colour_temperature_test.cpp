@@ -1,10 +1,11 @@
 // Lights by colour temperature (spectral/colour_temperature.h) against the CIE's own tables: a
 // Planckian radiator at 2856 K is illuminant A, CIE daylight at 6504 K and 5003 K is D65 and D50.
+#include "spectral/colour_temperature.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "spectral/colour_temperature.h"
 #include "spectral/error.h"
 #include "spectral/spectrum.h"
 
@@ -97,8 +98,8 @@ TEST(ColourTemperature, NamesAreWholeKelvinWithKInAnyCase) {
     for (const char* other : {"D65", "FL2K", "./3200K", "lights/3200K", "K", "3200", "LED-B3"})
         EXPECT_FALSE(colour_temperature_of(other).has_value()) << other;
     // Written as one, but not one spectex takes: refused, naming the range.
-    for (const char* bad : {"999K", "25001K", "500K", "6500.5K", "-3200K", "+3200K",
-                            "1e4K", "0K"}) {
+    for (const char* bad :
+         {"999K", "25001K", "500K", "6500.5K", "-3200K", "+3200K", "1e4K", "0K"}) {
         try {
             colour_temperature_of(bad);
             ADD_FAILURE() << bad << " was accepted";
