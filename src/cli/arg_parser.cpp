@@ -13,6 +13,7 @@
 #include "io/data_dir.h"
 #include "io/linearizer.h"
 #include "spectral/basis_fit.h"
+#include "spectral/colour_temperature.h"
 #include "spectral/error.h"
 #include "spectral/lattice.h"
 #include "spectral/spectrum.h"
@@ -288,6 +289,13 @@ void check_observer_setting(const std::string& option, const std::string& name) 
 void check_illuminant_setting(const std::string& option, const std::string& name) {
     check_table_setting(option, name,
                         [](const std::string& d, const std::string& n) { load_illuminant(d, n); });
+}
+
+std::string colour_temperature_help() {
+    return "a colour temperature from " + colour_temperature_name(kMinColourTemperature) + " to " +
+           colour_temperature_name(kMaxColourTemperature) + " (e.g. 3200K or 3200k: a Planckian " +
+           "radiator below " + colour_temperature_name(kDaylightFromTemperature) +
+           ", CIE daylight from it; D65 is about 6504K)";
 }
 
 std::vector<std::string> split_list(const std::string& value, const std::string& option) {

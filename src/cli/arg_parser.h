@@ -93,6 +93,9 @@ void observer_option(ArgParser& p, const std::string& whose, std::string& observ
 // file records) is not checked here.
 void check_observer_setting(const std::string& option, const std::string& name);
 void check_illuminant_setting(const std::string& option, const std::string& name);
+// How a light's colour temperature is written, for the help of every option that takes a light:
+// "a colour temperature from 1000K to 25000K (e.g. 3200K; ...)".
+std::string colour_temperature_help();
 // {"D65", "A"} -> "D65, A".
 std::string join_names(const std::vector<std::string>& names);
 // "X,Y": two whole numbers (negative allowed: data windows may start below 0).

@@ -56,9 +56,11 @@ struct BakeCli {
     std::string objective = "smooth";  // --objective, parsed into fit.objective
     FitSpec fit;
     std::string output_dir, base_dir, from_list, json, shard;
+    std::string wrap, swrap, twrap;  // --wrap MODE[,MODE], --swrap, --twrap
+    bool wrap_given = false, swrap_given = false, twrap_given = false;
     int threads = 0, jobs = 1;
     bool quiet = false, verbose = false, progress = false, update = false, force = false,
-         fail_fast = false;
+         fail_fast = false, dry_run = false;
     BakeSettings settings;
     PlanSpec plan;  // --wavelengths auto
     bool plan_lights = false, plan_budget = false;
@@ -178,6 +180,26 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
            "systems; "
            "levels are filtered on linear RGB before expansion.",
            [&] { c.settings.mipmap = true; });
+    p.option("--wrap", "MODE[,MODE]",
+             "Record the texture wrap mode, maketx's: black, clamp, periodic or mirror, one for "
+             "both directions or s,t (e.g. periodic,clamp); written as the wrapmodes attribute "
+             "OpenImageIO's texture system reads. Tiled outputs record black,black without it, "
+             "scanline ones nothing. It changes no pixel (MIP levels are box-filtered inside the "
+             "image whatever the mode).",
+             [&](const std::string& v) {
+                 c.wrap = v;
+                 c.wrap_given = true;
+             });
+    p.option("--swrap", "MODE", "The wrap mode in s (horizontally) only, as maketx's --swrap.",
+             [&](const std::string& v) {
+                 c.swrap = v;
+                 c.swrap_given = true;
+             });
+    p.option("--twrap", "MODE", "The wrap mode in t (vertically) only, as maketx's --twrap.",
+             [&](const std::string& v) {
+                 c.twrap = v;
+                 c.twrap_given = true;
+             });
     p.option("--half-rounding", "colour|nearest",
              "colour (default): round each half bin up or down so that the spectrum's integrated "
              "colour stays "
@@ -294,8 +316,8 @@ void declare_spectra_options(ArgParser& p, BakeCli& c) {
     observer_option(p, "Observer of the fitted basis", c.fit.observer);
     p.option("--illuminant", "NAME|FILE",
              "Illuminant under which the fitted basis is exact: " +
-                 shipped_illuminants_list(FitSpec().illuminant) +
-                 " (any case), or a CSV wavelength,value.",
+                 shipped_illuminants_list(FitSpec().illuminant) + " (any case), " +
+                 colour_temperature_help() + ", or a CSV wavelength,value.",
              [&](const std::string& v) { c.fit.illuminant = v; });
 }
 
@@ -313,6 +335,13 @@ void declare_batch_options(ArgParser& p, BakeCli& c) {
              "Bake only file i (0-based, in the byte-sorted, tile-expanded input list) with i mod "
              "N = K-1 (K, N whole numbers from 1 to 10^9).",
              [&](const std::string& v) { c.shard = v; });
+    p.flag("-n, --dry-run",
+           "List each input -> output and what this command would do with it (bake, skip as up "
+           "to date with --update, fail, and why; without --update, whether --update would skip "
+           "it), on stdout, after the same checks as a real run (usage, collisions: exit 2; a "
+           "file that would fail: exit 1). Reads headers only: no pixel is decoded, the method "
+           "is not built, and nothing is written or created but the --json report.",
+           [&] { c.dry_run = true; });
     p.flag("--update",
            "Skip files whose output was made from this same source (size, modification time, "
            "content hash) with the same settings and the same colour transform (what the OCIO "
@@ -374,8 +403,34 @@ void check_given_options(const BakeCli& c, const std::vector<std::string>& input
     }
 }
 
+// One of maketx's wrap modes, in any case, as maketx writes it (lower case). Throws UsageError
+// naming the option.
+std::string wrap_mode(const std::string& option, const std::string& value) {
+    const std::string m = lower_ascii(value);
+    for (const char* known : {"black", "clamp", "periodic", "mirror"})
+        if (m == known) return m;
+    throw UsageError(option + ": '" + value +
+                     "' is not a wrap mode (black, clamp, periodic or mirror)");
+}
+
+// --wrap MODE[,MODE], --swrap, --twrap as the "s,t" maketx records (--swrap and --twrap over
+// --wrap, a direction given no mode black); "" when none was given. Throws UsageError.
+std::string wrap_modes(const BakeCli& c) {
+    if (!c.wrap_given && !c.swrap_given && !c.twrap_given) return "";
+    std::string s = "black", t = "black";
+    if (c.wrap_given) {
+        const size_t comma = c.wrap.find(',');
+        s = wrap_mode("--wrap", c.wrap.substr(0, comma));
+        t = comma == std::string::npos ? s : wrap_mode("--wrap", c.wrap.substr(comma + 1));
+    }
+    if (c.swrap_given) s = wrap_mode("--swrap", c.swrap);
+    if (c.twrap_given) t = wrap_mode("--twrap", c.twrap);
+    return s + "," + t;
+}
+
 // Sample type, alpha, range and NaN policies, compression; the options of each method.
 void check_method_options(BakeCli& c) {
+    c.settings.wrapmodes = wrap_modes(c);
     c.settings.type = pick<SampleType>("--type", c.type,
                                        {{"half", SampleType::Half}, {"float", SampleType::Float}});
     c.settings.alpha =
@@ -517,7 +572,7 @@ BatchPlan plan_bake_files(BakeCli& c, const std::vector<std::string>& inputs) {
         throw UsageError("--base-dir: '" + c.base_dir + "' is not a folder");
     // --output-dir is created (with its parents) when missing, like mkdir -p; the folders below
     // it (a mirrored tree, a template's folders) as each file is baked.
-    make_folders(c.output_dir);
+    if (!c.dry_run) make_folders(c.output_dir);
     const std::vector<std::string> listed = list_inputs(inputs, c.from_list);
     std::vector<std::string> expanded = expand_inputs(listed);
     const OutputNaming naming{c.output, c.output_dir, c.base_dir};
@@ -698,12 +753,17 @@ void choose_auto_grid(BakeCli& c) {
                   << pr.seconds << " s)\n";
 }
 
-// The spectral method every file is baked with: built, fitted or checked once.
-void build_method(BakeCli& c, std::shared_ptr<Basis> file_basis, const Observer& observer,
-                  const Spectrum& illuminant) {
+// --colorspace, checked against the config once for every file.
+void check_colour_space(const BakeCli& c) {
     if (!c.settings.colorspace.empty())
         (void)Linearizer::make(ColourRequest{c.settings.data_dir, c.settings.config,
                                              c.settings.colorspace, "", ColourTags{}});
+}
+
+// The spectral method every file is baked with: built, fitted or checked once.
+void build_method(BakeCli& c, std::shared_ptr<Basis> file_basis, const Observer& observer,
+                  const Spectrum& illuminant) {
+    check_colour_space(c);
     if (c.method != "basis") {
         MethodSpec spec;
         spec.method = c.method;
@@ -771,6 +831,8 @@ void prepare_settings(BakeCli& c, BatchPlan& plan) {
     // Reads the colour config (checked: a regular file of bounded size): an Error, exit 2.
     c.settings.settings_hash = settings_hash(c.settings);
     c.settings.legacy_settings_hash = legacy_settings_hash(c.settings);
+    // A dry run lists the files from the settings hash and the headers: nothing is built.
+    if (c.dry_run) return check_colour_space(c);
     bool all_up_to_date = false;
     if (c.update && !c.force) {
         all_up_to_date = true;
@@ -818,6 +880,7 @@ int run_bake(const std::vector<std::string>& args) {
         check_method_options(c);
         check_observer_setting("--observer", c.fit.observer);
         check_illuminant_setting("--illuminant", c.fit.illuminant);
+        c.fit.illuminant = light_name(c.fit.illuminant);  // recorded: 3200K, however written
         for (const auto& l : c.plan.lights) check_illuminant_setting("--lights", l);
         check_grid_options(c);
         check_cost_options(c);
@@ -853,7 +916,7 @@ int run_bake(const std::vector<std::string>& args) {
         return 2;
     }
     finish_batch_plan(c, plan);
-    return run_batch(plan, c.settings);
+    return c.dry_run ? run_dry_run(plan, c.settings) : run_batch(plan, c.settings);
 }
 
 }  // namespace spectex

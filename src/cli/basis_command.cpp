@@ -12,6 +12,7 @@
 #include "io/data_dir.h"
 #include "io/file_identity.h"
 #include "pipeline/basis_cache.h"
+#include "pipeline/light_list.h"
 #include "spectral/error.h"
 #include "spectral/spectrum.h"
 
@@ -74,10 +75,10 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
              "One wavelength per line (any strictly increasing list).",
              [&](const std::string& v) { wavelengths_file = v; });
     observer_option(p, "Observer", spec.observer);
-    p.option(
-        "--illuminant", "NAME|FILE",
-        shipped_illuminants_list(FitSpec().illuminant) + " (any case), or a CSV wavelength,value.",
-        [&](const std::string& v) { spec.illuminant = v; });
+    p.option("--illuminant", "NAME|FILE",
+             shipped_illuminants_list(FitSpec().illuminant) + " (any case), " +
+                 colour_temperature_help() + ", or a CSV wavelength,value.",
+             [&](const std::string& v) { spec.illuminant = v; });
     p.option("--primaries", "NAME", "srgb (default), rec709, p3, rec2020, or xr,yr,xg,yg,xb,yb.",
              [&](const std::string& v) { spec.primaries = v; });
     p.option(
@@ -95,6 +96,7 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
         if (output.empty()) throw UsageError("no output file (-o BASIS.csv, or -o - for stdout)");
         check_observer_setting("--observer", spec.observer);
         check_illuminant_setting("--illuminant", spec.illuminant);
+        spec.illuminant = light_name(spec.illuminant);
         // A stream other than standard output (standard error, a link into /proc/self/fd) gets
         // the CSV written through, like "-": no sidecar beside it (its folder is /dev or /proc).
         stream = output != "-" && stream_fd_of(output) >= 0;

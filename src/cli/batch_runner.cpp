@@ -164,6 +164,34 @@ class BatchReport : public BatchListener {
         }
         // A warning about the data: printed under --quiet too.
         warn_default_rule_to_linear(plan_, settings, outcome.baked, outcome.was_baked);
+        if (!commit_json()) return 1;
+        return n.failed || not_attempted ? 1 : 0;
+    }
+
+    // --dry-run: one file's line (stdout, unless the JSON report is written there), its error on
+    // stderr as a real run gives it, and its record.
+    void file_planned(const DryRunFile& f, const std::string& settings_hash) {
+        if (plan_.json != "-") std::cout << dry_run_line(f) << "\n";
+        if (f.action == DryRunAction::Fail) print_error(name_file(f.input, f.error, "baking"));
+        if (!plan_.json.empty()) write_json(json_dry_run_record(f, settings_hash));
+    }
+
+    // --dry-run: the summary, the report committed; 1 when a real run would fail a file.
+    int finish_dry_run(size_t bake, size_t skip, size_t fail) {
+        std::cout << std::flush;
+        if (!plan_.quiet)
+            std::cerr << "spectex: dry run: " << bake << " would be baked, " << skip
+                      << " skipped as up to date, " << fail << " would fail, of "
+                      << plan_.files.size() << "; no pixel was read and nothing was written"
+                      << (plan_.json.empty() || plan_.json == "-" ? "" : " but the --json report")
+                      << "\n";
+        if (!commit_json()) return 1;
+        return fail ? 1 : 0;
+    }
+
+  private:
+    // The report renamed into place; false (the error printed) when it could not be written.
+    bool commit_json() {
         if (json_file_ && json_error_.empty()) {
             try {
                 json_file_->commit();
@@ -171,14 +199,29 @@ class BatchReport : public BatchListener {
                 json_error_ = std::string(e.what()) + " (--json)";
             }
         }
-        if (!json_error_.empty()) {
-            print_error(json_error_ + "; the report is incomplete");
-            return 1;
-        }
-        return n.failed || not_attempted ? 1 : 0;
+        if (json_error_.empty()) return true;
+        print_error(json_error_ + "; the report is incomplete");
+        return false;
     }
 
-  private:
+    // "bake in.png -> out.exr: 64x64, 3 channels, png, colour space 'srgb_tx' (...); --update
+    // would bake it: no readable output", "skip ...: up to date: ...", "fail ...: <cause>".
+    std::string dry_run_line(const DryRunFile& f) const {
+        std::string line = std::string(f.action == DryRunAction::Bake   ? "bake "
+                                       : f.action == DryRunAction::Skip ? "skip "
+                                                                        : "fail ") +
+                           quote_path(f.input) + " -> " + quote_path(f.output) + ": ";
+        if (f.action == DryRunAction::Skip) return one_line(line + f.update.reason);
+        if (f.action == DryRunAction::Fail) return one_line(line + f.error);
+        line += std::to_string(f.width) + "x" + std::to_string(f.height) + ", " +
+                std::to_string(f.channels) + " channel" + (f.channels == 1 ? "" : "s") + ", " +
+                f.format + ", colour space '" + f.colorspace + "' (" + f.colorspace_how + "); ";
+        line += plan_.update          ? "not up to date: "
+                : f.update.up_to_date ? "--update would skip it: "
+                                      : "--update would bake it: ";
+        return one_line(line + f.update.reason);
+    }
+
     void write_json(const std::string& line) {
         if (plan_.json == "-") {
             std::cout << line << std::flush;
@@ -262,6 +305,18 @@ class BatchReport : public BatchListener {
 };
 
 }  // namespace
+
+int run_dry_run(const BatchPlan& plan, const BakeSettings& settings) {
+    BatchReport report(plan);
+    if (!report.open_json()) return 1;
+    size_t count[3] = {0, 0, 0};
+    for (size_t i = 0; i < plan.files.size(); ++i) {
+        const DryRunFile f = dry_run_file(plan, i, settings);
+        ++count[static_cast<int>(f.action)];
+        report.file_planned(f, settings.settings_hash);
+    }
+    return report.finish_dry_run(count[0], count[1], count[2]);
+}
 
 int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
     BatchReport report(plan);

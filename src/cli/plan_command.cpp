@@ -15,7 +15,8 @@ namespace spectex {
 // The options that plan and bake --wavelengths auto share.
 void add_plan_options(ArgParser& p, PlanSpec& spec, bool& lights_given, bool& budget_given) {
     p.option("--lights", "LIST",
-             "Lights of the scene, comma-separated names or CSV files (plan's default D65,A,FL11). "
+             "Lights of the scene, comma-separated: shipped names (D65, A, FL11...), colour "
+             "temperatures (e.g. 3200K) or CSV files (plan's default D65,A,FL11). "
              "Each is "
              "integrated at 1 nm over --range; a light is dark where its table has no values.",
              [&](const std::string& v) {
@@ -114,7 +115,8 @@ void add_method_options(ArgParser& p, PlanOptions& o) {
              [&](const std::string& v) { spec.method.fit.objective = parse_objective_option(v); });
     observer_option(p, "Observer of the method and of the error", spec.method.fit.observer);
     p.option("--illuminant", "NAME|FILE",
-             "Illuminant the method is exact for (default D65), as in bake.",
+             "Illuminant the method is exact for (default D65), as in bake (a name, a colour "
+             "temperature such as 3200K, or a CSV file).",
              [&](const std::string& v) { spec.method.fit.illuminant = v; });
 }
 
@@ -183,6 +185,7 @@ void check_plan_options(PlanOptions& o, const std::vector<std::string>& pos) {
     spec.lights = distinct_lights(spec.lights);
     check_observer_setting("--observer", spec.method.fit.observer);
     check_illuminant_setting("--illuminant", spec.method.fit.illuminant);
+    spec.method.fit.illuminant = light_name(spec.method.fit.illuminant);
     for (const auto& l : spec.lights) check_illuminant_setting("--lights", l);
     try {
         check_plan_cost(spec);

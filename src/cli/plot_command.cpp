@@ -8,6 +8,7 @@
 #include "io/atomic_file.h"
 #include "io/data_dir.h"
 #include "io/file_identity.h"
+#include "pipeline/light_list.h"
 #include "pipeline/plot.h"
 #include "spectral/error.h"
 #include "spectral/spectrum.h"
@@ -41,7 +42,7 @@ int run_plot(const std::vector<std::string>& args) {
              [&](const std::string& v) { output = v; });
     p.option("--light", "NAME|FILE",
              "Draw this light's spectrum behind the spectra: " + shipped_illuminants_list() +
-                 " (any case), or a CSV wavelength,value.",
+                 " (any case), " + colour_temperature_help() + ", or a CSV wavelength,value.",
              [&](const std::string& v) { s.light = v; });
     observer_option(p, "Observer of the line colours", s.observer);
     p.option("--title", "TEXT", "Title above the plot (default: the file name as given).",
@@ -67,6 +68,7 @@ int run_plot(const std::vector<std::string>& args) {
             {{files[0], "the input"}, {s.light, "--light"}, {s.observer, "--observer"}}, true);
         check_observer_setting("--observer", s.observer);
         check_illuminant_setting("--light", s.light);
+        s.light = light_name(s.light);
     } catch (const UsageError& e) {
         return usage_error("plot", e.what());
     }

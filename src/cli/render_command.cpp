@@ -54,8 +54,9 @@ int run_render(const std::vector<std::string>& args) {
              [&](const std::string& v) { output = v; });
     p.section("Colorimetry");
     list_option(p, "--illuminant", "NAME[,NAME...]",
-                "Light(s): " + shipped_illuminants_list("D65") +
-                    " (any case), or a CSV wavelength,value; repeatable; several make a sheet\n"
+                "Light(s): " + shipped_illuminants_list("D65") + " (any case), " +
+                    colour_temperature_help() +
+                    ", or a CSV wavelength,value; repeatable; several make a sheet\n"
                     "(a light given twice, a name in any case or one CSV file, is one panel).",
                 s.illuminants);
     observer_option(p, "Observer", s.observer);

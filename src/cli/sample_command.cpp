@@ -148,7 +148,8 @@ int run_sample(const std::vector<std::string>& args) {
         p, "--illuminant", "NAME[,NAME...]",
         "Also show the colour under these lights (repeatable; a light given twice, a name in "
         "any case or one CSV file, is shown once): " +
-            shipped_illuminants_list() + " (any case), or a CSV wavelength,value.",
+            shipped_illuminants_list() + " (any case), " + colour_temperature_help() +
+            ", or a CSV wavelength,value.",
         s.illuminants);
     observer_option(p, "Observer", s.observer);
     p.section("Output");

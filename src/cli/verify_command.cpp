@@ -334,7 +334,7 @@ void declare_verify_options(ArgParser& p, VerifyArgs& a) {
     p.section("Colorimetry");
     p.option("--check-illuminant", "NAME|FILE",
              "The light the file is checked under: the file's by default, else D65; the names "
-             "listed below.",
+             "listed below, or a colour temperature such as 3200K.",
              [&](const std::string& v) { a.s.illuminant = v; });
     list_option(
         p, "--illuminant", "NAME[,NAME...]",
@@ -342,8 +342,8 @@ void declare_verify_options(ArgParser& p, VerifyArgs& a) {
         "check light's;\n"
         "never gated. Repeatable; a light given twice (a name in any case, one CSV file) counts\n"
         "once. Names: " +
-            shipped_illuminants_list("D65") +
-            " (any case), or a CSV wavelength,value. About 100 KB of memory per light and\n"
+            shipped_illuminants_list("D65") + " (any case), " + colour_temperature_help() +
+            ", or a CSV wavelength,value. About 100 KB of memory per light and\n"
             "measuring thread: past 1 GiB in all (some 10,000 lights on one thread) it is refused.",
         a.s.other_lights);
     p.option("--observer", "NAME|FILE",
@@ -536,6 +536,7 @@ int run_verify(const std::vector<std::string>& args) {
         validate_verify_args(a, files);
         check_observer_setting("--observer", a.s.observer);
         check_illuminant_setting("--check-illuminant", a.s.illuminant);
+        a.s.illuminant = light_name(a.s.illuminant);
         for (const auto& l : a.s.other_lights) check_illuminant_setting("--illuminant", l);
     } catch (const UsageError& e) {
         return usage_error("verify", e.what());

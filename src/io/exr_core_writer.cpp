@@ -427,9 +427,7 @@ ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const SpectralExrL
     // order).
     auto attributes = L.attributes;
     attributes.emplace_back("spectralLayoutVersion", "1.0");
-    if (I.tiled)
-        attributes.insert(attributes.end(), texture_attributes().begin(),
-                          texture_attributes().end());
+    for (auto& kv : texture_attributes(L)) attributes.push_back(std::move(kv));
     std::sort(attributes.begin(), attributes.end());
     for (const auto& [k, v] : attributes)
         I.check(exr_attr_set_string(I.ctxt, part, k.c_str(), v.c_str()),

@@ -87,10 +87,13 @@ Imf::PixelType pixel_type(SampleType t) { return t == SampleType::Half ? Imf::HA
 
 }  // namespace
 
-const std::vector<std::pair<std::string, std::string>>& texture_attributes() {
-    static const std::vector<std::pair<std::string, std::string>> a = {
-        {"textureformat", "Plain Texture"}, {"wrapmodes", "black,black"}};
-    return a;
+std::vector<std::pair<std::string, std::string>> texture_attributes(const SpectralExrLayout& L) {
+    if (L.tile_width <= 0) {
+        if (L.wrapmodes.empty()) return {};
+        return {{"wrapmodes", L.wrapmodes}};
+    }
+    return {{"textureformat", "Plain Texture"},
+            {"wrapmodes", L.wrapmodes.empty() ? std::string("black,black") : L.wrapmodes}};
 }
 
 struct SpectralExrWriter::Impl {
@@ -131,12 +134,12 @@ SpectralExrWriter::SpectralExrWriter(AtomicFile& out, const SpectralExrLayout& l
     header.insert("spectralLayoutVersion", Imf::StringAttribute("1.0"));
     header.zipCompressionLevel() = std::min(L.zip_level, 9);  // zlib stops at 9; libdeflate at 12
     for (const auto& [k, v] : L.attributes) header.insert(k, Imf::StringAttribute(v));
+    for (const auto& [k, v] : texture_attributes(L)) header.insert(k, Imf::StringAttribute(v));
     impl_->stream = std::make_unique<FdOStream>(out.fd(), out.final_path());
     if (L.tile_width > 0) {
         header.setTileDescription(Imf::TileDescription(
             static_cast<unsigned>(L.tile_width), static_cast<unsigned>(L.tile_height),
             L.mipmap ? Imf::MIPMAP_LEVELS : Imf::ONE_LEVEL, Imf::ROUND_DOWN));
-        for (const auto& [k, v] : texture_attributes()) header.insert(k, Imf::StringAttribute(v));
         impl_->tiled =
             std::make_unique<Imf::TiledOutputFile>(*impl_->stream, header, std::max(1, L.threads));
     } else {

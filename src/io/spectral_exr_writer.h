@@ -27,6 +27,9 @@ struct SpectralExrLayout : PixelWindows {
     // Tiled output (tile_width > 0), optionally MIP-mapped (levels rounded down, as maketx does).
     int tile_width = 0, tile_height = 0;
     bool mipmap = false;
+    // The "wrapmodes" attribute ("s,t", maketx's spelling): "" writes black,black in a tiled file
+    // (maketx's default) and nothing in a scanline one.
+    std::string wrapmodes;
     // Files whose compression the table gives the core writer (ExrCompression::core_writer),
     // scanline or tiled, go through the core-API writer (bounded memory, libdeflate) unless writer
     // is "imf"; "auto" also reads $SPECTEX_EXR_WRITER (core or imf).
@@ -34,9 +37,11 @@ struct SpectralExrLayout : PixelWindows {
     int zip_level = 4;  // libdeflate level for the core writer (Imf's zlib uses OpenEXR's default)
 };
 
-// The string attributes of a tiled file that OpenImageIO's texture system looks for (maketx writes
-// the same), written by both back ends.
-const std::vector<std::pair<std::string, std::string>>& texture_attributes();
+// The string attributes OpenImageIO's texture system looks for, written by both back ends: in a
+// tiled file textureformat "Plain Texture" and wrapmodes (layout.wrapmodes, else "black,black"),
+// as maketx writes them; in a scanline file wrapmodes only when layout.wrapmodes is given.
+std::vector<std::pair<std::string, std::string>> texture_attributes(
+    const SpectralExrLayout& layout);
 
 class SpectralExrWriter {
   public:

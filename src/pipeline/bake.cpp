@@ -220,6 +220,7 @@ SpectralExrLayout output_layout(const BakeSettings& s, const SourceInfo& info,
     layout.tile_width = s.mipmap && s.tile_width <= 0 ? 64 : s.tile_width;
     layout.tile_height = s.mipmap && s.tile_height <= 0 ? 64 : s.tile_height;
     layout.mipmap = s.mipmap;
+    layout.wrapmodes = s.wrapmodes;
     return layout;
 }
 

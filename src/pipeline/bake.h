@@ -46,6 +46,9 @@ struct BakeSettings {
     int tile_width = 0, tile_height = 0;  // tiled output when > 0
     bool mipmap = false;          // MIP-mapped (tiled) output, levels filtered on linear RGB
     bool colour_rounding = true;  // half: round bins to keep the integrated colour closest
+    // --wrap/--swrap/--twrap: the "wrapmodes" attribute, "s,t" (e.g. "periodic,clamp"); "" when
+    // none was given (a tiled output then records maketx's default, black,black).
+    std::string wrapmodes;
     // --wavelengths auto: what chose the grid, recorded as spectex:plan* and hashed.
     struct Plan {
         std::string lights, max_de, reconstruction, range, worst_de;  // empty: the grid was given

@@ -352,6 +352,10 @@ void hash_settings(Fnv1a64& h, const BakeSettings& s) {
     fnv(h, s.colour_rounding ? "colour-rounding" : "nearest");
     fnv(h, std::to_string(s.tile_width) + "x" + std::to_string(s.tile_height) +
                (s.mipmap ? "mip" : ""));
+    // The wrapmodes recorded, when they differ from what the output records without --wrap
+    // (black,black in a tiled file, nothing in a scanline one): those hashes stay as they were.
+    const std::string no_wrap = s.tile_width > 0 || s.mipmap ? "black,black" : "";
+    if (!s.wrapmodes.empty() && s.wrapmodes != no_wrap) fnv(h, "wrapmodes " + s.wrapmodes);
     // --wavelengths auto: the choice's settings (the chosen grid is hashed above); nothing when the
     // grid was given, so those hashes stay as they were.
     if (!s.plan.lights.empty())
@@ -534,6 +538,40 @@ std::string json_record(const FileRecord& r) {
         for (const auto& [key, seconds] : times) stages[key] = json_number(seconds, "%.4f");
         j["stages"] = std::move(stages);
     }
+    return json_line(j);
+}
+
+const char* to_string(DryRunAction a) {
+    switch (a) {
+        case DryRunAction::Bake:
+            return "would_bake";
+        case DryRunAction::Skip:
+            return "would_skip";
+        case DryRunAction::Fail:
+            return "would_fail";
+    }
+    return "would_fail";
+}
+
+std::string json_dry_run_record(const DryRunFile& f, const std::string& settings_hash) {
+    Json j;
+    j["schema_version"] = kJsonSchemaVersion;
+    j["dry_run"] = true;
+    put_text(j, "input", f.input);
+    put_text(j, "output", f.output);
+    j["status"] = to_string(f.action);
+    put_text_or_null(j, "error", f.error);
+    j["update_would_skip"] = f.update.up_to_date;
+    put_text(j, "reason", f.update.reason);  // why --update skips it, or why it does not
+    if (f.action == DryRunAction::Bake) {
+        j["width"] = f.width;
+        j["height"] = f.height;
+        j["channels"] = f.channels;
+        put_text(j, "format", f.format);
+        put_text(j, "colorspace", f.colorspace);
+        put_text(j, "colorspace_from", f.colorspace_how);
+    }
+    put_text(j, "settings_hash", settings_hash);
     return json_line(j);
 }
 

@@ -105,4 +105,22 @@ std::vector<std::string> file_warnings(const BakeResult& r, bool default_rule = 
 
 std::string json_record(const FileRecord& r);
 
+// bake --dry-run: what a real run would do with one file, found from headers only.
+enum class DryRunAction { Bake, Skip, Fail };
+const char* to_string(DryRunAction a);  // "would_bake", "would_skip", "would_fail"
+
+struct DryRunFile {
+    std::string input, output;
+    DryRunAction action = DryRunAction::Bake;
+    UpdateCheck update;  // what --update finds, whether or not it was given
+    std::string error;   // Fail: why a real run would fail this file
+    // From the input's header (a file that would be baked): size, channels, format, and the colour
+    // space a real run would read it as, and how that was chosen.
+    int width = 0, height = 0, channels = 0;
+    std::string format, colorspace, colorspace_how;
+};
+// The record of one file of a dry run (the same schema_version, "dry_run": true, a status of
+// to_string(DryRunAction)): one line of JSON, with its line break.
+std::string json_dry_run_record(const DryRunFile& f, const std::string& settings_hash);
+
 }  // namespace spectex

@@ -1,11 +1,15 @@
 #include "pipeline/batch_run.h"
 
 #include <OpenEXR/ImfThreading.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <condition_variable>
 #include <cstdlib>
+#include <cstring>
 #include <map>
 #include <mutex>
 #include <thread>
@@ -13,6 +17,8 @@
 #include "io/atomic_file.h"
 #include "io/file_identity.h"
 #include "io/image_library.h"
+#include "io/image_source.h"
+#include "io/linearizer.h"
 #include "io/paths.h"
 #include "spectral/error.h"
 #include "spectral/task_pool.h"
@@ -158,6 +164,68 @@ struct BatchRun {
 };
 
 }  // namespace
+
+namespace {
+
+// Why a real run could not create `output` (its folder missing, not a folder, or not writable;
+// with make_folders, the nearest folder that exists above it), or "".
+std::string output_folder_problem(const std::string& output, bool make_folders) {
+    std::string landing;
+    try {
+        landing = output_landing(output);  // a link to a file lands in the target's folder
+    } catch (const Error& e) {
+        return e.what();
+    }
+    std::string folder = folder_of(landing);
+    struct stat st;
+    bool created = false;
+    while (::stat(folder.c_str(), &st) != 0) {
+        if (!make_folders) return folder + ": the output's folder does not exist";
+        const std::string up = folder_of(folder);
+        if (up == folder) return "";
+        folder = up;
+        created = true;
+    }
+    const std::string doing = created ? ": cannot create the output folder: " : ": ";
+    if (!S_ISDIR(st.st_mode)) return folder + doing + "something that is not a folder is there";
+    if (::access(folder.c_str(), W_OK | X_OK) != 0)
+        return folder + doing + "cannot write in it: " + std::strerror(errno);
+    return "";
+}
+
+}  // namespace
+
+DryRunFile dry_run_file(const BatchPlan& plan, size_t i, const BakeSettings& settings) {
+    DryRunFile f;
+    f.input = plan.files[i].first;
+    f.output = plan.files[i].second;
+    f.update = check_update(f.input, f.output, settings);
+    if (plan.update && f.update.up_to_date) {
+        f.action = DryRunAction::Skip;
+        return f;
+    }
+    try {
+        if (std::string why = output_folder_problem(f.output, plan.make_folders); !why.empty())
+            throw Error(why);
+        const auto src = ImageSource::open(f.input, settings.max_pixels);  // the header only
+        const SourceInfo& info = src->info();
+        f.width = info.width;
+        f.height = info.height;
+        f.channels = info.channels;
+        f.format = info.format_name;
+        const Linearizer lin = Linearizer::make(ColourRequest{
+            settings.data_dir, settings.config, settings.colorspace, f.input, info.colour});
+        f.colorspace = lin.input_space();
+        f.colorspace_how = lin.how_chosen();
+    } catch (const Error& e) {
+        f.action = DryRunAction::Fail;
+        f.error = e.what();
+    } catch (const std::exception& e) {
+        f.action = DryRunAction::Fail;
+        f.error = f.input + ": " + e.what();
+    }
+    return f;
+}
 
 bool OutputNaming::per_input() const { return !output_dir.empty() || has_template_tokens(output); }
 

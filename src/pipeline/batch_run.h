@@ -84,6 +84,13 @@ struct BatchOutcome {
     std::vector<bool> was_baked;
 };
 
+// bake --dry-run of file i of the plan: what --update finds (the output's header, and the source's
+// bytes only when its time changed, as --update reads them), then, unless plan.update skips it,
+// the checks a real run makes before its first pixel: the output's folder can be written or
+// created, the input opens and its header is valid (size within settings.max_pixels, colour
+// channels), its colour space can be chosen. No pixel is decoded; nothing is written or created.
+DryRunFile dry_run_file(const BatchPlan& plan, size_t i, const BakeSettings& settings);
+
 // Bakes plan.files with plan.jobs workers (skipping those --update finds up to date, failing
 // those whose output is another input's, stopping after a failure with fail_fast).
 BatchOutcome bake_batch(const BatchPlan& plan, const BakeSettings& settings,

@@ -9,8 +9,13 @@
 namespace spectex {
 
 // `names` with the repeats left out, in the order first given (the first spelling is kept, so
-// reports name the light as the user first wrote it). A name that is neither a shipped light nor
-// an existing file is kept as given (its loader reports it).
+// reports name the light as the user first wrote it; a colour temperature is named canonically,
+// "3200 k" as 3200K, so 3200K and 3200k are one light). A name that is neither a shipped light, a
+// temperature nor an existing file is kept as given (its loader reports it).
 std::vector<std::string> distinct_lights(const std::vector<std::string>& names);
+
+// A light's name as reports and headers record it: a colour temperature canonical ("3200k" ->
+// "3200K"), anything else as given (a malformed temperature too: its loader reports it).
+std::string light_name(const std::string& name);
 
 }  // namespace spectex

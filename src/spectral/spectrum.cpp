@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "spectral/colour_temperature.h"
 #include "spectral/csv_table.h"
 #include "spectral/error.h"
 #include "spectral/wavelength_grid.h"
@@ -151,9 +152,12 @@ Spectrum load_illuminant(const std::string& data_dir, const std::string& name_or
     for (const auto& i : shipped_illuminants())
         if (upper(name_or_file) == upper(i))
             return load_illuminant_csv(data_dir + "/spectral/illuminant_" + i + ".csv", i);
+    // A name written as a temperature is one, whatever files exist ("./3200K" names such a file).
+    if (const auto kelvin = colour_temperature_of(name_or_file))
+        return colour_temperature_light(*kelvin);
     if (exists(name_or_file)) return load_illuminant_csv(name_or_file, name_or_file);
     throw Error("unknown illuminant '" + name_or_file + "' (known: " + shipped_illuminants_list() +
-                ", or a CSV file)");
+                ", a colour temperature such as 3200K, or a CSV file)");
 }
 
 }  // namespace spectex

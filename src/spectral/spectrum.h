@@ -33,7 +33,8 @@ void check_observer_independent(const std::vector<double>& x, const std::vector<
 
 // Named data shipped in <data_dir>/spectral/: observers "cie1931-2", "cie1964-10"; illuminants as
 // listed by shipped_illuminants(), matched case-insensitively ("led-b3" is LED-B3; the Spectrum
-// gets the shipped spelling). A name that is an existing file is read as a CSV.
+// gets the shipped spelling); a colour temperature ("3200K", spectral/colour_temperature.h); else
+// a name that is an existing file is read as a CSV.
 Observer load_observer(const std::string& data_dir, const std::string& name);
 Spectrum load_illuminant(const std::string& data_dir, const std::string& name_or_file);
 std::vector<std::string> shipped_observers();
