@@ -1,6 +1,8 @@
 #pragma once
 // Runs a batch of bakes (pipeline/batch_run.h), reporting per file (stderr, JSON Lines) and
 // overall.
+#include <string>
+
 #include "pipeline/bake.h"
 #include "pipeline/batch_run.h"
 
@@ -8,5 +10,8 @@ namespace spectex {
 
 // Returns the exit status: 0 when every file succeeded or was up to date, else 1.
 int run_batch(const BatchPlan& plan, const BakeSettings& settings);
+
+// "2026-12-02T03:59:01Z": the prefix of a progress line in a log.
+std::string utc_stamp();
 
 }  // namespace spectex
