@@ -48,7 +48,8 @@ class KeyHash {
     // never share an entry by chance.
     std::string hex() const {
         char buf[40];
-        std::snprintf(buf, sizeof buf, "%016llx%016llx", static_cast<unsigned long long>(a_.value()),
+        std::snprintf(buf, sizeof buf, "%016llx%016llx",
+                      static_cast<unsigned long long>(a_.value()),
                       static_cast<unsigned long long>(b_.value()));
         return buf;
     }
@@ -228,7 +229,8 @@ bool read_grid(Words& w, WavelengthGrid* g) {
 
 std::string plan_cache_text(const std::string& key, const PlanResult& r) {
     std::ostringstream o;
-    o << "spectex-plan-cache " << kPlanCacheFormat << "\n" << "key " << key << "\n";
+    o << "spectex-plan-cache " << kPlanCacheFormat << "\n"
+      << "key " << key << "\n";
     o << "chosen " << r.chosen << " best " << r.best << "\n";
     o << "colours " << hex_text(r.colours) << "\nmethod " << hex_text(r.method) << "\nsearch "
       << hex_text(r.search) << "\nseconds " << exact(r.seconds) << "\n";
@@ -240,8 +242,8 @@ std::string plan_cache_text(const std::string& key, const PlanResult& r) {
         o << ' ' << (row.grid.uniform ? 1 : 0) << ' ' << exact(row.grid.step);
         o << ' ' << row.bins << ' ' << row.bytes_per_pixel << ' ' << exact(row.relative_time) << ' '
           << exact(row.worst) << ' ' << hex_text(row.worst_light) << ' ' << (row.ok ? 1 : 0) << ' '
-          << (row.passes ? 1 : 0) << ' ' << hex_text(row.colours) << ' ' << hex_text(row.why)
-          << ' ' << row.lights.size() << "\n";
+          << (row.passes ? 1 : 0) << ' ' << hex_text(row.colours) << ' ' << hex_text(row.why) << ' '
+          << row.lights.size() << "\n";
         for (const LightError& le : row.lights)
             o << "light " << hex_text(le.light) << ' ' << exact(le.worst) << ' ' << exact(le.p99)
               << ' ' << exact(le.half_shift) << ' ' << le.worst_code[0] << ' ' << le.worst_code[1]
@@ -277,7 +279,8 @@ bool parse_plan_cache_text(const std::string& text, const std::string& key, Plan
         w.expect("row");
         if (!read_grid(w, &row.grid)) return false;
         row.bins = static_cast<int>(w.whole(1, static_cast<long long>(kMaxGridBins)));
-        row.bytes_per_pixel = static_cast<int>(w.whole(0, 4 * static_cast<long long>(kMaxGridBins)));
+        row.bytes_per_pixel =
+            static_cast<int>(w.whole(0, 4 * static_cast<long long>(kMaxGridBins)));
         row.relative_time = w.number();
         row.worst = w.number();
         row.worst_light = w.text();
