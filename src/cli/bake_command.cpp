@@ -63,7 +63,7 @@ struct BakeCli {
          fail_fast = false, dry_run = false;
     BakeSettings settings;
     PlanSpec plan;  // --wavelengths auto
-    bool plan_lights = false, plan_budget = false;
+    bool plan_lights = false, plan_budget = false, no_cache = false;
 };
 
 template <typename T>
@@ -239,18 +239,20 @@ void declare_colour_options(ArgParser& p, BakeCli& c) {
 void declare_spectra_options(ArgParser& p, BakeCli& c) {
     p.section("Wavelength grid");
     p.option("--wavelengths", "START:END:STEP|auto",
-             "Output wavelength grid in nm (default 380:780:5). auto: the cheapest grid within "
-             "--max-de under "
-             "every one of --lights, chosen once per batch as 'spectex plan' does (recorded in the "
-             "header).",
+             "Output wavelength grid in nm (default 380:780:5; at most 4701 bins, 0.1 nm over "
+             "360:830: more is a\nusage error; a grid finer than 1 nm over 360:830 says what it "
+             "costs first). auto: the cheapest grid\nwithin --max-de under every one of --lights, "
+             "chosen once per batch as 'spectex plan' does (recorded\nin the header; the answer "
+             "is kept in the cache for the next run and shard, see --no-cache).",
              [&](const std::string& v) {
                  c.wavelengths = v;
                  c.wavelengths_given = true;
              });
     p.option("--wavelengths-file", "FILE",
-             "Output wavelengths, one per line (any strictly increasing list).",
+             "Output wavelengths, one per line (any strictly increasing list, at most 4701).",
              [&](const std::string& v) { c.wavelengths_file = v; });
     add_plan_options(p, c.plan, c.plan_lights, c.plan_budget);
+    add_cache_option(p, c.no_cache);
     p.section("Method");
     p.option(
         "--method", "basis|lattice|jakob-hanika",
@@ -358,7 +360,9 @@ void declare_batch_options(ArgParser& p, BakeCli& c) {
                  "); '-' = stdout; a stream such as "
                  "/dev/stderr is written through.",
              [&](const std::string& v) { c.json = stdout_as_dash(v); });
-    p.flag("--progress", "Show progress on stderr even when it is not a terminal.",
+    p.flag("--progress",
+           "Show progress on stderr even when it is not a terminal (and that of --wavelengths "
+           "auto's search).",
            [&] { c.progress = true; });
     p.section("Resources");
     p.option("--threads", "N",
@@ -676,7 +680,12 @@ std::shared_ptr<Basis> load_given_basis(BakeCli& c) {
     // A given basis is exact for the conditions it was made for; the default ones are
     // recorded.
     if (c.basis == "mallett2019") c.settings.observer = "cie1931-2", c.settings.illuminant = "D65";
-    WavelengthGrid basis_grid = WavelengthGrid::from_list(basis.lambda);
+    WavelengthGrid basis_grid;
+    try {
+        basis_grid = WavelengthGrid::from_list(basis.lambda);
+    } catch (const LimitError& e) {
+        throw LimitError("--basis: " + c.basis + ": " + e.what());
+    }
     // Without --wavelengths, the output is on the basis' own grid.
     if (!c.wavelengths_given && c.wavelengths_file.empty()) c.settings.grid = basis_grid;
     if (!same_wavelengths(c.settings.grid.lambda, basis_grid.lambda))
@@ -738,7 +747,10 @@ void choose_auto_grid(BakeCli& c) {
     c.plan.method.fit.data_dir = c.settings.data_dir;
     c.plan.half = c.settings.type == SampleType::Half;
     c.plan.threads = c.threads;
-    const PlanResult pr = plan_grids(c.plan);
+    if (c.progress || (!c.quiet && stderr_is_terminal()))
+        c.plan.progress = plan_progress("spectex: --wavelengths auto: ");
+    bool from_cache = false;
+    const PlanResult pr = plan_with_cache(c.plan, c.no_cache, c.verbose, c.quiet, &from_cache);
     if (c.verbose) std::cerr << plan_table(c.plan, pr);
     if (pr.chosen < 0) throw UnmetBudget(plan_failure(c.plan, pr));
     const GridRow& row = pr.rows[static_cast<size_t>(pr.chosen)];
@@ -750,7 +762,7 @@ void choose_auto_grid(BakeCli& c) {
         std::cerr << "spectex: --wavelengths auto: " << grid_label(row.grid) << " (" << row.bins
                   << " bins), worst " << rec.worst_de << " ΔE00 under " << row.worst_light
                   << ", within " << rec.max_de << " under " << join_names(c.plan.lights) << " ("
-                  << pr.seconds << " s)\n";
+                  << pr.seconds << " s" << (from_cache ? ", from the cache" : "") << ")\n";
 }
 
 // --colorspace, checked against the config once for every file.
@@ -818,8 +830,13 @@ void build_method(BakeCli& c, std::shared_ptr<Basis> file_basis, const Observer&
 // run whose files are all up to date builds nothing.
 // Throws Error (exit 2).
 void prepare_settings(BakeCli& c, BatchPlan& plan) {
-    if (!c.wavelengths_file.empty())
-        c.settings.grid = WavelengthGrid::from_file(c.wavelengths_file);
+    if (!c.wavelengths_file.empty()) {
+        try {
+            c.settings.grid = WavelengthGrid::from_file(c.wavelengths_file);
+        } catch (const LimitError& e) {
+            throw LimitError(std::string("--wavelengths-file: ") + e.what());
+        }
+    }
     const bool automatic = c.wavelengths == "auto";
     if (automatic) record_auto_plan(c);
     c.settings.observer = c.fit.observer;
@@ -843,6 +860,11 @@ void prepare_settings(BakeCli& c, BatchPlan& plan) {
     }
     if (all_up_to_date) return;
     if (automatic) choose_auto_grid(c);
+    note_grid_cost("bake",
+                   automatic ? "--wavelengths auto chose " + grid_label(c.settings.grid)
+                   : c.wavelengths_file.empty() ? "--wavelengths " + c.settings.grid.describe()
+                                                : "--wavelengths-file " + c.wavelengths_file,
+                   c.settings.grid.size(), c.settings.type == SampleType::Half ? 2 : 4, c.quiet);
     build_method(c, std::move(file_basis), observer, illuminant);
 }
 

@@ -132,6 +132,10 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
         try {
             spec.grid = wavelengths_file.empty() ? WavelengthGrid::parse_exact(wavelengths)
                                                  : WavelengthGrid::from_file(wavelengths_file);
+        } catch (const LimitError& e) {
+            throw UsageError(
+                std::string(wavelengths_file.empty() ? "--wavelengths: " : "--wavelengths-file: ") +
+                e.what());
         } catch (const Error& e) {
             if (!wavelengths_file.empty()) throw;
             throw UsageError(std::string("--wavelengths: ") + e.what());

@@ -30,16 +30,6 @@ std::string seconds_text(double s) {
     return buf;
 }
 
-// "2026-12-02T03:59:01Z": the prefix of a progress line in a log.
-std::string utc_stamp() {
-    const std::time_t now = std::time(nullptr);
-    std::tm tm{};
-    gmtime_r(&now, &tm);
-    char buf[32];
-    std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
-    return buf;
-}
-
 // Names listed per line of the summary; the --json report has every file.
 constexpr size_t kListedFiles = 20;
 
@@ -316,6 +306,15 @@ int run_dry_run(const BatchPlan& plan, const BakeSettings& settings) {
         report.file_planned(f, settings.settings_hash);
     }
     return report.finish_dry_run(count[0], count[1], count[2]);
+}
+
+std::string utc_stamp() {
+    const std::time_t now = std::time(nullptr);
+    std::tm tm{};
+    gmtime_r(&now, &tm);
+    char buf[32];
+    std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+    return buf;
 }
 
 int run_batch(const BatchPlan& plan, const BakeSettings& settings) {

@@ -1,6 +1,8 @@
 #pragma once
 // Runs a batch of bakes (pipeline/batch_run.h), reporting per file (stderr, JSON Lines) and
 // overall.
+#include <string>
+
 #include "pipeline/bake.h"
 #include "pipeline/batch_run.h"
 
@@ -13,5 +15,8 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings);
 // input -> output, and why; not when the JSON report goes to stdout) and in the --json report, a
 // summary on stderr. Returns 1 when a real run would fail a file, else 0.
 int run_dry_run(const BatchPlan& plan, const BakeSettings& settings);
+
+// "2026-12-02T03:59:01Z": the prefix of a progress line in a log.
+std::string utc_stamp();
 
 }  // namespace spectex

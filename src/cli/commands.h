@@ -24,6 +24,22 @@ class ArgParser;
 // --reconstruction, --range, --grids (plan_command.cpp). The flags say whether lights and a budget
 // were given.
 void add_plan_options(ArgParser& p, PlanSpec& spec, bool& lights_given, bool& budget_given);
+// --no-cache, which plan and bake --wavelengths auto share.
+void add_cache_option(ArgParser& p, bool& no_cache);
+// Progress of the grid search on stderr, in the batch's style: "<prefix>[5/21] measuring each
+// grid" rewritten in place on a terminal every 250 ms, else a UTC-stamped line every
+// SPECTEX_PROGRESS_SECONDS (default 10) and one when each stage ends.
+std::function<void(const std::string&, size_t, size_t)> plan_progress(const std::string& prefix);
+struct PlanResult;
+// plan_grids through the cache (pipeline/plan_cache.h) unless `no_cache`: the cache's warnings
+// (a folder that cannot be written) on stderr, and under `verbose` whether the answer came from it.
+// *from_cache (when given) says whether it did.
+PlanResult plan_with_cache(const PlanSpec& spec, bool no_cache, bool verbose, bool quiet,
+                           bool* from_cache = nullptr);
+// Before a long run: what a grid finer than 1 nm over 360-830 nm costs (bins, bytes per pixel
+// uncompressed, memory per 1,000 pixels of image width), on stderr unless `quiet`.
+void note_grid_cost(const std::string& command, const std::string& what, size_t bins,
+                    int bytes_per_sample, bool quiet);
 
 // `message` with its leading "<file>: " named as quote_path() names it, so that
 // "spectex: 'my file.png': No such file or directory" is unambiguous and can be pasted back. A

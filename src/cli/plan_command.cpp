@@ -1,13 +1,19 @@
+#include <chrono>
+#include <cstdio>
 #include <iostream>
+#include <memory>
 #include <tuple>
 
 #include "cli/arg_parser.h"
+#include "cli/batch_runner.h"
 #include "cli/commands.h"
 #include "cli/output_check.h"
 #include "io/atomic_file.h"
 #include "io/data_dir.h"
+#include "io/library_stderr.h"
 #include "pipeline/light_list.h"
 #include "pipeline/plan.h"
+#include "pipeline/plan_cache.h"
 #include "spectral/error.h"
 
 namespace spectex {
@@ -65,8 +71,9 @@ void add_plan_options(ArgParser& p, PlanSpec& spec, bool& lights_given, bool& bu
              "400:700 and --range), e.g. the grids a renderer supports: 380:780:5,400:700:10. "
              "The bins of all\ngrids x the lights x the colours (the sample, or 1,048,576 for "
              "--texture) must stay within the limit\nof 2e10 (8 times the default table), and "
-             "for the lattice and jakob-hanika the tables within 2^27\nsamples: larger requests "
-             "are usage errors (exit 2) before any work.",
+             "for the lattice and jakob-hanika the tables within 2^27\nsamples; a grid has at "
+             "most 4701 bins (0.1 nm over 360:830): larger requests are usage\nerrors (exit 2) "
+             "before any work.",
              [&](const std::string& v) {
                  spec.candidates.clear();
                  for (const auto& g : split_list(v, "--grids")) {
@@ -79,13 +86,82 @@ void add_plan_options(ArgParser& p, PlanSpec& spec, bool& lights_given, bool& bu
              });
 }
 
+void add_cache_option(ArgParser& p, bool& no_cache) {
+    p.flag("--no-cache",
+           "Search the grids even when the cache holds the answer, and keep nothing (the cache: "
+           "$SPECTEX_CACHE_DIR,\nelse $XDG_CACHE_HOME/spectex, else ~/.cache/spectex; "
+           "SPECTEX_CACHE_DIR= (empty) turns it off).",
+           [&] { no_cache = true; });
+}
+
+std::function<void(const std::string&, size_t, size_t)> plan_progress(const std::string& prefix) {
+    struct State {
+        bool terminal = stderr_is_terminal();
+        std::chrono::milliseconds period = progress_period(stderr_is_terminal());
+        std::chrono::steady_clock::time_point last{};
+        bool shown = false;
+    };
+    auto st = std::make_shared<State>();
+    return [st, prefix](const std::string& stage, size_t done, size_t total) {
+        const auto now = std::chrono::steady_clock::now();
+        // The end of a stage and a step of no count are always shown; the rest at the cadence.
+        const bool ends = total == 0 || done == total;
+        if (st->shown && !ends && now - st->last < st->period) return;
+        std::string line = prefix;
+        if (total > 1) line += "[" + std::to_string(done) + "/" + std::to_string(total) + "] ";
+        line += one_line(stage) + (total == 1 && done == 1 ? ": done" : "");
+        if (st->terminal)
+            std::cerr << "\r\033[K" << line << (ends ? "\n" : "") << std::flush;
+        else
+            std::cerr << utc_stamp() << " " << line << "\n" << std::flush;
+        st->last = now;
+        st->shown = true;
+    };
+}
+
+PlanResult plan_with_cache(const PlanSpec& spec, bool no_cache, bool verbose, bool quiet,
+                           bool* from_cache) {
+    PlanCacheReport rep;
+    PlanResult r = plan_grids_cached(spec, no_cache ? "" : cache_folder(), &rep);
+    if (from_cache) *from_cache = rep.hit;
+    if (!rep.warning.empty() && !quiet)
+        std::cerr << "spectex: warning: the plan's answer is not kept in the cache: "
+                  << one_line(rep.warning)
+                  << " (SPECTEX_CACHE_DIR moves the cache; --no-cache does without)\n";
+    if (rep.hit && verbose)
+        std::cerr << "spectex: the plan's answer from the cache: "
+                  << one_line(quote_path(rep.entry)) << "\n";
+    if (rep.hit && spec.progress) spec.progress("the answer from the cache", 0, 0);
+    return r;
+}
+
+void note_grid_cost(const std::string& command, const std::string& what, size_t bins,
+                    int bytes_per_sample, bool quiet) {
+    // Finer than 1 nm over 360-830 nm: worth a word before the run.
+    if (quiet || bins <= 471) return;
+    const double per_pixel = static_cast<double>(bins) * bytes_per_sample;
+    // Measured: bake's memory is about 0.2 GB plus 190 bytes per bin per pixel of image width
+    // (the strips in flight): 0.58 GB at 512 x 4,001 bins, 0.97 GB at 1,024 x 4,001, 4.0 GB at
+    // 512 x 40,001.
+    const double per_1000_wide = 190.0 * 1000.0 * static_cast<double>(bins);
+    char buf[320];
+    std::snprintf(buf, sizeof buf,
+                  "spectex %s: %s: %zu bins (limit %zu): %.0f bytes per pixel before "
+                  "compression (%.2f GB per megapixel), and about %.2f GB of memory per 1,000 "
+                  "pixels of image width",
+                  command.c_str(), what.c_str(), bins, kMaxGridBins, per_pixel, per_pixel / 1000.0,
+                  per_1000_wide / 1e9);
+    std::cerr << one_line(buf) << "\n";
+}
+
 namespace {
 
 // What the command line said, parsed.
 struct PlanOptions {
     PlanSpec spec;
     std::string type = "half", json, grid_file;
-    bool lights_given = false, budget_given = false, lattice_given = false;
+    bool lights_given = false, budget_given = false, lattice_given = false, no_cache = false,
+         progress = false;
 };
 
 // --method and what builds it: --lattice-size, --vertex-prior, --objective, --observer,
@@ -171,6 +247,11 @@ void add_measure_options(ArgParser& p, PlanOptions& o) {
     p.option("--json", "FILE",
              "Also write the table as JSON ('-' = stdout, instead of the text table).",
              [&](const std::string& v) { o.json = stdout_as_dash(v); });
+    add_cache_option(p, o.no_cache);
+    p.flag("--progress",
+           "Show the search's progress (grids done / total) on stderr even when it is not a "
+           "terminal.",
+           [&] { o.progress = true; });
 }
 
 // The checks across options, once all are read; throws UsageError.
@@ -215,10 +296,11 @@ void write_grid_file(const std::string& path, const WavelengthGrid& grid) {
 }
 
 // Plans, prints the table and writes the outputs; the exit status.
-int plan_and_report(const PlanOptions& o) {
-    const PlanSpec& spec = o.spec;
+int plan_and_report(PlanOptions& o) {
+    PlanSpec& spec = o.spec;
     const std::string& json = o.json;
-    PlanResult r = plan_grids(spec);
+    if (o.progress || stderr_is_terminal()) spec.progress = plan_progress("spectex plan: ");
+    PlanResult r = plan_with_cache(spec, o.no_cache, true, false);
     if (json != "-") std::cout << plan_table(spec, r) << std::flush;
     if (!json.empty()) {
         if (json == "-")
@@ -251,7 +333,11 @@ int run_plan(const std::vector<std::string>& args) {
         "for\n"
         "the basis, a dense sample for the other methods. Marks the cheapest grid within --max-de\n"
         "under every light. Exit status 1 when no grid meets the budget (with the best "
-        "achievable).");
+        "achievable).\n"
+        "The answer is kept in the cache ($SPECTEX_CACHE_DIR, else $XDG_CACHE_HOME/spectex, else\n"
+        "~/.cache/spectex) under a hash of everything it depends on: the same plan again, or bake\n"
+        "--wavelengths auto with the same settings, takes it from there (--no-cache: search "
+        "again).");
     add_plan_options(p, o.spec, o.lights_given, o.budget_given);
     add_method_options(p, o);
     add_measure_options(p, o);

@@ -8,6 +8,8 @@
 #include <atomic>
 #include <cerrno>
 #include <climits>
+#include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <mutex>
@@ -335,6 +337,69 @@ void make_folders(const std::string& dir) {
                     (err == EEXIST ? std::string("something that is not a folder is there")
                                    : std::strerror(err)));
     }
+}
+
+}  // namespace spectex
+
+namespace spectex {
+
+std::string store_file_in_folder(const std::string& dir, const std::string& name,
+                                 const std::string& text) {
+    try {
+        make_folders(dir);
+    } catch (const Error& e) {
+        return e.what();
+    }
+    std::string temp = dir + "/." + name + ".XXXXXX";
+    std::vector<char> buf(temp.begin(), temp.end());
+    buf.push_back('\0');
+    const int fd = ::mkstemp(buf.data());
+    if (fd < 0) return dir + ": cannot create a file there: " + std::strerror(errno);
+    temp.assign(buf.data());
+    const int slot = take_slot(temp);
+    std::string cause;
+    try {
+        write_all(fd, text, temp);
+    } catch (const Error& e) {
+        cause = e.what();
+    }
+    if (cause.empty() && ::fchmod(fd, 0666 & ~current_umask()) != 0)
+        cause = temp + ": " + std::strerror(errno);
+    if (cause.empty() && ::fsync(fd) != 0) cause = temp + ": " + std::strerror(errno);
+    if (::close(fd) != 0 && cause.empty()) cause = temp + ": " + std::strerror(errno);
+    const std::string final_path = dir + "/" + name;
+    if (cause.empty() && ::rename(temp.c_str(), final_path.c_str()) != 0)
+        cause = final_path + ": " + std::strerror(errno);
+    if (!cause.empty()) ::unlink(temp.c_str());
+    release_slot(slot);
+    return cause;
+}
+
+bool read_small_regular_file(const std::string& path, size_t max_bytes, std::string* text) {
+    const int fd = ::open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) return false;
+    struct stat st;
+    bool ok = ::fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && st.st_size >= 0 &&
+              static_cast<uint64_t>(st.st_size) <= max_bytes;
+    std::string out;
+    if (ok) {
+        out.resize(static_cast<size_t>(st.st_size));
+        size_t got = 0;
+        while (ok && got < out.size()) {
+            const ssize_t n = ::read(fd, &out[got], out.size() - got);
+            if (n < 0 && errno == EINTR) continue;
+            if (n <= 0)
+                ok = false;
+            else
+                got += static_cast<size_t>(n);
+        }
+        char extra;
+        // A file that grew since fstat is not the entry that was measured.
+        if (ok && ::read(fd, &extra, 1) != 0) ok = false;
+    }
+    ::close(fd);
+    if (ok) *text = std::move(out);
+    return ok;
 }
 
 }  // namespace spectex

@@ -78,3 +78,16 @@ void write_all(int fd, const std::string& text, const std::string& path);
 // the path names (stream_fd_of).
 void write_text_atomically(const std::string& path, const std::string& text);
 }  // namespace spectex
+
+namespace spectex {
+// For a folder spectex owns (its cache): writes `text` as <dir>/<name> through a temporary file in
+// <dir> (fsync, rename), creating <dir> and its parents first. The rename replaces the entry itself
+// (a link there is replaced, never followed), so a reader never sees a partial entry, and processes
+// storing the same name at once leave one whole copy. Returns "" when stored, else the cause (for a
+// warning: a cache that cannot be written is not a failure).
+std::string store_file_in_folder(const std::string& dir, const std::string& name,
+                                 const std::string& text);
+// The contents of `path` when it is a regular file (not a link, folder, FIFO or device) of at most
+// max_bytes that can be read whole; false otherwise: for a cache entry, anything odd is a miss.
+bool read_small_regular_file(const std::string& path, size_t max_bytes, std::string* text);
+}  // namespace spectex

@@ -5,6 +5,7 @@
 
 #include <climits>
 #include <cstdlib>
+#include <string>
 
 #include "io/paths.h"
 #include "spectral/error.h"
@@ -34,6 +35,22 @@ std::string find_data_dir() {
     if (has_config(SPECTEX_SOURCE_DATADIR)) return SPECTEX_SOURCE_DATADIR;
     if (has_config(SPECTEX_INSTALL_DATADIR)) return SPECTEX_INSTALL_DATADIR;
     throw Error("cannot find spectex's data folder (spectex.ocio); set SPECTEX_DATA_DIR");
+}
+
+std::string cache_folder() {
+    if (const char* env = std::getenv("SPECTEX_CACHE_DIR")) return env;
+    if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && xdg[0] == '/')
+        return std::string(xdg) + "/spectex";
+    if (const char* home = std::getenv("HOME"); home && home[0] == '/')
+        return std::string(home) + "/.cache/spectex";
+    return "";
+}
+
+std::string executable_identity() {
+    struct stat st;
+    if (::stat("/proc/self/exe", &st) != 0) return "unknown";
+    return std::to_string(st.st_size) + " " + std::to_string(st.st_mtim.tv_sec) + "." +
+           std::to_string(st.st_mtim.tv_nsec) + " " + std::to_string(st.st_ino);
 }
 
 }  // namespace spectex

@@ -49,9 +49,6 @@ std::vector<std::string> output_clashes(
     return clash;
 }
 
-namespace {
-
-// A log's progress cadence: SPECTEX_PROGRESS_SECONDS (default 10); a terminal's, 250 ms.
 std::chrono::milliseconds progress_period(bool terminal) {
     double log_seconds = 10;
     if (const char* e = std::getenv("SPECTEX_PROGRESS_SECONDS")) {
@@ -61,6 +58,8 @@ std::chrono::milliseconds progress_period(bool terminal) {
     return terminal ? std::chrono::milliseconds(250)
                     : std::chrono::milliseconds(static_cast<long>(log_seconds * 1000));
 }
+
+namespace {
 
 // The batch's state shared by its workers and its progress ticker.
 struct BatchRun {

@@ -55,6 +55,10 @@ std::vector<std::string> output_clashes(
 
 void size_batch_threads(BatchPlan& plan, int jobs, int threads);
 
+// How often progress is reported: on a terminal every 250 ms (one line rewritten); in a log every
+// SPECTEX_PROGRESS_SECONDS (default 10; 0.01 to 86400).
+std::chrono::milliseconds progress_period(bool terminal);
+
 // What one job is baking, for a progress line.
 struct JobSlot {
     std::string input;  // "" when idle (guarded by the batch's lock)

@@ -38,6 +38,11 @@ std::string thousands(uint64_t v) {
     return o;
 }
 
+// Progress of the search, when someone listens.
+void tell(const PlanSpec& spec, const char* stage, size_t done, size_t total) {
+    if (spec.progress) spec.progress(stage, done, total);
+}
+
 std::shared_ptr<const SpectralMethod> build_method(const PlanSpec& s, const WavelengthGrid& g) {
     if (s.method.method == "basis") {
         FitSpec f = s.method.fit;
@@ -197,6 +202,7 @@ std::vector<WavelengthGrid> candidate_grids(const PlanSpec& spec, const Scene& s
     if (spec.nonuniform) {
         if (!linear)
             throw Error("--nonuniform searches with the basis' 3x3 maps: it needs --method basis");
+        tell(spec, "searching non-uniform grids", 0, 1);
         const NonuniformSearch found =
             search_nonuniform(spec, scene.observer,
                               load_illuminant(spec.method.fit.data_dir, spec.method.fit.illuminant),
@@ -207,6 +213,7 @@ std::vector<WavelengthGrid> candidate_grids(const PlanSpec& spec, const Scene& s
                 }))
                 grids.push_back(g);
         *search_note = found.note;
+        tell(spec, "searching non-uniform grids", 1, 1);
     }
     std::sort(grids.begin(), grids.end(), [](const WavelengthGrid& a, const WavelengthGrid& b) {
         return a.size() != b.size() ? a.size() < b.size() : a.lambda.front() < b.lambda.front();
@@ -226,6 +233,7 @@ std::vector<GridRow> build_rows(const PlanSpec& spec, Candidates& cand) {
     std::vector<GridRow> rows;
     cand.methods.resize(cand.grids.size());
     for (size_t i = 0; i < cand.grids.size(); ++i) {
+        tell(spec, "building the method on each grid", i, cand.grids.size());
         GridRow row;
         row.grid = cand.grids[i];
         row.bins = static_cast<int>(cand.grids[i].size());
@@ -239,6 +247,7 @@ std::vector<GridRow> build_rows(const PlanSpec& spec, Candidates& cand) {
         }
         rows.push_back(row);
     }
+    tell(spec, "building the method on each grid", cand.grids.size(), cand.grids.size());
     return rows;
 }
 
@@ -379,7 +388,17 @@ void verify_cheapest_on_cube(const Measure& m, const LinearMaps& maps, std::vect
                 (pick < 0 || row.bins <= rows[static_cast<size_t>(pick)].bins))
                 verified = true;
         if (pick < 0 || verified) break;
+        tell(m.spec,
+             ("checking " + grid_label(rows[static_cast<size_t>(pick)].grid) +
+              " on all 16,777,216 colours")
+                 .c_str(),
+             0, 1);
         linear_rows_on_cube(m, maps, {static_cast<size_t>(pick)}, rows);
+        tell(m.spec,
+             ("checking " + grid_label(rows[static_cast<size_t>(pick)].grid) +
+              " on all 16,777,216 colours")
+                 .c_str(),
+             1, 1);
         judge(rows[static_cast<size_t>(pick)], m.spec.max_de);
     }
 }
@@ -404,13 +423,18 @@ void measure_linear(const Measure& m, const std::string& mode, PlanResult& res) 
     maps.rows.resize(res.rows.size());
     const Eigen::MatrixXd Bref = basis_matrix(m.ref);
     for (const auto& lw : m.scene.lights) maps.ref.push_back(lw.W * Bref);
-    for (size_t i = 0; i < res.rows.size(); ++i)
+    for (size_t i = 0; i < res.rows.size(); ++i) {
+        tell(m.spec, "measuring each grid", i, res.rows.size());
         if (m.cand.methods[i]) linear_row_on_sample(m, i, maps, res.rows[i]);
+    }
+    tell(m.spec, "measuring each grid", res.rows.size(), res.rows.size());
     if (mode == "cube") {
         std::vector<size_t> all;
         for (size_t i = 0; i < res.rows.size(); ++i)
             if (m.cand.methods[i]) all.push_back(i);
+        tell(m.spec, "every grid on all 16,777,216 colours", 0, 1);
         linear_rows_on_cube(m, maps, all, res.rows);
+        tell(m.spec, "every grid on all 16,777,216 colours", 1, 1);
     }
     res.colours = linear_colours_text(m.spec, mode, m.colours.text);
     for (auto& row : res.rows)
@@ -426,6 +450,7 @@ void measure_nonlinear(const Measure& m, PlanResult& res) {
     for (const auto& lw : lights) ref_w.push_back(lw.W);
     const auto ref_xyz = method_xyz(m.ref, ref_w, c.sr, c.sg, c.sb, false, nullptr);
     for (size_t i = 0; i < res.rows.size(); ++i) {
+        tell(m.spec, "measuring each grid", i, res.rows.size());
         if (!m.cand.methods[i]) continue;
         std::vector<float> w;
         if (m.spec.half) w = rgb_weight_for(m.spec, m.scene.observer, m.cand.grids[i]);
@@ -437,6 +462,7 @@ void measure_nonlinear(const Measure& m, PlanResult& res) {
         res.rows[i].colours = m.row_colours;
         judge(res.rows[i], m.spec.max_de);
     }
+    tell(m.spec, "measuring each grid", res.rows.size(), res.rows.size());
     res.colours = c.text + " (the method is not linear in RGB: no 3x3 map of the cube)";
 }
 

@@ -4,6 +4,7 @@
 // meets an error budget under every light.
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -37,6 +38,10 @@ struct PlanSpec {
     std::string texture, config, colorspace;
     uint64_t max_pixels = 268435456;
     size_t texture_cap = size_t(1) << 20;
+    // Told how the search goes, on the calling thread: the stage ("building the method on each
+    // grid", "measuring each grid", ...), the steps done and their total (0 when not known ahead).
+    // Not part of the answer.
+    std::function<void(const std::string& stage, size_t done, size_t total)> progress;
 };
 
 // Uniform steps 1, 2, 2.5, 4, 5, 10, 20 nm over 380:780, 400:700 and the renderer's range (a step

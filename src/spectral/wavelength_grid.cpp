@@ -16,7 +16,16 @@ namespace spectex {
 namespace {
 
 constexpr double kOnGridTolerance = 1e-6;  // nm
-constexpr size_t kMaxBins = 100000;
+
+// "<label>: 40001 bins, over the limit of 4701 ...": a grid too fine to be worth its cost.
+[[noreturn]] void refuse_bins(const std::string& label, double bins) {
+    char figure[32];
+    std::snprintf(figure, sizeof figure, "%.0f", bins);
+    throw LimitError(label + ": " + figure + " bins, over the limit of " +
+                     std::to_string(kMaxGridBins) +
+                     " (0.1 nm over 360-830 nm, the finest grid a renderer samples; time, memory "
+                     "and file size grow with the bins)");
+}
 
 bool parse_double(const std::string& s, double* out) { return parse_finite(s, out); }
 
@@ -60,8 +69,7 @@ WavelengthGrid make_uniform(double start, double end, double step, const std::st
     if (end < start) throw Error(label + ": END must not be below START");
     if (step <= 0) throw Error(label + ": STEP must be positive");
     double count = std::floor((end - start) / step + kOnGridTolerance / step);
-    if (count + 1 > static_cast<double>(kMaxBins))
-        throw Error(label + ": more than " + std::to_string(kMaxBins) + " bins");
+    if (count + 1 > static_cast<double>(kMaxGridBins)) refuse_bins(label, count + 1);
     WavelengthGrid g;
     size_t n = static_cast<size_t>(count) + 1;
     g.lambda.resize(n);
@@ -122,8 +130,8 @@ WavelengthGrid WavelengthGrid::parse_exact(const std::string& spec) {
 
 WavelengthGrid WavelengthGrid::from_list(std::vector<double> lambdas) {
     if (lambdas.empty()) throw Error("wavelength list is empty");
-    if (lambdas.size() > kMaxBins)
-        throw Error("wavelength list: more than " + std::to_string(kMaxBins) + " bins");
+    if (lambdas.size() > kMaxGridBins)
+        refuse_bins("wavelength list", static_cast<double>(lambdas.size()));
     for (size_t i = 0; i < lambdas.size(); ++i) {
         if (!std::isfinite(lambdas[i]) || lambdas[i] <= 0)
             throw Error("wavelength list: entry " + std::to_string(i + 1) +
@@ -180,6 +188,8 @@ WavelengthGrid WavelengthGrid::from_file(const std::string& path) {
     }
     try {
         return from_list(std::move(values));
+    } catch (const LimitError& e) {
+        throw LimitError(path + ": " + e.what());
     } catch (const Error& e) {
         throw Error(path + ": " + e.what());
     }

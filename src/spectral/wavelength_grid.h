@@ -5,6 +5,13 @@
 
 namespace spectex {
 
+// The most bins any grid may have, wherever it comes from (--wavelengths, --grids, a wavelength
+// file, a basis CSV, a spectral EXR's channels): 4,701, 0.1 nm over 360-830 nm, the finest grid a
+// renderer samples. A bake of 512x256 pixels on 40,001 bins took 72 s, 4.0 GB, 320 MB; on 4,001,
+// 54 s (2 busy cores), 0.58 GB, 240 MB: memory is about 0.2 GB + 190 bytes x bins x image width.
+// A grid over the limit throws LimitError naming the bins and the limit.
+constexpr size_t kMaxGridBins = 4701;
+
 struct WavelengthGrid {
     std::vector<double> lambda;  // nm, strictly increasing
     std::vector<double> weight;  // integration weight of each bin, nm

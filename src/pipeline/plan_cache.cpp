@@ -1,0 +1,341 @@
+#include "pipeline/plan_cache.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <sstream>
+
+#include "io/atomic_file.h"
+#include "io/data_dir.h"
+#include "io/linearizer.h"
+#include "io/source_identity.h"
+#include "spectex/version.h"
+#include "spectral/error.h"
+#include "spectral/fnv1a.h"
+#include "spectral/spectrum.h"
+
+namespace spectex {
+
+namespace {
+
+// The key's material: every part is added with its length, so no two sequences of parts hash
+// alike by moving a boundary.
+class KeyHash {
+  public:
+    void text(const std::string& s) {
+        const uint64_t n = s.size();
+        add(&n, sizeof n);
+        add(s.data(), s.size());
+    }
+    void number(double v) { add(&v, sizeof v); }
+    void values(const std::vector<double>& v) {
+        const uint64_t n = v.size();
+        add(&n, sizeof n);
+        add(v.data(), v.size() * sizeof(double));
+    }
+    void spectrum(const Spectrum& s) {
+        values(s.lambda);
+        values(s.value);
+    }
+    void grid(const WavelengthGrid& g) {
+        values(g.lambda);
+        values(g.weight);
+        text(g.uniform ? "uniform" : "list");
+        number(g.step);
+    }
+    // Two FNV-1a 64 over the same bytes from different starts: 128 bits, so that two settings
+    // never share an entry by chance.
+    std::string hex() const {
+        char buf[40];
+        std::snprintf(buf, sizeof buf, "%016llx%016llx",
+                      static_cast<unsigned long long>(a_.value()),
+                      static_cast<unsigned long long>(b_.value()));
+        return buf;
+    }
+
+  private:
+    void add(const void* p, size_t n) {
+        a_.add(p, n);
+        b_.add(p, n);
+    }
+    Fnv1a64 a_;
+    Fnv1a64 b_ = [] {
+        Fnv1a64 h;
+        h.add("spectex plan cache", 18);
+        return h;
+    }();
+};
+
+}  // namespace
+
+std::string plan_cache_key(const PlanSpec& spec) {
+    KeyHash k;
+    k.text("spectex " SPECTEX_VERSION);
+    k.text(executable_identity());
+    k.number(kPlanCacheFormat);
+    const MethodSpec& m = spec.method;
+    const std::string& dir = m.fit.data_dir;
+    k.text(m.method);
+    k.number(m.lattice_size);
+    k.text(m.vertex_prior);
+    k.number(m.blend);
+    k.number(m.jh_resolution);
+    k.text(m.fit.observer);
+    k.text(m.fit.illuminant);
+    k.text(m.fit.primaries);
+    k.text(to_string(m.fit.objective));
+    k.text(m.fit.allow_infeasible ? "infeasible allowed" : "exact");
+    const Observer obs = load_observer(dir, m.fit.observer);
+    k.spectrum(obs.x);
+    k.spectrum(obs.y);
+    k.spectrum(obs.z);
+    k.spectrum(load_illuminant(dir, m.fit.illuminant));
+    k.number(static_cast<double>(spec.lights.size()));
+    for (const auto& l : spec.lights) {
+        k.text(l);
+        k.spectrum(load_illuminant(dir, l));
+    }
+    k.number(spec.max_de);
+    k.text(to_string(spec.reconstruction));
+    k.number(spec.range_start);
+    k.number(spec.range_end);
+    k.text(spec.half ? "half" : "float");
+    k.number(static_cast<double>(spec.candidates.size()));
+    for (const auto& g : spec.candidates) k.grid(g);
+    k.number(spec.sample_stride);
+    k.text(spec.colours);
+    k.text(spec.nonuniform ? "nonuniform" : "uniform only");
+    k.text(spec.texture);
+    if (!spec.texture.empty()) {
+        k.text(hash_file(spec.texture));
+        k.text(spec.colorspace);
+        k.text(spec.config);
+        for (const auto& f : ocio_config_files(ocio_config_path(dir, spec.config))) {
+            k.text(f);
+            k.text(hash_file(f));
+        }
+        k.number(static_cast<double>(spec.max_pixels));
+        k.number(static_cast<double>(spec.texture_cap));
+    }
+    return "plan-" + k.hex();
+}
+
+namespace {
+
+// Texts as hex digits ("x" first, so that an empty one is a word too): any byte survives.
+std::string hex_text(const std::string& s) {
+    static const char* digits = "0123456789abcdef";
+    std::string o = "x";
+    for (unsigned char c : s) {
+        o += digits[c >> 4];
+        o += digits[c & 15];
+    }
+    return o;
+}
+
+bool unhex_text(const std::string& w, std::string* out) {
+    if (w.empty() || w[0] != 'x' || w.size() % 2 != 1) return false;
+    auto nib = [](char c) {
+        return c >= '0' && c <= '9' ? c - '0' : c >= 'a' && c <= 'f' ? c - 'a' + 10 : -1;
+    };
+    std::string s;
+    for (size_t i = 1; i < w.size(); i += 2) {
+        const int hi = nib(w[i]), lo = nib(w[i + 1]);
+        if (hi < 0 || lo < 0) return false;
+        s += static_cast<char>(hi * 16 + lo);
+    }
+    *out = std::move(s);
+    return true;
+}
+
+// Numbers exactly: hexadecimal floating point ("%a") reads back to the same double.
+std::string exact(double v) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%a", v);
+    return buf;
+}
+
+// The words of an entry, read in order; any word missing or malformed spoils the whole entry.
+class Words {
+  public:
+    explicit Words(const std::string& text) : in_(text) {}
+    bool ok() const { return ok_; }
+    std::string word() {
+        std::string w;
+        if (!(in_ >> w)) ok_ = false;
+        return w;
+    }
+    void expect(const std::string& w) {
+        if (word() != w) ok_ = false;
+    }
+    double number() {
+        const std::string w = word();
+        char* end = nullptr;
+        const double v = ok_ ? std::strtod(w.c_str(), &end) : 0;
+        if (!ok_ || w.empty() || *end != '\0' || !std::isfinite(v)) ok_ = false;
+        return ok_ ? v : 0;
+    }
+    long long whole(long long lo, long long hi) {
+        const double v = number();
+        if (!ok_ || v != std::floor(v) || v < static_cast<double>(lo) ||
+            v > static_cast<double>(hi)) {
+            ok_ = false;
+            return lo;
+        }
+        return static_cast<long long>(v);
+    }
+    bool flag() { return whole(0, 1) == 1; }
+    std::string text() {
+        std::string s;
+        if (!unhex_text(word(), &s)) ok_ = false;
+        return s;
+    }
+    bool at_end() {
+        std::string w;
+        return !(in_ >> w);
+    }
+
+  private:
+    std::istringstream in_;
+    bool ok_ = true;
+};
+
+constexpr long long kMaxRows = 100000, kMaxLights = 100000;
+
+bool read_grid(Words& w, WavelengthGrid* g) {
+    const long long n = w.whole(1, static_cast<long long>(kMaxGridBins));
+    if (!w.ok()) return false;
+    std::vector<double> lambda, weight;
+    for (long long i = 0; i < n && w.ok(); ++i) lambda.push_back(w.number());
+    for (long long i = 0; i < n && w.ok(); ++i) weight.push_back(w.number());
+    const bool uniform = w.flag();
+    const double step = w.number();
+    if (!w.ok()) return false;
+    try {
+        *g = WavelengthGrid::from_list(lambda);  // checks the wavelengths
+    } catch (const Error&) {
+        return false;
+    }
+    for (double x : weight)
+        if (!(x > 0)) return false;
+    g->weight = std::move(weight);
+    g->uniform = uniform;
+    g->step = step;
+    return true;
+}
+
+}  // namespace
+
+std::string plan_cache_text(const std::string& key, const PlanResult& r) {
+    std::ostringstream o;
+    o << "spectex-plan-cache " << kPlanCacheFormat << "\n"
+      << "key " << key << "\n";
+    o << "chosen " << r.chosen << " best " << r.best << "\n";
+    o << "colours " << hex_text(r.colours) << "\nmethod " << hex_text(r.method) << "\nsearch "
+      << hex_text(r.search) << "\nseconds " << exact(r.seconds) << "\n";
+    o << "rows " << r.rows.size() << "\n";
+    for (const GridRow& row : r.rows) {
+        o << "row " << row.grid.size();
+        for (double x : row.grid.lambda) o << ' ' << exact(x);
+        for (double x : row.grid.weight) o << ' ' << exact(x);
+        o << ' ' << (row.grid.uniform ? 1 : 0) << ' ' << exact(row.grid.step);
+        o << ' ' << row.bins << ' ' << row.bytes_per_pixel << ' ' << exact(row.relative_time) << ' '
+          << exact(row.worst) << ' ' << hex_text(row.worst_light) << ' ' << (row.ok ? 1 : 0) << ' '
+          << (row.passes ? 1 : 0) << ' ' << hex_text(row.colours) << ' ' << hex_text(row.why) << ' '
+          << row.lights.size() << "\n";
+        for (const LightError& le : row.lights)
+            o << "light " << hex_text(le.light) << ' ' << exact(le.worst) << ' ' << exact(le.p99)
+              << ' ' << exact(le.half_shift) << ' ' << le.worst_code[0] << ' ' << le.worst_code[1]
+              << ' ' << le.worst_code[2] << "\n";
+    }
+    o << "end\n";
+    return o.str();
+}
+
+bool parse_plan_cache_text(const std::string& text, const std::string& key, PlanResult* out) {
+    Words w(text);
+    w.expect("spectex-plan-cache");
+    w.expect(std::to_string(kPlanCacheFormat));
+    w.expect("key");
+    w.expect(key);
+    PlanResult r;
+    w.expect("chosen");
+    r.chosen = static_cast<int>(w.whole(-1, kMaxRows));
+    w.expect("best");
+    r.best = static_cast<int>(w.whole(-1, kMaxRows));
+    w.expect("colours");
+    r.colours = w.text();
+    w.expect("method");
+    r.method = w.text();
+    w.expect("search");
+    r.search = w.text();
+    w.expect("seconds");
+    r.seconds = w.number();
+    w.expect("rows");
+    const long long rows = w.whole(0, kMaxRows);
+    for (long long i = 0; i < rows && w.ok(); ++i) {
+        GridRow row;
+        w.expect("row");
+        if (!read_grid(w, &row.grid)) return false;
+        row.bins = static_cast<int>(w.whole(1, static_cast<long long>(kMaxGridBins)));
+        row.bytes_per_pixel =
+            static_cast<int>(w.whole(0, 4 * static_cast<long long>(kMaxGridBins)));
+        row.relative_time = w.number();
+        row.worst = w.number();
+        row.worst_light = w.text();
+        row.ok = w.flag();
+        row.passes = w.flag();
+        row.colours = w.text();
+        row.why = w.text();
+        const long long lights = w.whole(0, kMaxLights);
+        for (long long j = 0; j < lights && w.ok(); ++j) {
+            LightError le;
+            w.expect("light");
+            le.light = w.text();
+            le.worst = w.number();
+            le.p99 = w.number();
+            le.half_shift = w.number();
+            for (int c = 0; c < 3; ++c) le.worst_code[c] = static_cast<int>(w.whole(0, 255));
+            row.lights.push_back(std::move(le));
+        }
+        if (!w.ok() || row.bins != static_cast<int>(row.grid.size())) return false;
+        r.rows.push_back(std::move(row));
+    }
+    w.expect("end");
+    if (!w.ok() || !w.at_end()) return false;
+    const int n = static_cast<int>(r.rows.size());
+    if (r.chosen >= n || r.best >= n) return false;
+    if (r.chosen >= 0 && !r.rows[static_cast<size_t>(r.chosen)].passes) return false;
+    *out = std::move(r);
+    return true;
+}
+
+PlanResult plan_grids_cached(const PlanSpec& spec, const std::string& folder,
+                             PlanCacheReport* report) {
+    PlanCacheReport local;
+    PlanCacheReport& rep = report ? *report : local;
+    rep = PlanCacheReport{};
+    rep.folder = folder;
+    if (folder.empty()) return plan_grids(spec);
+    const auto t0 = std::chrono::steady_clock::now();
+    // The checks plan_grids makes first, so that a hit refuses what a search would.
+    if (spec.lights.empty()) throw Error("no lights to plan for");
+    if (!(spec.max_de > 0)) throw Error("the budget must be a positive ΔE00");
+    check_plan_cost(spec);
+    const std::string key = plan_cache_key(spec);
+    rep.entry = folder + "/" + key;
+    std::string text;
+    PlanResult r;
+    if (read_small_regular_file(rep.entry, kPlanCacheEntryLimit, &text) &&
+        parse_plan_cache_text(text, key, &r)) {
+        rep.hit = true;
+        r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        return r;
+    }
+    r = plan_grids(spec);
+    rep.warning = store_file_in_folder(folder, key, plan_cache_text(key, r));
+    return r;
+}
+
+}  // namespace spectex
