@@ -348,6 +348,9 @@ std::string settings_hash(const BakeSettings& s) {
     if (!s.plan.lights.empty())
         fnv(h, "plan " + s.plan.lights + "|" + s.plan.max_de + "|" + s.plan.reconstruction + "|" +
                    s.plan.range + (s.plan.nonuniform ? "|nonuniform" : ""));
+    // --precision auto: what chooses the bits (nothing for full half: those hashes stay as they
+    // were).
+    if (!s.precision.recipe.empty()) fnv(h, "precision " + s.precision.recipe);
     // The colour config decides the linearisation: its path and its contents.
     const std::string config = ocio_config_path(s.data_dir, s.config);
     fnv(h, config);

@@ -37,6 +37,11 @@ struct PlanSpec {
     std::string texture, config, colorspace;
     uint64_t max_pixels = 268435456;
     size_t texture_cap = size_t(1) << 20;
+    // --precision auto (half): also choose the chosen grid's mantissa bits per bin as bake
+    // --precision auto does (spectral/precision.h), within precision_de (0: max_de) under the
+    // lights and the illuminant.
+    bool precision = false;
+    double precision_de = 0;
 };
 
 // Uniform steps 1, 2, 2.5, 4, 5, 10, 20 nm over 380:780, 400:700 and the renderer's range (a step
@@ -78,6 +83,12 @@ struct PlanResult {
     std::string method;   // the method and conditions
     std::string search;   // with --nonuniform: what the search found (plan_search.h)
     double seconds = 0;
+    // --precision auto, for the chosen grid: bits per bin and the worst ΔE00 per light (rounded
+    // against unrounded, over the sample bake uses); empty otherwise.
+    std::vector<int> precision_bits;
+    std::vector<std::string> precision_lights;
+    std::vector<double> precision_worst;
+    double precision_de = 0;
 };
 
 // A grid's name in the table: START:END:STEP, or "non-uniform N" (its wavelengths are listed

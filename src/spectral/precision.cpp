@@ -44,7 +44,8 @@ class PrecisionJudge {
         }
         spectra_.resize(bins_ * n_);
         req.method->expand_float(r.data(), g.data(), b.data(), n_, spectra_.data(), n_);
-        W_.resize(static_cast<Eigen::Index>(3 * req.lights.size()), static_cast<Eigen::Index>(bins_));
+        W_.resize(static_cast<Eigen::Index>(3 * req.lights.size()),
+                  static_cast<Eigen::Index>(bins_));
         for (size_t j = 0; j < req.lights.size(); ++j) {
             const Colorimetry c = light_on_bins(req.observer, req.lights[j], req.method->lambda());
             lights_.push_back({req.lights[j].name, c.white_xyz, {}});
@@ -56,9 +57,9 @@ class PrecisionJudge {
             auto& l = lights_[j];
             l.ref.resize(n_);
             for (size_t i = 0; i < n_; ++i)
-                l.ref[i] = lab_from_xyz(xyz.block(static_cast<Eigen::Index>(3 * j),
-                                                  static_cast<Eigen::Index>(i), 3, 1),
-                                        l.white);
+                l.ref[i] = lab_from_xyz(
+                    xyz.block(static_cast<Eigen::Index>(3 * j), static_cast<Eigen::Index>(i), 3, 1),
+                    l.white);
         }
     }
 
@@ -169,7 +170,8 @@ std::vector<double> bin_visibility(const Observer& observer, const std::vector<S
         const double peak = c.W.cwiseAbs().maxCoeff();
         if (!(peak > 0)) continue;
         for (size_t k = 0; k < lambda.size(); ++k)
-            vis[k] = std::max(vis[k], c.W.col(static_cast<Eigen::Index>(k)).cwiseAbs().maxCoeff() / peak);
+            vis[k] = std::max(vis[k],
+                              c.W.col(static_cast<Eigen::Index>(k)).cwiseAbs().maxCoeff() / peak);
     }
     return vis;
 }
@@ -214,9 +216,9 @@ PrecisionChoice choose_precision(const PrecisionRequest& req) {
         size_t full_colours = 0;
         std::vector<double> d = j.measure(bits, &full_colours);
         ++c.evaluations;
-        const bool ok = worst_of(d) <= budget &&
-                        static_cast<double>(full_colours) <=
-                            kMaxFullShare * static_cast<double>(j.colours());
+        const bool ok =
+            worst_of(d) <= budget &&
+            static_cast<double>(full_colours) <= kMaxFullShare * static_cast<double>(j.colours());
         if (de) *de = std::move(d);
         return ok;
     };
@@ -301,7 +303,8 @@ std::vector<int> parse_precision_bits(const std::string& text, size_t bins) {
 
 double kept_fraction(const std::vector<int>& bits) {
     if (bits.empty()) return 1.0;
-    return std::accumulate(bits.begin(), bits.end(), 0.0) / (10.0 * static_cast<double>(bits.size()));
+    return std::accumulate(bits.begin(), bits.end(), 0.0) /
+           (10.0 * static_cast<double>(bits.size()));
 }
 
 }  // namespace spectex

@@ -27,7 +27,7 @@ struct PrecisionRequest {
     // rounding is judged exactly as the bake will round. Null: nearest rounding.
     const std::vector<float>* rgb_weight = nullptr;
     double max_de = 0.5;  // the budget: worst ΔE00, rounded against unrounded, under each light
-    int stride = 8;       // codes 0, stride, 2·stride, … and 255 on each axis (8: 35,937 colours)
+    int stride = 8;  // codes 0, stride, 2·stride, … and 255 on each axis (8: 35,937 colours)
     int threads = 1;
 };
 

@@ -18,9 +18,9 @@
 #include "spectral/colorimetry.h"
 #include "spectral/error.h"
 #include "spectral/expand.h"
-#include "spectral/half_bits.h"
 #include "spectral/grid_error.h"
 #include "spectral/half.h"
+#include "spectral/half_bits.h"
 #include "spectral/spectrum.h"
 
 using namespace spectex;
@@ -35,11 +35,12 @@ struct Fitted {
 };
 
 Fitted fitted(const std::string& grid) {
-    Colorimetry c = Colorimetry::make(load_observer(kDir, "cie1931-2"), load_illuminant(kDir, "D65"),
-                                      WavelengthGrid::parse(grid), primaries_by_name("srgb"));
-    Fitted f{std::make_unique<BasisMethod>(fit_basis({c, FitObjective::Smooth, false}).basis,
-                                           "test"),
-             {}};
+    Colorimetry c =
+        Colorimetry::make(load_observer(kDir, "cie1931-2"), load_illuminant(kDir, "D65"),
+                          WavelengthGrid::parse(grid), primaries_by_name("srgb"));
+    Fitted f{
+        std::make_unique<BasisMethod>(fit_basis({c, FitObjective::Smooth, false}).basis, "test"),
+        {}};
     const Eigen::Matrix3Xd R = c.rgb_weights();
     for (Eigen::Index k = 0; k < R.cols(); ++k)
         for (int ch = 0; ch < 3; ++ch) f.weight.push_back(static_cast<float>(R(ch, k)));
@@ -47,7 +48,8 @@ Fitted fitted(const std::string& grid) {
 }
 
 int srgb_code(double linear) {
-    const double v = linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1 / 2.4) - 0.055;
+    const double v =
+        linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1 / 2.4) - 0.055;
     return static_cast<int>(std::lround(std::clamp(v, 0.0, 1.0) * 255.0));
 }
 
@@ -69,8 +71,9 @@ TEST(Precision, RoundHalfToBitsIsNearestOnTheCoarserGrid) {
     for (int bits = 0; bits <= 10; ++bits) {
         const uint32_t step = 1u << (10 - bits);
         for (int t = 0; t < 4000; ++t) {
-            float v = t < 8 ? std::vector<float>{0.0f, 1.0f, 1e-7f, 6e-5f, 0.5f, 0.999f, 1e-3f, 0.25f}[t]
-                            : u(rng) * (t % 3 == 0 ? 0.01f : 1.0f);
+            float v =
+                t < 8 ? std::vector<float>{0.0f, 1.0f, 1e-7f, 6e-5f, 0.5f, 0.999f, 1e-3f, 0.25f}[t]
+                      : u(rng) * (t % 3 == 0 ? 0.01f : 1.0f);
             const uint16_t h = round_half_to_bits(v, bits);
             EXPECT_LE(half_mantissa_bits(h), bits) << v;
             EXPECT_GE(half_to_float(h), 0.0f);
@@ -78,7 +81,8 @@ TEST(Precision, RoundHalfToBitsIsNearestOnTheCoarserGrid) {
             double best = 1e9;
             uint32_t best_code = 0;
             for (uint32_t c = 0; c <= 0x3c00u; c += step) {
-                const double d = std::fabs(static_cast<double>(half_to_float(static_cast<uint16_t>(c))) - v);
+                const double d =
+                    std::fabs(static_cast<double>(half_to_float(static_cast<uint16_t>(c))) - v);
                 if (d < best || (d == best && ((c / step) & 1u) == 0)) best = d, best_code = c;
             }
             EXPECT_EQ(h, best_code) << "bits " << bits << " v " << v;
@@ -117,13 +121,14 @@ TEST(Precision, EveryCodeOfADenseCubeReencodesUnderD65OnCoarseGrids) {
     const size_t n = codes.size();
     std::vector<float> r(n), g(n), b(n);
     for (size_t i = 0; i < n; ++i)
-        r[i] = static_cast<float>(table[codes[i][0]]), g[i] = static_cast<float>(table[codes[i][1]]),
+        r[i] = static_cast<float>(table[codes[i][0]]),
+        g[i] = static_cast<float>(table[codes[i][1]]),
         b[i] = static_cast<float>(table[codes[i][2]]);
     for (const std::vector<int>& bits :
          {steep_bits(f.method->lambda()), std::vector<int>(bins, 6), std::vector<int>(bins, 9)}) {
         std::vector<uint16_t> h(n * bins);
-        const size_t widened =
-            expand_half_bits(*f.method, r.data(), g.data(), b.data(), n, h.data(), n, &f.weight, bits);
+        const size_t widened = expand_half_bits(*f.method, r.data(), g.data(), b.data(), n,
+                                                h.data(), n, &f.weight, bits);
         size_t over_bits = 0, wrong = 0;
         for (size_t i = 0; i < n; ++i) {
             double rgb[3] = {0, 0, 0};
