@@ -197,10 +197,10 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
     p.option("--precision", "full|auto",
              "Half's mantissa bits per bin. full (default): all 10 in every bin. auto: per bin, "
              "the fewest that keep the worst ΔE00 between the rounded and the unrounded spectra "
-             "within --precision-de (default --max-de) under every one of --lights and the "
-             "--illuminant, over a dense sample of the 8-bit cube; the colour-aware rounding "
-             "keeps every 8-bit colour's code under the --illuminant (smaller ZIP files; recorded "
-             "as spectex:precision*; half only).",
+             "within --precision-de (default --max-de) under every one of --lights and the light "
+             "the method is exact for, over a dense sample of the 8-bit cube; the colour-aware "
+             "rounding keeps every 8-bit colour's code under that light (smaller ZIP files; "
+             "recorded as spectex:precision*; half only).",
              [&](const std::string& v) {
                  if (v != "full" && v != "auto")
                      throw UsageError("--precision: '" + v + "' is not one of full, auto");

@@ -150,8 +150,8 @@ TEST(Precision, TheBudgetAndBitsAreInTheSettingsHash) {
         a.insert(a.end(), extra.begin(), extra.end());
         return run_spectex(a);
     };
-    const std::vector<std::string> auto05 = {"--precision", "auto", "--lights", "D65,A",
-                                             "--max-de", "0.5"};
+    const std::vector<std::string> auto05 = {"--precision", "auto",     "--lights",
+                                             "D65,A",       "--max-de", "0.5"};
     ASSERT_EQ(bake({}).status, 0);
     const std::string h_full = read_exr(out).attr(key::kSettingsHash);
     RunResult r = bake(auto05);
@@ -208,10 +208,9 @@ TEST(Precision, PlanPrintsBitsWithTheGrid) {
                      "--colours", "sample", "--sample-stride", "17", "--precision", "auto"});
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_TRUE(has(r.out, "precision: 41 bins, mantissa bits ")) << r.out;
-    const RunResult j =
-        run_spectex({"plan", "--grids", "380:780:10", "--lights", "D65,A", "--max-de", "2",
-                     "--colours", "sample", "--sample-stride", "17", "--precision", "auto",
-                     "--json", "-"});
+    const RunResult j = run_spectex({"plan", "--grids", "380:780:10", "--lights", "D65,A",
+                                     "--max-de", "2", "--colours", "sample", "--sample-stride",
+                                     "17", "--precision", "auto", "--json", "-"});
     ASSERT_EQ(j.status, 0) << j.err;
     const auto pj = nlohmann::json::parse(j.out.substr(0, j.out.find('\n')));
     EXPECT_EQ(pj["precision"]["bits"].size(), 41u);
