@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
+#include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -31,7 +33,9 @@
 #include "spectral/colorimetry.h"
 #include "spectral/error.h"
 #include "spectral/fnv1a.h"
+#include "spectral/precision.h"
 #include "spectral/spectrum.h"
+#include "spectral/task_pool.h"
 #include "spectral/text.h"
 
 namespace spectex {
@@ -64,6 +68,10 @@ struct BakeCli {
     BakeSettings settings;
     PlanSpec plan;  // --wavelengths auto
     bool plan_lights = false, plan_budget = false, no_cache = false;
+    // --precision full|auto and --precision-de (docs/precision.md).
+    std::string precision = "full";
+    double precision_de = 0;  // 0: --max-de's
+    bool precision_de_given = false;
 };
 
 template <typename T>
@@ -209,6 +217,27 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
                  if (v != "colour" && v != "nearest")
                      throw UsageError("--half-rounding: '" + v + "' is not one of colour, nearest");
                  c.settings.colour_rounding = v == "colour";
+             });
+    p.option("--precision", "full|auto",
+             "Half's mantissa bits per bin. full (default): all 10 in every bin. auto: per bin, "
+             "the fewest that keep the worst ΔE00 between the rounded and the unrounded spectra "
+             "within --precision-de (default --max-de) under every one of --lights and the light "
+             "the method is exact for, over a dense sample of the 8-bit cube; the colour-aware "
+             "rounding keeps every 8-bit colour's code under that light (smaller ZIP files; "
+             "recorded as spectex:precision*; half only).",
+             [&](const std::string& v) {
+                 if (v != "full" && v != "auto")
+                     throw UsageError("--precision: '" + v + "' is not one of full, auto");
+                 c.precision = v;
+             });
+    p.option("--precision-de", "DE",
+             "The budget of --precision auto when it differs from --max-de (the grid's budget "
+             "with --wavelengths auto): the worst ΔE00, rounded against unrounded.",
+             [&](const std::string& v) {
+                 c.precision_de = parse_number("--precision-de", v);
+                 if (!(c.precision_de > 0) || !std::isfinite(c.precision_de))
+                     throw UsageError("--precision-de: '" + v + "' is not a positive ΔE00");
+                 c.precision_de_given = true;
              });
     p.option("--alpha", "associated|unassociated",
              "Whether the spectral channels are premultiplied by A (default associated, OpenEXR's "
@@ -475,6 +504,25 @@ void check_method_options(BakeCli& c) {
                          " method is defined on linear RGB in [0, 1] only");
 }
 
+// --precision auto: half only, and the scene's lights and a budget to choose with.
+void check_precision_options(const BakeCli& c) {
+    if (c.precision != "auto") {
+        if (c.precision_de_given) throw UsageError("--precision-de belongs to --precision auto");
+        return;
+    }
+    if (c.type != "half")
+        throw UsageError("--precision auto chooses bits of half; --type " + c.type +
+                         " keeps every bit");
+    if (!c.settings.colour_rounding)
+        throw UsageError(
+            "--precision auto keeps every 8-bit code through the colour-aware rounding; "
+            "--half-rounding nearest would lose them on the coarser grids");
+    if (!c.plan_lights)
+        throw UsageError("--precision auto needs --lights (the scene's lights it must hold)");
+    if (!c.plan_budget && !c.precision_de_given)
+        throw UsageError("--precision auto needs --max-de or --precision-de (the ΔE00 budget)");
+}
+
 // The output grid: given, read from a file, or chosen by --wavelengths auto.
 void check_grid_options(BakeCli& c) {
     c.fit.objective = parse_objective_option(c.objective);
@@ -492,11 +540,13 @@ void check_grid_options(BakeCli& c) {
         if (c.plan.nonuniform && c.method != "basis")
             throw UsageError(
                 "--nonuniform searches with the basis' 3x3 maps: it needs --method basis");
-    } else if (c.plan_lights || c.plan_budget || !c.plan.candidates.empty() || c.plan.nonuniform) {
+    } else if (((c.plan_lights || c.plan_budget) && c.precision != "auto") ||
+               !c.plan.candidates.empty() || c.plan.nonuniform) {
         throw UsageError(
             "--lights, --max-de, --grids and --nonuniform choose the grid of --wavelengths "
-            "auto");
+            "auto (--lights and --max-de also the bits of --precision auto)");
     }
+    check_precision_options(c);
     if (c.wavelengths_file.empty() && !automatic) {
         try {
             c.settings.grid = WavelengthGrid::parse_exact(c.wavelengths);
@@ -739,6 +789,90 @@ std::string method_recipe(const BakeCli& c, const Basis* file_basis, const Obser
     return h.text();
 }
 
+double precision_budget(const BakeCli& c) {
+    return c.precision_de_given ? c.precision_de : c.plan.max_de;
+}
+
+// --precision auto's lights: --lights, then the --illuminant the rounding is exact for, each once.
+std::vector<std::string> precision_lights(const BakeCli& c) {
+    std::vector<std::string> names = c.plan.lights;
+    names.push_back(c.settings.illuminant);
+    return distinct_lights(names);
+}
+
+// What chooses the bits of --precision auto, hashed into the settings (known before the method is
+// built, so that --update builds nothing for files that are up to date): budget, sample, and each
+// light's table.
+void record_precision_recipe(BakeCli& c) {
+    if (c.precision != "auto") return;
+    auto& rec = c.settings.precision;
+    char num[64];
+    std::snprintf(num, sizeof num, "%g", precision_budget(c));
+    rec.max_de = num;
+    for (const auto& l : precision_lights(c)) rec.lights += (rec.lights.empty() ? "" : ",") + l;
+    const int axis = (255 + kPrecisionSampleStride - 1) / kPrecisionSampleStride + 1;
+    rec.sample = "8-bit sRGB codes 0, " + std::to_string(kPrecisionSampleStride) +
+                 ", ... 255 per axis (" + std::to_string(axis * axis * axis) + " colours)";
+    Fnv1a64 h;
+    auto add = [&](const std::string& t) { h.add(t.data(), t.size() + 1); };
+    add("auto " + rec.max_de + " stride " + std::to_string(kPrecisionSampleStride));
+    for (const auto& l : precision_lights(c)) {
+        const Spectrum light = load_illuminant(c.settings.data_dir, l);
+        add("light " + l);
+        h.add(light.lambda.data(), light.lambda.size() * sizeof(double));
+        h.add(light.value.data(), light.value.size() * sizeof(double));
+    }
+    rec.recipe = h.text();
+}
+
+// --precision auto: the bits chosen once per batch for the built method (every file of it gets
+// the same bits).
+void choose_precision_bits(BakeCli& c, const Observer& observer, const Spectrum& illuminant) {
+    if (c.precision != "auto") return;
+    const auto t0 = std::chrono::steady_clock::now();
+    auto& rec = c.settings.precision;
+    PrecisionRequest req;
+    req.method = c.settings.method.get();
+    req.observer = observer;
+    for (const auto& l : precision_lights(c))
+        req.lights.push_back(l == c.settings.illuminant ? illuminant
+                                                        : load_illuminant(c.settings.data_dir, l));
+    std::vector<float> rgb_weight;
+    if (c.settings.colour_rounding) {
+        const Colorimetry cm =
+            Colorimetry::make(observer, illuminant, c.settings.grid, primaries_by_name("srgb"));
+        const Eigen::Matrix3Xd R = cm.rgb_weights();
+        for (Eigen::Index k = 0; k < R.cols(); ++k)
+            for (int ch = 0; ch < 3; ++ch) rgb_weight.push_back(static_cast<float>(R(ch, k)));
+        req.rgb_weight = &rgb_weight;
+    }
+    req.max_de = precision_budget(c);
+    req.stride = kPrecisionSampleStride;
+    req.threads = c.threads > 0 ? c.threads : hardware_threads();
+    const PrecisionChoice pc = choose_precision(req);
+    rec.bits = pc.bits;
+    std::string worst;
+    double w = 0;
+    for (size_t j = 0; j < pc.light.size(); ++j) {
+        char num[96];
+        std::snprintf(num, sizeof num, "%s%s %.3g", worst.empty() ? "" : ", ", pc.light[j].c_str(),
+                      pc.worst_de[j]);
+        worst += num;
+        w = std::max(w, pc.worst_de[j]);
+    }
+    rec.worst_de = worst;
+    if (!c.quiet) {
+        const double s =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        char num[64], worst_num[64];
+        std::snprintf(num, sizeof num, "%.0f%%", 100 * kept_fraction(pc.bits));
+        std::snprintf(worst_num, sizeof worst_num, "%.3g", w);
+        std::cerr << "spectex: --precision auto: " << num << " of half's mantissa bits kept (bits "
+                  << format_precision_bits(pc.bits) << "), worst " << worst_num << " ΔE00 within "
+                  << rec.max_de << " under " << rec.lights << " (" << s << " s)\n";
+    }
+}
+
 // --wavelengths auto: the grid chosen once per batch (every file of it gets the same grid).
 void choose_auto_grid(BakeCli& c) {
     auto& rec = c.settings.plan;
@@ -845,6 +979,7 @@ void prepare_settings(BakeCli& c, BatchPlan& plan) {
     const Observer observer = load_observer(c.settings.data_dir, c.settings.observer);
     const Spectrum illuminant = load_illuminant(c.settings.data_dir, c.settings.illuminant);
     c.settings.method_recipe = method_recipe(c, file_basis.get(), observer, illuminant);
+    record_precision_recipe(c);
     // Reads the colour config (checked: a regular file of bounded size): an Error, exit 2.
     c.settings.settings_hash = settings_hash(c.settings);
     c.settings.legacy_settings_hash = legacy_settings_hash(c.settings);
@@ -866,6 +1001,7 @@ void prepare_settings(BakeCli& c, BatchPlan& plan) {
                                                 : "--wavelengths-file " + c.wavelengths_file,
                    c.settings.grid.size(), c.settings.type == SampleType::Half ? 2 : 4, c.quiet);
     build_method(c, std::move(file_basis), observer, illuminant);
+    choose_precision_bits(c, observer, illuminant);
 }
 
 // Threads, and how the batch runs and reports.

@@ -1,4 +1,5 @@
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -207,6 +208,22 @@ void add_measure_options(ArgParser& p, PlanOptions& o) {
                      throw UsageError("--type: '" + v + "' is not one of half, float");
                  o.type = v;
              });
+    p.option("--precision", "full|auto",
+             "auto: also choose the chosen grid's mantissa bits per bin as bake --precision auto "
+             "does (within --precision-de, default --max-de, under --lights and --illuminant), "
+             "and print bins and bits together. Half only; default full.",
+             [&](const std::string& v) {
+                 if (v != "full" && v != "auto")
+                     throw UsageError("--precision: '" + v + "' is not one of full, auto");
+                 spec.precision = v == "auto";
+             });
+    p.option("--precision-de", "DE",
+             "The budget of --precision auto, rounded against unrounded (default --max-de).",
+             [&](const std::string& v) {
+                 spec.precision_de = parse_number("--precision-de", v);
+                 if (!(spec.precision_de > 0) || !std::isfinite(spec.precision_de))
+                     throw UsageError("--precision-de: '" + v + "' is not a positive ΔE00");
+             });
     p.option(
         "--sample-stride", "N",
         "The dense sample: every N-th 8-bit code and 255 per axis (default 4: 274,625 colours).",
@@ -263,6 +280,10 @@ void check_plan_options(PlanOptions& o, const std::vector<std::string>& pos) {
     if (spec.nonuniform && spec.method.method != "basis")
         throw UsageError("--nonuniform searches with the basis' 3x3 maps: it needs --method basis");
     spec.half = o.type == "half";
+    if (spec.precision && !spec.half)
+        throw UsageError("--precision auto chooses bits of half; --type float keeps every bit");
+    if (spec.precision_de > 0 && !spec.precision)
+        throw UsageError("--precision-de belongs to --precision auto");
     spec.lights = distinct_lights(spec.lights);
     check_observer_setting("--observer", spec.method.fit.observer);
     check_illuminant_setting("--illuminant", spec.method.fit.illuminant);

@@ -22,6 +22,7 @@
 #include "pipeline/light_list.h"
 #include "pipeline/verify.h"
 #include "spectral/error.h"
+#include "spectral/precision.h"
 #include "spectral/provenance_keys.h"
 #include "spectral/spectrum.h"
 #include "spectral/task_pool.h"
@@ -58,6 +59,14 @@ void print_text(const VerifyReport& r, const VerifyGates& g,
       << "\n";
     o << "  integrated under:     " << r.illuminant << ", observer " << r.observer << "\n";
     if (!r.method.empty()) o << "  method:               " << r.method << "\n";
+    if (!r.precision.empty())
+        o << "  precision:            " << r.precision << ": within " << r.precision_max_de
+          << " ΔE00 of the unrounded spectra under " << r.precision_lights << " (recorded; worst "
+          << r.precision_worst_de << "), codes exact under " << r.illuminant
+          << "; mantissa bits per bin "
+          << (r.precision_bits.empty() ? std::string("unreadable")
+                                       : format_precision_bits(r.precision_bits))
+          << "\n";
     o << "  outside [0, 1]:       " << r.below_zero + r.above_one << " samples ("
       << percent(r.below_zero + r.above_one, r.samples) << "): " << r.below_zero << " below 0, "
       << r.above_one << " above 1\n";
@@ -168,6 +177,15 @@ std::string verify_json(const VerifyReport& r, const VerifyGates& t,
     put_text(j, "illuminant", r.illuminant);
     put_text(j, "observer", r.observer);
     put_text_or_null(j, "method", r.method);
+    if (!r.precision.empty()) {
+        Json pj;
+        put_text(pj, "mode", r.precision);
+        put_text(pj, "max_de", r.precision_max_de);
+        put_text(pj, "lights", r.precision_lights);
+        put_text(pj, "worst_de", r.precision_worst_de);
+        pj["bits"] = r.precision_bits;
+        j["precision"] = std::move(pj);
+    }
     put_text(j, "out_of_range", r.out_of_range);
     put_text(j, "nan", r.nan);
     put_texts(j, "warnings", r.warnings);

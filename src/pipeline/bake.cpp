@@ -23,6 +23,7 @@
 #include "spectral/error.h"
 #include "spectral/expand.h"
 #include "spectral/half.h"
+#include "spectral/precision.h"
 #include "spectral/provenance_keys.h"
 #include "spectral/task_pool.h"
 
@@ -192,6 +193,14 @@ std::vector<std::pair<std::string, std::string>> header_attributes(
         a.push_back({provenance_key::kPlanWorstDe, s.plan.worst_de});
         if (s.plan.nonuniform) a.push_back({provenance_key::kPlanGrids, "uniform and non-uniform"});
     }
+    if (!s.precision.bits.empty()) {
+        a.push_back({provenance_key::kPrecision, "auto"});
+        a.push_back({provenance_key::kPrecisionMaxDe, s.precision.max_de});
+        a.push_back({provenance_key::kPrecisionLights, s.precision.lights});
+        a.push_back({provenance_key::kPrecisionBits, format_precision_bits(s.precision.bits)});
+        a.push_back({provenance_key::kPrecisionWorstDe, s.precision.worst_de});
+        a.push_back({provenance_key::kPrecisionSample, s.precision.sample});
+    }
     // The method's own attributes where the basis' always stood (the order is part of the bytes).
     auto at = a.begin() + 3;
     for (const auto& kv : method.provenance()) at = a.insert(at, kv) + 1;
@@ -325,7 +334,11 @@ class PixelStages {
                        std::vector<uint16_t>& half, std::vector<float>& flt) const {
         if (s_.type == SampleType::Half) {
             half.resize(n * bins_);
-            method_.expand_half(r, g, b, n, half.data(), n, feedback_);
+            if (s_.precision.bits.empty())
+                method_.expand_half(r, g, b, n, half.data(), n, feedback_);
+            else
+                (void)expand_half_bits(method_, r, g, b, n, half.data(), n, feedback_,
+                                       s_.precision.bits);
             return half.data();
         }
         flt.resize(n * bins_);

@@ -54,6 +54,13 @@ struct BakeSettings {
         std::string lights, max_de, reconstruction, range, worst_de;  // empty: the grid was given
         bool nonuniform = false;  // --nonuniform: non-uniform grids were candidates too
     } plan;
+    // --precision auto (half only): the mantissa bits each bin keeps, chosen once per batch
+    // (spectral/precision.h), recorded as spectex:precision* and hashed. Empty bits: full half.
+    struct Precision {
+        std::string recipe;  // what chooses the bits (budget, lights and their tables), hashed
+        std::vector<int> bits;
+        std::string max_de, lights, worst_de, sample;
+    } precision;
 };
 
 struct BakeResult {

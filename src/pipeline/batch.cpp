@@ -361,6 +361,9 @@ void hash_settings(Fnv1a64& h, const BakeSettings& s) {
     if (!s.plan.lights.empty())
         fnv(h, "plan " + s.plan.lights + "|" + s.plan.max_de + "|" + s.plan.reconstruction + "|" +
                    s.plan.range + (s.plan.nonuniform ? "|nonuniform" : ""));
+    // --precision auto: what chooses the bits (nothing for full half: those hashes stay as they
+    // were).
+    if (!s.precision.recipe.empty()) fnv(h, "precision " + s.precision.recipe);
 }
 
 }  // namespace

@@ -10,10 +10,12 @@
 
 #include "pipeline/basis_cache.h"
 #include "pipeline/json_text.h"
+#include "pipeline/light_list.h"
 #include "pipeline/plan_search.h"
 #include "pipeline/plan_texture.h"
 #include "spectral/colorimetry.h"
 #include "spectral/error.h"
+#include "spectral/precision.h"
 #include "spectral/spectrum.h"
 #include "spectral/srgb_axis.h"
 #include "spectral/task_pool.h"
@@ -569,6 +571,34 @@ void check_plan_cost(const PlanSpec& spec) {
         "--lights or a larger --sample-stride");
 }
 
+namespace {
+
+// --precision auto on the chosen grid: the bits bake --precision auto would keep (its lights: the
+// plan's and the illuminant the method is exact for; its sample of the cube).
+void plan_precision(const PlanSpec& spec, const Observer& observer, const WavelengthGrid& grid,
+                    int threads, PlanResult& res) {
+    const std::shared_ptr<const SpectralMethod> method = build_method(spec, grid);
+    std::vector<std::string> names = spec.lights;
+    names.push_back(spec.method.fit.illuminant);
+    names = distinct_lights(names);
+    PrecisionRequest req;
+    req.method = method.get();
+    req.observer = observer;
+    for (const auto& l : names) req.lights.push_back(load_illuminant(spec.method.fit.data_dir, l));
+    const std::vector<float> w = rgb_weight_for(spec, observer, grid);
+    req.rgb_weight = &w;
+    req.max_de = spec.precision_de > 0 ? spec.precision_de : spec.max_de;
+    req.stride = kPrecisionSampleStride;
+    req.threads = threads;
+    const PrecisionChoice c = choose_precision(req);
+    res.precision_bits = c.bits;
+    res.precision_lights = names;
+    res.precision_worst = c.worst_de;
+    res.precision_de = req.max_de;
+}
+
+}  // namespace
+
 PlanResult plan_grids(const PlanSpec& spec) {
     const auto t0 = std::chrono::steady_clock::now();
     if (spec.lights.empty()) throw Error("no lights to plan for");
@@ -598,8 +628,17 @@ PlanResult plan_grids(const PlanSpec& spec) {
         measure_nonlinear(m, res);
     choose_row(linear && mode == "auto", res);
     explain_choice(spec.max_de, res);
+    add_plan_precision(spec, res);
     res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return res;
+}
+
+void add_plan_precision(const PlanSpec& spec, PlanResult& res) {
+    if (!spec.precision || !spec.half || res.chosen < 0) return;
+    const int threads =
+        std::min(spec.threads > 0 ? spec.threads : hardware_threads(), thread_budget());
+    plan_precision(spec, load_observer(spec.method.fit.data_dir, spec.method.fit.observer),
+                   res.rows[static_cast<size_t>(res.chosen)].grid, threads, res);
 }
 
 std::string plan_table(const PlanSpec& spec, const PlanResult& r) {
@@ -648,6 +687,20 @@ std::string plan_table(const PlanSpec& spec, const PlanResult& r) {
           << r.rows[static_cast<size_t>(r.chosen)].worst_light << ")\n";
     else
         o << plan_failure(spec, r) << "\n";
+    if (!r.precision_bits.empty()) {
+        // Bins and bits together: what the scene needs of the spectrum and of each bin.
+        std::string names, worst;
+        for (size_t j = 0; j < r.precision_lights.size(); ++j) {
+            names += (names.empty() ? "" : ", ") + r.precision_lights[j];
+            worst += (worst.empty() ? "" : ", ") + r.precision_lights[j] + " " +
+                     fmt(r.precision_worst[j]);
+        }
+        o << "  precision: " << r.precision_bits.size() << " bins, mantissa bits "
+          << format_precision_bits(r.precision_bits) << " ("
+          << fmt(100 * kept_fraction(r.precision_bits), "%.0f")
+          << "% of half's), rounded against unrounded within " << fmt(r.precision_de)
+          << " ΔE00 under " << names << " (worst " << worst << ")\n";
+    }
     o << "  (" << fmt(r.seconds, "%.1f") << " s)\n";
     return o.str();
 }
@@ -724,6 +777,16 @@ std::string plan_json(const PlanSpec& spec, const PlanResult& r) {
         grids.push_back(std::move(g));
     }
     j["grids"] = std::move(grids);
+    if (!r.precision_bits.empty()) {
+        Json pj;
+        pj["bits"] = r.precision_bits;
+        pj["max_de"] = num(r.precision_de);
+        put_texts(pj, "lights", r.precision_lights);
+        Json worst = Json::array();
+        for (double w : r.precision_worst) worst.push_back(num(w));
+        pj["worst"] = std::move(worst);
+        j["precision"] = std::move(pj);
+    }
     return json_line(j);
 }
 

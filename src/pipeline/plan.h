@@ -42,6 +42,11 @@ struct PlanSpec {
     // grid", "measuring each grid", ...), the steps done and their total (0 when not known ahead).
     // Not part of the answer.
     std::function<void(const std::string& stage, size_t done, size_t total)> progress;
+    // --precision auto (half): also choose the chosen grid's mantissa bits per bin as bake
+    // --precision auto does (spectral/precision.h), within precision_de (0: max_de) under the
+    // lights and the illuminant.
+    bool precision = false;
+    double precision_de = 0;
 };
 
 // Uniform steps 1, 2, 2.5, 4, 5, 10, 20 nm over 380:780, 400:700 and the renderer's range (a step
@@ -84,6 +89,12 @@ struct PlanResult {
     std::string method;   // the method and conditions
     std::string search;   // with --nonuniform: what the search found (plan_search.h)
     double seconds = 0;
+    // --precision auto, for the chosen grid: bits per bin and the worst ΔE00 per light (rounded
+    // against unrounded, over the sample bake uses); empty otherwise.
+    std::vector<int> precision_bits;
+    std::vector<std::string> precision_lights;
+    std::vector<double> precision_worst;
+    double precision_de = 0;
 };
 
 // A grid's name in the table: START:END:STEP, or "non-uniform N" (its wavelengths are listed
@@ -109,6 +120,10 @@ void check_plan_cost(const PlanSpec& spec);
 // Throws Error when the lights, observer or range cannot be used, or the reference method cannot be
 // built on the 1 nm range. A candidate grid the method cannot be built on is a failing row.
 PlanResult plan_grids(const PlanSpec& spec);
+// --precision auto: the chosen grid's mantissa bits per bin, into res (nothing without
+// spec.precision, in float, or when no grid was chosen). plan_grids calls it; the plan cache keeps
+// the grids' answer and calls it after, so the cache holds no bits.
+void add_plan_precision(const PlanSpec& spec, PlanResult& res);
 
 // The text table and the JSON document of a plan.
 std::string plan_table(const PlanSpec& spec, const PlanResult& r);

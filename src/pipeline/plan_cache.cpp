@@ -318,6 +318,15 @@ PlanResult plan_grids_cached(const PlanSpec& spec, const std::string& folder,
     rep = PlanCacheReport{};
     rep.folder = folder;
     if (folder.empty()) return plan_grids(spec);
+    if (spec.precision) {
+        // The grids' answer is cached; the bits of the chosen grid are chosen again (seconds).
+        PlanSpec grids_only = spec;
+        grids_only.precision = false;
+        grids_only.precision_de = 0;
+        PlanResult r = plan_grids_cached(grids_only, folder, report);
+        add_plan_precision(spec, r);
+        return r;
+    }
     const auto t0 = std::chrono::steady_clock::now();
     // The checks plan_grids makes first, so that a hit refuses what a search would.
     if (spec.lights.empty()) throw Error("no lights to plan for");

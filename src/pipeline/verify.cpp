@@ -24,6 +24,7 @@
 #include "spectral/ciede2000.h"
 #include "spectral/colorimetry.h"
 #include "spectral/error.h"
+#include "spectral/precision.h"
 #include "spectral/provenance_keys.h"
 #include "spectral/spectrum.h"
 #include "spectral/task_pool.h"
@@ -378,6 +379,18 @@ void read_recorded_settings(const Recorded& recorded, const VerifySettings& s, V
     if (const std::string v = recorded(provenance_key::kOutOfRange); !v.empty()) r.out_of_range = v;
     if (const std::string v = recorded(provenance_key::kNan); !v.empty()) r.nan = v;
     r.half_rounding = recorded(provenance_key::kHalfRounding);
+    r.precision = recorded(provenance_key::kPrecision);
+    if (!r.precision.empty()) {
+        r.precision_max_de = recorded(provenance_key::kPrecisionMaxDe);
+        r.precision_lights = recorded(provenance_key::kPrecisionLights);
+        r.precision_worst_de = recorded(provenance_key::kPrecisionWorstDe);
+        try {
+            r.precision_bits = parse_precision_bits(recorded(provenance_key::kPrecisionBits),
+                                                    static_cast<size_t>(r.bins));
+        } catch (const Error& e) {
+            r.warnings.push_back(std::string(provenance_key::kPrecisionBits) + ": " + e.what());
+        }
+    }
     r.lossy_compression = recorded(provenance_key::kLossyCompression);
     if (r.lossy_compression.empty())
         if (const ExrCompression* c = ExrCompression::find(r.compression)) {

@@ -95,6 +95,12 @@ struct VerifyReport {
     // The file's compression when it changes samples of the file's type ("b44 (lossy for half)",
     // from spectex:lossyCompression or the header's compression); "" when lossless.
     std::string lossy_compression;
+    // --precision auto (spectex:precision*): the bake kept bits[k] of half's mantissa in bin k,
+    // chosen so that the rounding costs at most max_de ΔE00 against the unrounded spectra under
+    // `lights`; the colour-aware rounding still holds every 8-bit code under the illuminant
+    // (the code gate applies as to any half file). Empty precision: full half.
+    std::string precision, precision_max_de, precision_lights, precision_worst_de;
+    std::vector<int> precision_bits;
     std::vector<std::string>
         warnings;  // settings given that differ from the file's, config not found, ...
     std::vector<OtherLightReport> other_lights;

@@ -9,6 +9,7 @@
 #endif
 
 #include "spectral/half.h"
+#include "spectral/half_bits.h"
 
 namespace spectex {
 
@@ -475,6 +476,170 @@ void round_spectra_to_half(const float* spectra, size_t spectra_stride, size_t n
             }
         }
     }
+}
+
+uint16_t round_half_to_bits(float v, int bits) {
+    const uint16_t h = float_to_half(v);
+    if (bits >= 10) return h;
+    const uint16_t step = static_cast<uint16_t>(1u << (10 - std::max(bits, 0)));
+    const uint16_t sign = h & 0x8000u, mag = h & 0x7fffu;
+    if (mag >= 0x7c00u) return h;  // Inf and NaN stay as they are
+    // h is the nearest half to v, so the grid points around |v| are the multiple of step at or
+    // below h and the next one (or, when h is on the grid and above |v|, the one below and h).
+    const float av = std::fabs(v);
+    uint16_t lo = static_cast<uint16_t>(mag & ~(step - 1u));
+    if (lo == mag && lo >= step && half_to_float(lo) > av) lo = static_cast<uint16_t>(lo - step);
+    const uint32_t hi = static_cast<uint32_t>(lo) + step;
+    if (hi > 0x7bffu) return static_cast<uint16_t>(sign | lo);
+    const double dlo = static_cast<double>(av) - half_to_float(lo);
+    const double dhi = static_cast<double>(half_to_float(static_cast<uint16_t>(hi))) - av;
+    uint16_t m = lo;
+    if (dhi < dlo || (dhi == dlo && ((lo / step) & 1u))) m = static_cast<uint16_t>(hi);
+    return static_cast<uint16_t>(sign | m);
+}
+
+int half_mantissa_bits(uint16_t h) {
+    uint32_t mag = h & 0x7fffu;
+    if (mag == 0) return 0;
+    int zeros = 0;
+    while (zeros < 10 && !(mag & 1u)) mag >>= 1, ++zeros;
+    return 10 - zeros;
+}
+
+namespace {
+
+// other_side() on the grid of multiples of step: the grid neighbour of h on the side of s.
+uint16_t other_side_step(uint16_t h, float v, float s, uint16_t step) {
+    if (step == 1) return other_side(h, v, s);
+    const uint16_t sign = h & 0x8000u, mag = h & 0x7fffu;
+    if (v > s) {
+        if (mag == 0) return h;
+        return sign ? static_cast<uint16_t>(h + step) : static_cast<uint16_t>(h - step);
+    }
+    if (v < s) {
+        if (sign) return mag == 0 ? step : static_cast<uint16_t>(h - step);
+        if (static_cast<uint32_t>(mag) + step <= 0x7bffu) return static_cast<uint16_t>(h + step);
+    }
+    return h;
+}
+
+// One pixel (bin k at s[k * spectra_stride], out at px[k * plane_stride]) rounded on the grids
+// of steps[k], with the greedy flips of round_spectra_to_half (in its order and with its float
+// sums); true when the colour ends within kColourTolerance.
+bool round_pixel_on_grid(const float* s, size_t spectra_stride, size_t bins,
+                         const std::vector<float>* w, const std::vector<uint16_t>& steps,
+                         int max_flips, float* delta, uint16_t* px, size_t plane_stride) {
+    float e[3] = {0, 0, 0};
+    for (size_t k = 0; k < bins; ++k) {
+        const float v = s[k * spectra_stride];
+        const uint16_t h =
+            steps[k] == 1 ? float_to_half(v) : round_half_to_bits(v, 10 - __builtin_ctz(steps[k]));
+        px[k * plane_stride] = h;
+        const float d = half_to_float(h) - v;
+        e[0] += w[0][k] * d;
+        e[1] += w[1][k] * d;
+        e[2] += w[2][k] * d;
+    }
+    if (within_tolerance(e)) return true;
+    for (size_t k = 0; k < bins; ++k) {
+        const uint16_t h = px[k * plane_stride];
+        const float hv = half_to_float(h);
+        delta[k] = half_to_float(other_side_step(h, hv, s[k * spectra_stride], steps[k])) - hv;
+    }
+    auto move = [&](size_t k) {
+        uint16_t& h = px[k * plane_stride];
+        const float sk = s[k * spectra_stride];
+        h = other_side_step(h, half_to_float(h), sk, steps[k]);
+        e[0] += w[0][k] * delta[k];
+        e[1] += w[1][k] * delta[k];
+        e[2] += w[2][k] * delta[k];
+        const float hv = half_to_float(h);
+        delta[k] = half_to_float(other_side_step(h, hv, sk, steps[k])) - hv;
+    };
+    for (int flip = 1; flip <= max_flips; ++flip) {
+        size_t best = bins;
+        float best_e2 = squared(e);
+        for (size_t k = 0; k < bins; ++k) {
+            const float x = e[0] + w[0][k] * delta[k], y = e[1] + w[1][k] * delta[k],
+                        z = e[2] + w[2][k] * delta[k];
+            const float t = x * x + y * y + z * z;
+            if (t < best_e2) best_e2 = t, best = k;
+        }
+        if (best == bins) break;
+        move(best);
+        if (within_tolerance(e)) return true;
+    }
+    if (max_flips <= kMaxFlips) return false;
+    // Coarse steps: single moves overshoot, but two bins moved in opposite directions can change
+    // the colour by little. Up to max_flips / 2 pair moves, each the pair whose moves leave the
+    // smallest squared error (first pair in bin order among equals), while it shrinks.
+    std::vector<float> v(3 * bins);
+    for (int pair = 0; pair < max_flips / 2; ++pair) {
+        for (size_t k = 0; k < bins; ++k)
+            for (size_t c = 0; c < 3; ++c) v[3 * k + c] = w[c][k] * delta[k];
+        size_t ba = bins, bb = bins;
+        float best_e2 = squared(e);
+        for (size_t a = 0; a < bins; ++a) {
+            if (delta[a] == 0) continue;
+            const float xa = e[0] + v[3 * a], ya = e[1] + v[3 * a + 1], za = e[2] + v[3 * a + 2];
+            for (size_t b = a + 1; b < bins; ++b) {
+                const float x = xa + v[3 * b], y = ya + v[3 * b + 1], z = za + v[3 * b + 2];
+                const float t = x * x + y * y + z * z;
+                if (t < best_e2) best_e2 = t, ba = a, bb = b;
+            }
+        }
+        if (ba == bins) return false;
+        move(ba);
+        move(bb);
+        if (within_tolerance(e)) return true;
+    }
+    return false;
+}
+
+}  // namespace
+
+size_t round_spectra_to_bits(const float* spectra, size_t spectra_stride, size_t n, size_t bins,
+                             const std::vector<float>* rgb_weight, const std::vector<int>& bits,
+                             uint16_t* out, size_t plane_stride) {
+    bool full = true;
+    for (size_t k = 0; k < bins; ++k) full = full && (k >= bits.size() || bits[k] >= 10);
+    if (full) {
+        round_spectra_to_half(spectra, spectra_stride, n, bins, rgb_weight, out, plane_stride);
+        return 0;
+    }
+    std::vector<uint16_t> steps(bins);
+    for (size_t k = 0; k < bins; ++k) {
+        const int b = std::clamp(k < bits.size() ? bits[k] : 10, 0, 10);
+        steps[k] = static_cast<uint16_t>(1u << (10 - b));
+    }
+    if (!rgb_weight) {
+        for (size_t k = 0; k < bins; ++k) {
+            const int b = 10 - __builtin_ctz(steps[k]);
+            for (size_t i = 0; i < n; ++i)
+                out[k * plane_stride + i] = round_half_to_bits(spectra[k * spectra_stride + i], b);
+        }
+        return 0;
+    }
+    std::vector<float> w[3];
+    for (size_t c = 0; c < 3; ++c) {
+        w[c].resize(bins);
+        for (size_t k = 0; k < bins; ++k) w[c][k] = (*rgb_weight)[3 * k + c];
+    }
+    // A coarse grid moves the colour by more per flip, so it is given more flips than full half.
+    constexpr int kMaxCoarseFlips = 32;
+    std::vector<float> delta(bins);
+    size_t widened = 0;
+    for (size_t i = 0; i < n; ++i) {
+        const float* s = spectra + i;
+        uint16_t* px = out + i;
+        if (round_pixel_on_grid(s, spectra_stride, bins, w, steps, kMaxCoarseFlips, delta.data(),
+                                px, plane_stride))
+            continue;
+        // Full half, exactly as round_spectra_to_half rounds this pixel.
+        ++widened;
+        round_spectra_to_half(s, spectra_stride, 1, bins, rgb_weight, px, plane_stride);
+    }
+    return widened;
 }
 
 void expand_to_half(const ExpansionMatrix& m, const float* r, const float* g, const float* b,

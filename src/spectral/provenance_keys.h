@@ -55,6 +55,13 @@ constexpr const char* kPlanReconstruction = "spectex:planReconstruction";
 constexpr const char* kPlanRange = "spectex:planRange";
 constexpr const char* kPlanWorstDe = "spectex:planWorstDe";
 constexpr const char* kPlanGrids = "spectex:planGrids";
+// --precision auto: the budget and the mantissa bits kept per bin (docs/precision.md).
+constexpr const char* kPrecision = "spectex:precision";  // "auto" (absent: full half)
+constexpr const char* kPrecisionMaxDe = "spectex:precisionMaxDe";
+constexpr const char* kPrecisionLights = "spectex:precisionLights";
+constexpr const char* kPrecisionBits = "spectex:precisionBits";  // "10 10 9 …", one per bin
+constexpr const char* kPrecisionWorstDe = "spectex:precisionWorstDe";
+constexpr const char* kPrecisionSample = "spectex:precisionSample";
 // The spectral method (SpectralMethod::provenance()).
 constexpr const char* kMethod = "spectex:method";
 constexpr const char* kBasis = "spectex:basis";
@@ -101,6 +108,12 @@ constexpr const char* kAll[] = {
     kPlanRange,
     kPlanWorstDe,
     kPlanGrids,
+    kPrecision,
+    kPrecisionMaxDe,
+    kPrecisionLights,
+    kPrecisionBits,
+    kPrecisionWorstDe,
+    kPrecisionSample,
     kMethod,
     kBasis,
     kBasisSource,

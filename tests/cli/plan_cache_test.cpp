@@ -132,6 +132,25 @@ TEST(PlanCache, SecondPlanComesFromTheCache) {
     EXPECT_EQ(without_seconds(json.out), without_seconds(json_off.out));
 }
 
+// plan --precision auto from the cache: the grids' answer is the cached one, and the chosen grid's
+// bits are chosen again, so a hit still reports them (the cache holds no bits).
+TEST(PlanCache, PrecisionIsReportedOnAHitToo) {
+    ScratchDir dir;
+    const std::string cache = dir / "cache";
+    const std::vector<std::string> args = quick_plan({"--precision", "auto"});
+    const RunResult first = run_env(args, {cache_env(cache)});
+    ASSERT_EQ(first.status, 0) << first.err;
+    const RunResult second = run_env(args, {cache_env(cache)});
+    ASSERT_EQ(second.status, 0) << second.err;
+    EXPECT_NE(second.err.find(kHit), std::string::npos) << second.err;
+    EXPECT_NE(second.out.find("precision: "), std::string::npos) << second.out;
+    EXPECT_EQ(table_without_time(second.out), table_without_time(first.out));
+    // The same plan without --precision shares the entry and reports no bits.
+    const RunResult plain = run_env(quick_plan(), {cache_env(cache)});
+    EXPECT_NE(plain.err.find(kHit), std::string::npos) << plain.err;
+    EXPECT_EQ(plain.out.find("precision: "), std::string::npos) << plain.out;
+}
+
 TEST(PlanCache, WhereTheCacheIs) {
     ScratchDir dir;
     // XDG_CACHE_HOME, when SPECTEX_CACHE_DIR is not set.

@@ -1,0 +1,29 @@
+#pragma once
+// Half on coarser grids: bin k keeps bits[k] of half's 10 mantissa bits (the precision budget,
+// spectral/precision.h). Kept apart from expand.h, which most of the tree includes.
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace spectex {
+
+// Reduced precision: bin k keeps bits[k] (0..10) of the half's 10 mantissa bits, i.e. its half
+// code is a multiple of 2^(10 - bits[k]) (the coarser grid of values; 1.0 and 0 are on every grid,
+// so values in [0, 1] stay there). Every bin is rounded to nearest on its grid (ties to the even
+// grid point); with rgb_weight, a pixel whose integrated colour then misses by more than 6.1e-5 has
+// its fewest bins moved to their other neighbour on the same grid (up to 32 moves). A pixel that
+// its grids cannot bring within 6.1e-5 is rounded at full precision instead, exactly as
+// round_spectra_to_half rounds it: every pixel's colour under the rounding's colorimetry is then
+// held as at full precision. All bits 10 is round_spectra_to_half, bit for bit. Returns the
+// number of pixels rounded at full precision.
+size_t round_spectra_to_bits(const float* spectra, size_t spectra_stride, size_t n, size_t bins,
+                             const std::vector<float>* rgb_weight, const std::vector<int>& bits,
+                             uint16_t* out, size_t plane_stride);
+// The nearest value to v whose half code is a multiple of 2^(10 - bits) (ties to the even
+// multiple); bits 10 is float_to_half.
+uint16_t round_half_to_bits(float v, int bits);
+// Mantissa bits a half value needs: 10 minus the trailing zero bits of its code's mantissa
+// field, counting the exponent's low bits for codes on coarser grids (0 for zero).
+int half_mantissa_bits(uint16_t h);
+
+}  // namespace spectex

@@ -1,0 +1,76 @@
+#pragma once
+// The precision budget: how many of half's 10 mantissa bits each bin keeps, chosen so that the
+// worst ΔE00 between the rounded and the unrounded spectra, under every light of the scene (and
+// D65), stays within a budget over a dense sample of the 8-bit sRGB cube (docs/precision.md).
+// Fewer bits in the bins a light barely sees make the file's ZIP smaller; the colour-aware
+// correction on the coarser grids (round_spectra_to_bits) keeps every 8-bit colour's code under
+// the rounding's colorimetry (D65) exact whatever the bits.
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "spectral/spectral_method.h"
+#include "spectral/spectrum.h"
+
+namespace spectex {
+
+// The sample bake and plan --precision auto choose on: codes 0, 8, … 248 and 255 per axis
+// (33^3 = 35,937 colours).
+constexpr int kPrecisionSampleStride = 8;
+
+struct PrecisionRequest {
+    const SpectralMethod* method = nullptr;
+    Observer observer;
+    std::vector<Spectrum> lights;  // the scene's lights (the caller includes D65)
+    // The colour-aware rounding's weights (bins x 3, the bake's observer and illuminant): the
+    // rounding is judged exactly as the bake will round. Null: nearest rounding.
+    const std::vector<float>* rgb_weight = nullptr;
+    double max_de = 0.5;  // the budget: worst ΔE00, rounded against unrounded, under each light
+    int stride = 8;  // codes 0, stride, 2·stride, … and 255 on each axis (8: 35,937 colours)
+    int threads = 1;
+};
+
+struct PrecisionChoice {
+    std::vector<int> bits;           // per bin, 0..10
+    std::vector<std::string> light;  // the lights measured, in the request's order
+    std::vector<double> worst_de;    // per light, of the chosen bits over the sample
+    size_t colours = 0;              // colours in the sample
+    size_t evaluations = 0;          // bit vectors measured to choose
+};
+
+// Half with bin k keeping bits[k] mantissa bits: expand_float, then round_spectra_to_bits (nearest
+// on the coarser grid, then the colour-aware correction on that grid). Empty bits, or all 10, is
+// method.expand_half, bit for bit. Returns the pixels that needed more bits to hold their colour.
+size_t expand_half_bits(const SpectralMethod& method, const float* r, const float* g,
+                        const float* b, size_t n, uint16_t* out, size_t plane_stride,
+                        const std::vector<float>* rgb_weight, const std::vector<int>& bits);
+
+// Per bin: the largest weight of the bin in X, Y or Z under any of the lights, relative to the
+// largest of all bins (1 at the most visible bin). The chooser starts from 10 + log2 of it.
+std::vector<double> bin_visibility(const Observer& observer, const std::vector<Spectrum>& lights,
+                                   const std::vector<double>& lambda);
+
+// Deterministic (the same bits for the same request, whatever the threads). Searches on a sample
+// with half the codes per axis against 90 % of the budget: starts from the rule
+// bits = ceil(10 + log2(visibility) + offset), with the lowest whole offset <= 0 within it, then
+// lowers bins one bit at a time, least visible first, keeping each step that stays within it.
+// A bit vector counts as within only when at most 0.5 % of the sample's colours are left to full
+// precision (round_spectra_to_bits). The result is measured on the request's sample, and the
+// search's steps undone, last first,
+// while it is over the budget there (all 10 when nothing fewer holds). Throws Error on a budget
+// that is not positive.
+PrecisionChoice choose_precision(const PrecisionRequest& req);
+
+// Worst ΔE00 per light of rounding to `bits` over the request's sample (for reports and tests).
+PrecisionChoice measure_precision(const PrecisionRequest& req, const std::vector<int>& bits);
+
+// "10 10 9 8 …": the bits as recorded in a header; parse_precision_bits reads it back (throws
+// Error on anything else, naming what is wrong).
+std::string format_precision_bits(const std::vector<int>& bits);
+std::vector<int> parse_precision_bits(const std::string& text, size_t bins);
+
+// Sum of the bits over the bins, against 10 per bin: a rough measure of what the file keeps.
+double kept_fraction(const std::vector<int>& bits);
+
+}  // namespace spectex

@@ -1,0 +1,218 @@
+// bake --precision auto end to end: the bits per bin recorded in the header and the settings hash,
+// every stored value on its bin's coarser grid (but for the few pixels that needed more bits to
+// hold their colour), the file smaller than full half, every 8-bit code still re-encoding under
+// D65 (verify's code gate), verify and plan reporting the precision, and the usage errors.
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+
+#include <cmath>
+#include <cstring>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "cli/cli_util.h"
+#include "cli/exr_read.h"
+#include "spectral/provenance_keys.h"
+
+using namespace spectex_test;
+namespace key = spectex::provenance_key;
+
+namespace {
+
+bool has(const std::string& text, const std::string& what) {
+    return text.find(what) != std::string::npos;
+}
+
+// 512 x 512 pixels: every 8-bit sRGB code whose channels are multiples of 4 plus 3 (3, 7, … 255;
+// 64^3 colours), in an order with no smooth runs (like a photograph's noise, not a gradient).
+std::string cube_png(const ScratchDir& d) {
+    std::vector<uint8_t> px(512 * 512 * 3);
+    for (uint32_t i = 0; i < 512u * 512u; ++i) {
+        const uint32_t j = (i * 2654435761u) & 0x3ffffu;  // a permutation of 0 .. 2^18 - 1
+        px[3 * i + 0] = static_cast<uint8_t>(4 * (j >> 12) + 3);
+        px[3 * i + 1] = static_cast<uint8_t>(4 * ((j >> 6) & 63) + 3);
+        px[3 * i + 2] = static_cast<uint8_t>(4 * (j & 63) + 3);
+    }
+    const std::string path = d / "cube.png";
+    write_image(path, 512, 512, 3, OIIO::TypeDesc::UINT8, px.data());
+    return path;
+}
+
+// Half code of a value read back as float (exact: every half is a float).
+uint16_t half_code(float f) {
+    uint32_t x;
+    std::memcpy(&x, &f, 4);
+    if (f == 0.0f) return static_cast<uint16_t>((x >> 16) & 0x8000u);
+    const int e = static_cast<int>((x >> 23) & 0xff) - 127;
+    if (e >= -14) return static_cast<uint16_t>(((e + 15) << 10) | ((x >> 13) & 0x3ffu));
+    return static_cast<uint16_t>(std::lround(std::fabs(f) * 16777216.0f));  // subnormal
+}
+
+int mantissa_bits(uint16_t h) {
+    uint32_t m = h & 0x7fffu;
+    if (m == 0) return 0;
+    int zeros = 0;
+    while (zeros < 10 && !(m & 1u)) m >>= 1, ++zeros;
+    return 10 - zeros;
+}
+
+std::vector<int> bits_of(const std::string& text) {
+    std::istringstream in(text);
+    std::vector<int> v;
+    for (int b; in >> b;) v.push_back(b);
+    return v;
+}
+
+uint64_t file_size(const std::string& p) {
+    struct stat st;
+    return ::stat(p.c_str(), &st) == 0 ? static_cast<uint64_t>(st.st_size) : 0;
+}
+
+}  // namespace
+
+TEST(Precision, AutoBakeKeepsTheChosenBitsRecordsThemAndStaysExactUnderD65) {
+    ScratchDir d;
+    const std::string png = cube_png(d), full = d / "full.exr", autob = d / "auto.exr";
+    ASSERT_EQ(run_spectex({"bake", png, "-o", full, "-q"}).status, 0);
+    const RunResult r = run_spectex({"bake", png, "-o", autob, "--precision", "auto", "--lights",
+                                     "D65,A,FL11", "--max-de", "0.5"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_TRUE(has(r.err, "--precision auto:")) << r.err;
+    const ExrImage img = read_exr(autob);
+    EXPECT_EQ(img.attr(key::kPrecision), "auto");
+    EXPECT_EQ(img.attr(key::kPrecisionMaxDe), "0.5");
+    EXPECT_EQ(img.attr(key::kPrecisionLights), "D65,A,FL11");
+    EXPECT_TRUE(has(img.attr(key::kPrecisionSample), "35937 colours"));
+    const std::vector<int> bits = bits_of(img.attr(key::kPrecisionBits));
+    const auto channels = spectral_channels(img);
+    ASSERT_EQ(bits.size(), channels.size());
+    int total = 0;
+    for (int b : bits) {
+        EXPECT_GE(b, 0);
+        EXPECT_LE(b, 10);
+        total += b;
+    }
+    EXPECT_LT(total, 10 * static_cast<int>(bits.size()) * 9 / 10) << "fewer bits than full";
+    // Values on their bin's grid, in [0, 1]; a pixel may keep more bits only to hold its colour
+    // (at most 1 % of them here).
+    const size_t n = static_cast<size_t>(img.width) * static_cast<size_t>(img.height);
+    std::vector<bool> over(n, false);
+    for (size_t k = 0; k < channels.size(); ++k) {
+        const auto& v = img.pixels.at(channels[k].second);
+        for (size_t i = 0; i < n; ++i) {
+            ASSERT_GE(v[i], 0.0f);
+            ASSERT_LE(v[i], 1.0f);
+            if (mantissa_bits(half_code(v[i])) > bits[k]) over[i] = true;
+        }
+    }
+    size_t widened = 0;
+    for (bool o : over) widened += o;
+    EXPECT_LE(widened, n / 100);
+    EXPECT_LT(file_size(autob), file_size(full) * 9 / 10)
+        << file_size(autob) << " vs " << file_size(full);
+    // verify knows the file: every code re-encodes under D65 (its default gate for colour-rounded
+    // half), and it reports the recorded budget and bits.
+    const RunResult v = run_spectex({"verify", autob, "--source", png});
+    EXPECT_EQ(v.status, 0) << v.out << v.err;
+    EXPECT_TRUE(has(v.out, "precision:")) << v.out;
+    EXPECT_TRUE(has(v.out, "within 0.5 ΔE00 of the unrounded spectra under D65,A,FL11")) << v.out;
+    EXPECT_TRUE(has(v.out, "100% (262144 of 262144)")) << v.out;
+    const RunResult vj = run_spectex({"verify", autob, "--source", png, "--json", "-"});
+    ASSERT_EQ(vj.status, 0) << vj.err;
+    const auto j = nlohmann::json::parse(vj.out.substr(0, vj.out.find('\n')));
+    EXPECT_EQ(j["precision"]["bits"].get<std::vector<int>>(), bits);
+    // Full precision writes no precision attribute.
+    EXPECT_FALSE(read_exr(full).has_attr(key::kPrecision));
+}
+
+TEST(Precision, LatticeWithTheLhtssPriorHoldsItsCodesToo) {
+    ScratchDir d;
+    const std::string png = cube_png(d), out = d / "lattice.exr";
+    const RunResult r = run_spectex({"bake", png, "-o", out, "--method", "lattice",
+                                     "--vertex-prior", "lhtss", "--precision", "auto", "--lights",
+                                     "D65,A,FL2,FL11,D50,LED-B3", "--max-de", "0.5", "-q"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(read_exr(out).attr(key::kPrecision), "auto");
+    const RunResult v = run_spectex({"verify", out, "--source", png});
+    EXPECT_EQ(v.status, 0) << v.out << v.err;
+    EXPECT_TRUE(has(v.out, "100% (262144 of 262144)")) << v.out;
+}
+
+TEST(Precision, TheBudgetAndBitsAreInTheSettingsHash) {
+    ScratchDir d;
+    std::vector<uint8_t> px(64 * 64 * 3);
+    for (size_t i = 0; i < px.size(); ++i) px[i] = static_cast<uint8_t>(i * 101 % 256);
+    const std::string png = d / "small.png", out = d / "a.exr";
+    write_image(png, 64, 64, 3, OIIO::TypeDesc::UINT8, px.data());
+    const std::vector<std::string> base = {"bake", png, "-o", out, "--update"};
+    auto bake = [&](std::vector<std::string> extra) {
+        std::vector<std::string> a = base;
+        a.insert(a.end(), extra.begin(), extra.end());
+        return run_spectex(a);
+    };
+    const std::vector<std::string> auto05 = {"--precision", "auto",     "--lights",
+                                             "D65,A",       "--max-de", "0.5"};
+    ASSERT_EQ(bake({}).status, 0);
+    const std::string h_full = read_exr(out).attr(key::kSettingsHash);
+    RunResult r = bake(auto05);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const std::string h_auto = read_exr(out).attr(key::kSettingsHash);
+    EXPECT_NE(h_full, h_auto) << "full and auto hash alike: --update would keep the wrong file";
+    r = bake(auto05);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_FALSE(has(r.err, "--precision auto:")) << "an up-to-date file chose its bits again";
+    r = bake({"--precision", "auto", "--lights", "D65,A", "--max-de", "1"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(read_exr(out).attr(key::kSettingsHash), h_auto);
+    EXPECT_EQ(read_exr(out).attr(key::kPrecisionMaxDe), "1");
+    // --precision-de overrides --max-de for the bits.
+    r = bake({"--precision", "auto", "--lights", "D65,A", "--precision-de", "0.25"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(read_exr(out).attr(key::kPrecisionMaxDe), "0.25");
+}
+
+TEST(Precision, UsageErrorsAreRefusedBeforeAnyWork) {
+    ScratchDir d;
+    std::vector<uint8_t> px(12, 128);
+    write_image(d / "in.png", 2, 2, 3, OIIO::TypeDesc::UINT8, px.data());
+    const std::string in = d / "in.png", out = d / "o.exr";
+    struct Case {
+        std::vector<std::string> args;
+        std::string says;
+    };
+    const std::vector<Case> cases = {
+        {{"--precision", "half"}, "is not one of full, auto"},
+        {{"--precision", "auto", "--max-de", "0.5"}, "needs --lights"},
+        {{"--precision", "auto", "--lights", "A"}, "needs --max-de or --precision-de"},
+        {{"--precision", "auto", "--lights", "A", "--max-de", "1", "--type", "float"},
+         "--type float keeps every bit"},
+        {{"--precision-de", "0.5"}, "--precision-de belongs to --precision auto"},
+        {{"--precision", "auto", "--lights", "A", "--max-de", "1", "--half-rounding", "nearest"},
+         "--half-rounding nearest would lose them"},
+        {{"--precision", "auto", "--lights", "A", "--precision-de", "0"}, "not a positive"},
+        {{"--lights", "A", "--max-de", "1"}, "choose the grid of --wavelengths auto"},
+    };
+    for (const auto& c : cases) {
+        std::vector<std::string> a = {"bake", in, "-o", out};
+        a.insert(a.end(), c.args.begin(), c.args.end());
+        const RunResult r = run_spectex(a);
+        EXPECT_EQ(r.status, 2) << c.says << ": " << r.err;
+        EXPECT_TRUE(has(r.err, c.says)) << r.err;
+        EXPECT_FALSE(file_exists(out));
+    }
+}
+
+TEST(Precision, PlanPrintsBitsWithTheGrid) {
+    const RunResult r =
+        run_spectex({"plan", "--grids", "380:780:10", "--lights", "D65,A", "--max-de", "2",
+                     "--colours", "sample", "--sample-stride", "17", "--precision", "auto"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_TRUE(has(r.out, "precision: 41 bins, mantissa bits ")) << r.out;
+    const RunResult j = run_spectex({"plan", "--grids", "380:780:10", "--lights", "D65,A",
+                                     "--max-de", "2", "--colours", "sample", "--sample-stride",
+                                     "17", "--precision", "auto", "--json", "-"});
+    ASSERT_EQ(j.status, 0) << j.err;
+    const auto pj = nlohmann::json::parse(j.out.substr(0, j.out.find('\n')));
+    EXPECT_EQ(pj["precision"]["bits"].size(), 41u);
+    EXPECT_EQ(run_spectex({"plan", "--precision", "auto", "--type", "float"}).status, 2);
+}
