@@ -20,6 +20,8 @@
 
 using namespace spectex_test;
 
+// The tests that bake with --wavelengths auto or search many plans are in PlanCacheSlow: the
+// whole suite runs them, the sanitizer build (which runs the rest about four times slower) not.
 // No test of this binary uses the real cache of the user running it (~/.cache/spectex): the cache
 // is off (SPECTEX_CACHE_DIR set and empty) unless a test names a folder of its own.
 static const bool kCacheOffInTests = [] {
@@ -173,7 +175,7 @@ TEST(PlanCache, WhereTheCacheIs) {
     EXPECT_FALSE(file_exists(dir / "x2"));
 }
 
-TEST(PlanCache, EveryInputOfTheAnswerIsInTheKey) {
+TEST(PlanCacheSlow, EveryInputOfTheAnswerIsInTheKey) {
     ScratchDir dir;
     const std::string cache = dir / "cache";
     write_light(dir / "light.csv", 1.0);
@@ -326,7 +328,7 @@ TEST(PlanCache, ConcurrentShardsShareOneWholeEntry) {
     EXPECT_NE(after.err.find(kHit), std::string::npos) << after.err;
 }
 
-TEST(PlanCache, BakeAutoFromTheCacheIsTheSameFile) {
+TEST(PlanCacheSlow, BakeAutoFromTheCacheIsTheSameFile) {
     ScratchDir dir;
     const std::string cache = dir / "cache";
     const std::string png = make_png(dir, "in.png", 8, 8);
@@ -359,7 +361,7 @@ TEST(PlanCache, BakeAutoFromTheCacheIsTheSameFile) {
     }
 }
 
-TEST(PlanCache, ProgressOfTheSearch) {
+TEST(PlanCacheSlow, ProgressOfTheSearch) {
     ScratchDir dir;
     const RunResult plan = run_spectex(quick_plan({"--progress"}));
     ASSERT_EQ(plan.status, 0) << plan.err;

@@ -1,7 +1,9 @@
 // bake --precision auto end to end: the bits per bin recorded in the header and the settings hash,
 // every stored value on its bin's coarser grid (but for the few pixels that needed more bits to
 // hold their colour), the file smaller than full half, every 8-bit code still re-encoding under
-// D65 (verify's code gate), verify and plan reporting the precision, and the usage errors.
+// D65 (verify's code gate), verify and plan reporting the precision, and the usage errors. The
+// lattice and settings-hash tests (several choosers each) are in PrecisionSlow: the whole suite
+// runs them, the sanitizer build not.
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
@@ -125,7 +127,7 @@ TEST(Precision, AutoBakeKeepsTheChosenBitsRecordsThemAndStaysExactUnderD65) {
     EXPECT_FALSE(read_exr(full).has_attr(key::kPrecision));
 }
 
-TEST(Precision, LatticeWithTheLhtssPriorHoldsItsCodesToo) {
+TEST(PrecisionSlow, LatticeWithTheLhtssPriorHoldsItsCodesToo) {
     ScratchDir d;
     const std::string png = cube_png(d), out = d / "lattice.exr";
     const RunResult r = run_spectex({"bake", png, "-o", out, "--method", "lattice",
@@ -138,7 +140,7 @@ TEST(Precision, LatticeWithTheLhtssPriorHoldsItsCodesToo) {
     EXPECT_TRUE(has(v.out, "100% (262144 of 262144)")) << v.out;
 }
 
-TEST(Precision, TheBudgetAndBitsAreInTheSettingsHash) {
+TEST(PrecisionSlow, TheBudgetAndBitsAreInTheSettingsHash) {
     ScratchDir d;
     std::vector<uint8_t> px(64 * 64 * 3);
     for (size_t i = 0; i < px.size(); ++i) px[i] = static_cast<uint8_t>(i * 101 % 256);
