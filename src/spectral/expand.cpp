@@ -157,17 +157,23 @@ float flip_delta(uint16_t cur, float s) {
     return half_to_float(other_side(cur, v, s)) - v;
 }
 
-// The lowest bin whose flip makes the squared error smallest and below e's, or p.bins if none does.
-size_t best_flip_scalar(const FeedbackPlanes& p, const float* delta, const float* e) {
-    size_t best = p.bins;
+// The lowest bin whose flip (its move by delta[k], weighed by the colour weights wr, wg, wb) makes
+// the squared error smallest and below e's, or bins if none does.
+size_t best_flip(const float* wr, const float* wg, const float* wb, size_t bins, const float* delta,
+                 const float* e) {
+    size_t best = bins;
     float best_e2 = squared(e);
-    for (size_t k = 0; k < p.bins; ++k) {
-        const float x = e[0] + p.wr[k] * delta[k], y = e[1] + p.wg[k] * delta[k],
-                    z = e[2] + p.wb[k] * delta[k];
+    for (size_t k = 0; k < bins; ++k) {
+        const float x = e[0] + wr[k] * delta[k], y = e[1] + wg[k] * delta[k],
+                    z = e[2] + wb[k] * delta[k];
         const float t = x * x + y * y + z * z;
         if (t < best_e2) best_e2 = t, best = k;
     }
     return best;
+}
+
+size_t best_flip_scalar(const FeedbackPlanes& p, const float* delta, const float* e) {
+    return best_flip(p.wr, p.wg, p.wb, p.bins, delta, e);
 }
 
 // Fills delta for a pixel none of whose bins has flipped yet (each holds round(s)); returns the
@@ -456,14 +462,8 @@ void round_spectra_to_half(const float* spectra, size_t spectra_stride, size_t n
             for (size_t k = 0; k < bins; ++k)
                 delta[k] = flip_delta(px[k * plane_stride], s[k * spectra_stride]);
             for (int flip = 1; flip <= kMaxFlips; ++flip) {
-                size_t best = bins;
-                float best_e2 = squared(e);
-                for (size_t k = 0; k < bins; ++k) {
-                    const float x = e[0] + w[0][k] * delta[k], y = e[1] + w[1][k] * delta[k],
-                                z = e[2] + w[2][k] * delta[k];
-                    const float t = x * x + y * y + z * z;
-                    if (t < best_e2) best_e2 = t, best = k;
-                }
+                const size_t best =
+                    best_flip(w[0].data(), w[1].data(), w[2].data(), bins, delta.data(), e);
                 if (best == bins) break;
                 uint16_t& h = px[best * plane_stride];
                 const float sk = s[best * spectra_stride];
@@ -557,14 +557,7 @@ bool round_pixel_on_grid(const float* s, size_t spectra_stride, size_t bins,
         delta[k] = half_to_float(other_side_step(h, hv, sk, steps[k])) - hv;
     };
     for (int flip = 1; flip <= max_flips; ++flip) {
-        size_t best = bins;
-        float best_e2 = squared(e);
-        for (size_t k = 0; k < bins; ++k) {
-            const float x = e[0] + w[0][k] * delta[k], y = e[1] + w[1][k] * delta[k],
-                        z = e[2] + w[2][k] * delta[k];
-            const float t = x * x + y * y + z * z;
-            if (t < best_e2) best_e2 = t, best = k;
-        }
+        const size_t best = best_flip(w[0].data(), w[1].data(), w[2].data(), bins, delta, e);
         if (best == bins) break;
         move(best);
         if (within_tolerance(e)) return true;

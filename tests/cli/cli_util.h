@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstdint>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -145,6 +146,29 @@ inline void write_image(const std::string& path, int w, int h, int nch, OIIO::Ty
     auto out = OIIO::ImageOutput::create(path);
     if (!out || !out->open(path, spec) || !out->write_image(format, pixels) || !out->close())
         throw std::runtime_error("cannot write test image " + path + ": " + OIIO::geterror());
+}
+
+// An 8-bit RGB PNG whose pixels depend on `seed`: another seed, another picture of the same size.
+inline void write_pattern_png(const std::string& path, int seed, int w = 8, int h = 8) {
+    std::vector<uint8_t> px(static_cast<size_t>(w * h * 3));
+    for (size_t i = 0; i < px.size(); ++i)
+        px[i] = static_cast<uint8_t>((i * 37 + static_cast<size_t>(seed) * 11) & 255);
+    write_image(path, w, h, 3, OIIO::TypeDesc::UINT8, px.data());
+}
+
+// A 4x4 binary PPM whose pixels depend on `seed`: every one has the same byte size, so a
+// replacement keeps the size and only the content hash can tell.
+inline void write_pattern_ppm(const std::string& path, int seed) {
+    std::string bytes = "P6\n4 4\n255\n";
+    for (int i = 0; i < 48; ++i) bytes.push_back(static_cast<char>((i * 29 + seed * 13) & 255));
+    std::ofstream(path, std::ios::binary) << bytes;
+}
+
+// How many times `needle` occurs in `s` (overlaps counted).
+inline size_t occurrences(const std::string& s, const std::string& needle) {
+    size_t n = 0;
+    for (size_t p = s.find(needle); p != std::string::npos; p = s.find(needle, p + 1)) ++n;
+    return n;
 }
 
 inline bool file_exists(const std::string& p) {

@@ -20,35 +20,11 @@ using namespace spectex_test;
 
 namespace {
 
-void write_png(const std::string& path, int seed, int w = 8, int h = 8) {
-    std::vector<uint8_t> px(static_cast<size_t>(w * h * 3));
-    for (size_t i = 0; i < px.size(); ++i)
-        px[i] = static_cast<uint8_t>((i * 37 + static_cast<size_t>(seed) * 11) & 255);
-    write_image(path, w, h, 3, OIIO::TypeDesc::UINT8, px.data());
-}
-
-// A binary PPM: every picture of one size has the same byte size, so a replacement keeps it and
-// only the hash can tell.
-void write_ppm(const std::string& path, int seed) {
-    std::string bytes = "P6\n4 4\n255\n";
-    for (int i = 0; i < 48; ++i) bytes.push_back(static_cast<char>((i * 29 + seed * 13) & 255));
-    FILE* f = std::fopen(path.c_str(), "wb");
-    ASSERT_NE(f, nullptr);
-    std::fwrite(bytes.data(), 1, bytes.size(), f);
-    std::fclose(f);
-}
-
 void write_text(const std::string& path, const std::string& text) {
     FILE* f = std::fopen(path.c_str(), "wb");
     ASSERT_NE(f, nullptr);
     std::fwrite(text.data(), 1, text.size(), f);
     std::fclose(f);
-}
-
-size_t count(const std::string& s, const std::string& needle) {
-    size_t n = 0;
-    for (size_t p = s.find(needle); p != std::string::npos; p = s.find(needle, p + 1)) ++n;
-    return n;
 }
 
 // Renames header attributes in place (same length), as a file made before spectex wrote them.
@@ -82,10 +58,10 @@ std::string sh(const std::string& s) { return "'" + replace_all(s, "'", "'\\''")
 
 TEST(ProvenanceTruth, VerifyReportsASourceReplacedSinceTheBakeAsChanged) {
     ScratchDir d;
-    write_png(d / "a.png", 1);
+    write_pattern_png(d / "a.png", 1);
     ASSERT_EQ(run_spectex({"bake", d / "a.png", "-o", d / "a.exr"}).status, 0);
     // The texture is repainted after the bake (same size in pixels, other colours).
-    write_png(d / "a.png", 7);
+    write_pattern_png(d / "a.png", 7);
     RunResult r = run_spectex({"verify", d / "a.exr", "--source-from-header"});
     EXPECT_EQ(r.status, 1) << r.out << r.err;
     EXPECT_NE(r.out.find("result:               STALE: the source"), std::string::npos) << r.out;
@@ -106,23 +82,23 @@ TEST(ProvenanceTruth, VerifyReportsASourceReplacedSinceTheBakeAsChanged) {
 
 TEST(ProvenanceTruth, VerifyTellsASameSizeReplacementByItsBytesAndIgnoresATouch) {
     ScratchDir d;
-    write_ppm(d / "a.ppm", 1);
-    write_ppm(d / "b.ppm", 1);
+    write_pattern_ppm(d / "a.ppm", 1);
+    write_pattern_ppm(d / "b.ppm", 1);
     ASSERT_EQ(run_spectex({"bake", d / "a.ppm", d / "b.ppm", "--output-dir", d / "out"}).status, 0);
-    write_ppm(d / "a.ppm", 2);  // same byte size, other bytes
+    write_pattern_ppm(d / "a.ppm", 2);  // same byte size, other bytes
     struct timespec ts[2] = {{946684800, 0}, {946684800, 0}};
     ASSERT_EQ(::utimensat(AT_FDCWD, (d / "b.ppm").c_str(), ts, 0), 0);  // a touch: same bytes
     const RunResult r = run_spectex(
         {"verify", d / "out/a.exr", d / "out/b.exr", "--source-from-header", "--json", "-"});
     EXPECT_EQ(r.status, 1) << r.err;
-    EXPECT_EQ(count(r.out, "\"result\":\"stale\""), 1u) << r.out;
-    EXPECT_EQ(count(r.out, "\"result\":\"ok\""), 1u) << r.out;
+    EXPECT_EQ(occurrences(r.out, "\"result\":\"stale\""), 1u) << r.out;
+    EXPECT_EQ(occurrences(r.out, "\"result\":\"ok\""), 1u) << r.out;
     EXPECT_NE(r.out.find("b.exr\",\"width\""), std::string::npos) << r.out;
 }
 
 TEST(ProvenanceTruth, VerifyStillCallsABadBakeOfTheRightSourceAColourFailure) {
     ScratchDir d;
-    write_png(d / "a.png", 1);
+    write_pattern_png(d / "a.png", 1);
     ASSERT_EQ(run_spectex({"bake", d / "a.png", "-o", d / "a.exr"}).status, 0);
     // The source is the one recorded; its colours are read as something else than at the bake:
     // the colours differ, and that is a colour failure, not a stale file.
@@ -136,10 +112,10 @@ TEST(ProvenanceTruth, VerifyStillCallsABadBakeOfTheRightSourceAColourFailure) {
 
 TEST(ProvenanceTruth, VerifyOfAFileThatRecordsNoIdentityComparesColoursAsBefore) {
     ScratchDir d;
-    write_png(d / "a.png", 1);
+    write_pattern_png(d / "a.png", 1);
     ASSERT_EQ(run_spectex({"bake", d / "a.png", "-o", d / "a.exr"}).status, 0);
     hide_attributes(d / "a.exr", {"spectex:sourceHash", "spectex:sourceSize"});
-    write_png(d / "a.png", 7);
+    write_pattern_png(d / "a.png", 7);
     const RunResult r = run_spectex({"verify", d / "a.exr", "--source-from-header"});
     EXPECT_EQ(r.status, 1) << r.err;
     EXPECT_NE(r.out.find("result:               FAILED: CIEDE2000 max"), std::string::npos)
@@ -155,8 +131,8 @@ namespace {
 // Bakes a.png and b.png with config `cfg` into out/, then rewrites the config as `edited` and runs
 // --update: returns its JSON Lines.
 std::string update_after_edit(const ScratchDir& d, const std::string& edited) {
-    write_png(d / "a.png", 1);
-    write_png(d / "b.png", 2);
+    write_pattern_png(d / "a.png", 1);
+    write_pattern_png(d / "b.png", 2);
     write_text(d / "c.ocio", shipped_config());
     const std::vector<std::string> bake = {"bake",       d / "a.png",    d / "b.png", "--config",
                                            d / "c.ocio", "--output-dir", d / "out"};
@@ -185,7 +161,7 @@ TEST(ProvenanceTruth, UpdateKeepsOutputsWhenTheConfigOnlyGainsACommentOrAnUnused
     // A transform the files do not use changes too (gamma 2.2 space).
     cfg = replace_all(cfg, "{value: 2.2, style: pass_thru", "{value: 2.3, style: pass_thru");
     const std::string out = update_after_edit(d, cfg);
-    EXPECT_EQ(count(out, "\"status\":\"skipped\""), 2u) << out;
+    EXPECT_EQ(occurrences(out, "\"status\":\"skipped\""), 2u) << out;
 }
 
 TEST(ProvenanceTruth, UpdateRebakesWhenTheTransformTheFilesUseChanges) {
@@ -194,13 +170,13 @@ TEST(ProvenanceTruth, UpdateRebakesWhenTheTransformTheFilesUseChanges) {
         replace_all(shipped_config(), "gamma: 2.4, offset: 0.055", "gamma: 2.5, offset: 0.055");
     ASSERT_NE(cfg, shipped_config());
     const std::string out = update_after_edit(d, cfg);
-    EXPECT_EQ(count(out, "\"status\":\"ok\""), 2u) << out;
-    EXPECT_EQ(count(out, "\"status\":\"skipped\""), 0u) << out;
+    EXPECT_EQ(occurrences(out, "\"status\":\"ok\""), 2u) << out;
+    EXPECT_EQ(occurrences(out, "\"status\":\"skipped\""), 0u) << out;
 }
 
 TEST(ProvenanceTruth, UpdateRebakesAnOutputThatRecordsNoColourTransformOnce) {
     ScratchDir d;
-    write_png(d / "a.png", 1);
+    write_pattern_png(d / "a.png", 1);
     write_text(d / "c.ocio", shipped_config());
     const std::vector<std::string> bake = {"bake",      d / "a.png", "--config", d / "c.ocio", "-o",
                                            d / "a.exr", "--update",  "--json",   "-"};
@@ -211,11 +187,11 @@ TEST(ProvenanceTruth, UpdateRebakesAnOutputThatRecordsNoColourTransformOnce) {
     hide_attributes(d / "a.exr", {"spectex:colorTransform"});
     RunResult r = run_spectex(bake);
     ASSERT_EQ(r.status, 0) << r.err;
-    EXPECT_EQ(count(r.out, "\"status\":\"ok\""), 1u) << r.out;
+    EXPECT_EQ(occurrences(r.out, "\"status\":\"ok\""), 1u) << r.out;
     EXPECT_TRUE(read_exr(d / "a.exr").has_attr("spectex:colorTransform"));
     r = run_spectex(bake);
     ASSERT_EQ(r.status, 0) << r.err;
-    EXPECT_EQ(count(r.out, "\"status\":\"skipped\""), 1u) << r.out;
+    EXPECT_EQ(occurrences(r.out, "\"status\":\"skipped\""), 1u) << r.out;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -230,12 +206,12 @@ TEST(ProvenanceTruth, EachOutputOfABatchRecordsACommandThatRebuildsItAlone) {
     for (int i = 0; i < n; ++i) {
         char name[32];
         std::snprintf(name, sizeof name, "tex/t%03d.png", i);
-        write_png(d / name, i, 4, 4);
+        write_pattern_png(d / name, i, 4, 4);
         list += std::string(name) + "\n";
     }
     // Names a shell must be told about: a space and a quote, and a leading dash.
-    write_png(d / "tex/it's a tile.png", 3, 4, 4);
-    write_png(d / "tex/-dash.png", 4, 4, 4);
+    write_pattern_png(d / "tex/it's a tile.png", 3, 4, 4);
+    write_pattern_png(d / "tex/-dash.png", 4, 4, 4);
     list += "tex/it's a tile.png\ntex/-dash.png\n";
     write_text(d / "list.txt", list);
     const RunResult r = run_shell("cd " + sh(d.path()) + " && " + sh(bin) +

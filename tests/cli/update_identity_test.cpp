@@ -41,36 +41,13 @@ void set_mtime(const std::string& path, time_t sec, long nsec = 0) {
     ASSERT_EQ(::utimensat(AT_FDCWD, path.c_str(), ts, 0), 0) << path;
 }
 
-void write_png(const std::string& path, int seed, int w = 8, int h = 8) {
-    std::vector<uint8_t> px(static_cast<size_t>(w * h * 3));
-    for (size_t i = 0; i < px.size(); ++i)
-        px[i] = static_cast<uint8_t>((i * 37 + static_cast<size_t>(seed) * 11) & 255);
-    write_image(path, w, h, 3, OIIO::TypeDesc::UINT8, px.data());
-}
-
-// A binary PPM: the same size for every picture of one size, so a replacement can keep the size.
-void write_ppm(const std::string& path, int seed) {
-    std::string bytes = "P6\n4 4\n255\n";
-    for (int i = 0; i < 48; ++i) bytes.push_back(static_cast<char>((i * 29 + seed * 13) & 255));
-    FILE* f = std::fopen(path.c_str(), "wb");
-    ASSERT_NE(f, nullptr);
-    std::fwrite(bytes.data(), 1, bytes.size(), f);
-    std::fclose(f);
-}
-
-size_t count(const std::string& s, const std::string& needle) {
-    size_t n = 0;
-    for (size_t p = s.find(needle); p != std::string::npos; p = s.find(needle, p + 1)) ++n;
-    return n;
-}
-
 }  // namespace
 
 TEST(UpdateIdentity, HeaderRecordsTheSourcesSizeTimeAndHash) {
     ScratchDir d;
     // PNG and JPEG read in order; TIFF and EXR readers seek (directories, offset tables), and a
     // tiled TIFF is read whole: the hash must still be of the bytes in file order.
-    write_png(d / "a.png", 1, 40, 30);
+    write_pattern_png(d / "a.png", 1, 40, 30);
     std::vector<uint8_t> px(64 * 48 * 3);
     for (size_t i = 0; i < px.size(); ++i) px[i] = static_cast<uint8_t>((i * 7) & 255);
     write_image(d / "b.tif", 64, 48, 3, OIIO::TypeDesc::UINT8, px.data());
@@ -80,7 +57,7 @@ TEST(UpdateIdentity, HeaderRecordsTheSourcesSizeTimeAndHash) {
     for (float& v : fpx) v /= 255.0f;
     write_image(d / "e.exr", 64, 48, 3, OIIO::TypeDesc::FLOAT, fpx.data());
     write_image(d / "f.tga", 64, 48, 3, OIIO::TypeDesc::UINT8, px.data());
-    write_ppm(d / "g.ppm", 1);
+    write_pattern_ppm(d / "g.ppm", 1);
     for (const char* name : {"a.png", "b.tif", "c.tif", "d.jpg", "e.exr", "f.tga", "g.ppm"}) {
         const std::string in = d / name, out = d / (std::string(name) + ".spectral.exr");
         const RunResult r = run_spectex({"bake", in, "-o", out});
@@ -96,17 +73,17 @@ TEST(UpdateIdentity, HeaderRecordsTheSourcesSizeTimeAndHash) {
 
 TEST(UpdateIdentity, ASourceReplacedByAnOlderDatedFileIsRebuilt) {
     ScratchDir d;
-    write_png(d / "a.png", 1);
+    write_pattern_png(d / "a.png", 1);
     ASSERT_EQ(run_spectex({"bake", d / "a.png", "-o", d / "a.exr"}).status, 0);
     const std::string before = read_exr(d / "a.exr").attr("spectex:sourceHash");
     // A restore (or rsync -t, a checkout) puts other bytes in place with a date older than the
     // output.
-    write_png(d / "a.png", 2);
+    write_pattern_png(d / "a.png", 2);
     set_mtime(d / "a.png", 946684800);  // 2000-01-01
     const RunResult r =
         run_spectex({"bake", d / "a.png", "-o", d / "a.exr", "--update", "--json", "-"});
     ASSERT_EQ(r.status, 0) << r.err;
-    EXPECT_EQ(count(r.out, "\"status\":\"ok\""), 1u) << r.out;
+    EXPECT_EQ(occurrences(r.out, "\"status\":\"ok\""), 1u) << r.out;
     const ExrImage img = read_exr(d / "a.exr");
     EXPECT_NE(img.attr("spectex:sourceHash"), before);
     EXPECT_EQ(img.attr("spectex:sourceHash"), fnv1a64_of_file(d / "a.png"));
@@ -115,30 +92,31 @@ TEST(UpdateIdentity, ASourceReplacedByAnOlderDatedFileIsRebuilt) {
 
 TEST(UpdateIdentity, AReplacementOfTheSameSizeAndAnOlderDateIsRebuilt) {
     ScratchDir d;
-    write_ppm(d / "a.ppm", 1);
+    write_pattern_ppm(d / "a.ppm", 1);
     ASSERT_EQ(run_spectex({"bake", d / "a.ppm", "-o", d / "a.exr"}).status, 0);
-    write_ppm(d / "a.ppm", 2);
+    write_pattern_ppm(d / "a.ppm", 2);
     ASSERT_EQ(read_file(d / "a.ppm").size(), 59u);
     set_mtime(d / "a.ppm", 946684800);
     const RunResult r =
         run_spectex({"bake", d / "a.ppm", "-o", d / "a.exr", "--update", "--json", "-"});
     ASSERT_EQ(r.status, 0) << r.err;
-    EXPECT_EQ(count(r.out, "\"status\":\"ok\""), 1u) << r.out;
+    EXPECT_EQ(occurrences(r.out, "\"status\":\"ok\""), 1u) << r.out;
     EXPECT_EQ(read_exr(d / "a.exr").attr("spectex:sourceSize"), "59");
     EXPECT_EQ(read_exr(d / "a.exr").attr("spectex:sourceHash"), fnv1a64_of_file(d / "a.ppm"));
 }
 
 TEST(UpdateIdentity, ATouchedSourceWithTheSameBytesIsUpToDate) {
     ScratchDir d;
-    write_png(d / "a.png", 1);
-    write_png(d / "b.png", 2);
+    write_pattern_png(d / "a.png", 1);
+    write_pattern_png(d / "b.png", 2);
     ASSERT_EQ(run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out"}).status, 0);
     RunResult r = run_spectex(
         {"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update", "--json", "-"});
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_EQ(
-        count(r.out,
-              "\"reason\":\"up to date: same settings hash, source size and modification time\""),
+        occurrences(
+            r.out,
+            "\"reason\":\"up to date: same settings hash, source size and modification time\""),
         2u)
         << r.out;
     // A checkout rewrites a with the same bytes and a new date; older or newer, it stays up to
@@ -148,14 +126,14 @@ TEST(UpdateIdentity, ATouchedSourceWithTheSameBytesIsUpToDate) {
     r = run_spectex(
         {"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update", "--json", "-"});
     ASSERT_EQ(r.status, 0) << r.err;
-    EXPECT_EQ(count(r.out, "\"status\":\"skipped\""), 2u) << r.out;
-    EXPECT_EQ(count(r.out, "its modification time changed"), 2u) << r.out;
+    EXPECT_EQ(occurrences(r.out, "\"status\":\"skipped\""), 2u) << r.out;
+    EXPECT_EQ(occurrences(r.out, "its modification time changed"), 2u) << r.out;
     EXPECT_NE(r.err.find("0 baked, 2 up to date"), std::string::npos) << r.err;
 }
 
 TEST(UpdateIdentity, AnOutputThatDoesNotRecordItsSourceIsRebuilt) {
     ScratchDir d;
-    write_png(d / "a.png", 1);
+    write_pattern_png(d / "a.png", 1);
     ASSERT_EQ(run_spectex({"bake", d / "a.png", "-o", d / "a.exr"}).status, 0);
     // An output made before the identity was recorded: rename the attributes in place (same
     // length), so that the header no longer holds them.
@@ -176,6 +154,6 @@ TEST(UpdateIdentity, AnOutputThatDoesNotRecordItsSourceIsRebuilt) {
     const RunResult r =
         run_spectex({"bake", d / "a.png", "-o", d / "a.exr", "--update", "--json", "-"});
     ASSERT_EQ(r.status, 0) << r.err;
-    EXPECT_EQ(count(r.out, "\"status\":\"ok\""), 1u) << r.out;
+    EXPECT_EQ(occurrences(r.out, "\"status\":\"ok\""), 1u) << r.out;
     EXPECT_TRUE(read_exr(d / "a.exr").has_attr("spectex:sourceHash"));
 }
