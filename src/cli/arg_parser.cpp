@@ -217,6 +217,12 @@ double parse_number(const std::string& option, const std::string& value) {
     return v;
 }
 
+double parse_budget_de(const std::string& option, const std::string& value) {
+    const double v = parse_number(option, value);
+    if (!(v > 0)) throw UsageError(option + ": '" + value + "' is not a positive ΔE00");
+    return v;
+}
+
 void require_one_input(const std::vector<std::string>& files) {
     if (files.empty()) throw UsageError("no input file");
     if (files.size() > 1)

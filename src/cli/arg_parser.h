@@ -68,6 +68,8 @@ class ArgParser {
 // Typed parsing at the edge: "--threads 4" etc. Throw UsageError naming the option.
 int parse_int(const std::string& option, const std::string& value, int min, int max);
 double parse_number(const std::string& option, const std::string& value);
+// A ΔE00 budget (--max-de, --precision-de): a finite number above 0.
+double parse_budget_de(const std::string& option, const std::string& value);
 uint64_t parse_count(const std::string& option, const std::string& value);
 // A command that reads one file: "no input file" or "one file at a time (got N)" otherwise.
 void require_one_input(const std::vector<std::string>& files);

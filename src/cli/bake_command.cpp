@@ -234,9 +234,7 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
              "The budget of --precision auto when it differs from --max-de (the grid's budget "
              "with --wavelengths auto): the worst ΔE00, rounded against unrounded.",
              [&](const std::string& v) {
-                 c.precision_de = parse_number("--precision-de", v);
-                 if (!(c.precision_de > 0) || !std::isfinite(c.precision_de))
-                     throw UsageError("--precision-de: '" + v + "' is not a positive ΔE00");
+                 c.precision_de = parse_budget_de("--precision-de", v);
                  c.precision_de_given = true;
              });
     p.option("--alpha", "associated|unassociated",

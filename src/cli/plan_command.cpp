@@ -33,9 +33,7 @@ void add_plan_options(ArgParser& p, PlanSpec& spec, bool& lights_given, bool& bu
     p.option("--max-de", "DE",
              "Budget: the worst ΔE00 of any colour under every light (plan's default 0.5).",
              [&](const std::string& v) {
-                 spec.max_de = parse_number("--max-de", v);
-                 if (!(spec.max_de > 0))
-                     throw UsageError("--max-de: '" + v + "' is not a positive ΔE00");
+                 spec.max_de = parse_budget_de("--max-de", v);
                  budget_given = true;
              });
     p.option("--reconstruction", "linear|nearest|box",
@@ -217,13 +215,10 @@ void add_measure_options(ArgParser& p, PlanOptions& o) {
                      throw UsageError("--precision: '" + v + "' is not one of full, auto");
                  spec.precision = v == "auto";
              });
-    p.option("--precision-de", "DE",
-             "The budget of --precision auto, rounded against unrounded (default --max-de).",
-             [&](const std::string& v) {
-                 spec.precision_de = parse_number("--precision-de", v);
-                 if (!(spec.precision_de > 0) || !std::isfinite(spec.precision_de))
-                     throw UsageError("--precision-de: '" + v + "' is not a positive ΔE00");
-             });
+    p.option(
+        "--precision-de", "DE",
+        "The budget of --precision auto, rounded against unrounded (default --max-de).",
+        [&](const std::string& v) { spec.precision_de = parse_budget_de("--precision-de", v); });
     p.option(
         "--sample-stride", "N",
         "The dense sample: every N-th 8-bit code and 255 per axis (default 4: 274,625 colours).",
