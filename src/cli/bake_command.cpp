@@ -15,6 +15,7 @@
 #include "cli/arg_parser.h"
 #include "cli/batch_runner.h"
 #include "cli/commands.h"
+#include "cli/method_options.h"
 #include "io/atomic_file.h"
 #include "io/data_dir.h"
 #include "io/exr_compression.h"
@@ -27,7 +28,7 @@
 #include "pipeline/batch.h"
 #include "pipeline/batch_run.h"
 #include "pipeline/light_list.h"
-#include "pipeline/method_cache.h"
+#include "pipeline/method_table.h"
 #include "pipeline/plan.h"
 #include "spectral/basis_fit.h"
 #include "spectral/colorimetry.h"
@@ -51,14 +52,11 @@ struct BakeCli {
                         compression = ExrCompression::kDefault;
     std::string alpha = "associated", range = "clamp", nan = "replace";
     std::string wavelengths_file;
-    std::string method = "basis", vertex_prior = "jakob-hanika";
-    int lattice_size = 9, jh_resolution = 33;
-    bool jh_given = false;
+    // --method and the options of each method (method_options.h): what bake builds and what
+    // --wavelengths auto plans with.
+    MethodOptions m;
     bool allow_lossy = false;  // --allow-lossy: a compression that changes samples is wanted
-    bool basis_given = false, objective_given = false, lattice_given = false,
-         wavelengths_given = false;
-    std::string objective = "smooth";  // --objective, parsed into fit.objective
-    FitSpec fit;
+    bool wavelengths_given = false;
     std::string output_dir, base_dir, from_list, json, shard;
     std::string wrap, swrap, twrap;  // --wrap MODE[,MODE], --swrap, --twrap
     bool wrap_given = false, swrap_given = false, twrap_given = false;
@@ -281,73 +279,13 @@ void declare_spectra_options(ArgParser& p, BakeCli& c) {
     add_plan_options(p, c.plan, c.plan_lights, c.plan_budget);
     add_cache_option(p, c.no_cache);
     p.section("Method");
-    p.option(
-        "--method", "basis|lattice|jakob-hanika",
-        "How a linear RGB becomes a spectrum. basis: r·S_r + g·S_g + b·S_b with --basis (exact "
-        "under "
-        "the illuminant). lattice: exact vertex spectra on an N^3 lattice over linear RGB, "
-        "tetrahedral "
-        "interpolation (exact under the illuminant, natural under other light). jakob-hanika: "
-        "pbrt-v4's "
-        "sigmoid spectra (not exact: for comparison and render-time consistency). Default basis.",
-        [&](const std::string& v) {
-            if (v != "basis" && v != "lattice" && v != "jakob-hanika")
-                throw UsageError("--method: '" + v +
-                                 "' is not one of basis, lattice, jakob-hanika");
-            c.method = v;
-        });
-    p.option("--lattice-size", "N",
-             "Breakpoints per axis of the lattice (default 9; 2 to 65). N^3 x bins is limited "
-             "to 2^27\n(134,217,728: 65 on a 1 nm grid over 360:830 fits); more is a usage error "
-             "before any work.",
-             [&](const std::string& v) {
-                 c.lattice_size = parse_int("--lattice-size", v, 2, 65);
-                 c.lattice_given = true;
-             });
-    p.option("--vertex-prior", "jakob-hanika|smooth|blend|lhtss",
-             "What the lattice's vertex spectra are closest to while exact: jakob-hanika (default: "
-             "the sigmoid spectrum, projected), smooth (least first differences), blend (both, "
-             "smoothness weight 100), lhtss (the smoothest spectrum in tanh space, Burns 2020: "
-             "bounded by construction).",
-             [&](const std::string& v) {
-                 c.vertex_prior = vertex_prior_option(v);
-                 c.lattice_given = true;
-             });
-    p.option("--jh-resolution", "N",
-             "Nodes per axis of the jakob-hanika coefficient table (default 33; pbrt-v4 uses 64, "
-             "which takes "
-             "about 6 s to build; 3 to 64; N^3 x bins within the same 2^27 limit as the "
-             "lattice).",
-             [&](const std::string& v) {
-                 c.jh_resolution = parse_int("--jh-resolution", v, 3, 64);
-                 c.jh_given = true;
-             });
-    p.option("--basis", "fit|mallett2019|FILE",
-             "fit (default): a basis fitted on the output grid by 'spectex basis' rules, exact on "
-             "any grid; "
-             "mallett2019: the published table (380:780:5 only); or a CSV wavelength,r,g,b on the "
-             "output grid.",
-             [&](const std::string& v) {
-                 c.basis = v;
-                 c.basis_given = true;
-             });
-    p.flag("--allow-infeasible",
-           "When no exact basis exists on the grid, bake with the least-squares closest one "
-           "(colours are then "
-           "not exact; a warning gives the miss and the header records it).",
-           [&] { c.fit.allow_infeasible = true; });
-    p.option("--objective", "smooth|norm",
-             "Objective of the fitted basis (default smooth; see spectex basis).",
-             [&](const std::string& v) {
-                 c.objective = v;
-                 c.objective_given = true;
-             });
-    observer_option(p, "Observer of the fitted basis", c.fit.observer);
+    add_method_options(p, c.m, true);
+    observer_option(p, "Observer of the fitted basis", c.m.spec.fit.observer);
     p.option("--illuminant", "NAME|FILE",
              "Illuminant under which the fitted basis is exact: " +
                  shipped_illuminants_list(FitSpec().illuminant) + " (any case), " +
                  colour_temperature_help() + ", or a CSV wavelength,value.",
-             [&](const std::string& v) { c.fit.illuminant = v; });
+             [&](const std::string& v) { c.m.spec.fit.illuminant = v; });
 }
 
 void declare_batch_options(ArgParser& p, BakeCli& c) {
@@ -487,18 +425,11 @@ void check_method_options(BakeCli& c) {
                          "one (" +
                          ExrCompression::lossless_list(", ", " or ") +
                          "), or add --allow-lossy to accept the loss");
-    if (c.method != "basis" && (c.basis_given || c.objective_given || c.fit.allow_infeasible))
-        throw UsageError(
-            "--basis, --objective and --allow-infeasible choose the basis of --method basis, "
-            "not of "
-            "--method " +
-            c.method);
-    if (c.method != "lattice" && c.lattice_given)
-        throw UsageError("--lattice-size and --vertex-prior belong to --method lattice");
-    if (c.method != "jakob-hanika" && c.jh_given)
-        throw UsageError("--jh-resolution belongs to --method jakob-hanika");
-    if (c.method != "basis" && c.range == "keep")
-        throw UsageError("--out-of-range keep needs --method basis: the " + c.method +
+    check_method_options(c.m);
+    const MethodRow& row = method_row(c.m.spec.kind);
+    if (!row.takes_out_of_range && c.range == "keep")
+        throw UsageError("--out-of-range keep needs a method defined outside [0, 1] (--method " +
+                         method_table().front().name + "): the " + row.name +
                          " method is defined on linear RGB in [0, 1] only");
 }
 
@@ -523,7 +454,6 @@ void check_precision_options(const BakeCli& c) {
 
 // The output grid: given, read from a file, or chosen by --wavelengths auto.
 void check_grid_options(BakeCli& c) {
-    c.fit.objective = parse_objective_option(c.objective);
     const bool automatic = c.wavelengths == "auto";
     if (automatic) {
         if (!c.wavelengths_file.empty())
@@ -532,12 +462,12 @@ void check_grid_options(BakeCli& c) {
             throw UsageError(
                 "--wavelengths auto needs --lights and --max-de (the scene's lights and the "
                 "error budget)");
-        if (c.method == "basis" && c.basis != "fit")
+        if (c.m.spec.kind == MethodKind::Basis && c.m.basis != "fit")
             throw UsageError("--wavelengths auto fits the basis on the chosen grid; --basis " +
-                             c.basis + " has a grid of its own");
-        if (c.plan.nonuniform && c.method != "basis")
-            throw UsageError(
-                "--nonuniform searches with the basis' 3x3 maps: it needs --method basis");
+                             c.m.basis + " has a grid of its own");
+        if (c.plan.nonuniform && !method_row(c.m.spec.kind).linear)
+            throw UsageError("--nonuniform searches with a linear method's 3x3 maps: --method " +
+                             c.m.spec.name() + " is not linear (use --method basis)");
     } else if (((c.plan_lights || c.plan_budget) && c.precision != "auto") ||
                !c.plan.candidates.empty() || c.plan.nonuniform) {
         throw UsageError(
@@ -554,17 +484,14 @@ void check_grid_options(BakeCli& c) {
     }
 }
 
-// The method as --wavelengths auto plans with it, from the options.
+// The method as --wavelengths auto plans with it: the one bake builds (its grid set per candidate).
 void fill_plan_method(BakeCli& c) {
-    c.plan.method.method = c.method;
-    c.plan.method.fit = c.fit;
-    c.plan.method.lattice_size = c.lattice_size;
-    c.plan.method.vertex_prior = c.vertex_prior;
-    c.plan.method.jh_resolution = c.jh_resolution;
+    c.plan.method = c.m.spec;
+    c.plan.method.fit.data_dir = c.settings.data_dir;
 }
 
 // What the options cost, refused before any work when over a documented limit: the method's
-// table on the grid given (method_cache.h), or with --wavelengths auto the plan (plan.h), its
+// table on the grid given (method_table.h), or with --wavelengths auto the plan (plan.h), its
 // lights each once.
 void check_cost_options(BakeCli& c) {
     try {
@@ -573,11 +500,7 @@ void check_cost_options(BakeCli& c) {
             fill_plan_method(c);
             check_plan_cost(c.plan);
         } else if (c.wavelengths_file.empty()) {
-            MethodSpec m;
-            m.method = c.method;
-            m.lattice_size = c.lattice_size;
-            m.jh_resolution = c.jh_resolution;
-            check_method_cost(m, c.settings.grid.size(),
+            check_method_cost(c.m.spec, c.settings.grid.size(),
                               std::to_string(c.settings.grid.size()) + " bins");
         }
     } catch (const LimitError& e) {
@@ -657,9 +580,9 @@ void check_outputs_against_reads(const BakeCli& c, const BatchPlan& plan) {
         reads.add(files.front(), "the OCIO config");
         for (size_t i = 1; i < files.size(); ++i) reads.add(files[i], "a LUT file of " + config);
     }
-    if (c.basis != "fit" && c.basis != "mallett2019") reads.add(c.basis, "--basis");
-    reads.add(c.fit.observer, "--observer");
-    reads.add(c.fit.illuminant, "--illuminant");
+    if (c.m.basis != "fit" && c.m.basis != "mallett2019") reads.add(c.m.basis, "--basis");
+    reads.add(c.m.spec.fit.observer, "--observer");
+    reads.add(c.m.spec.fit.illuminant, "--illuminant");
     reads.add(c.wavelengths_file, "--wavelengths-file");
     if (c.wavelengths == "auto")
         for (const auto& l : c.plan.lights) reads.add(l, "--lights");
@@ -723,21 +646,22 @@ void record_auto_plan(BakeCli& c) {
 // --basis mallett2019 or FILE (with --method basis): read now (cheap), checked against the output
 // grid, which it sets without --wavelengths; null for a fitted basis or another method.
 std::shared_ptr<Basis> load_given_basis(BakeCli& c) {
-    if (c.method != "basis" || c.basis == "fit") return nullptr;
-    Basis basis = load_basis(c.settings.data_dir, c.basis);
+    if (c.m.spec.kind != MethodKind::Basis || c.m.basis == "fit") return nullptr;
+    Basis basis = load_basis(c.settings.data_dir, c.m.basis);
     // A given basis is exact for the conditions it was made for; the default ones are
     // recorded.
-    if (c.basis == "mallett2019") c.settings.observer = "cie1931-2", c.settings.illuminant = "D65";
+    if (c.m.basis == "mallett2019")
+        c.settings.observer = "cie1931-2", c.settings.illuminant = "D65";
     WavelengthGrid basis_grid;
     try {
         basis_grid = WavelengthGrid::from_list(basis.lambda);
     } catch (const LimitError& e) {
-        throw LimitError("--basis: " + c.basis + ": " + e.what());
+        throw LimitError("--basis: " + c.m.basis + ": " + e.what());
     }
     // Without --wavelengths, the output is on the basis' own grid.
     if (!c.wavelengths_given && c.wavelengths_file.empty()) c.settings.grid = basis_grid;
     if (!same_wavelengths(c.settings.grid.lambda, basis_grid.lambda))
-        throw Error("basis " + c.basis + " is on " + basis_grid.describe() +
+        throw Error("basis " + c.m.basis + " is on " + basis_grid.describe() +
                     ", not on the output grid " + c.settings.grid.describe() +
                     " (the default --basis fit works on any grid)");
     check_basis_values(basis);
@@ -755,12 +679,8 @@ std::string method_recipe(const BakeCli& c, const Basis* file_basis, const Obser
     };
     if (file_basis) {
         add("basis " + file_basis->checksum());
-    } else if (c.method == "basis") {
-        add("basis fit, objective " + to_string(c.fit.objective) +
-            (c.fit.allow_infeasible ? ", infeasible allowed" : ""));
     } else {
-        add(c.method + " lattice " + std::to_string(c.lattice_size) + " prior " + c.vertex_prior +
-            " jh " + std::to_string(c.jh_resolution));
+        add(method_row(c.m.spec.kind).recipe(c.m.spec));
     }
     add_values(observer.x.lambda);
     add_values(observer.x.value);
@@ -908,32 +828,17 @@ void check_colour_space(const BakeCli& c) {
 void build_method(BakeCli& c, std::shared_ptr<Basis> file_basis, const Observer& observer,
                   const Spectrum& illuminant) {
     check_colour_space(c);
-    if (c.method != "basis") {
-        MethodSpec spec;
-        spec.method = c.method;
-        spec.fit = c.fit;
+    if (c.m.spec.kind != MethodKind::Basis || c.m.basis == "fit") {
+        MethodSpec spec = c.m.spec;
         spec.fit.data_dir = c.settings.data_dir;
         spec.fit.grid = c.settings.grid;
-        spec.lattice_size = c.lattice_size;
-        spec.jh_resolution = c.jh_resolution;
-        spec.vertex_prior = c.vertex_prior;
         MethodResult made = make_method(spec);
         c.settings.method = made.method;
+        if (!made.warning.empty() && !c.quiet)
+            std::cerr << "spectex: warning: " << made.warning << "\n";
         if (c.verbose)
             std::cerr << "spectex: " << spec.describe() << ": built in " << made.build_seconds
                       << " s\n";
-    } else if (c.basis == "fit") {
-        c.fit.data_dir = c.settings.data_dir;
-        c.fit.grid = c.settings.grid;
-        FitResult fit = fit_basis_for(c.fit);
-        if (!fit.certificate.feasible && !c.quiet) {
-            const auto& r = fit.certificate.colour_residual;
-            std::cerr << "spectex: warning: no exact basis exists for " << c.fit.describe()
-                      << "; baking with the closest one, which misses the primaries by "
-                      << std::max({r[0], r[1], r[2]}) << " in linear RGB (--allow-infeasible)\n";
-        }
-        c.settings.method =
-            std::make_shared<BasisMethod>(fit.basis, "fitted by spectex: " + c.fit.describe());
     } else {
         // How far the basis is from reproducing the primaries under the colorimetry it is
         // used with: a wrong table (another observer, a flat one) bakes wrong colours
@@ -944,13 +849,13 @@ void build_method(BakeCli& c, std::shared_ptr<Basis> file_basis, const Observer&
         const double miss =
             std::max({cert.colour_residual[0], cert.colour_residual[1], cert.colour_residual[2]});
         if (miss > kBasisPrimaryTolerance && !c.quiet)
-            std::cerr << "spectex: warning: basis " << c.basis << " misses the sRGB primaries by "
+            std::cerr << "spectex: warning: basis " << c.m.basis << " misses the sRGB primaries by "
                       << miss << " in linear RGB under " << c.settings.observer << " and "
                       << c.settings.illuminant << " (tolerance " << kBasisPrimaryTolerance
                       << "): baked colours will be off by up to that\n";
         c.settings.method = std::make_shared<BasisMethod>(
             std::move(*file_basis),
-            c.basis == "mallett2019" ? "published table (Mallett & Yuksel 2019)" : "file");
+            c.m.basis == "mallett2019" ? "published table (Mallett & Yuksel 2019)" : "file");
     }
 }
 
@@ -971,8 +876,8 @@ void prepare_settings(BakeCli& c, BatchPlan& plan) {
     }
     const bool automatic = c.wavelengths == "auto";
     if (automatic) record_auto_plan(c);
-    c.settings.observer = c.fit.observer;
-    c.settings.illuminant = c.fit.illuminant;
+    c.settings.observer = c.m.spec.fit.observer;
+    c.settings.illuminant = c.m.spec.fit.illuminant;
     std::shared_ptr<Basis> file_basis = load_given_basis(c);
     const Observer observer = load_observer(c.settings.data_dir, c.settings.observer);
     const Spectrum illuminant = load_illuminant(c.settings.data_dir, c.settings.illuminant);
@@ -1034,9 +939,10 @@ int run_bake(const std::vector<std::string>& args) {
         if (p.parse_or_help(args, inputs)) return 0;
         check_given_options(c, inputs);
         check_method_options(c);
-        check_observer_setting("--observer", c.fit.observer);
-        check_illuminant_setting("--illuminant", c.fit.illuminant);
-        c.fit.illuminant = light_name(c.fit.illuminant);  // recorded: 3200K, however written
+        check_observer_setting("--observer", c.m.spec.fit.observer);
+        check_illuminant_setting("--illuminant", c.m.spec.fit.illuminant);
+        c.m.spec.fit.illuminant =
+            light_name(c.m.spec.fit.illuminant);  // recorded: 3200K, however written
         for (const auto& l : c.plan.lights) check_illuminant_setting("--lights", l);
         check_grid_options(c);
         check_cost_options(c);

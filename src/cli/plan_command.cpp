@@ -8,6 +8,7 @@
 #include "cli/arg_parser.h"
 #include "cli/batch_runner.h"
 #include "cli/commands.h"
+#include "cli/method_options.h"
 #include "cli/output_check.h"
 #include "io/atomic_file.h"
 #include "io/data_dir.h"
@@ -159,40 +160,18 @@ namespace {
 struct PlanOptions {
     PlanSpec spec;
     std::string type = "half", json, grid_file;
-    bool lights_given = false, budget_given = false, lattice_given = false, no_cache = false,
-         progress = false;
+    MethodOptions m;  // --method and its options, copied into spec.method once all are read
+    bool lights_given = false, budget_given = false, no_cache = false, progress = false;
 };
 
-// --method and what builds it: --lattice-size, --vertex-prior, --objective, --observer,
-// --illuminant.
-void add_method_options(ArgParser& p, PlanOptions& o) {
-    PlanSpec& spec = o.spec;
-    p.option("--method", "basis|lattice|jakob-hanika",
-             "The bake's method (default basis, fitted on each grid).", [&](const std::string& v) {
-                 if (v != "basis" && v != "lattice" && v != "jakob-hanika")
-                     throw UsageError("--method: '" + v +
-                                      "' is not one of basis, lattice, jakob-hanika");
-                 spec.method.method = v;
-             });
-    p.option("--lattice-size", "N",
-             "Breakpoints per axis of the lattice (default 9; N^3 x the bins of every grid and "
-             "of the 1 nm\nreference at most 2^27, the limit of a method's table).",
-             [&](const std::string& v) {
-                 spec.method.lattice_size = parse_int("--lattice-size", v, 2, 65);
-                 o.lattice_given = true;
-             });
-    p.option("--vertex-prior", "jakob-hanika|smooth|blend|lhtss",
-             "The lattice's vertex prior (default jakob-hanika).", [&](const std::string& v) {
-                 spec.method.vertex_prior = vertex_prior_option(v);
-                 o.lattice_given = true;
-             });
-    p.option("--objective", "smooth|norm", "Objective of the fitted basis (default smooth).",
-             [&](const std::string& v) { spec.method.fit.objective = parse_objective_option(v); });
-    observer_option(p, "Observer of the method and of the error", spec.method.fit.observer);
+// --method and what builds it (method_options.h), --observer and --illuminant.
+void add_method_and_conditions(ArgParser& p, PlanOptions& o) {
+    add_method_options(p, o.m, false);
+    observer_option(p, "Observer of the method and of the error", o.m.spec.fit.observer);
     p.option("--illuminant", "NAME|FILE",
              "Illuminant the method is exact for (default D65), as in bake (a name, a colour "
              "temperature such as 3200K, or a CSV file).",
-             [&](const std::string& v) { spec.method.fit.illuminant = v; });
+             [&](const std::string& v) { o.m.spec.fit.illuminant = v; });
 }
 
 // How the bake is measured and what is written: --type, --sample-stride, --colours, --grid-file,
@@ -270,10 +249,11 @@ void add_measure_options(ArgParser& p, PlanOptions& o) {
 void check_plan_options(PlanOptions& o, const std::vector<std::string>& pos) {
     PlanSpec& spec = o.spec;
     if (!pos.empty()) throw UsageError("unexpected argument '" + pos[0] + "'");
-    if (o.lattice_given && spec.method.method != "lattice")
-        throw UsageError("--lattice-size and --vertex-prior belong to --method lattice");
-    if (spec.nonuniform && spec.method.method != "basis")
-        throw UsageError("--nonuniform searches with the basis' 3x3 maps: it needs --method basis");
+    check_method_options(o.m);
+    spec.method = o.m.spec;
+    if (spec.nonuniform && !method_row(spec.method.kind).linear)
+        throw UsageError("--nonuniform searches with a linear method's 3x3 maps: --method " +
+                         spec.method.name() + " is not linear (use --method basis)");
     spec.half = o.type == "half";
     if (spec.precision && !spec.half)
         throw UsageError("--precision auto chooses bits of half; --type float keeps every bit");
@@ -337,7 +317,6 @@ int plan_and_report(PlanOptions& o) {
 
 int run_plan(const std::vector<std::string>& args) {
     PlanOptions o;
-    o.spec.method.method = "basis";
     ArgParser p(
         "plan", "spectex plan [options]",
         "Chooses the wavelength grid for a scene: for candidate grids (uniform steps 1, 2, 2.5, 4, "
@@ -355,7 +334,7 @@ int run_plan(const std::vector<std::string>& args) {
         "--wavelengths auto with the same settings, takes it from there (--no-cache: search "
         "again).");
     add_plan_options(p, o.spec, o.lights_given, o.budget_given);
-    add_method_options(p, o);
+    add_method_and_conditions(p, o);
     add_measure_options(p, o);
     p.common({"--lights", "--max-de", "--method", "--nonuniform", "--texture", "--grid-file",
               "--json", "--help"});

@@ -20,6 +20,7 @@
 #include "pipeline/batch.h"
 #include "pipeline/json_text.h"
 #include "pipeline/light_list.h"
+#include "pipeline/method_table.h"
 #include "pipeline/verify.h"
 #include "spectral/error.h"
 #include "spectral/precision.h"
@@ -118,8 +119,8 @@ void print_text(const VerifyReport& r, const VerifyGates& g,
     o << "  time:                 " << num(r.seconds, "%.3f") << " s\n";
     if (g.report_only)
         o << "  gates:                none (--report-only)\n";
-    else if (r.compared && r.method == "jakob-hanika")
-        o << "  gates:                colour gates off: jakob-hanika spectra are not exact\n";
+    else if (r.compared && !method_is_exact(r.method))
+        o << "  gates:                colour gates off: " << r.method << " spectra are not exact\n";
     for (const auto& a : gates_applied(r, g)) o << "  gate:                 " << a << "\n";
     if (failures.empty())
         o << "  result:               ok\n";

@@ -8,7 +8,6 @@
 #include <memory>
 #include <sstream>
 
-#include "pipeline/basis_cache.h"
 #include "pipeline/json_text.h"
 #include "pipeline/light_list.h"
 #include "pipeline/plan_search.h"
@@ -46,22 +45,30 @@ void tell(const PlanSpec& spec, const char* stage, size_t done, size_t total) {
 }
 
 std::shared_ptr<const SpectralMethod> build_method(const PlanSpec& s, const WavelengthGrid& g) {
-    if (s.method.method == "basis") {
-        FitSpec f = s.method.fit;
-        f.grid = g;
-        FitResult fit = fit_basis_for(f);
-        return std::make_shared<BasisMethod>(fit.basis, "fitted by spectex: " + f.describe());
-    }
     MethodSpec m = s.method;
     m.fit.grid = g;
     return make_method(m).method;
 }
 
+// A linear method's spectra of the three primaries, as columns: the spectrum of any colour is this
+// matrix times its linear RGB. A basis gives its table's values as they are (double); another
+// linear method its float expansion of the primaries.
 Eigen::MatrixXd basis_matrix(const SpectralMethod& m) {
-    const Basis& b = dynamic_cast<const BasisMethod&>(m).basis();
-    Eigen::MatrixXd B(static_cast<Eigen::Index>(b.size()), 3);
-    for (size_t k = 0; k < b.size(); ++k)
-        B.row(static_cast<Eigen::Index>(k)) << b.r[k], b.g[k], b.b[k];
+    if (const auto* basis = dynamic_cast<const BasisMethod*>(&m)) {
+        const Basis& b = basis->basis();
+        Eigen::MatrixXd B(static_cast<Eigen::Index>(b.size()), 3);
+        for (size_t k = 0; k < b.size(); ++k)
+            B.row(static_cast<Eigen::Index>(k)) << b.r[k], b.g[k], b.b[k];
+        return B;
+    }
+    const size_t bins = m.lambda().size();
+    const float r[3] = {1, 0, 0}, g[3] = {0, 1, 0}, b[3] = {0, 0, 1};
+    std::vector<float> out(3 * bins);
+    m.expand_float(r, g, b, 3, out.data(), 3);
+    Eigen::MatrixXd B(static_cast<Eigen::Index>(bins), 3);
+    for (size_t k = 0; k < bins; ++k)
+        for (int c = 0; c < 3; ++c)
+            B(static_cast<Eigen::Index>(k), c) = out[k * 3 + static_cast<size_t>(c)];
     return B;
 }
 
@@ -181,17 +188,12 @@ std::shared_ptr<const SpectralMethod> build_reference(const PlanSpec& spec,
     }
 }
 
-// The method and the conditions it is exact for, for the report (without a grid).
+// The method and the conditions it is built for, for the report (without a grid: each row has its
+// own).
 std::string method_text(const PlanSpec& spec) {
-    if (spec.method.method == "basis")
-        return "basis (fitted, " + to_string(spec.method.fit.objective) + ")" + ", " +
-               spec.method.fit.primaries + " primaries, " + spec.method.fit.observer +
-               ", exact under " + spec.method.fit.illuminant;
-    // describe() names the grid of the template spec: drop it, the grid is the row's.
-    std::string text = spec.method.describe();
-    const size_t cut = text.rfind(", ");
-    if (cut != std::string::npos) text = text.substr(0, cut);
-    return text;
+    const FitSpec& f = spec.method.fit;
+    return spec.method.head() + ", " + f.primaries + " primaries, " + f.observer +
+           (method_row(spec.method.kind).exact ? ", exact under " : ", built for ") + f.illuminant;
 }
 
 // The candidates (with --nonuniform, the search's grids added), fewest bins first.
@@ -533,8 +535,8 @@ uint64_t plan_cost(const PlanSpec& spec) {
 
 void check_plan_cost(const PlanSpec& spec) {
     const uint64_t bins = candidate_bins(spec);
-    if (spec.method.method != "basis") {
-        MethodSpec m = spec.method;
+    if (method_row(spec.method.kind).table_axis(spec.method) > 0) {
+        const MethodSpec& m = spec.method;
         const uint64_t fine =
             static_cast<uint64_t>(std::max(0.0, spec.range_end - spec.range_start)) + 1;
         check_method_cost(m, bins + fine,
@@ -611,7 +613,7 @@ PlanResult plan_grids(const PlanSpec& spec) {
     const int threads =
         std::min(spec.threads > 0 ? spec.threads : hardware_threads(), thread_budget());
     const std::shared_ptr<const SpectralMethod> ref = build_reference(spec, scene.fine);
-    const bool linear = spec.method.method == "basis";
+    const bool linear = method_row(spec.method.kind).linear;
 
     PlanResult res;
     res.method = method_text(spec);

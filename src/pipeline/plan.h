@@ -9,7 +9,7 @@
 #include <utility>
 #include <vector>
 
-#include "pipeline/method_cache.h"
+#include "pipeline/method_table.h"
 #include "spectral/grid_error.h"
 
 namespace spectex {
@@ -19,7 +19,7 @@ struct PlanSpec {
     double max_de = 0.5;  // budget on the worst ΔE00 under every light
     Reconstruction reconstruction = Reconstruction::Linear;
     double range_start = 360, range_end = 830;  // the renderer's range, nm
-    // method.method: basis | lattice | jakob-hanika; method.fit: data dir, observer, the illuminant
+    // method.kind: any row of the method table; method.fit: data dir, observer, the illuminant
     // the method is exact for, primaries, objective (its grid is set per candidate).
     MethodSpec method;
     bool half = true;
@@ -114,7 +114,7 @@ constexpr uint64_t kPlanCostLimit = 20000000000ull;
 // Throws LimitError naming the option that weighs most against its default (--grids, --lights,
 // --sample-stride or --texture), the figure and the limit, when plan_cost() is over
 // kPlanCostLimit; and, for the lattice and Jakob-Hanika, when the tables of every candidate and
-// the 1 nm reference, held together, are over kMethodTableLimit (method_cache.h).
+// the 1 nm reference, held together, are over kMethodTableLimit (method_table.h).
 void check_plan_cost(const PlanSpec& spec);
 
 // Throws Error when the lights, observer or range cannot be used, or the reference method cannot be

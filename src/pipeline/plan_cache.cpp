@@ -76,7 +76,7 @@ std::string plan_cache_key(const PlanSpec& spec) {
     k.number(kPlanCacheFormat);
     const MethodSpec& m = spec.method;
     const std::string& dir = m.fit.data_dir;
-    k.text(m.method);
+    k.text(m.name());
     k.number(m.lattice_size);
     k.text(m.vertex_prior);
     k.number(m.blend);

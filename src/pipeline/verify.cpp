@@ -19,6 +19,7 @@
 #include "io/spectral_exr_info.h"
 #include "io/spectral_reader.h"
 #include "pipeline/batch.h"
+#include "pipeline/method_table.h"
 #include "pipeline/pixel_policy.h"
 #include "spectral/adaptation.h"
 #include "spectral/ciede2000.h"
@@ -834,7 +835,7 @@ std::vector<Gate> gates_of(const VerifyReport& r, const VerifyGates& g) {
                            " above)"});
     }
     if (!r.compared) return out;
-    const bool exact = r.method != "jakob-hanika";
+    const bool exact = method_is_exact(r.method);
     const bool half = r.sample_type == "half" || r.sample_type == "mixed";
     const bool plain_half = half && r.half_rounding != "colour";
     if (g.de || exact) {

@@ -48,7 +48,7 @@
 #include "io/linearizer.h"
 #include "io/spectral_exr_writer.h"
 #include "pipeline/bake.h"
-#include "pipeline/method_cache.h"
+#include "pipeline/method_table.h"
 #include "spectral/basis.h"
 #include "spectral/basis_fit.h"
 #include "spectral/expand.h"
@@ -204,7 +204,7 @@ int main(int argc, char** argv) {
                     std::make_shared<BasisMethod>(fit_basis_for(fit).basis, "fitted by spectex");
             } else {
                 MethodSpec ms;
-                ms.method = method_name;
+                ms.kind = find_method(method_name)->kind;
                 ms.fit = fit;
                 ms.lattice_size = lattice_size;
                 method = make_method(ms).method;

@@ -1,0 +1,29 @@
+#pragma once
+// The method options bake and plan share, declared once from the method table: --method and the
+// options that belong to one method (--basis, --objective, --allow-infeasible, --lattice-size,
+// --vertex-prior, --jh-resolution). Parsed straight into the MethodSpec both commands build with,
+// so what plan measures and what bake builds are the same description.
+#include <string>
+#include <vector>
+
+#include "pipeline/method_table.h"
+
+namespace spectex {
+
+class ArgParser;
+
+struct MethodOptions {
+    MethodSpec spec;
+    std::string basis = "fit";  // --basis fit|mallett2019|FILE (bake only)
+    // The options given that belong to one method, by long name, in order.
+    std::vector<std::string> given;
+    bool given_any_of(const MethodRow& row) const;
+};
+
+// with_basis_table: also --basis (bake reads a basis table; plan fits one on each grid).
+void add_method_options(ArgParser& p, MethodOptions& o, bool with_basis_table);
+// An option given that belongs to another method than --method's: a UsageError naming both
+// ("--jh-resolution belongs to --method jakob-hanika, not --method lattice").
+void check_method_options(const MethodOptions& o);
+
+}  // namespace spectex
