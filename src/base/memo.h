@@ -3,6 +3,7 @@
 // colour config): the first caller of a key builds it outside the lock, later callers of the same
 // key wait for that build and share its value (or its exception), and builds of different keys
 // run at the same time.
+#include <cstddef>
 #include <functional>
 #include <future>
 #include <map>
@@ -14,6 +15,10 @@ namespace spectex {
 template <typename Key, typename Value>
 class Memo {
   public:
+    // capacity > 0: at most that many keys are kept; the memo starts afresh when a new key would
+    // pass it (callers waiting on a build keep their own share of it).
+    explicit Memo(size_t capacity = 0) : capacity_(capacity) {}
+
     Value get(const Key& key, const std::function<Value()>& build) {
         std::promise<Value> promise;
         std::shared_future<Value> future;
@@ -22,6 +27,7 @@ class Memo {
             std::lock_guard<std::mutex> lock(mutex_);
             auto it = entries_.find(key);
             if (it == entries_.end()) {
+                if (capacity_ > 0 && entries_.size() >= capacity_) entries_.clear();
                 future = promise.get_future().share();
                 entries_.emplace(key, future);
                 builder = true;
@@ -40,6 +46,7 @@ class Memo {
     }
 
   private:
+    size_t capacity_;
     std::mutex mutex_;
     std::map<Key, std::shared_future<Value>> entries_;
 };

@@ -22,8 +22,7 @@ void add_method_options(ArgParser& p, MethodOptions& o, bool with_basis_table) {
     help += " Default " + method_table().front().name + ".";
     p.option("--method", method_names("|"), help, [&o](const std::string& v) {
         const MethodRow* row = find_method(v);
-        if (!row)
-            throw UsageError("--method: '" + v + "' is not one of " + method_names(", "));
+        if (!row) throw UsageError("--method: '" + v + "' is not one of " + method_names(", "));
         o.spec.kind = row->kind;
     });
     if (with_basis_table)

@@ -9,12 +9,11 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
-#include <map>
-#include <mutex>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <utility>
 
+#include "base/memo.h"
 #include "io/icc_profile.h"
 #include "io/image_library.h"
 #include "io/paths.h"
@@ -304,17 +303,10 @@ OCIO::ConstConfigRcPtr parse_ocio_config(const std::string& path, const std::str
 // cache of processors.
 OCIO::ConstConfigRcPtr load_ocio_config(const std::string& path) {
     std::string bytes = read_file_bounded(path, file_limits::kOcioConfig, "an OCIO config");
-    static std::mutex mutex;
-    static std::map<std::pair<std::string, std::string>, OCIO::ConstConfigRcPtr> parsed;
-    std::lock_guard<std::mutex> lock(mutex);
+    // A batch uses one or two configs: at most 8 are kept.
+    static Memo<std::pair<std::string, std::string>, OCIO::ConstConfigRcPtr> parsed(8);
     auto key = std::make_pair(path, std::move(bytes));
-    const auto it = parsed.find(key);
-    if (it != parsed.end()) return it->second;
-    OCIO::ConstConfigRcPtr cfg = parse_ocio_config(path, key.second);
-    if (parsed.size() >= 8)
-        parsed.clear();  // a batch uses one or two configs; never grow without bound
-    parsed.emplace(std::move(key), cfg);
-    return cfg;
+    return parsed.get(key, [&] { return parse_ocio_config(path, key.second); });
 }
 
 // The processor from `src` of `cfg` to linear Rec.709: inside the config when it has that space,

@@ -1,8 +1,6 @@
 #include "pipeline/basis_cache.h"
 
-#include <map>
-#include <mutex>
-
+#include "base/memo.h"
 #include "spectral/colorimetry.h"
 #include "spectral/spectrum.h"
 
@@ -14,20 +12,18 @@ std::string FitSpec::describe() const {
 }
 
 FitResult fit_basis_for(const FitSpec& spec) {
-    static std::mutex mutex;
-    static std::map<std::string, FitResult> cache;
+    static Memo<std::string, FitResult> memo;
     std::string key = spec.describe() + "|" + spec.data_dir;
     for (double l : spec.grid.lambda) key += "|" + format_wavelength(l);
-    std::lock_guard<std::mutex> lock(mutex);
-    if (auto it = cache.find(key); it != cache.end()) return it->second;
-    Observer obs = load_observer(spec.data_dir, spec.observer);
-    Spectrum ill = load_illuminant(spec.data_dir, spec.illuminant);
-    FitRequest req{Colorimetry::make(obs, ill, spec.grid, primaries_by_name(spec.primaries)),
-                   spec.objective, spec.allow_infeasible};
-    FitResult r = fit_basis(req);
-    r.basis.name = "fit:" + to_string(spec.objective);
-    cache.emplace(key, r);
-    return r;
+    return memo.get(key, [&] {
+        Observer obs = load_observer(spec.data_dir, spec.observer);
+        Spectrum ill = load_illuminant(spec.data_dir, spec.illuminant);
+        FitRequest req{Colorimetry::make(obs, ill, spec.grid, primaries_by_name(spec.primaries)),
+                       spec.objective, spec.allow_infeasible};
+        FitResult r = fit_basis(req);
+        r.basis.name = "fit:" + to_string(spec.objective);
+        return r;
+    });
 }
 
 }  // namespace spectex

@@ -61,9 +61,9 @@ TEST(MethodOptions, BothCommandsDescribeEveryMethod) {
     for (const std::string command : {"bake", "plan"}) {
         const RunResult r = run_spectex({command, "--help"});
         ASSERT_EQ(r.status, 0);
-        for (const std::string option :
-             {"--method basis|lattice|jakob-hanika", "basis:", "lattice:", "jakob-hanika:",
-              "--lattice-size", "--vertex-prior", "--jh-resolution", "--objective"})
+        for (const std::string option : {"--method basis|lattice|jakob-hanika",
+                                         "basis:", "lattice:", "jakob-hanika:", "--lattice-size",
+                                         "--vertex-prior", "--jh-resolution", "--objective"})
             EXPECT_NE(r.out.find(option), std::string::npos) << command << ": " << option;
     }
 }
@@ -74,11 +74,12 @@ TEST(MethodOptions, BothCommandsDescribeEveryMethod) {
 TEST(MethodOptions, PlanMeasuresTheJakobHanikaTableAskedFor) {
     std::vector<std::string> worst;
     for (const std::string res : {"5", "33"}) {
-        const RunResult r = run_spectex({"plan", "--method", "jakob-hanika", "--jh-resolution",
-                                         res, "--lights", "D65", "--max-de", "50", "--grids",
+        const RunResult r = run_spectex({"plan", "--method", "jakob-hanika", "--jh-resolution", res,
+                                         "--lights", "D65", "--max-de", "50", "--grids",
                                          "380:780:20", "--no-cache", "--json", "-"});
         ASSERT_EQ(r.status, 0) << r.err;
-        EXPECT_NE(r.out.find("jakob-hanika table " + res + ", srgb primaries, cie1931-2, built "
+        EXPECT_NE(r.out.find("jakob-hanika table " + res +
+                             ", srgb primaries, cie1931-2, built "
                              "for D65"),
                   std::string::npos)
             << r.out;

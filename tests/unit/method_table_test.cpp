@@ -1,5 +1,7 @@
 // The method table's rows say what each method guarantees; these tests hold every row to its word
 // by building the method on a coarse grid and measuring it, so a new row with a wrong flag fails.
+#include "pipeline/method_table.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -7,9 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "pipeline/method_table.h"
-#include "spectral/error.h"
 #include "spectral/colorimetry.h"
+#include "spectral/error.h"
 #include "spectral/spectrum.h"
 #include "spectral/srgb_axis.h"
 
@@ -23,7 +24,7 @@ MethodSpec spec_for(const MethodRow& row) {
     s.kind = row.kind;
     s.fit.data_dir = kData;
     s.fit.grid = WavelengthGrid::parse("380:780:10");
-    s.lattice_size = 5;    // small tables: the flags do not depend on the size
+    s.lattice_size = 5;  // small tables: the flags do not depend on the size
     s.jh_resolution = 9;
     return s;
 }
@@ -100,10 +101,9 @@ TEST(MethodTable, ExactFlagMatchesTheBuiltMethod) {
     for (const auto& row : method_table()) {
         const MethodSpec s = spec_for(row);
         const MethodResult made = make_method(s);
-        const Colorimetry c =
-            Colorimetry::make(load_observer(kData, s.fit.observer),
-                              load_illuminant(kData, s.fit.illuminant), s.fit.grid,
-                              primaries_by_name(s.fit.primaries));
+        const Colorimetry c = Colorimetry::make(load_observer(kData, s.fit.observer),
+                                                load_illuminant(kData, s.fit.illuminant),
+                                                s.fit.grid, primaries_by_name(s.fit.primaries));
         const Eigen::Matrix3Xd R = c.rgb_weights();
         const std::vector<float> out = expand(*made.method, r, g, b);
         const size_t n = r.size();
@@ -112,8 +112,8 @@ TEST(MethodTable, ExactFlagMatchesTheBuiltMethod) {
             Eigen::Vector3d rgb = Eigen::Vector3d::Zero();
             for (Eigen::Index k = 0; k < R.cols(); ++k)
                 rgb += R.col(k) * double(out[static_cast<size_t>(k) * n + i]);
-            worst = std::max({worst, std::abs(rgb[0] - r[i]), std::abs(rgb[1] - g[i]),
-                              std::abs(rgb[2] - b[i])});
+            worst = std::max(
+                {worst, std::abs(rgb[0] - r[i]), std::abs(rgb[1] - g[i]), std::abs(rgb[2] - b[i])});
         }
         if (row.exact)
             EXPECT_LT(worst, 1e-5) << row.name;
