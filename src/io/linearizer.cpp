@@ -19,6 +19,7 @@
 #include "io/paths.h"
 #include "spectral/bounded_read.h"
 #include "spectral/error.h"
+#include "spectral/fnv1a.h"
 #include "spectral/text.h"
 
 namespace OCIO = OCIO_NAMESPACE;
@@ -746,6 +747,16 @@ std::string ocio_config_path(const std::string& data_dir, const std::string& con
     if (!config_override.empty()) return config_override;
     if (const char* env = std::getenv("OCIO"); env && *env) return env;
     return data_dir + "/spectex.ocio";
+}
+
+std::string config_checksum(const std::string& config_path) {
+    const std::string bytes =
+        read_file_bounded(config_path, file_limits::kOcioConfig, "an OCIO config");
+    Fnv1a64 h;
+    h.add(bytes.data(), bytes.size());
+    const unsigned char separator = 0xff;  // as the settings hash adds each of its texts
+    h.add(&separator, 1);
+    return h.text();
 }
 
 }  // namespace spectex

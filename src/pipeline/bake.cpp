@@ -5,18 +5,18 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
-#include <climits>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <memory>
+#include <optional>
 
 #include "io/atomic_file.h"
+#include "io/file_identity.h"
 #include "io/image_source.h"
 #include "io/linearizer.h"
 #include "io/source_identity.h"
-#include "pipeline/batch.h"
 #include "pipeline/pixel_policy.h"
 #include "spectex/version.h"
 #include "spectral/colorimetry.h"
@@ -26,6 +26,7 @@
 #include "spectral/precision.h"
 #include "spectral/provenance_keys.h"
 #include "spectral/task_pool.h"
+#include "spectral/text.h"
 
 namespace spectex {
 
@@ -39,21 +40,12 @@ double since(Clock::time_point t) {
 // Bytes of expanded spectral samples held per strip: bounds memory whatever the bin count.
 constexpr size_t kStripBudget = 32u << 20;
 
-std::string real_path(const std::string& p) {
-    char buf[PATH_MAX];
-    return ::realpath(p.c_str(), buf) ? std::string(buf) : std::string();
-}
-
-// Refuses an output that is the input, or a hard or symbolic link to it.
+// Refuses an output that is the input, or a hard or symbolic link to it (by identity).
 void check_not_input(const std::string& input, const std::string& output) {
-    struct stat si, so;
-    if (::stat(input.c_str(), &si) != 0) return;  // the reader reports a missing input
-    if (::stat(output.c_str(), &so) == 0 && si.st_dev == so.st_dev && si.st_ino == so.st_ino)
+    const std::optional<FileId> in = file_id(input);  // a missing input: the reader reports it
+    if (in && in == file_id(output))
         throw Error(output +
                     ": output is the input file (or a link to it); refusing to overwrite it");
-    std::string ri = real_path(input), ro = real_path(output);
-    if (!ri.empty() && ri == ro)
-        throw Error(output + ": output is the input file; refusing to overwrite it");
 }
 
 // Area-weighted box filter from sw x sh to dw x dh (dw <= sw, dh <= sh): every destination pixel
@@ -107,11 +99,6 @@ int strip_rows(size_t row_bytes, int lines_per_chunk, bool whole_chunks, int hei
     return std::min(rows, height);
 }
 
-std::string to_string(RangePolicy p) {
-    return p == RangePolicy::Clamp ? "clamp" : p == RangePolicy::Keep ? "keep" : "error";
-}
-std::string to_string(NanPolicy p) { return p == NanPolicy::Replace ? "replace" : "error"; }
-
 namespace {
 
 // What the source's shape means for the bake, as notes for the user.
@@ -154,34 +141,40 @@ std::vector<std::pair<std::string, std::string>> header_attributes(
         {provenance_key::kVersion, SPECTEX_VERSION},
         {provenance_key::kCommandLine, file_command_line(input, output, s.file_options)},
         {provenance_key::kSource, input},
-        {provenance_key::kSourceAbsolute, source.string()},
-        {provenance_key::kSourceFromOutput, source.lexically_relative(out_dir).string()},
-        {provenance_key::kWavelengths, s.grid.describe()},
-        {provenance_key::kWavelengthList, join_lambda(s.grid.lambda)},
-        {provenance_key::kObserver, s.observer},
-        {provenance_key::kIlluminant, s.illuminant},
-        {provenance_key::kInputColorSpace, lin.input_space()},
-        {provenance_key::kInputColorSpaceFrom, lin.how_chosen()},
-        {provenance_key::kInputColorSpaceMetadata, colour_tags},
-        {provenance_key::kConfig,
-         std::filesystem::absolute(lin.config_path()).lexically_normal().string()},
-        {provenance_key::kConfigFrom, lin.config_from()},
-        {provenance_key::kConfigName, lin.config_name()},
-        {provenance_key::kConfigChecksum, config_checksum(lin.config_path())},
-        {provenance_key::kColorTransform, lin.transform_id()},
-        {provenance_key::kAlpha, to_string(has_alpha ? s.alpha : AlphaKind::None)},
-        {provenance_key::kOutOfRange, to_string(s.range)},
-        {provenance_key::kNan, to_string(s.nan)},
-        {provenance_key::kZipLevel, std::to_string(s.zip_level)},
-        {provenance_key::kHalfRounding,
-         s.type == SampleType::Half ? (s.colour_rounding ? "colour" : "nearest") : "n/a"},
-        {provenance_key::kSettingsHash, s.settings_hash},
-        // The source's identity, for --update (io/source_identity.h); the hash is patched in once
-        // the source has been decoded (and so hashed).
-        {provenance_key::kSourceSize, identity.size_text()},
-        {provenance_key::kSourceMtime, identity.mtime_text()},
-        {provenance_key::kSourceHash, source_hash_placeholder()},
     };
+    // The method's own attributes stand where the basis' always stood (the order is part of the
+    // bytes).
+    for (const auto& kv : method.provenance()) a.push_back(kv);
+    a.insert(a.end(),
+             {
+                 {provenance_key::kSourceAbsolute, source.string()},
+                 {provenance_key::kSourceFromOutput, source.lexically_relative(out_dir).string()},
+                 {provenance_key::kWavelengths, s.grid.describe()},
+                 {provenance_key::kWavelengthList, join_lambda(s.grid.lambda)},
+                 {provenance_key::kObserver, s.observer},
+                 {provenance_key::kIlluminant, s.illuminant},
+                 {provenance_key::kInputColorSpace, lin.input_space()},
+                 {provenance_key::kInputColorSpaceFrom, lin.how_chosen()},
+                 {provenance_key::kInputColorSpaceMetadata, colour_tags},
+                 {provenance_key::kConfig,
+                  std::filesystem::absolute(lin.config_path()).lexically_normal().string()},
+                 {provenance_key::kConfigFrom, lin.config_from()},
+                 {provenance_key::kConfigName, lin.config_name()},
+                 {provenance_key::kConfigChecksum, config_checksum(lin.config_path())},
+                 {provenance_key::kColorTransform, lin.transform_id()},
+                 {provenance_key::kAlpha, to_string(has_alpha ? s.alpha : AlphaKind::None)},
+                 {provenance_key::kOutOfRange, to_string(s.range)},
+                 {provenance_key::kNan, to_string(s.nan)},
+                 {provenance_key::kZipLevel, std::to_string(s.zip_level)},
+                 {provenance_key::kHalfRounding,
+                  s.type == SampleType::Half ? (s.colour_rounding ? "colour" : "nearest") : "n/a"},
+                 {provenance_key::kSettingsHash, s.settings_hash},
+                 // The source's identity, for --update (io/source_identity.h); the hash is patched
+                 // in once the source has been decoded (and so hashed).
+                 {provenance_key::kSourceSize, identity.size_text()},
+                 {provenance_key::kSourceMtime, identity.mtime_text()},
+                 {provenance_key::kSourceHash, source_hash_placeholder()},
+             });
     if (s.compression.lossy_for(s.type == SampleType::Half))
         a.push_back({provenance_key::kLossyCompression,
                      s.compression.name + " (" + s.compression.lossy_text() + ")"});
@@ -201,9 +194,6 @@ std::vector<std::pair<std::string, std::string>> header_attributes(
         a.push_back({provenance_key::kPrecisionWorstDe, s.precision.worst_de});
         a.push_back({provenance_key::kPrecisionSample, s.precision.sample});
     }
-    // The method's own attributes where the basis' always stood (the order is part of the bytes).
-    auto at = a.begin() + 3;
-    for (const auto& kv : method.provenance()) at = a.insert(at, kv) + 1;
     return a;
 }
 
@@ -501,6 +491,13 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     res.bins = method.bins();
     res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return res;
+}
+
+std::string file_command_line(const std::string& input, const std::string& output,
+                              const std::string& options) {
+    if (!input.empty() && input[0] == '-')
+        return "spectex bake -o " + quote_path(output) + options + " -- " + quote_path(input);
+    return "spectex bake " + quote_path(input) + " -o " + quote_path(output) + options;
 }
 
 }  // namespace spectex

@@ -9,13 +9,11 @@
 
 #include "io/alpha_kind.h"
 #include "io/spectral_exr_writer.h"
+#include "pipeline/pixel_policy.h"
 #include "spectral/spectral_method.h"
 #include "spectral/wavelength_grid.h"
 
 namespace spectex {
-
-enum class RangePolicy { Clamp, Keep, Error };
-enum class NanPolicy { Replace, Error };
 
 struct BakeSettings {
     std::string colorspace;  // --colorspace ("" = metadata, then file rules)
@@ -35,7 +33,7 @@ struct BakeSettings {
     uint64_t max_pixels = 268435456;  // 16384 x 16384
     // The options given that make each file what it is, shell-quoted, each after a space: the
     // options of the command line each output records (spectex:commandLine, with its own input and
-    // output: file_command_line in pipeline/batch.h), never the batch's list of files.
+    // output: file_command_line below), never the batch's list of files.
     std::string file_options;
     std::string settings_hash;         // recorded as spectex:settingsHash (for --update)
     std::string legacy_settings_hash;  // --update of outputs that record no colour transform
@@ -105,7 +103,11 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
 // at high bin counts a strip may be less than a chunk. At most `height`.
 int strip_rows(size_t row_bytes, int lines_per_chunk, bool whole_chunks, int height);
 
-std::string to_string(RangePolicy p);
-std::string to_string(NanPolicy p);
+// The command that rebuilds one output of a batch alone, shell-quoted as `quote_path` quotes:
+// "spectex bake <input> -o <output><options>" (options: BakeSettings::file_options). An input
+// that starts with '-' goes last, after "--", where it cannot be taken for an option. Its size
+// depends on this file's names and the options, never on how many files the batch had.
+std::string file_command_line(const std::string& input, const std::string& output,
+                              const std::string& options);
 
 }  // namespace spectex

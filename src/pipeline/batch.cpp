@@ -323,13 +323,6 @@ std::vector<std::string> select_shard(const std::vector<std::string>& sorted_inp
     return out;
 }
 
-std::string file_command_line(const std::string& input, const std::string& output,
-                              const std::string& options) {
-    if (!input.empty() && input[0] == '-')
-        return "spectex bake -o " + quote_path(output) + options + " -- " + quote_path(input);
-    return "spectex bake " + quote_path(input) + " -o " + quote_path(output) + options;
-}
-
 namespace {
 
 // The settings both hashes share (everything but the colour config).
@@ -383,12 +376,6 @@ std::string legacy_settings_hash(const BakeSettings& s) {
     const std::string config = ocio_config_path(s.data_dir, s.config);
     fnv(h, config);
     fnv(h, file_contents(config));
-    return h.text();
-}
-
-std::string config_checksum(const std::string& config_path) {
-    Fnv1a64 h;
-    fnv(h, file_contents(config_path));
     return h.text();
 }
 

@@ -40,13 +40,6 @@ struct Shard {
 };
 std::vector<std::string> select_shard(const std::vector<std::string>& sorted_inputs, Shard s);
 
-// The command that rebuilds one output of a batch alone, shell-quoted as `quote_path` quotes:
-// "spectex bake <input> -o <output><options>" (options: BakeSettings::file_options). An input
-// that starts with '-' goes last, after "--", where it cannot be taken for an option. Its size
-// depends on this file's names and the options, never on how many files the batch had.
-std::string file_command_line(const std::string& input, const std::string& output,
-                              const std::string& options);
-
 // Hash of every setting that can change the output's pixels or layout (not threads, jobs, verbosity
 // or the command line): "fnv1a64:<hex>". The OCIO config is not in it: what the config does to a
 // file is its spectex:colorTransform, compared file by file (check_update), so that a comment, a
@@ -55,10 +48,6 @@ std::string settings_hash(const BakeSettings& s);
 // The hash as spectex made it before it recorded spectex:colorTransform: the same settings, then
 // the config's path and bytes. Outputs that record no colour transform are judged with it.
 std::string legacy_settings_hash(const BakeSettings& s);
-
-// "fnv1a64:<hex>" of an OCIO config's bytes (recorded as spectex:configChecksum, so that verify
-// knows whether the config a file was baked with is still the same). Throws Error as every reader.
-std::string config_checksum(const std::string& config_path);
 
 // --update: whether `output` need not be baked again from `input` with settings `s` (whose
 // settings_hash and legacy_settings_hash are set). It must be a readable OpenEXR (only its header

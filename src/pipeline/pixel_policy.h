@@ -12,9 +12,13 @@
 #include <string>
 
 #include "io/linearizer.h"
-#include "pipeline/bake.h"
 
 namespace spectex {
+
+enum class RangePolicy { Clamp, Keep, Error };
+enum class NanPolicy { Replace, Error };
+std::string to_string(RangePolicy p);
+std::string to_string(NanPolicy p);
 
 struct PixelPolicy {
     bool straighten = false;  // the file's alpha is associated
