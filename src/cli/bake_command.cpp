@@ -16,6 +16,7 @@
 #include "cli/batch_runner.h"
 #include "cli/commands.h"
 #include "cli/method_options.h"
+#include "cli/output_check.h"
 #include "io/atomic_file.h"
 #include "io/data_dir.h"
 #include "io/exr_compression.h"
@@ -603,25 +604,11 @@ void check_outputs_against_reads(const BakeCli& c, const BatchPlan& plan) {
     }
     std::vector<OutputTarget> targets;
     for (const auto& [in, out] : plan.files) {
-        if (std::string clash = reads.clash(out, "the output of " + in); !clash.empty())
-            throw UsageError(clash);
-        try {
-            check_output_path(out);
-        } catch (const Error& e) {
-            throw UsageError(e.what());
-        }
+        check_output(out, "the output of " + in, reads, false, false);
         targets.push_back(output_target(out));
     }
     if (!c.json.empty() && c.json != "-") {
-        if (std::string clash = reads.clash(c.json, "--json"); !clash.empty())
-            throw UsageError(clash);
-        if (c.json.back() == '/' || is_directory(c.json))
-            throw UsageError("--json: '" + c.json + "' is a folder; give a file name");
-        try {
-            check_output_path(c.json, true);
-        } catch (const Error& e) {
-            throw UsageError(std::string(e.what()) + " (--json)");
-        }
+        check_output(c.json, "--json", reads, true);
         const OutputTarget report = output_target(c.json);
         for (size_t i = 0; i < targets.size(); ++i)
             if (report.same_as(targets[i]))

@@ -8,6 +8,7 @@
 
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
+#include "cli/output_check.h"
 #include "io/atomic_file.h"
 #include "io/data_dir.h"
 #include "io/file_identity.h"
@@ -113,20 +114,9 @@ int run_basis(const std::vector<std::string>& args, const std::string& command_l
             reads.add(spec.observer, "--observer");
             reads.add(spec.illuminant, "--illuminant");
             reads.add(wavelengths_file, "--wavelengths-file");
-            if (std::string clash = reads.clash(output, "-o"); !clash.empty())
-                throw UsageError(clash);
-            const std::string sidecar = basis_provenance_path(output);
-            if (std::string clash = reads.clash(sidecar, "the provenance of -o"); !clash.empty())
-                throw UsageError(clash);
-            struct stat st;
-            if (output.back() == '/' || (::stat(output.c_str(), &st) == 0 && S_ISDIR(st.st_mode)))
-                throw UsageError("-o: '" + output + "' is a folder; give a file name");
-            try {
-                check_output_path(output);
-                check_output_path(sidecar);
-            } catch (const Error& e) {
-                throw UsageError(e.what());
-            }
+            check_output(output, "-o", reads, false, false);
+            check_output(basis_provenance_path(output), "the provenance of -o", reads, false,
+                         false);
         }
         spec.objective = parse_objective_option(objective);
         try {

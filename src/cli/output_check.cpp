@@ -1,5 +1,7 @@
 #include "cli/output_check.h"
 
+#include <filesystem>
+
 #include "cli/arg_parser.h"
 #include "io/atomic_file.h"
 #include "io/data_dir.h"
@@ -18,11 +20,19 @@ void check_output_against(const std::string& output, const std::string& role,
         // No data folder: the command reports that itself.
     }
     for (const auto& [path, what] : reads) files.add(path, what);
-    if (std::string clash = files.clash(output, role); !clash.empty()) throw UsageError(clash);
+    check_output(output, role, files, stream_ok, false);
+}
+
+void check_output(const std::string& output, const std::string& role, const ReadFiles& reads,
+                  bool stream_ok, bool name_role) {
+    if (std::string clash = reads.clash(output, role); !clash.empty()) throw UsageError(clash);
+    std::error_code ec;  // a link loop is reported by check_output_path, not thrown past main
+    if (!output.empty() && (output.back() == '/' || std::filesystem::is_directory(output, ec)))
+        throw UsageError(role + ": '" + output + "' is a folder; give a file name");
     try {
         check_output_path(output, stream_ok);
     } catch (const Error& e) {
-        throw UsageError(e.what());
+        throw UsageError(std::string(e.what()) + (name_role ? " (" + role + ")" : ""));
     }
 }
 

@@ -11,6 +11,7 @@
 
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
+#include "cli/output_check.h"
 #include "io/atomic_file.h"
 #include "io/data_dir.h"
 #include "io/file_identity.h"
@@ -423,16 +424,8 @@ void validate_verify_args(const VerifyArgs& a, const std::vector<std::string>& f
         if (!a.s.colorspace.empty()) throw UsageError("--colorspace needs --source");
         if (!a.s.config.empty()) throw UsageError("--config needs --source");
     }
-    if (!a.json.empty() && a.json != "-") {
-        std::error_code ec;  // a link loop must be reported, not thrown past main
-        if (a.json.back() == '/' || std::filesystem::is_directory(a.json, ec))
-            throw UsageError("--json: '" + a.json + "' is a folder; give a file name");
-        try {
-            check_output_path(a.json, true);
-        } catch (const Error& e) {
-            throw UsageError(std::string(e.what()) + " (--json)");
-        }
-    }
+    // The files it reads are known once their headers are read (report_clash).
+    if (!a.json.empty() && a.json != "-") check_output(a.json, "--json", ReadFiles{}, true);
 }
 
 // The report is never a file this command reads: the files, their sources (given or recorded),
