@@ -96,6 +96,16 @@ class OiioImageSource final : public ImageSource {
     void read_rgba(int y0, int y1, float* rgba) override;
 
   private:
+    // The steps of open(): the reader named by the file's first bytes or its name; a JPEG read
+    // into memory; what the opened image is (windows, type, colour tags, channels, levels).
+    static std::string choose_format(const CheckedFile& f, const std::string& path,
+                                     std::vector<std::string>& png_colour_chunks);
+    void read_whole_file(const std::string& path);
+    void describe(const OIIO::ImageSpec& spec, uint64_t max_pixels,
+                  const std::vector<std::string>& png_colour_chunks);
+    void choose_channels(const OIIO::ImageSpec& spec);
+    void count_levels();
+
     std::unique_ptr<CheckedFile> file;    // the descriptor checked, open while the image is read
     std::unique_ptr<HashingProxy> proxy;  // before `in`: destroyed after it
     std::vector<unsigned char> bytes;     // JPEG: the file, read once (see open)
@@ -341,35 +351,18 @@ ColourTags colour_tags(const OIIO::ImageSpec& spec, const std::string& format,
 
 }  // namespace
 
-std::unique_ptr<ImageSource> OiioImageSource::open(const std::string& path, uint64_t max_pixels) {
-    // A regular file, checked before any library opens it: a FIFO, device or folder is refused
-    // at once (OIIO would block on a FIFO, or read /dev/zero forever).
+std::string OiioImageSource::choose_format(const CheckedFile& f, const std::string& path,
+                                           std::vector<std::string>& png_colour_chunks) {
+    if (f.size() == 0) throw Error(path + ": empty file");
     std::string format;  // the reader chosen by the file's first bytes, "" when they say nothing
-    std::vector<std::string> png_colour_chunks;
-    auto file = std::make_unique<CheckedFile>(path, file_limits::kImage, "an input image");
-    struct stat fst;
-    if (::fstat(file->fd(), &fst) != 0)
-        throw Error(path + ": cannot stat: " + std::strerror(errno));
-    const SourceIdentity identity = SourceIdentity::of(fst);
-    {
-        const CheckedFile& f = *file;
-        if (f.size() == 0) throw Error(path + ": empty file");
-        unsigned char sig[16] = {0};
-        const ssize_t got = ::pread(f.fd(), sig, sizeof sig, 0);
-        if (got == 16 && std::memcmp(sig, "\x89PNG\r\n\x1a\n", 8) == 0)
-            png_colour_chunks = check_png_chunks(f, path);
-        if (got > 0) format = format_from_signature(sig, static_cast<size_t>(got));
-    }
-
-    // Unassociated alpha as stored: OIIO would otherwise premultiply PNG alpha on gamma-encoded
-    // 8-bit values, before we linearise.
-    OIIO::ImageSpec config;
-    config.attribute("oiio:UnassociatedAlpha", 1);
+    unsigned char sig[16] = {0};
+    const ssize_t got = ::pread(f.fd(), sig, sizeof sig, 0);
+    if (got == 16 && std::memcmp(sig, "\x89PNG\r\n\x1a\n", 8) == 0)
+        png_colour_chunks = check_png_chunks(f, path);
+    if (got > 0) format = format_from_signature(sig, static_cast<size_t>(got));
     // One reader only: the one the content names, else the one the extension names. OIIO's own open
     // tries every reader when the first fails, and some read a whole large file to say no (a
     // 200 MB file of zeros named .png took 20 s): a file neither names is refused at once.
-    // (By name, with no config: OIIO 2.4's create() given a path or a config opens the file itself
-    // and falls back to every other reader.)
     if (format.empty()) {
         const size_t dot = path.find_last_of('.'), slash = path.find_last_of('/');
         if (dot != std::string::npos && (slash == std::string::npos || dot > slash))
@@ -379,68 +372,33 @@ std::unique_ptr<ImageSource> OiioImageSource::open(const std::string& path, uint
         throw Error(path +
                     ": cannot read: neither its contents nor its name (no extension) say what "
                     "image format it is");
-    // Readers that can read through a proxy read the checked descriptor and hash as they go;
-    // the others (a few rare formats) open the path, and the hash reads the file at the end.
-    // (Declared before the reader, so that it outlives it.)
-    auto proxy = std::make_unique<HashingProxy>(path, file->fd(), file->size());
-    std::vector<unsigned char> bytes;
-    std::unique_ptr<OIIO::Filesystem::IOMemReader> memory;
-    std::string whole_hash;
-    auto in = OIIO::ImageInput::create(format, false, static_cast<const OIIO::ImageSpec*>(nullptr));
-    if (!in) throw Error(path + ": cannot read: " + oiio_error(nullptr));
-    if (in->supports("ioproxy")) {
-        OIIO::Filesystem::IOProxy* p = proxy.get();
-        if (std::string(in->format_name()) == "jpeg") {
-            // OIIO 2.4's JPEG reader takes only in-memory proxies: a JPEG (small next to its
-            // pixels) is read once into memory and hashed there. Past 256 MiB it opens the path
-            // itself and the hash reads the file at the end.
-            p = nullptr;
-            if (file->size() <= (uint64_t{256} << 20)) {
-                bytes.resize(static_cast<size_t>(file->size()));
-                size_t done = 0;
-                while (done < bytes.size()) {
-                    const ssize_t got = ::pread(file->fd(), bytes.data() + done,
-                                                bytes.size() - done, static_cast<off_t>(done));
-                    if (got < 0 && errno == EINTR) continue;
-                    if (got <= 0)
-                        throw Error(path + ": read error: " +
-                                    (got < 0 ? std::strerror(errno) : "the file became shorter"));
-                    done += static_cast<size_t>(got);
-                }
-                Fnv1a64 h;
-                h.add(bytes.data(), bytes.size());
-                whole_hash = h.text();
-                memory =
-                    std::make_unique<OIIO::Filesystem::IOMemReader>(bytes.data(), bytes.size());
-                p = memory.get();
-            }
-        }
-        if (p) config.attribute("oiio:ioproxy", OIIO::TypeDesc::PTR, &p);
-    }
-    {
-        OIIO::ImageSpec opened;
-        if (!in->open(path, opened, config)) {
-            std::string why = oiio_error(in.get());
-            if (why.empty())
-                why = "not " + (format.empty() ? std::string("an image its extension names")
-                                               : "a " + format + " file");
-            throw Error(path + ": cannot read: " + why);
-        }
-    }
-    // Some readers report damage found while opening (libjpeg's "Premature end of JPEG file" on a
-    // truncated progressive JPEG, whose scans are read at once) as an error but still open.
-    if (in->has_error()) throw Error(path + ": cannot read: " + oiio_error(in.get()));
+    return format;
+}
 
-    std::unique_ptr<OiioImageSource> src(new OiioImageSource);
-    src->file = std::move(file);
-    src->proxy = std::move(proxy);
-    src->bytes = std::move(bytes);
-    src->memory = std::move(memory);
-    src->whole_hash = whole_hash;
-    src->identity_ = identity;
-    const OIIO::ImageSpec& spec = in->spec();
-    SourceInfo& info = src->info_;
-    info.path = path;
+// OIIO 2.4's JPEG reader takes only in-memory proxies: a JPEG (small next to its pixels) is read
+// once into memory and hashed there.
+void OiioImageSource::read_whole_file(const std::string& path) {
+    bytes.resize(static_cast<size_t>(file->size()));
+    size_t done = 0;
+    while (done < bytes.size()) {
+        const ssize_t got =
+            ::pread(file->fd(), bytes.data() + done, bytes.size() - done, static_cast<off_t>(done));
+        if (got < 0 && errno == EINTR) continue;
+        if (got <= 0)
+            throw Error(path + ": read error: " +
+                        (got < 0 ? std::strerror(errno) : "the file became shorter"));
+        done += static_cast<size_t>(got);
+    }
+    Fnv1a64 h;
+    h.add(bytes.data(), bytes.size());
+    whole_hash = h.text();
+    memory = std::make_unique<OIIO::Filesystem::IOMemReader>(bytes.data(), bytes.size());
+}
+
+void OiioImageSource::describe(const OIIO::ImageSpec& spec, uint64_t max_pixels,
+                               const std::vector<std::string>& png_colour_chunks) {
+    SourceInfo& info = info_;
+    const std::string& path = info.path;
     info.format_name = in->format_name();
     static_cast<PixelWindows&>(info) = {spec.x,          spec.y,          spec.width,
                                         spec.height,     spec.full_x,     spec.full_y,
@@ -465,34 +423,93 @@ std::unique_ptr<ImageSource> OiioImageSource::open(const std::string& path, uint
     if (int b = spec.get_int_attribute("oiio:BitsPerSample", 0); b > 0 && !info.is_float)
         info.bits = b;
     info.colour = colour_tags(spec, info.format_name, png_colour_chunks);
+    choose_channels(spec);
+    tiled = spec.tile_width > 0;
+}
 
-    // Channels: by name where the format has names (OpenEXR), else by position.
+// Channels: by name where the format has names (OpenEXR), else by position.
+void OiioImageSource::choose_channels(const OIIO::ImageSpec& spec) {
+    SourceInfo& info = info_;
     const ChannelChoice choice = info.format_name == "openexr"
-                                     ? choose_by_name(spec.channelnames, path)
+                                     ? choose_by_name(spec.channelnames, info.path)
                                      : choose_by_position(spec);
     if (!choice.note.empty()) info.notes.push_back(choice.note);
     // Only the span of channels in use is read (a 1000-channel file is not decoded whole).
     int lo = choice.colour[0], hi = choice.colour[0];
     for (int c : {choice.colour[1], choice.colour[2], choice.alpha})
         if (c >= 0) lo = std::min(lo, c), hi = std::max(hi, c);
-    OiioImageSource& I = *src;
-    I.chbegin = lo;
-    I.chend = hi + 1;
-    for (int i = 0; i < 3; ++i) I.color_channels[i] = choice.colour[i] - lo;
-    I.alpha = choice.alpha >= 0 ? choice.alpha - lo : -1;
+    chbegin = lo;
+    chend = hi + 1;
+    for (int i = 0; i < 3; ++i) color_channels[i] = choice.colour[i] - lo;
+    alpha = choice.alpha >= 0 ? choice.alpha - lo : -1;
     info.alpha_channel = choice.alpha;
     if (choice.alpha >= 0)
         info.alpha = spec.get_int_attribute("oiio:UnassociatedAlpha", 0) ? AlphaKind::Unassociated
                                                                          : AlphaKind::Associated;
-    I.tiled = spec.tile_width > 0;
+}
 
+void OiioImageSource::count_levels() {
+    SourceInfo& info = info_;
     info.miplevels = 1;
     while (in->seek_subimage(0, info.miplevels)) ++info.miplevels;
     info.subimages = 1;
     while (in->seek_subimage(info.subimages, 0)) ++info.subimages;
-    if (!in->seek_subimage(0, 0)) throw Error(path + ": " + oiio_error(in.get()));
+    if (!in->seek_subimage(0, 0)) throw Error(info.path + ": " + oiio_error(in.get()));
     (void)in->geterror();  // counting levels probed one past the last: forget that error
-    I.in = std::move(in);
+}
+
+std::unique_ptr<ImageSource> OiioImageSource::open(const std::string& path, uint64_t max_pixels) {
+    // A regular file, checked before any library opens it: a FIFO, device or folder is refused
+    // at once (OIIO would block on a FIFO, or read /dev/zero forever).
+    std::unique_ptr<OiioImageSource> src(new OiioImageSource);
+    src->info_.path = path;
+    src->file = std::make_unique<CheckedFile>(path, file_limits::kImage, "an input image");
+    struct stat fst;
+    if (::fstat(src->file->fd(), &fst) != 0)
+        throw Error(path + ": cannot stat: " + std::strerror(errno));
+    src->identity_ = SourceIdentity::of(fst);
+    std::vector<std::string> png_colour_chunks;
+    const std::string format = choose_format(*src->file, path, png_colour_chunks);
+
+    // Unassociated alpha as stored: OIIO would otherwise premultiply PNG alpha on gamma-encoded
+    // 8-bit values, before we linearise.
+    OIIO::ImageSpec config;
+    config.attribute("oiio:UnassociatedAlpha", 1);
+    // Readers that can read through a proxy read the checked descriptor and hash as they go;
+    // the others (a few rare formats) open the path, and the hash reads the file at the end.
+    // (By name, with no config: OIIO 2.4's create() given a path or a config opens the file itself
+    // and falls back to every other reader.) The proxy is a member declared before the reader, so
+    // that it outlives it.
+    src->proxy = std::make_unique<HashingProxy>(path, src->file->fd(), src->file->size());
+    auto in = OIIO::ImageInput::create(format, false, static_cast<const OIIO::ImageSpec*>(nullptr));
+    if (!in) throw Error(path + ": cannot read: " + oiio_error(nullptr));
+    if (in->supports("ioproxy")) {
+        OIIO::Filesystem::IOProxy* p = src->proxy.get();
+        if (std::string(in->format_name()) == "jpeg") {
+            // Past 256 MiB the JPEG reader opens the path itself and the hash reads the file at
+            // the end.
+            p = nullptr;
+            if (src->file->size() <= (uint64_t{256} << 20)) {
+                src->read_whole_file(path);
+                p = src->memory.get();
+            }
+        }
+        if (p) config.attribute("oiio:ioproxy", OIIO::TypeDesc::PTR, &p);
+    }
+    {
+        OIIO::ImageSpec opened;
+        if (!in->open(path, opened, config)) {
+            std::string why = oiio_error(in.get());
+            if (why.empty()) why = "not a " + format + " file";
+            throw Error(path + ": cannot read: " + why);
+        }
+    }
+    // Some readers report damage found while opening (libjpeg's "Premature end of JPEG file" on a
+    // truncated progressive JPEG, whose scans are read at once) as an error but still open.
+    if (in->has_error()) throw Error(path + ": cannot read: " + oiio_error(in.get()));
+    src->in = std::move(in);
+    src->describe(src->in->spec(), max_pixels, png_colour_chunks);
+    src->count_levels();
     return src;
 }
 
