@@ -1,8 +1,7 @@
 // Batches: several inputs, templates, UDIM tiles, lists (bounded, trimmed, from a pipe), shards,
-// --update, JSON Lines, failures.
+// JSON Lines, failures. What --update skips is in update_test.cpp.
 #include <gtest/gtest.h>
 #include <sys/stat.h>
-#include <utime.h>
 
 #include <cstring>
 #include <fstream>
@@ -121,46 +120,6 @@ TEST(Batch, ShardsCoverEveryInputExactlyOnce) {
               2);
     EXPECT_EQ(run_spectex({"bake", inputs[0], "--output-dir", d / "o", "--shard", "0/3"}).status,
               2);
-}
-
-TEST(Batch, UpdateSkipsOnlyWhatIsCurrent) {
-    ScratchDir d;
-    write_small_png(d / "a.png", 1);
-    write_small_png(d / "b.png", 2);
-    ASSERT_EQ(run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out"}).status, 0);
-    auto r = run_spectex(
-        {"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update", "--json", "-"});
-    EXPECT_EQ(r.status, 0);
-    EXPECT_EQ(count_lines(r.out, "\"status\":\"skipped\""), 2u) << r.out;
-    // A skipped record says why.
-    EXPECT_EQ(count_lines(
-                  r.out,
-                  "\"reason\":\"up to date: same settings hash, source size and modification time"),
-              2u)
-        << r.out;
-    // Threads and jobs do not change pixels: still up to date.
-    r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update",
-                     "--jobs", "2", "--threads", "1", "--json", "-"});
-    EXPECT_EQ(count_lines(r.out, "\"status\":\"skipped\""), 2u) << r.out;
-    // A setting that changes pixels rebuilds both.
-    r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update",
-                     "--type", "float", "--json", "-"});
-    EXPECT_EQ(count_lines(r.out, "\"status\":\"ok\""), 2u) << r.out;
-    // A changed input rebuilds that one only, whatever its date
-    // (tests/cli/update_identity_test.cpp).
-    write_small_png(d / "a.png", 3);
-    struct utimbuf past {
-        946684800, 946684800
-    };
-    utime((d / "a.png").c_str(), &past);
-    r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update",
-                     "--type", "float", "--json", "-"});
-    EXPECT_EQ(count_lines(r.out, "\"status\":\"ok\""), 1u) << r.out;
-    EXPECT_EQ(count_lines(r.out, "\"status\":\"skipped\""), 1u) << r.out;
-    // --force rebuilds everything.
-    r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update",
-                     "--force", "--type", "float", "--json", "-"});
-    EXPECT_EQ(count_lines(r.out, "\"status\":\"ok\""), 2u) << r.out;
 }
 
 TEST(Batch, JobsGiveTheSameBytesAsOneJob) {
