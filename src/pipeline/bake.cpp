@@ -16,7 +16,7 @@
 #include "io/image_source.h"
 #include "io/linearizer.h"
 #include "io/source_identity.h"
-#include "pipeline/batch.h"
+#include "pipeline/batch_files.h"
 #include "pipeline/pixel_policy.h"
 #include "spectex/version.h"
 #include "spectral/colorimetry.h"

@@ -35,7 +35,7 @@ struct BakeSettings {
     uint64_t max_pixels = 268435456;  // 16384 x 16384
     // The options given that make each file what it is, shell-quoted, each after a space: the
     // options of the command line each output records (spectex:commandLine, with its own input and
-    // output: file_command_line in pipeline/batch.h), never the batch's list of files.
+    // output: file_command_line in pipeline/batch_files.h), never the batch's list of files.
     std::string file_options;
     std::string settings_hash;         // recorded as spectex:settingsHash (for --update)
     std::string legacy_settings_hash;  // --update of outputs that record no colour transform
