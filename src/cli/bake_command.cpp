@@ -13,7 +13,7 @@
 #include <set>
 
 #include "cli/arg_parser.h"
-#include "cli/batch_runner.h"
+#include "cli/batch_report.h"
 #include "cli/commands.h"
 #include "cli/method_options.h"
 #include "cli/output_check.h"
@@ -25,9 +25,9 @@
 #include "io/library_stderr.h"
 #include "io/linearizer.h"
 #include "pipeline/bake.h"
+#include "pipeline/bake_batch.h"
 #include "pipeline/basis_cache.h"
-#include "pipeline/batch.h"
-#include "pipeline/batch_run.h"
+#include "pipeline/batch_files.h"
 #include "pipeline/light_list.h"
 #include "pipeline/method_table.h"
 #include "pipeline/plan.h"
@@ -540,7 +540,7 @@ class SetupFailure : public std::runtime_error {
 };
 
 // The batch's files: inputs listed, expanded and sharded, each with its output
-// (pipeline/batch_run).
+// (pipeline/bake_batch).
 BatchPlan plan_bake_files(BakeCli& c, const std::vector<std::string>& inputs) {
     BatchPlan plan;
     c.settings.data_dir = find_data_dir();

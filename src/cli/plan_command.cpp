@@ -6,7 +6,7 @@
 #include <tuple>
 
 #include "cli/arg_parser.h"
-#include "cli/batch_runner.h"
+#include "cli/batch_report.h"
 #include "cli/commands.h"
 #include "cli/method_options.h"
 #include "cli/output_check.h"

@@ -18,7 +18,7 @@
 #include "io/image_library.h"
 #include "io/linearizer.h"
 #include "io/spectral_exr_info.h"
-#include "pipeline/batch.h"
+#include "pipeline/batch_files.h"
 #include "pipeline/json_text.h"
 #include "pipeline/light_list.h"
 #include "pipeline/method_table.h"

@@ -18,7 +18,7 @@
 #include "io/source_identity.h"
 #include "io/spectral_exr_info.h"
 #include "io/spectral_reader.h"
-#include "pipeline/batch.h"
+#include "pipeline/batch_files.h"
 #include "pipeline/method_table.h"
 #include "pipeline/pixel_policy.h"
 #include "spectral/adaptation.h"

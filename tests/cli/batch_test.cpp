@@ -1,9 +1,10 @@
-// Batches: several inputs, templates, UDIM tiles, lists, shards, --update, JSON Lines, failures.
+// Batches: several inputs, templates, UDIM tiles, lists (bounded, trimmed, from a pipe), shards,
+// JSON Lines, failures. What --update skips is in update_test.cpp.
 #include <gtest/gtest.h>
 #include <sys/stat.h>
-#include <utime.h>
 
 #include <cstring>
+#include <fstream>
 #include <map>
 #include <set>
 
@@ -121,46 +122,6 @@ TEST(Batch, ShardsCoverEveryInputExactlyOnce) {
               2);
 }
 
-TEST(Batch, UpdateSkipsOnlyWhatIsCurrent) {
-    ScratchDir d;
-    write_small_png(d / "a.png", 1);
-    write_small_png(d / "b.png", 2);
-    ASSERT_EQ(run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out"}).status, 0);
-    auto r = run_spectex(
-        {"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update", "--json", "-"});
-    EXPECT_EQ(r.status, 0);
-    EXPECT_EQ(count_lines(r.out, "\"status\":\"skipped\""), 2u) << r.out;
-    // A skipped record says why.
-    EXPECT_EQ(count_lines(
-                  r.out,
-                  "\"reason\":\"up to date: same settings hash, source size and modification time"),
-              2u)
-        << r.out;
-    // Threads and jobs do not change pixels: still up to date.
-    r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update",
-                     "--jobs", "2", "--threads", "1", "--json", "-"});
-    EXPECT_EQ(count_lines(r.out, "\"status\":\"skipped\""), 2u) << r.out;
-    // A setting that changes pixels rebuilds both.
-    r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update",
-                     "--type", "float", "--json", "-"});
-    EXPECT_EQ(count_lines(r.out, "\"status\":\"ok\""), 2u) << r.out;
-    // A changed input rebuilds that one only, whatever its date
-    // (tests/cli/update_identity_test.cpp).
-    write_small_png(d / "a.png", 3);
-    struct utimbuf past {
-        946684800, 946684800
-    };
-    utime((d / "a.png").c_str(), &past);
-    r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update",
-                     "--type", "float", "--json", "-"});
-    EXPECT_EQ(count_lines(r.out, "\"status\":\"ok\""), 1u) << r.out;
-    EXPECT_EQ(count_lines(r.out, "\"status\":\"skipped\""), 1u) << r.out;
-    // --force rebuilds everything.
-    r = run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out", "--update",
-                     "--force", "--type", "float", "--json", "-"});
-    EXPECT_EQ(count_lines(r.out, "\"status\":\"ok\""), 2u) << r.out;
-}
-
 TEST(Batch, JobsGiveTheSameBytesAsOneJob) {
     ScratchDir d;
     std::vector<std::string> args1{"bake"}, args2{"bake"};
@@ -273,4 +234,50 @@ TEST(Batch, ZipLevelChangesTheStreamNotThePixels) {
         EXPECT_EQ(run_spectex({"bake", d / "a.png", "-o", d / "x.exr", "--zip-level", bad}).status,
                   2)
             << bad;
+}
+
+TEST(Batch, ListsAreBoundedInPathsAndTrimmed) {
+    ScratchDir d;
+    const std::string png = pattern_png(d, "in.png", 16, 8);
+    {
+        std::ofstream big(d / "big.txt");
+        for (int i = 0; i < (1 << 20) + 1; ++i) big << "a\n";
+    }
+    RunResult r = run_spectex({"bake", "--from-list", d / "big.txt", "-o", d / "{stem}.exr"});
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_TRUE(has_text(r.err, "line 1048577: more than 1048576 paths")) << r.err;
+    std::ofstream(d / "spaced.txt") << "  " << png << " \t\n";
+    RunResult t = run_spectex({"bake", "--from-list", d / "spaced.txt", "-o", d / "t.exr", "-q"});
+    EXPECT_EQ(t.status, 0) << t.err;
+    EXPECT_TRUE(file_exists(d / "t.exr"));
+}
+
+TEST(Batch, AListFromAPipeIsReadLikeStandardInput) {
+    ScratchDir d;
+    pattern_png(d, "a.png", 8, 4);
+    pattern_png(d, "b.png", 8, 4);
+    RunResult r =
+        run_shell("cd " + d.path() + " && " + spectex_binary() +
+                  " bake --from-list <(printf \"a.png\\nb.png\\n\") -o {dir}/{stem}.exr -q");
+    EXPECT_EQ(r.status, 0) << r.out;
+    EXPECT_TRUE(file_exists(d / "a.exr"));
+    EXPECT_TRUE(file_exists(d / "b.exr"));
+}
+
+// UDIM = 1001 + u + 10 v, u in 0..9: 1010 and 1020 are the tenth column, 1100 is v = 9.
+TEST(Batch, UdimExpansionTakesEveryColumn) {
+    ScratchDir d;
+    ASSERT_EQ(::mkdir((d / "u").c_str(), 0755), 0);
+    const std::vector<std::string> tiles = {"1001", "1002", "1005", "1010", "1011",
+                                            "1020", "1100", "2000", "9999"};
+    for (const auto& t : tiles) pattern_png(d, "u/wood." + t + ".png", 4, 4);
+    for (const auto& t : {"1000", "0999", "10001", "abcd"})
+        pattern_png(d, std::string("u/wood.") + t + ".png", 4, 4);
+    RunResult r = run_spectex({"bake", d / "u/wood.<UDIM>.png", "-o", "{dir}/{stem}.exr", "-q"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    for (const auto& t : tiles)
+        EXPECT_TRUE(file_exists(d / ("u/wood." + t + ".exr"))) << "tile " << t << " not baked";
+    for (const auto& t : {"1000", "0999", "10001", "abcd"})
+        EXPECT_FALSE(file_exists(d / (std::string("u/wood.") + t + ".exr")))
+            << t << " is no UDIM tile";
 }

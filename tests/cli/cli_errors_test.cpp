@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <cstdio>
 #include <random>
 #include <sstream>
 #include <string>
@@ -492,4 +493,62 @@ TEST(CliErrors, HostileExrHeadersAreRefusedBeforeOpenExrAllocates) {
     r = run_spectex({"verify", d / "huge.exr"});
     EXPECT_EQ(r.status, 1);
     EXPECT_TRUE(contains(r.err, "refusing")) << r.err;
+}
+
+// A mistyped option names the closest one; an empty argument is a usage error, not a missing file.
+TEST(CliErrors, MistypedOptionsAndEmptyArguments) {
+    RunResult r = run_spectex({"bake", "x.png", "-o", "y.exr", "--wavelenghts", "400:700:5"});
+    EXPECT_EQ(r.status, 2);
+    EXPECT_TRUE(has_text(r.err, "unknown option '--wavelenghts' (did you mean --wavelengths?)"))
+        << r.err;
+    RunResult v = run_spectex({"verify", "--sorce", "a.png", "a.exr"});
+    EXPECT_EQ(v.status, 2);
+    EXPECT_TRUE(has_text(v.err, "(did you mean --source?)")) << v.err;
+    for (const char* cmd : {"bake", "verify", "info"}) {
+        RunResult e = run_spectex({cmd, ""});
+        EXPECT_EQ(e.status, 2) << cmd << ": " << e.err;
+        EXPECT_TRUE(has_text(e.err, "an empty argument")) << e.err;
+    }
+}
+
+// Whole numbers parse strictly: a value that wraps (--shard 1/4294967297 read as 1/1), a sign,
+// spaces or a hex prefix is a usage error, not a different number.
+TEST(CliErrors, ShardAndOtherWholeNumbersParseStrictly) {
+    ScratchDir d;
+    const std::string png = pattern_png(d, "in.png", 8, 4);
+    for (const std::string bad : {"1/4294967297", "4294967297/4294967298", "+1/2", "1/+2", " 1/2",
+                                  "1/2 ", "0x1/2", "1/2/3", "-1/2", "1/0", "3/2", "1/"}) {
+        RunResult r = run_spectex({"bake", png, "-o", d / "o.exr", "--shard", bad});
+        EXPECT_EQ(r.status, 2) << "--shard '" << bad << "': " << r.err;
+        EXPECT_FALSE(file_exists(d / "o.exr")) << "--shard '" << bad << "' baked";
+    }
+    EXPECT_EQ(run_spectex({"bake", png, "-o", d / "o.exr", "--shard", "1/1", "-q"}).status, 0);
+    // The same strictness for every number an option takes.
+    const std::vector<std::vector<std::string>> bad_numbers = {
+        {"plan", "--lights", "D65", "--max-de", "0x10"},
+        {"plan", "--lights", "D65", "--max-de", "0x1p-3"},
+        {"bake", png, "-o", d / "z.exr", "--zip-level", "+4"},
+        {"bake", png, "-o", d / "z.exr", "--zip-level", "0x4"},
+        {"bake", png, "-o", d / "z.exr", "--tile", "0x40"},
+        {"bake", png, "-o", d / "z.exr", "--tile", "+64"},
+        {"bake", png, "-o", d / "z.exr", "--tile", "64x+64"},
+        {"bake", png, "-o", d / "z.exr", "--threads", "4294967297"},
+    };
+    for (const auto& args : bad_numbers) {
+        RunResult r = run_spectex(args);
+        EXPECT_EQ(r.status, 2) << args[args.size() - 2] << " " << args.back() << ": " << r.err;
+    }
+}
+
+TEST(CliHelp, ManPageJoinsNoCommandNames) {
+    const std::string src = SPECTEX_TEST_SOURCE_DIR;
+    const std::string cmd = "man -l '" + src +
+                            "/man/spectex.1' 2>/dev/null | grep -c -E "
+                            "'spectex(sample|render|plot|info|bake|verify|plan|basis)'";
+    FILE* p = popen(cmd.c_str(), "r");
+    ASSERT_NE(p, nullptr);
+    char buf[64] = {0};
+    fgets(buf, sizeof buf, p);
+    pclose(p);
+    EXPECT_EQ(std::string(buf), "0\n");
 }

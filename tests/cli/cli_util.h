@@ -164,6 +164,43 @@ inline void write_pattern_ppm(const std::string& path, int seed) {
     std::ofstream(path, std::ios::binary) << bytes;
 }
 
+// write_pattern_png's picture for seed 0 at d/name, returning its path: for tests whose pixels
+// only need to be an ordinary colour image.
+inline std::string pattern_png(const ScratchDir& d, const std::string& name, int w, int h) {
+    const std::string path = d / name;
+    write_pattern_png(path, 0, w, h);
+    return path;
+}
+
+// A 16x16 8-bit sRGB ramp at d/albedo.png, returning its path: saturated and dark colours, the
+// ones a lossy compression (b44) moves most.
+inline std::string write_albedo(const ScratchDir& d) {
+    std::vector<unsigned char> px(16 * 16 * 3);
+    for (int y = 0; y < 16; ++y)
+        for (int x = 0; x < 16; ++x) {
+            unsigned char* p = &px[(y * 16 + x) * 3];
+            p[0] = static_cast<unsigned char>(x * 17);
+            p[1] = static_cast<unsigned char>(y * 17);
+            p[2] = static_cast<unsigned char>(((x + y) % 3) * 120);
+        }
+    const std::string path = d / "albedo.png";
+    write_image(path, 16, 16, 3, OIIO::TypeDesc::UINT8, px.data());
+    return path;
+}
+
+// write_albedo's picture baked with the default settings to d/b.exr, returning the EXR's path.
+inline std::string bake_albedo(const ScratchDir& d) {
+    const std::string exr = d / "b.exr";
+    const RunResult r = run_spectex({"bake", write_albedo(d), "-o", exr, "-q"});
+    if (r.status != 0) throw std::runtime_error("cannot bake " + exr + ": " + r.err);
+    return exr;
+}
+
+// Whether `text` holds `what` (a message, a record, a file's text).
+inline bool has_text(const std::string& text, const std::string& what) {
+    return text.find(what) != std::string::npos;
+}
+
 // How many times `needle` occurs in `s` (overlaps counted).
 inline size_t occurrences(const std::string& s, const std::string& needle) {
     size_t n = 0;

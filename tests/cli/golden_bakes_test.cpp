@@ -36,7 +36,7 @@ using namespace spectex_test;
 namespace {
 
 // spectex:settingsHash is left out too: it hashes the tool's version with the settings
-// (pipeline/batch.cpp), so another version gives another; the settings themselves are in the
+// (pipeline/batch_files.cpp), so another version gives another; the settings themselves are in the
 // attributes that are hashed (the colour config by what it does, spectex:colorTransform).
 const std::set<std::string> kLocal = {
     "spectex:source",       "spectex:commandLine",    "spectex:config",

@@ -891,3 +891,37 @@ TEST(HardInputs, UnknownFileColourSpaceFallsBackToFileRules) {
     EXPECT_TRUE(same_pixels(c, e, &why)) << why;
     EXPECT_EQ(c.attr("spectex:inputColorSpace"), e.attr("spectex:inputColorSpace"));
 }
+
+// --out-of-range keep with half output: values beyond 65504 (the largest half) would become
+// infinities, so the file fails and suggests --type float; float stores them finite.
+TEST(HardInputs, KeepRefusesValuesHalfCannotStore) {
+    ScratchDir d;
+    std::vector<float> px(8 * 8 * 3, 0.5f);
+    px[10] = 1e38f;
+    px[40] = -7e4f;
+    write_image(d / "hdr.exr", 8, 8, 3, OIIO::TypeDesc::FLOAT, px.data());
+    RunResult r = run_spectex({"bake", d / "hdr.exr", "-o", d / "h.exr", "--out-of-range", "keep"});
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_TRUE(has_text(r.err, "largest half value")) << r.err;
+    EXPECT_TRUE(has_text(r.err, "--type float")) << r.err;
+    EXPECT_FALSE(file_exists(d / "h.exr"));
+    // Float stores them: every sample finite.
+    RunResult f = run_spectex({"bake", d / "hdr.exr", "-o", d / "f.exr", "--out-of-range", "keep",
+                               "--type", "float", "-q"});
+    ASSERT_EQ(f.status, 0) << f.err;
+    for (const auto& [name, plane] : read_exr(d / "f.exr").pixels)
+        for (float v : plane) ASSERT_TRUE(std::isfinite(v)) << name;
+    // Large values half can hold are kept, finite.
+    std::vector<float> big(8 * 8 * 3, 60000.0f);
+    write_image(d / "big.exr", 8, 8, 3, OIIO::TypeDesc::FLOAT, big.data());
+    RunResult b =
+        run_spectex({"bake", d / "big.exr", "-o", d / "b.exr", "--out-of-range", "keep", "-q"});
+    ASSERT_EQ(b.status, 0) << b.err;
+    size_t n = 0;
+    for (const auto& [name, plane] : read_exr(d / "b.exr").pixels)
+        for (float v : plane) {
+            ASSERT_TRUE(std::isfinite(v)) << name;
+            ++n;
+        }
+    EXPECT_GT(n, 0u);
+}

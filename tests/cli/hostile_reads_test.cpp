@@ -14,6 +14,7 @@
 // regression allocating without bound fails fast instead of taking the machine's memory), killed
 // after kTimeout seconds and reported as "hung".
 #include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
 #include <ImfOutputFile.h>
 #include <gtest/gtest.h>
@@ -28,6 +29,7 @@
 #include <climits>
 #include <cmath>
 #include <cstring>
+#include <fstream>
 #include <random>
 #include <string>
 #include <thread>
@@ -687,4 +689,104 @@ TEST(HostileReads, TruncatedImagesOfEveryFormatFail) {
                            r, cut, out);
         }
     }
+}
+
+TEST(HostileReads, TruncatedTiledAndScanlineFilesFailVerifyAndInfo) {
+    ScratchDir d;
+    const std::string png = pattern_png(d, "in.png", 256, 128);
+    for (const char* mode : {"--mipmap", "--type"}) {
+        const std::string exr = d / "m.exr", cut = d / "cut.exr";
+        std::vector<std::string> args = {"bake", png, "-o", exr, "-q", mode};
+        if (std::string(mode) == "--type") args.push_back("float");
+        ASSERT_EQ(run_spectex(args).status, 0);
+        const std::string bytes = read_file(exr);
+        std::ofstream(cut, std::ios::binary) << bytes.substr(0, bytes.size() - bytes.size() / 10);
+        RunResult v = run_spectex({"verify", cut});
+        EXPECT_EQ(v.status, 1) << mode << ": " << v.out;
+        EXPECT_TRUE(has_text(v.err, "incomplete")) << v.err;
+        RunResult i = run_spectex({"info", cut});
+        EXPECT_EQ(i.status, 1) << mode;
+        EXPECT_EQ(run_spectex({"verify", exr}).status, 0);
+    }
+}
+
+// A large file that is no image of the format its name says: one reader says no at once. OIIO's
+// own open tried every reader, some of which read the whole file (57 s for 200 MB). The bound
+// below is a guard against that hang coming back, far above the time it takes (under a second).
+TEST(HostileReads, AFileOfZerosNamedPngFailsAtOnce) {
+    ScratchDir d;
+    {
+        std::ofstream z(d / "z.png", std::ios::binary);
+        const std::string block(1 << 20, '\0');
+        for (int i = 0; i < 64; ++i) z << block;
+    }
+    const auto t0 = std::chrono::steady_clock::now();
+    RunResult r = run_spectex({"bake", d / "z.png", "-o", d / "z.exr"});
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    EXPECT_EQ(r.status, 1);
+    EXPECT_TRUE(has_text(r.err, "Not a PNG file")) << r.err;
+    EXPECT_LT(s, 15.0);
+    // A PNG named .jpg is read by its contents.
+    const std::string png = pattern_png(d, "in.png", 16, 8);
+    ASSERT_EQ(std::rename(png.c_str(), (d / "really_png.jpg").c_str()), 0);
+    EXPECT_EQ(run_spectex({"bake", d / "really_png.jpg", "-o", d / "j.exr", "-q"}).status, 0);
+}
+
+// Luminance/chroma EXRs (Y, RY, BY) were baked as grey from Y alone: the colour was dropped.
+TEST(HostileReads, LuminanceChromaIsRefusedNotBakedGrey) {
+    ScratchDir d;
+    const std::string in = d / "yc.exr";
+    std::vector<float> px(8 * 8 * 3, 0.25f);
+    write_image(in, 8, 8, 3, OIIO::TypeDesc::FLOAT, px.data(), {}, 0);
+    // Rename the channels to Y, RY, BY.
+    ExrImage img = read_exr(in);
+    Imf::Header h(img.header.displayWindow(), img.header.dataWindow());
+    for (const char* n : {"Y", "RY", "BY"}) h.channels().insert(n, Imf::Channel(Imf::FLOAT));
+    {
+        Imf::OutputFile out(in.c_str(), h);
+        Imf::FrameBuffer fb;
+        const char* src[3] = {"R", "G", "B"};
+        const char* dst[3] = {"Y", "RY", "BY"};
+        for (int c = 0; c < 3; ++c)
+            fb.insert(dst[c],
+                      Imf::Slice::Make(Imf::FLOAT, img.pixels[src[c]].data(), img.data_window));
+        out.setFrameBuffer(fb);
+        out.writePixels(img.height);
+    }
+    RunResult r = run_spectex({"bake", in, "-o", d / "o.exr"});
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_TRUE(has_text(r.err, "luminance/chroma channels (Y, RY, BY) are not supported"))
+        << r.err;
+    EXPECT_FALSE(file_exists(d / "o.exr"));
+}
+
+// Header limits are named for what they are: an attribute past the header cap is reported with
+// the cap, not as larger than the file; an int whose size field is wrong says so.
+TEST(HostileReads, HeaderSizesAreReportedForWhatTheyAre) {
+    ScratchDir d;
+    auto le32 = [](int32_t v) {
+        std::string s(4, '\0');
+        for (int i = 0; i < 4; ++i)
+            s[i] = static_cast<char>((static_cast<uint32_t>(v) >> (8 * i)) & 0xff);
+        return s;
+    };
+    const std::string magic = le32(20000630) + le32(2);
+    auto attr = [&](const std::string& name, const std::string& type, int32_t size,
+                    const std::string& value) {
+        return name + std::string(1, '\0') + type + std::string(1, '\0') + le32(size) + value;
+    };
+    // A 70 MB attribute: past the header cap, whatever the file's size.
+    write_bytes(d / "huge.exr", magic + attr("note", "string", 70 << 20, std::string(64, 'x')));
+    RunResult h = run_spectex({"info", d / "huge.exr"});
+    EXPECT_EQ(h.status, 1) << h.err;
+    EXPECT_TRUE(has_text(h.err, "64 MiB")) << h.err;
+    EXPECT_FALSE(has_text(h.err, "larger than the file")) << h.err;
+    // An int whose size field says 2.
+    write_bytes(d / "int2.exr", magic + attr("count", "int", 2, std::string(2, '\0')) +
+                                    attr("dataWindow", "box2i", 16, std::string(16, '\0')) +
+                                    std::string(1, '\0') + std::string(64, '\0'));
+    RunResult i = run_spectex({"info", d / "int2.exr"});
+    EXPECT_EQ(i.status, 1) << i.err;
+    EXPECT_TRUE(has_text(i.err, "'count' of type int is 2 bytes, not 4")) << i.err;
+    EXPECT_FALSE(has_text(i.err, "chunks")) << i.err;
 }

@@ -123,3 +123,28 @@ TEST(Illuminants, UnknownNameIsRefusedWithTheList) {
     EXPECT_TRUE(contains(r.err, "FL12")) << r.err;
     EXPECT_FALSE(file_exists(d / "b.csv"));
 }
+
+// An unknown illuminant or observer name is a usage error (exit 2) naming the option, in every
+// command: a setting, not the file, is at fault.
+TEST(Illuminants, UnknownIlluminantIsAUsageErrorNamingTheOption) {
+    ScratchDir d;
+    const std::string exr = bake_albedo(d), in = d / "albedo.png";
+    const std::vector<std::pair<std::vector<std::string>, std::string>> runs = {
+        {{"bake", in, "-o", d / "o.exr", "--illuminant", "Tungsten"}, "--illuminant"},
+        {{"render", exr, "-o", d / "r.png", "--illuminant", "Tungsten"}, "--illuminant"},
+        {{"verify", exr, "--check-illuminant", "Tungsten"}, "--check-illuminant"},
+        {{"verify", exr, "--illuminant", "Tungsten"}, "--illuminant"},
+        {{"plan", "--illuminant", "Tungsten"}, "--illuminant"},
+        {{"plan", "--lights", "Tungsten"}, "--lights"},
+        {{"sample", exr, "1,1", "--illuminant", "Tungsten"}, "--illuminant"},
+        {{"plot", exr, "--pixel", "1,1", "-o", d / "p.svg", "--light", "Tungsten"}, "--light"},
+        {{"basis", "-o", d / "basis.csv", "--illuminant", "Tungsten"}, "--illuminant"},
+        {{"render", exr, "-o", d / "r.png", "--observer", "cie2020"}, "--observer"},
+    };
+    for (const auto& [args, option] : runs) {
+        RunResult r = run_spectex(args);
+        EXPECT_EQ(r.status, 2) << args[0] << ": " << r.err;
+        EXPECT_NE(r.err.find(option + ": unknown"), std::string::npos) << args[0] << ": " << r.err;
+        EXPECT_EQ(r.err.find(exr + ":"), std::string::npos) << "blames the file: " << r.err;
+    }
+}

@@ -2,15 +2,21 @@
 // "spectex <command>: ..."), one line per error, with bytes that are not printable escaped as \xNN,
 // whatever a file's name holds or a library says (libpng and libjpeg through OpenImageIO, OCIO's
 // own logging).
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfOutputFile.h>
+#include <ImfStringAttribute.h>
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <cstdio>
 #include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "cli/cli_util.h"
+#include "cli/exr_read.h"
 
 using namespace spectex_test;
 
@@ -170,4 +176,95 @@ TEST(Messages, PathsAShellWouldSplitAreQuotedInMessages) {
     RunResult v = run_spectex({"bake", spaced, "-o", d / "o.exr", "-v"});
     EXPECT_EQ(v.status, 0) << v.err;
     EXPECT_TRUE(contains(v.err, "spectex: '" + spaced + "' -> " + d / "o.exr" + ": ")) << v.err;
+}
+
+TEST(Messages, InvisibleAndInvalidCharactersNeverReachTheTerminalRaw) {
+    ScratchDir d;
+    struct Case {
+        std::string raw, shown;
+    };
+    const std::vector<Case> cases = {
+        {"c1\xc2\x9b"
+         "31m",
+         "c1\\u009b31m"},  // C1 control: 8-bit CSI
+        {"bidi\xe2\x80\xae"
+         "gpj",
+         "bidi\\u202egpj"},  // right-to-left override
+        {"zw\xe2\x80\x8b"
+         "sp",
+         "zw\\u200bsp"},                            // zero-width space
+        {"sur\xed\xa0\x80", "sur\\xed\\xa0\\x80"},  // a UTF-16 surrogate in UTF-8: invalid
+        {"over\xc0\xaf", "over\\xc0\\xaf"},         // overlong '/'
+    };
+    for (const auto& c : cases) {
+        const std::string path = d / (c.raw + ".exr");
+        std::ofstream(path) << "not an exr";
+        for (const char* cmd : {"info", "verify"}) {
+            RunResult r = run_spectex({cmd, path});
+            EXPECT_EQ(r.status, 1);
+            EXPECT_TRUE(has_text(r.err, c.shown)) << cmd << ": " << r.err;
+            EXPECT_FALSE(has_text(r.err, c.raw)) << cmd << ": raw bytes on stderr";
+        }
+    }
+}
+
+TEST(Messages, InfoPrintsHeaderTextAsOnePrintableLine) {
+    ScratchDir d;
+    const std::string png = pattern_png(d, "in.png", 16, 8), exr = d / "a.exr",
+                      forged = d / "forged.exr";
+    ASSERT_EQ(run_spectex({"bake", png, "-o", exr, "--type", "float", "-q"}).status, 0);
+    ExrImage img = read_exr(exr);
+    Imf::Header h = img.header;
+    h.insert("spectex:source", Imf::StringAttribute("\x1b]0;pwned\x07\x1b[2J\nFAKE LINE"));
+    {
+        Imf::OutputFile out(forged.c_str(), h);
+        Imf::FrameBuffer fb;
+        for (const auto& name : img.channel_names)
+            fb.insert(name, Imf::Slice::Make(Imf::FLOAT, img.pixels[name].data(), img.data_window));
+        out.setFrameBuffer(fb);
+        out.writePixels(img.height);
+    }
+    RunResult r = run_spectex({"info", forged});
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_FALSE(has_text(r.out, "\x1b")) << "escape codes on stdout";
+    EXPECT_FALSE(has_text(r.out, "\nFAKE LINE")) << "a forged line on stdout";
+    EXPECT_TRUE(has_text(r.out, "spectex:source \\x1b]0;pwned\\x07\\x1b[2J; FAKE LINE")) << r.out;
+}
+
+// In a batch, a message about a file another file refers to (verify --source-from-header's
+// source) names the EXR it belongs to: otherwise a user cannot tell which output failed.
+TEST(Messages, EveryPerFileMessageNamesItsFile) {
+    ScratchDir d;
+    const std::string png = pattern_png(d, "gone.png", 8, 4);
+    ASSERT_EQ(run_spectex({"bake", png, "-o", d / "h1.exr", "-q"}).status, 0);
+    ASSERT_EQ(run_spectex({"bake", png, "-o", d / "h2.exr", "-q"}).status, 0);
+    ASSERT_EQ(::unlink(png.c_str()), 0);
+    RunResult r =
+        run_spectex({"verify", d / "h1.exr", d / "h2.exr", "--source-from-header", "--jobs", "2"});
+    EXPECT_EQ(r.status, 1) << r.err;
+    for (const std::string exr : {d / "h1.exr", d / "h2.exr"})
+        EXPECT_TRUE(has_text(r.err, "spectex: " + exr + ": ") ||
+                    has_text(r.err, "(verifying " + exr + ")\n"))
+            << "no line names " << exr << ":\n"
+            << r.err;
+}
+
+TEST(Messages, TheCommandWasCanBePastedBackIntoAShell) {
+    ScratchDir d;
+    const std::string missing = d / "caf\xe9 \x01.png";
+    RunResult r = run_spectex({"bake", missing, "-o", d / "o.exr"});
+    ASSERT_EQ(r.status, 1) << r.err;
+    const std::string marker = "spectex: the command was: ";
+    const size_t at = r.err.find(marker);
+    ASSERT_NE(at, std::string::npos) << r.err;
+    std::string line = r.err.substr(at + marker.size());
+    line = line.substr(0, line.find('\n'));
+    EXPECT_TRUE(has_text(line, "$'")) << line;
+    // bash reads the line back as the same words: print the second argument's bytes.
+    const std::string script = "set -- " + line.substr(line.find(' ') + 1) + "; printf %s \"$2\"";
+    FILE* p = ::popen(("LC_ALL=C.UTF-8 bash -c \"$(cat)\" >" + d / "word").c_str(), "w");
+    ASSERT_NE(p, nullptr);
+    std::fwrite(script.data(), 1, script.size(), p);
+    ::pclose(p);
+    EXPECT_EQ(read_file(d / "word"), missing) << line;
 }

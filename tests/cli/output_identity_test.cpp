@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <cstdint>
+#include <cstdlib>
 #include <fstream>
 #include <string>
 #include <vector>
@@ -37,6 +38,19 @@ void copy_file(const std::string& from, const std::string& to) {
 void expect_usage_error(const RunResult& r, const std::string& what) {
     EXPECT_EQ(r.status, 2) << r.err;
     EXPECT_TRUE(contains(r.err, what)) << "stderr does not mention '" << what << "':\n" << r.err;
+}
+
+// A copy of the shipped data folder, so that a broken check could only harm the copy.
+std::string data_copy(const ScratchDir& d) {
+    const std::string dd = d / "data";
+    EXPECT_EQ(
+        std::system(("cp -r '" + std::string(SPECTEX_TEST_DATA_DIR) + "' '" + dd + "'").c_str()),
+        0);
+    return dd;
+}
+
+void expect_unchanged(const std::string& path, const std::string& before) {
+    EXPECT_EQ(read_file(path), before) << path;
 }
 
 }  // namespace
@@ -257,4 +271,90 @@ TEST(OutputIdentity, NoOutputIsALutFileOfTheConfig) {
     RunResult ok = run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "--config", cfg,
                                 "--colorspace", "lut_space", "--json", d / "report.jsonl"});
     EXPECT_EQ(ok.status, 0) << ok.err;
+}
+
+TEST(OutputIdentity, TheShippedTablesAreNeverOutputs) {
+    ScratchDir d;
+    const std::string png = pattern_png(d, "in.png", 16, 8), dd = data_copy(d);
+    const std::vector<std::string> env = {"SPECTEX_DATA_DIR=" + dd};
+    const std::string obs = dd + "/spectral/observer_cie1931-2.csv",
+                      d65 = dd + "/spectral/illuminant_D65.csv",
+                      mal = dd + "/spectral/basis_mallett2019.csv",
+                      ill_a = dd + "/spectral/illuminant_A.csv";
+    const std::string before_obs = read_file(obs), before_d65 = read_file(d65),
+                      before_mal = read_file(mal), before_a = read_file(ill_a);
+    const std::vector<std::vector<std::string>> cases = {
+        {"bake", png, "-o", d / "a.exr", "--json", obs},
+        {"bake", png, "-o", d / "a.exr", "--basis", "mallett2019", "--json", mal},
+        {"bake", png, "-o", d / "a.exr", "--illuminant", "A", "--json", ill_a},
+        {"basis", "-q", "-o", d65},
+        {"basis", "-q", "-o", obs},
+    };
+    for (const auto& args : cases) {
+        RunResult r = run_spectex(args, env);
+        EXPECT_EQ(r.status, 2) << args[0] << " " << args.back() << ": " << r.err;
+        EXPECT_TRUE(has_text(r.err, "which this command reads")) << r.err;
+    }
+    ASSERT_EQ(run_spectex({"bake", png, "-o", d / "z.exr", "-q"}, env).status, 0);
+    RunResult v = run_spectex({"verify", d / "z.exr", "--json", d65}, env);
+    EXPECT_EQ(v.status, 2) << v.err;
+    RunResult pl = run_spectex({"plot", d / "z.exr", "--pixel", "0,0", "-o", obs}, env);
+    EXPECT_EQ(pl.status, 2) << pl.err;
+    expect_unchanged(obs, before_obs);
+    expect_unchanged(d65, before_d65);
+    expect_unchanged(mal, before_mal);
+    expect_unchanged(ill_a, before_a);
+}
+
+TEST(OutputIdentity, VerifyNeverWritesASourceOrLutItReads) {
+    ScratchDir d;
+    const std::string png = pattern_png(d, "src.png", 16, 8), exr = d / "a.exr";
+    ASSERT_EQ(run_spectex({"bake", png, "-o", exr, "-q"}).status, 0);
+    const std::string before = read_file(png);
+    RunResult r = run_spectex({"verify", exr, "--source-from-header", "--json", png});
+    EXPECT_EQ(r.status, 2) << r.err;
+    expect_unchanged(png, before);
+
+    // A config whose colour space loads a LUT: neither may be verify's report.
+    std::ofstream(d / "lut.spi1d")
+        << "Version 1\nFrom 0.0 1.0\nLength 2\nComponents 1\n{\n0.0\n1.0\n}\n";
+    const std::string cfg = d / "lut.ocio";
+    std::ofstream(cfg) << lut_config_text(d.path(), "lut.spi1d");
+    const std::string lin = d / "lin.exr";
+    std::vector<float> px(16 * 8 * 3, 0.25f);
+    write_image(lin, 16, 8, 3, OIIO::TypeDesc::FLOAT, px.data());
+    const std::string baked = d / "b.exr";
+    ASSERT_EQ(
+        run_spectex({"bake", lin, "-o", baked, "--config", cfg, "--colorspace", "lut_space", "-q"})
+            .status,
+        0);
+    const std::string lut_before = read_file(d / "lut.spi1d"), cfg_before = read_file(cfg);
+    RunResult l =
+        run_spectex({"verify", baked, "--source", lin, "--config", cfg, "--json", d / "lut.spi1d"});
+    EXPECT_EQ(l.status, 2) << l.err;
+    EXPECT_TRUE(has_text(l.err, "a LUT file of")) << l.err;
+    // And the config the header records, when none is given.
+    RunResult c = run_spectex({"verify", baked, "--source", lin, "--json", cfg});
+    EXPECT_EQ(c.status, 2) << c.err;
+    expect_unchanged(d / "lut.spi1d", lut_before);
+    expect_unchanged(cfg, cfg_before);
+}
+
+TEST(OutputIdentity, AListRedirectedIntoStandardInputIsARead) {
+    ScratchDir d;
+    const std::string png = pattern_png(d, "in.png", 16, 8), list = d / "list.txt";
+    std::ofstream(list) << png << "\n";
+    const std::string before = read_file(list);
+    RunResult b =
+        run_spectex_io({"bake", "--from-list", "-", "-o", d / "z.exr", "--json", list}, list);
+    EXPECT_EQ(b.status, 2) << b.err;
+    EXPECT_TRUE(has_text(b.err, "standard input")) << b.err;
+    expect_unchanged(list, before);
+    ASSERT_EQ(run_spectex({"bake", png, "-o", d / "z.exr", "-q"}).status, 0);
+    std::ofstream(list) << d / "z.exr"
+                        << "\n";
+    const std::string before2 = read_file(list);
+    RunResult v = run_spectex_io({"verify", "--from-list", "-", "--json", list}, list);
+    EXPECT_EQ(v.status, 2) << v.err;
+    expect_unchanged(list, before2);
 }

@@ -291,3 +291,18 @@ TEST(Plan, AutoPlansWithTheMethodTheBakeBuilds) {
     // A 5³ table misses colours a 33³ table gets: the planned worst error differs.
     EXPECT_NE(worst[0], worst[1]) << "both planned with the same table";
 }
+
+TEST(Plan, AnUnmetBudgetIsExitOneInPlanAndBake) {
+    ScratchDir d;
+    const std::string png = pattern_png(d, "in.png", 8, 4);
+    const std::vector<std::string> budget = {"--lights", "A",       "--max-de",
+                                             "0.0001",   "--grids", "380:780:20"};
+    std::vector<std::string> plan = {"plan"},
+                             bake = {"bake", png, "-o", d / "o.exr", "--wavelengths", "auto"};
+    plan.insert(plan.end(), budget.begin(), budget.end());
+    bake.insert(bake.end(), budget.begin(), budget.end());
+    RunResult p = run_spectex(plan), b = run_spectex(bake);
+    EXPECT_EQ(p.status, 1) << p.err;
+    EXPECT_EQ(b.status, p.status) << b.err;
+    EXPECT_TRUE(has_text(b.err, "best achievable")) << b.err;
+}

@@ -1,8 +1,7 @@
 // What a baked file's header says must be true of that file:
 //  * verify tells a source that changed since the bake (its size or bytes differ from the recorded
-//    spectex:sourceSize / spectex:sourceHash) from a bad bake, and says so in its own words;
-//  * --update decides by what the OCIO config does to each file (OpenColorIO's cache ID of the
-//    processor from its colour space to linear Rec.709), not by the config's bytes;
+//    spectex:sourceSize / spectex:sourceHash) from a bad bake, and says so in its own words (what
+//    --update decides from the same records is in update_test.cpp);
 //  * spectex:commandLine is a command that rebuilds this one file, whatever the batch it came from.
 #include <fcntl.h>
 #include <gtest/gtest.h>
@@ -42,10 +41,6 @@ std::string replace_all(std::string s, const std::string& from, const std::strin
     for (size_t p = s.find(from); p != std::string::npos; p = s.find(from, p + to.size()))
         s.replace(p, from.size(), to);
     return s;
-}
-
-std::string shipped_config() {
-    return read_file(std::string(SPECTEX_TEST_DATA_DIR) + "/spectex.ocio");
 }
 
 // Single-quoted for bash.
@@ -121,77 +116,6 @@ TEST(ProvenanceTruth, VerifyOfAFileThatRecordsNoIdentityComparesColoursAsBefore)
     EXPECT_NE(r.out.find("result:               FAILED: CIEDE2000 max"), std::string::npos)
         << r.out;
     EXPECT_EQ(r.out.find("STALE"), std::string::npos) << r.out;
-}
-
-// ---------------------------------------------------------------------------------------------
-// --update: the config by what it does
-
-namespace {
-
-// Bakes a.png and b.png with config `cfg` into out/, then rewrites the config as `edited` and runs
-// --update: returns its JSON Lines.
-std::string update_after_edit(const ScratchDir& d, const std::string& edited) {
-    write_pattern_png(d / "a.png", 1);
-    write_pattern_png(d / "b.png", 2);
-    write_text(d / "c.ocio", shipped_config());
-    const std::vector<std::string> bake = {"bake",       d / "a.png",    d / "b.png", "--config",
-                                           d / "c.ocio", "--output-dir", d / "out"};
-    RunResult r = run_spectex(bake);
-    EXPECT_EQ(r.status, 0) << r.err;
-    EXPECT_FALSE(read_exr(d / "out/a.exr").attr("spectex:colorTransform").empty());
-    write_text(d / "c.ocio", edited);
-    std::vector<std::string> update = bake;
-    update.insert(update.end(), {"--update", "--json", "-"});
-    r = run_spectex(update);
-    EXPECT_EQ(r.status, 0) << r.err;
-    return r.out;
-}
-
-}  // namespace
-
-TEST(ProvenanceTruth, UpdateKeepsOutputsWhenTheConfigOnlyGainsACommentOrAnUnusedSpace) {
-    ScratchDir d;
-    std::string cfg = "# edited by the show's colour team\n" + shipped_config();
-    cfg = replace_all(cfg, "description: spectex texture colour spaces",
-                      "description: the show's texture colour spaces");
-    cfg +=
-        "\n  - !<ColorSpace>\n    name: show_log\n    isdata: false\n"
-        "    from_scene_reference: !<ExponentTransform> {value: 1.8, style: pass_thru, "
-        "direction: inverse}\n";
-    // A transform the files do not use changes too (gamma 2.2 space).
-    cfg = replace_all(cfg, "{value: 2.2, style: pass_thru", "{value: 2.3, style: pass_thru");
-    const std::string out = update_after_edit(d, cfg);
-    EXPECT_EQ(occurrences(out, "\"status\":\"skipped\""), 2u) << out;
-}
-
-TEST(ProvenanceTruth, UpdateRebakesWhenTheTransformTheFilesUseChanges) {
-    ScratchDir d;
-    const std::string cfg =
-        replace_all(shipped_config(), "gamma: 2.4, offset: 0.055", "gamma: 2.5, offset: 0.055");
-    ASSERT_NE(cfg, shipped_config());
-    const std::string out = update_after_edit(d, cfg);
-    EXPECT_EQ(occurrences(out, "\"status\":\"ok\""), 2u) << out;
-    EXPECT_EQ(occurrences(out, "\"status\":\"skipped\""), 0u) << out;
-}
-
-TEST(ProvenanceTruth, UpdateRebakesAnOutputThatRecordsNoColourTransformOnce) {
-    ScratchDir d;
-    write_pattern_png(d / "a.png", 1);
-    write_text(d / "c.ocio", shipped_config());
-    const std::vector<std::string> bake = {"bake",      d / "a.png", "--config", d / "c.ocio", "-o",
-                                           d / "a.exr", "--update",  "--json",   "-"};
-    ASSERT_EQ(run_spectex(bake).status, 0);
-    ASSERT_TRUE(read_exr(d / "a.exr").has_attr("spectex:colorTransform"));
-    // As an output made before the key was recorded (its settings hash included the config's
-    // bytes): not taken as up to date on the new key's absence.
-    hide_attributes(d / "a.exr", {"spectex:colorTransform"});
-    RunResult r = run_spectex(bake);
-    ASSERT_EQ(r.status, 0) << r.err;
-    EXPECT_EQ(occurrences(r.out, "\"status\":\"ok\""), 1u) << r.out;
-    EXPECT_TRUE(read_exr(d / "a.exr").has_attr("spectex:colorTransform"));
-    r = run_spectex(bake);
-    ASSERT_EQ(r.status, 0) << r.err;
-    EXPECT_EQ(occurrences(r.out, "\"status\":\"skipped\""), 1u) << r.out;
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -612,3 +612,95 @@ TEST(Render, PremultipliedSpectraAreDividedByAlphaAndAlphaIsKept) {
     const uint8_t* s = &px[(static_cast<size_t>(4) * w + 5) * 4];
     for (int i = 0; i < 3; ++i) EXPECT_NEAR(c[i], s[i], 1);
 }
+
+// An SVG declared UTF-8 holds only UTF-8, whatever bytes a file name, --title or a light's name
+// holds: others are shown escaped, so that every XML parser reads the plot.
+TEST(Plot, WritesWellFormedUtf8Xml) {
+    ScratchDir d;
+    const std::string png = pattern_png(d, "in.png", 8, 4), exr = d / "caf\xe9.exr";
+    ASSERT_EQ(run_spectex({"bake", png, "-o", exr, "-q"}).status, 0);
+    std::ofstream(d / "l\xe9mpara.csv") << "wavelength,value\n380,1\n780,1\n";
+    const std::vector<std::vector<std::string>> cases = {
+        {}, {"--title", "caf\xe9 \x01<b>&"}, {"--light", d / "l\xe9mpara.csv"}};
+    int k = 0;
+    for (const auto& extra : cases) {
+        const std::string svg = d / ("p" + std::to_string(k++) + ".svg");
+        std::vector<std::string> args = {"plot", exr, "--pixel", "1,1", "-o", svg};
+        args.insert(args.end(), extra.begin(), extra.end());
+        RunResult r = run_spectex(args);
+        ASSERT_EQ(r.status, 0) << r.err;
+        // An independent XML parser (Python's expat) must accept it.
+        const int rc = std::system(("python3 -c 'import sys, xml.dom.minidom as m; "
+                                    "m.parse(sys.argv[1])' '" +
+                                    svg + "'")
+                                       .c_str());
+        EXPECT_EQ(rc, 0) << svg << " is not well-formed XML";
+        EXPECT_TRUE(has_text(read_file(svg), "caf\\xe9")) << "the name's bytes are not shown";
+    }
+}
+
+// A pixel coordinate takes every int an OpenEXR data window may hold (a lower limit would
+// refuse pixels of a legal file); outside the window is exit 1, a malformed number exit 2.
+TEST(Sample, TakesEveryCoordinateADataWindowMayHold) {
+    ScratchDir d;
+    const std::string png = pattern_png(d, "in.png", 8, 4);
+    ASSERT_EQ(run_spectex({"bake", png, "-o", d / "a.exr", "-q"}).status, 0);
+    for (const std::string xy : {"2147483647,0", "0,-2147483648", "0,2147483647", "1000000006,1"}) {
+        RunResult r = run_spectex({"sample", d / "a.exr", xy});
+        EXPECT_EQ(r.status, 1) << xy << ": " << r.err;
+        EXPECT_TRUE(has_text(r.err, "outside the data window")) << xy << ": " << r.err;
+    }
+    for (const std::string xy : {"2147483648,0", "+1,0", "0x1,0", "1,2,3"}) {
+        RunResult r = run_spectex({"sample", d / "a.exr", xy});
+        EXPECT_EQ(r.status, 2) << xy << ": " << r.err;
+    }
+    // A data window far from the origin: its pixels are found.
+    std::vector<float> px(3 * 2 * 1, 0.25f);
+    OIIO::ImageSpec spec(2, 1, 3, OIIO::TypeDesc::FLOAT);
+    spec.x = 1000000005;
+    spec.full_x = 1000000005;
+    spec.channelnames = {"T.450nm", "T.550nm", "T.650nm"};
+    spec.attribute("spectralLayoutVersion", "1.0");
+    auto out = OIIO::ImageOutput::create(d / "far.exr");
+    ASSERT_TRUE(out && out->open(d / "far.exr", spec) &&
+                out->write_image(OIIO::TypeDesc::FLOAT, px.data()) && out->close());
+    RunResult f = run_spectex({"sample", d / "far.exr", "1000000006,0"});
+    EXPECT_EQ(f.status, 0) << f.err;
+}
+
+TEST(Plot, RefusesAnOutputThatIsNotSvgAndCountsRight) {
+    ScratchDir d;
+    const std::string exr = bake_albedo(d);
+    RunResult r = run_spectex({"plot", exr, "--pixel", "1,1", "-o", d / "p.png"});
+    EXPECT_EQ(r.status, 2) << r.err;
+    EXPECT_NE(r.err.find(".svg"), std::string::npos) << r.err;
+    EXPECT_FALSE(file_exists(d / "p.png"));
+    RunResult ok = run_spectex({"plot", exr, "--pixel", "1,1", "-o", d / "p.svg"});
+    EXPECT_EQ(ok.status, 0) << ok.err;
+    EXPECT_NE(ok.out.find("1 spectrum "), std::string::npos) << ok.out;
+}
+
+TEST(Info, NamesTheUnitOnceForEveryGridKind) {
+    ScratchDir d;
+    const std::string in = write_albedo(d);
+    write_text(d / "list.txt", "400\n450\n520\n610\n700\n");
+    write_text(d / "one.txt", "550\n");
+    struct Case {
+        std::vector<std::string> grid;
+        std::string want;
+    };
+    const std::vector<Case> cases = {
+        {{"--wavelengths", "400:700:10"}, "400:700:10 nm"},
+        {{"--wavelengths-file", d / "list.txt", "--allow-infeasible"}, "400-700 nm"},
+    };
+    for (const auto& c : cases) {
+        const std::string exr = d / "g.exr";
+        std::vector<std::string> args = {"bake", in, "-o", exr, "-q"};
+        args.insert(args.end(), c.grid.begin(), c.grid.end());
+        RunResult b = run_spectex(args);
+        ASSERT_EQ(b.status, 0) << b.err;
+        RunResult i = run_spectex({"info", exr});
+        EXPECT_NE(i.out.find(c.want + "\n"), std::string::npos) << i.out;
+        EXPECT_EQ(i.out.find("nm nm"), std::string::npos) << i.out;
+    }
+}

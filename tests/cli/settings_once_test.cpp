@@ -1,7 +1,7 @@
 // Settings that are the same for every file of a batch (colour config and space, observer,
 // illuminant, basis, grid, method) are checked once, before any input is read: one message and
 // exit 2, however many inputs; a --basis that is a missing file says so, and a
-// basis CSV's grid is the output grid when --wavelengths is not given (item 11).
+// basis CSV's grid is the output grid when --wavelengths is not given.
 #include <gtest/gtest.h>
 
 #include <fstream>

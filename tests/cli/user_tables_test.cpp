@@ -31,6 +31,26 @@ void write_basis(const std::string& path, F f) {
     for (int l = 380; l <= 780; l += 5) o << l << "," << f(l) << "\n";
 }
 
+void write_text(const std::string& path, const std::string& text) {
+    std::ofstream(path, std::ios::binary) << text;
+}
+
+// An observer with x = y = z at every wavelength: its colours lie on one line.
+std::string write_degenerate_observer(const ScratchDir& d) {
+    std::string t = "wavelength,x,y,z\n";
+    for (int l = 360; l <= 830; l += 5) t += std::to_string(l) + ",0.5,0.5,0.5\n";
+    write_text(d / "flat_observer.csv", t);
+    return d / "flat_observer.csv";
+}
+
+// A light of zero power at every wavelength.
+std::string write_dark_light(const ScratchDir& d) {
+    std::string t = "wavelength,value\n";
+    for (int l = 300; l <= 830; l += 5) t += std::to_string(l) + ",0\n";
+    write_text(d / "dark.csv", t);
+    return d / "dark.csv";
+}
+
 }  // namespace
 
 TEST(UserTables, BasisValuesOutsideZeroOneAreRefused) {
@@ -129,4 +149,60 @@ TEST(UserTables, TheInfeasibleGridHintIsTrue) {
     EXPECT_TRUE(file_exists(d / "o.exr"));
     ExrImage img = read_exr(d / "o.exr");
     EXPECT_TRUE(contains(img.attr("spectex:basisSource"), "infeasible allowed"));
+}
+
+// Singular observers and lights (colours on one line, zero power) are refused by every command
+// that takes them, naming the table once.
+TEST(UserTables, SingularObserverAndDarkLightAreRefusedEverywhere) {
+    ScratchDir d;
+    const std::string exr = bake_albedo(d), in = d / "albedo.png";
+    const std::string obs = write_degenerate_observer(d), dark = write_dark_light(d);
+    const std::vector<std::vector<std::string>> runs = {
+        {"bake", in, "-o", d / "o.exr", "--observer", obs},
+        {"verify", exr, "--observer", obs},
+        {"basis", "-o", d / "basis.csv", "--observer", obs},
+        {"plan", "--observer", obs},
+        {"sample", exr, "1,1", "--observer", obs},
+        {"render", exr, "-o", d / "r.png", "--observer", obs},
+        {"plot", exr, "--pixel", "1,1", "-o", d / "p.svg", "--observer", obs},
+        {"bake", in, "-o", d / "o.exr", "--illuminant", dark},
+        {"verify", exr, "--check-illuminant", dark},
+        {"render", exr, "-o", d / "r.png", "--illuminant", dark},
+        {"sample", exr, "1,1", "--illuminant", dark},
+        {"plot", exr, "--pixel", "1,1", "-o", d / "p.svg", "--light", dark},
+    };
+    for (const auto& args : runs) {
+        RunResult r = run_spectex(args);
+        EXPECT_EQ(r.status, 2) << args[0] << " " << args[args.size() - 2] << ": " << r.out << r.err;
+        const bool names = r.err.find("singular") != std::string::npos ||
+                           r.err.find("zero power") != std::string::npos;
+        EXPECT_TRUE(names) << args[0] << ": " << r.err;
+        // The table is named once: "<option>: <file>: observer is singular ...".
+        const std::string& table = args.back();
+        size_t n = 0;
+        for (size_t p = r.err.find(table); p != std::string::npos; p = r.err.find(table, p + 1))
+            ++n;
+        EXPECT_EQ(n, 1u) << args[0] << ": " << r.err;
+    }
+}
+
+TEST(UserTables, TablesWithADescriptiveHeaderAreRead) {
+    ScratchDir d;
+    const std::string exr = bake_albedo(d);
+    std::string light = "Wavelength (nm),Relative Power\n";
+    for (int l = 300; l <= 830; l += 5)
+        light += std::to_string(l) + "," + (l < 500 ? "1" : "2") + "\n";
+    write_text(d / "light.csv", light);
+    RunResult r = run_spectex({"render", exr, "-o", d / "r.png", "--illuminant", d / "light.csv"});
+    EXPECT_EQ(r.status, 0) << r.err;
+    // Still refused: a header whose first column is not a wavelength, a number as a column name,
+    // binary data.
+    write_text(d / "bad1.csv", "Energy,Power\n400,1\n700,1\n");
+    write_text(d / "bad2.csv", "wavelength (nm),5\n400,1\n700,1\n");
+    write_text(d / "bad3.csv", std::string("wavelength,value\n\x01\x02\xff,\x00\n", 20));
+    for (const std::string& bad : {"bad1.csv", "bad2.csv", "bad3.csv"}) {
+        RunResult b = run_spectex({"render", exr, "-o", d / "r.png", "--illuminant", d / bad});
+        EXPECT_EQ(b.status, 2) << bad << ": " << b.err;
+        EXPECT_NE(b.err.find("--illuminant: "), std::string::npos) << b.err;
+    }
 }

@@ -89,7 +89,7 @@ bool has(const std::string& text, const std::string& what) {
 
 }  // namespace
 
-// Item 1: a P3 bake and an illuminant-A bake verify clean without repeating their options; given
+// A P3 bake and an illuminant-A bake verify clean without repeating their options; given
 // options override the header, with one warning line each.
 TEST(VerifyGates, UsesWhatTheFileRecords) {
     ScratchDir d;
@@ -124,7 +124,7 @@ TEST(VerifyGates, UsesWhatTheFileRecords) {
     EXPECT_FALSE(has(same.err, "warning")) << same.err;
 }
 
-// Item 1: the OCIO config is the one the file records when it is still there; a changed or
+// The OCIO config is the one the file records when it is still there; a changed or
 // missing config is a warning, never a silent switch.
 TEST(VerifyGates, TheRecordedConfigIsUsedAndItsChangesAreSaid) {
     ScratchDir d;
@@ -171,7 +171,7 @@ TEST(VerifyGates, TheRecordedConfigIsUsedAndItsChangesAreSaid) {
     EXPECT_TRUE(has(gone.err, "is not there")) << gone.err;
 }
 
-// Item 2: the wrong-space file, the out-of-range file and the NaN file fail by default with the
+// The wrong-space file, the out-of-range file and the NaN file fail by default with the
 // gate named and by how much; --report-only measures without gating; a correct bake passes every
 // gate.
 TEST(VerifyGates, DefaultGatesFailWrongFilesAndNameTheGate) {
@@ -229,7 +229,7 @@ TEST(VerifyGates, DefaultGatesFailWrongFilesAndNameTheGate) {
     EXPECT_TRUE(has(r.out, "gates:                none (--report-only)")) << r.out;
 }
 
-// Item 2: 16-bit sources. Float keeps 16-bit codes (gated); half cannot, which is said, and the
+// 16-bit sources. Float keeps 16-bit codes (gated); half cannot, which is said, and the
 // linear RGB error is gated instead.
 TEST(VerifyGates, SixteenBitSourcesGetABoundFromTheSampleType) {
     ScratchDir d;
@@ -247,7 +247,7 @@ TEST(VerifyGates, SixteenBitSourcesGetABoundFromTheSampleType) {
     EXPECT_FALSE(has(rh.out, "16-bit codes >= 100%")) << rh.out;
 }
 
-// Item 2: jakob-hanika spectra are not exact: no colour gates by default, thresholds still apply.
+// Jakob-hanika spectra are not exact: no colour gates by default, thresholds still apply.
 TEST(VerifyGates, InexactMethodsAreMeasuredNotGated) {
     ScratchDir d;
     const std::string png = make_png(d, "in.png", 32, 16);
@@ -259,7 +259,7 @@ TEST(VerifyGates, InexactMethodsAreMeasuredNotGated) {
     EXPECT_EQ(run_spectex({"verify", jh, "--source", png, "--max-de", "0.01"}).status, 1);
 }
 
-// Item 3: many files, --from-list, JSON Lines to a file or stdout, one line each and a summary,
+// Many files, --from-list, JSON Lines to a file or stdout, one line each and a summary,
 // exit 1 when any fails, --jobs gives the same records; the report is never a file it reads.
 TEST(VerifyGates, ManyFilesListsAndJsonLines) {
     ScratchDir d;
@@ -319,7 +319,7 @@ TEST(VerifyGates, ManyFilesListsAndJsonLines) {
     EXPECT_EQ(run_spectex({"verify", a, b, "--source", png}).status, 2);
 }
 
-// Item 4: other lights are reported next to the check light, for a user to compare methods on
+// Other lights are reported next to the check light, for a user to compare methods on
 // their own texture; with a source the D65 check stays the gate.
 TEST(VerifyGates, OtherLightsAreReportedNotGated) {
     ScratchDir d;

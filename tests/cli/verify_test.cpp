@@ -9,12 +9,15 @@
 #include <ImfTiledOutputFile.h>
 #include <gtest/gtest.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <random>
 
 #include "cli/cli_util.h"
@@ -421,4 +424,39 @@ TEST(Verify, CountsOutOfRangeAndNonFiniteSamples) {
     EXPECT_NE(c.out.find("\"ciede2000\":{\"max\":null"), std::string::npos) << c.out;
     // The four untouched pixels re-encode to 188; the four altered ones do not.
     EXPECT_EQ(json_number(c.out, "\"code_match\":{", "matched"), 4.0);
+}
+
+// A file baked with a relative source path is verified from another working folder, and after the
+// source and output trees moved together (to another mount or machine).
+TEST(Verify, TheRecordedSourceIsFoundFromAnywhere) {
+    ScratchDir d;
+    ASSERT_EQ(::mkdir((d / "proj").c_str(), 0755), 0);
+    ASSERT_EQ(::mkdir((d / "proj/img").c_str(), 0755), 0);
+    ASSERT_EQ(::mkdir((d / "proj/t6").c_str(), 0755), 0);
+    pattern_png(d, "proj/img/albedo.png", 8, 4);
+    // Bake from inside proj/t6 with a relative source, as a script run in the output folder does.
+    RunResult b = run_shell("cd " + d.path() + "/proj/t6 && " + spectex_binary() +
+                            " bake ../img/albedo.png -o albedo.exr -q");
+    ASSERT_EQ(b.status, 0) << b.out;
+    const ExrImage img = read_exr(d / "proj/t6/albedo.exr");
+    EXPECT_EQ(img.attr("spectex:source"), "../img/albedo.png");
+    EXPECT_EQ(img.attr("spectex:sourceAbsolute"), d.path() + "/proj/img/albedo.png");
+    EXPECT_EQ(img.attr("spectex:sourceFromOutput"), "../img/albedo.png");
+    // From another working folder.
+    RunResult v = run_shell("cd / && " + spectex_binary() + " verify " + d.path() +
+                            "/proj/t6/albedo.exr --source-from-header -q");
+    EXPECT_EQ(v.status, 0) << v.out;
+    // The whole tree moved: the absolute path is gone, the relative one holds.
+    ASSERT_EQ(::rename((d / "proj").c_str(), (d / "moved").c_str()), 0);
+    RunResult m = run_shell("cd / && " + spectex_binary() + " verify " + d.path() +
+                            "/moved/t6/albedo.exr --source-from-header -q");
+    EXPECT_EQ(m.status, 0) << m.out;
+    // Nowhere to be found: the EXR is named, with every place tried.
+    ASSERT_EQ(::unlink((d / "moved/img/albedo.png").c_str()), 0);
+    RunResult g = run_spectex({"verify", d / "moved/t6/albedo.exr", "--source-from-header"});
+    EXPECT_EQ(g.status, 1) << g.err;
+    EXPECT_TRUE(has_text(g.err, "spectex: " + d.path() +
+                                    "/moved/t6/albedo.exr: the source it records "
+                                    "is not found (tried "))
+        << g.err;
 }

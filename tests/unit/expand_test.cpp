@@ -205,10 +205,6 @@ TEST(Expand, ColourRoundingBoundsTheIntegratedErrorAndChangesFewSamples) {
         over_plain += mp > 1.0 / 16384 + 1e-7;
         over_fb += mf > 1.0 / 16384 + 1e-7;
     }
-    std::printf(
-        "plain: worst %.3g, %zu pixels over tolerance; colour: worst %.3g, %zu over; %zu samples "
-        "changed\n",
-        worst_plain, over_plain, worst_fb, over_fb, changed);
     EXPECT_GT(over_plain, n / 20);  // the case is hard enough to need fixing
     // The greedy flips minimise the Euclidean error with at most 16 flips, so a rare pixel may stay
     // a little over the max-norm tolerance; require a 20-fold reduction of such pixels and of the
@@ -221,7 +217,6 @@ TEST(Expand, ColourRoundingBoundsTheIntegratedErrorAndChangesFewSamples) {
 TEST(Half, BlockConversionsMatchTheScalarCodeBitForBit) {
     // The F16C path (chosen at run time) and the scalar path must give the same bits, so that
     // files are byte-identical on every farm node. NaN is excluded: bake never writes one.
-    std::printf("block conversions use F16C: %s\n", expansion_uses_f16c() ? "yes" : "no");
     std::mt19937 rng(7);
     std::uniform_int_distribution<uint32_t> any;
     std::vector<float> f;
@@ -253,7 +248,6 @@ TEST(Expand, ColourRoundingMatchesTheReferenceBitForBit) {
     // this process uses; the scalar path is checked by rerunning this test with SPECTEX_NO_F16C=1
     // (read once per process).
     const bool f16c = expansion_uses_f16c();
-    std::printf("colour rounding with F16C: %s\n", f16c ? "yes" : "no");
     if (const char* e = std::getenv("SPECTEX_NO_F16C"); e && *e) ASSERT_FALSE(f16c);
 
     ExpansionMatrix real = ExpansionMatrix::from_basis(load_basis(

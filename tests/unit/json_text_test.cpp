@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "pipeline/batch.h"
+#include "pipeline/batch_files.h"
 #include "spectral/text.h"
 
 using namespace spectex;

@@ -130,9 +130,6 @@ TEST(Lattice, EveryVertexExactAllPriors) {
             const SpectralLattice L = SpectralLattice::build(d65(), n, p);
             const std::string what = "n " + std::to_string(n) + " " + to_string(p);
             expect_exact_vertices(L, d65(), what);
-            std::printf("%-28s %6.3f s, residual %.2e, fallback %d, %s\n", what.c_str(),
-                        L.build_seconds, L.max_colour_residual, L.fallback_vertices,
-                        L.checksum().c_str());
         }
 }
 
@@ -181,8 +178,6 @@ TEST(Lattice, RandomColoursExactThroughSpectrumAndExpand) {
         EXPECT_LE(worst_ref, 1e-12);
         EXPECT_LE(worst_fast, 1e-6);
         EXPECT_LE(worst_diff, 2e-6);
-        std::printf("%s: spectrum() colour %.2e, expand() colour %.2e, expand vs spectrum %.2e\n",
-                    to_string(prior).c_str(), worst_ref, worst_fast, worst_diff);
     }
 }
 
@@ -288,8 +283,6 @@ TEST(Lattice, OtherGridsObserversIlluminants) {
             basis_ok = false;
         }
         if (basis_ok) EXPECT_TRUE(feasible) << what;
-        std::printf("%-30s corners feasible %d, fit_basis feasible %d\n", what.c_str(), feasible,
-                    basis_ok);
         for (VertexPrior p : {VertexPrior::Smooth, VertexPrior::JakobHanika, VertexPrior::Lhtss}) {
             const int n = cs.grid == "360:830:1" ? 5 : 9;
             if (feasible) {
@@ -303,7 +296,6 @@ TEST(Lattice, OtherGridsObserversIlluminants) {
                     const std::string msg = e.what();
                     EXPECT_NE(msg.find("vertex"), std::string::npos) << msg;
                     EXPECT_NE(msg.find(c.grid.describe()), std::string::npos) << msg;
-                    std::printf("  expected error: %s\n", msg.c_str());
                 }
             }
         }
@@ -428,7 +420,6 @@ TEST(Lattice, VertexSpectraAreTheOptimaOfTheirPriors) {
             worst = std::max(worst, (s - r.x).cwiseAbs().maxCoeff());
         }
         EXPECT_LE(worst, 1e-10) << to_string(prior);
-        std::printf("%s: max |vertex - solve_qp| %.2e\n", to_string(prior).c_str(), worst);
     }
 }
 
@@ -455,7 +446,6 @@ TEST(Lattice, SpectrumIsContinuousAcrossCellsAndSimplices) {
                 ASSERT_LE(d, bound) << p.transpose() << " axis " << axis;
             }
     }
-    std::printf("largest change for a 1e-9 step: %.2e (bound %.2e)\n", worst, bound);
 }
 
 // The LHTSS prior (Burns 2020) on its own: its Newton solve converges at every vertex but black
@@ -478,10 +468,6 @@ TEST(Lattice, LhtssVerticesConvergeAndAreTheirPriorsOptima) {
         const std::string what = cs.grid + " " + cs.observer + " " + cs.illuminant;
         expect_exact_vertices(L, c, what);
         EXPECT_EQ(L.prior_unconverged, 0) << what;
-        std::printf(
-            "%-30s lhtss n %d: %.3f s, %ld Newton steps, residual %.2e, range [%.3g, %.3g]\n",
-            what.c_str(), n, L.build_seconds, L.solver_iterations, L.max_colour_residual,
-            L.min_value, L.max_value);
         // Optimality at every interior vertex: the least-squares residual of K z against the three
         // constraint normals, in units of the roughness scale max w² (|K z| itself is of order
         // max w² for a coloured vertex, and near 0 for greys). 1e-6: the solver stops at 1e-9 of

@@ -1,4 +1,4 @@
-#include "cli/batch_runner.h"
+#include "cli/batch_report.h"
 
 #include <algorithm>
 #include <chrono>
@@ -11,8 +11,8 @@
 #include "io/atomic_file.h"
 #include "io/linearizer.h"
 #include "io/paths.h"
-#include "pipeline/batch.h"
-#include "pipeline/batch_run.h"
+#include "pipeline/bake_batch.h"
+#include "pipeline/batch_files.h"
 #include "spectral/error.h"
 #include "spectral/text.h"
 

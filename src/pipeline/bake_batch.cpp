@@ -1,4 +1,4 @@
-#include "pipeline/batch_run.h"
+#include "pipeline/bake_batch.h"
 
 #include <OpenEXR/ImfThreading.h>
 #include <sys/stat.h>

@@ -1,4 +1,4 @@
-#include "pipeline/batch.h"
+#include "pipeline/batch_files.h"
 
 #include <ImfHeader.h>
 #include <ImfMultiPartInputFile.h>

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "pipeline/bake.h"
-#include "pipeline/batch.h"
+#include "pipeline/batch_files.h"
 
 namespace spectex {
 

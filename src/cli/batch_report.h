@@ -1,10 +1,10 @@
 #pragma once
-// Runs a batch of bakes (pipeline/batch_run.h), reporting per file (stderr, JSON Lines) and
-// overall.
+// The command line's report of a batch: runs it (pipeline/bake_batch.h) and reports each file
+// (stderr, JSON Lines), the progress and the summary; bake --dry-run's listing.
 #include <string>
 
 #include "pipeline/bake.h"
-#include "pipeline/batch_run.h"
+#include "pipeline/bake_batch.h"
 
 namespace spectex {
 
