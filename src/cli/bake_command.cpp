@@ -225,7 +225,8 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
              "within --precision-de (default --max-de) under every one of --lights and the light "
              "the method is exact for, over a dense sample of the 8-bit cube; the colour-aware "
              "rounding keeps every 8-bit colour's code under that light (smaller ZIP files; "
-             "recorded as spectex:precision*; half only).",
+             "recorded as spectex:precision*; half only). The bits are kept in the cache for the "
+             "next bake with the same settings (see --no-cache).",
              [&](const std::string& v) {
                  if (v != "full" && v != "auto")
                      throw UsageError("--precision: '" + v + "' is not one of full, auto");

@@ -45,10 +45,9 @@ struct Env {
 
 // A small bake with a small grid (16 bins): the chooser takes well under a second.
 RunResult bake(const ScratchDir& d, const std::string& out, const std::vector<std::string>& more) {
-    std::vector<std::string> a = {"bake",        d / "in.png",    "-o",       d / out,
-                                  "--precision", "auto",          "--lights", "D65,A,FL11",
-                                  "--max-de",    "0.5",           "--wavelengths",
-                                  "400:700:20",  "-v"};
+    std::vector<std::string> a = {
+        "bake",       d / "in.png", "-o",  d / out,         "--precision", "auto", "--lights",
+        "D65,A,FL11", "--max-de",   "0.5", "--wavelengths", "400:700:20",  "-v"};
     a.insert(a.end(), more.begin(), more.end());
     return run_spectex(a);
 }
@@ -179,10 +178,9 @@ TEST(PrecisionCache, PlanAndBakeShareTheBits) {
     ScratchDir d;
     make_input(d);
     const Env env(d / "cache");
-    const RunResult plan =
-        run_spectex({"plan", "--grids", "400:700:20", "--lights", "D65,A,FL11", "--colours",
-                     "sample", "--sample-stride", "51", "--max-de", "5", "--precision", "auto",
-                     "--precision-de", "0.5"});
+    const RunResult plan = run_spectex({"plan", "--grids", "400:700:20", "--lights", "D65,A,FL11",
+                                        "--colours", "sample", "--sample-stride", "51", "--max-de",
+                                        "5", "--precision", "auto", "--precision-de", "0.5"});
     ASSERT_EQ(plan.status, 0) << plan.err;
     ASSERT_EQ(precision_entries(d / "cache").size(), 1u) << plan.out;
     const RunResult b = bake(d, "a.exr", {});
