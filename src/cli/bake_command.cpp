@@ -31,6 +31,7 @@
 #include "pipeline/light_list.h"
 #include "pipeline/method_table.h"
 #include "pipeline/plan.h"
+#include "pipeline/plan_cache.h"
 #include "spectral/basis_fit.h"
 #include "spectral/colorimetry.h"
 #include "spectral/error.h"
@@ -223,7 +224,8 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
              "within --precision-de (default --max-de) under every one of --lights and the light "
              "the method is exact for, over a dense sample of the 8-bit cube; the colour-aware "
              "rounding keeps every 8-bit colour's code under that light (smaller ZIP files; "
-             "recorded as spectex:precision*; half only).",
+             "recorded as spectex:precision*; half only). The bits are kept in the cache for the "
+             "next bake with the same settings (see --no-cache).",
              [&](const std::string& v) {
                  if (v != "full" && v != "auto")
                      throw UsageError("--precision: '" + v + "' is not one of full, auto");
@@ -754,7 +756,18 @@ void choose_precision_bits(BakeCli& c, const Observer& observer, const Spectrum&
     req.max_de = precision_budget(c);
     req.stride = kPrecisionSampleStride;
     req.threads = c.threads > 0 ? c.threads : hardware_threads();
-    const PrecisionChoice pc = choose_precision(req);
+    PrecisionCacheReport rep;
+    const PrecisionChoice pc = choose_precision_cached(req, c.no_cache ? "" : cache_folder(), &rep);
+    if (!rep.warning.empty() && !c.quiet)
+        std::cerr << "spectex: warning: the precision's bits are not kept in the cache: "
+                  << one_line(rep.warning)
+                  << " (SPECTEX_CACHE_DIR moves the cache; --no-cache does without)\n";
+    if (rep.ignored && !c.quiet)
+        std::cerr << "spectex: warning: " << one_line(quote_path(rep.entry))
+                  << ": not a valid entry of the precision's bits; chosen again\n";
+    if (rep.hit && c.verbose)
+        std::cerr << "spectex: the precision's bits from the cache: "
+                  << one_line(quote_path(rep.entry)) << "\n";
     rec.bits = pc.bits;
     std::string worst;
     double w = 0;
@@ -774,7 +787,8 @@ void choose_precision_bits(BakeCli& c, const Observer& observer, const Spectrum&
         std::snprintf(worst_num, sizeof worst_num, "%.3g", w);
         std::cerr << "spectex: --precision auto: " << num << " of half's mantissa bits kept (bits "
                   << format_precision_bits(pc.bits) << "), worst " << worst_num << " ΔE00 within "
-                  << rec.max_de << " under " << rec.lights << " (" << s << " s)\n";
+                  << rec.max_de << " under " << rec.lights << " (" << s << " s"
+                  << (rep.hit ? ", from the cache" : "") << ")\n";
     }
 }
 

@@ -88,7 +88,8 @@ void add_plan_options(ArgParser& p, PlanSpec& spec, bool& lights_given, bool& bu
 
 void add_cache_option(ArgParser& p, bool& no_cache) {
     p.flag("--no-cache",
-           "Search the grids even when the cache holds the answer, and keep nothing (the cache: "
+           "Search the grids (and choose --precision auto's bits) even when the cache holds the "
+           "answer, and keep nothing (the cache: "
            "$SPECTEX_CACHE_DIR,\nelse $XDG_CACHE_HOME/spectex, else ~/.cache/spectex; "
            "SPECTEX_CACHE_DIR= (empty) turns it off).",
            [&] { no_cache = true; });

@@ -10,6 +10,7 @@
 
 #include "pipeline/json_text.h"
 #include "pipeline/light_list.h"
+#include "pipeline/plan_cache.h"
 #include "pipeline/plan_search.h"
 #include "pipeline/plan_texture.h"
 #include "spectral/colorimetry.h"
@@ -578,7 +579,7 @@ namespace {
 // --precision auto on the chosen grid: the bits bake --precision auto would keep (its lights: the
 // plan's and the illuminant the method is exact for; its sample of the cube).
 void plan_precision(const PlanSpec& spec, const Observer& observer, const WavelengthGrid& grid,
-                    int threads, PlanResult& res) {
+                    int threads, const std::string& cache, PlanResult& res) {
     const std::shared_ptr<const SpectralMethod> method = build_method(spec, grid);
     std::vector<std::string> names = spec.lights;
     names.push_back(spec.method.fit.illuminant);
@@ -592,7 +593,8 @@ void plan_precision(const PlanSpec& spec, const Observer& observer, const Wavele
     req.max_de = spec.precision_de > 0 ? spec.precision_de : spec.max_de;
     req.stride = kPrecisionSampleStride;
     req.threads = threads;
-    const PrecisionChoice c = choose_precision(req);
+    // The same cache entries as bake --precision auto: the same request, the same bits.
+    const PrecisionChoice c = choose_precision_cached(req, cache, nullptr);
     res.precision_bits = c.bits;
     res.precision_lights = names;
     res.precision_worst = c.worst_de;
@@ -635,12 +637,12 @@ PlanResult plan_grids(const PlanSpec& spec) {
     return res;
 }
 
-void add_plan_precision(const PlanSpec& spec, PlanResult& res) {
+void add_plan_precision(const PlanSpec& spec, PlanResult& res, const std::string& cache) {
     if (!spec.precision || !spec.half || res.chosen < 0) return;
     const int threads =
         std::min(spec.threads > 0 ? spec.threads : hardware_threads(), thread_budget());
     plan_precision(spec, load_observer(spec.method.fit.data_dir, spec.method.fit.observer),
-                   res.rows[static_cast<size_t>(res.chosen)].grid, threads, res);
+                   res.rows[static_cast<size_t>(res.chosen)].grid, threads, cache, res);
 }
 
 std::string plan_table(const PlanSpec& spec, const PlanResult& r) {

@@ -121,9 +121,11 @@ void check_plan_cost(const PlanSpec& spec);
 // built on the 1 nm range. A candidate grid the method cannot be built on is a failing row.
 PlanResult plan_grids(const PlanSpec& spec);
 // --precision auto: the chosen grid's mantissa bits per bin, into res (nothing without
-// spec.precision, in float, or when no grid was chosen). plan_grids calls it; the plan cache keeps
-// the grids' answer and calls it after, so the cache holds no bits.
-void add_plan_precision(const PlanSpec& spec, PlanResult& res);
+// spec.precision, in float, or when no grid was chosen). plan_grids calls it without a cache; the
+// plan cache keeps the grids' answer and calls it after with its folder, where the bits are kept
+// under the key of the precision's request (pipeline/plan_cache.h), the entry bake --precision
+// auto reads for the same method, grid, lights and budget.
+void add_plan_precision(const PlanSpec& spec, PlanResult& res, const std::string& cache = "");
 
 // The text table and the JSON document of a plan.
 std::string plan_table(const PlanSpec& spec, const PlanResult& r);

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <sstream>
 
 #include "io/atomic_file.h"
@@ -319,12 +320,13 @@ PlanResult plan_grids_cached(const PlanSpec& spec, const std::string& folder,
     rep.folder = folder;
     if (folder.empty()) return plan_grids(spec);
     if (spec.precision) {
-        // The grids' answer is cached; the bits of the chosen grid are chosen again (seconds).
+        // The grids' answer is cached, and the bits of the chosen grid are kept in the cache of
+        // the precision's bits (bake --precision auto shares those entries).
         PlanSpec grids_only = spec;
         grids_only.precision = false;
         grids_only.precision_de = 0;
         PlanResult r = plan_grids_cached(grids_only, folder, report);
-        add_plan_precision(spec, r);
+        add_plan_precision(spec, r, folder);
         return r;
     }
     const auto t0 = std::chrono::steady_clock::now();
@@ -345,6 +347,128 @@ PlanResult plan_grids_cached(const PlanSpec& spec, const std::string& folder,
     r = plan_grids(spec);
     rep.warning = store_file_in_folder(folder, key, plan_cache_text(key, r));
     return r;
+}
+
+std::string precision_cache_key(const PrecisionRequest& req) {
+    if (!req.method) throw Error("precision: no method");
+    KeyHash k;
+    k.text("spectex " SPECTEX_VERSION);
+    k.text(executable_identity());
+    k.text("precision");
+    k.number(kPrecisionCacheFormat);
+    const SpectralMethod& m = *req.method;
+    k.text(m.name());
+    k.text(m.checksum());
+    const auto prov = m.provenance();
+    k.number(static_cast<double>(prov.size()));
+    for (const auto& [name, value] : prov) {
+        k.text(name);
+        k.text(value);
+    }
+    k.values(m.lambda());
+    k.spectrum(req.observer.x);
+    k.spectrum(req.observer.y);
+    k.spectrum(req.observer.z);
+    k.number(static_cast<double>(req.lights.size()));
+    for (const Spectrum& l : req.lights) {
+        k.text(l.name);
+        k.spectrum(l);
+    }
+    if (req.rgb_weight) {
+        k.text("colour-aware rounding");
+        std::vector<double> w(req.rgb_weight->begin(), req.rgb_weight->end());
+        k.values(w);
+    } else {
+        k.text("nearest rounding");
+    }
+    k.number(req.max_de);
+    k.number(req.stride);
+    return "precision-" + k.hex();
+}
+
+std::string precision_cache_text(const std::string& key, const PrecisionChoice& c) {
+    std::ostringstream o;
+    o << "spectex-precision-cache " << kPrecisionCacheFormat << "\n"
+      << "key " << key << "\n";
+    o << "bits " << c.bits.size();
+    for (int b : c.bits) o << ' ' << b;
+    o << "\nlights " << c.light.size() << "\n";
+    for (size_t j = 0; j < c.light.size(); ++j)
+        o << "light " << hex_text(c.light[j]) << ' '
+          << exact(j < c.worst_de.size() ? c.worst_de[j] : 0.0) << "\n";
+    o << "colours " << c.colours << " evaluations " << c.evaluations << "\n";
+    // Of every byte above: an entry damaged into other well-formed numbers is a miss too.
+    const std::string body = o.str();
+    Fnv1a64 h;
+    h.add(body.data(), body.size());
+    return body + "check " + h.text() + "\nend\n";
+}
+
+bool parse_precision_cache_text(const std::string& text, const std::string& key,
+                                const PrecisionRequest& req, PrecisionChoice* out) {
+    if (!req.method) return false;
+    const size_t check = text.rfind("check ");
+    if (check == std::string::npos) return false;
+    Fnv1a64 h;
+    h.add(text.data(), check);
+    if (text.compare(check, std::string::npos, "check " + h.text() + "\nend\n") != 0) return false;
+    Words w(text.substr(0, check));
+    w.expect("spectex-precision-cache");
+    w.expect(std::to_string(kPrecisionCacheFormat));
+    w.expect("key");
+    w.expect(key);
+    PrecisionChoice c;
+    w.expect("bits");
+    const long long bins = w.whole(0, static_cast<long long>(kMaxGridBins));
+    if (!w.ok() || bins != req.method->bins()) return false;
+    for (long long k = 0; k < bins && w.ok(); ++k)
+        c.bits.push_back(static_cast<int>(w.whole(0, 10)));
+    w.expect("lights");
+    const long long lights = w.whole(0, kMaxLights);
+    if (!w.ok() || lights != static_cast<long long>(req.lights.size())) return false;
+    for (long long j = 0; j < lights && w.ok(); ++j) {
+        w.expect("light");
+        const std::string name = w.text();
+        const double worst = w.number();
+        if (!w.ok() || name != req.lights[static_cast<size_t>(j)].name || !(worst >= 0))
+            return false;
+        c.light.push_back(name);
+        c.worst_de.push_back(worst);
+    }
+    w.expect("colours");
+    c.colours = static_cast<size_t>(w.whole(0, 1LL << 40));
+    w.expect("evaluations");
+    c.evaluations = static_cast<size_t>(w.whole(0, 1LL << 40));
+    if (!w.ok() || !w.at_end()) return false;
+    *out = std::move(c);
+    return true;
+}
+
+PrecisionChoice choose_precision_cached(const PrecisionRequest& req, const std::string& folder,
+                                        PrecisionCacheReport* report) {
+    PrecisionCacheReport local;
+    PrecisionCacheReport& rep = report ? *report : local;
+    rep = PrecisionCacheReport{};
+    rep.folder = folder;
+    if (folder.empty()) return choose_precision(req);
+    // A request choose_precision refuses is refused the same way, cache or not.
+    if (!(req.max_de > 0) || !std::isfinite(req.max_de) || req.lights.empty())
+        return choose_precision(req);
+    const std::string key = precision_cache_key(req);
+    rep.entry = folder + "/" + key;
+    std::string text;
+    PrecisionChoice c;
+    if (read_small_regular_file(rep.entry, kPrecisionCacheEntryLimit, &text) &&
+        parse_precision_cache_text(text, key, req, &c)) {
+        rep.hit = true;
+        return c;
+    }
+    std::error_code ec;
+    rep.ignored = std::filesystem::symlink_status(rep.entry, ec).type() !=
+                  std::filesystem::file_type::not_found;
+    c = choose_precision(req);
+    rep.warning = store_file_in_folder(folder, key, precision_cache_text(key, c));
+    return c;
 }
 
 }  // namespace spectex

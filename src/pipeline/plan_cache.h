@@ -7,6 +7,7 @@
 #include <string>
 
 #include "pipeline/plan.h"
+#include "spectral/precision.h"
 
 namespace spectex {
 
@@ -43,5 +44,40 @@ PlanResult plan_grids_cached(const PlanSpec& spec, const std::string& folder,
 // that is not a whole, well-formed entry for `key`.
 std::string plan_cache_text(const std::string& key, const PlanResult& r);
 bool parse_plan_cache_text(const std::string& text, const std::string& key, PlanResult* r);
+
+// The bits of --precision auto kept between runs: choose_precision measures about a hundred bit
+// vectors on the cube sample (4 s for the basis, 10-26 s for the lattice on 2 busy cores), paid
+// again by every bake with the same settings. The entry holds the chosen bits and the worst ΔE00
+// per light under a key that hashes everything the choice depends on.
+constexpr int kPrecisionCacheFormat = 1;
+constexpr size_t kPrecisionCacheEntryLimit = size_t(1) << 20;
+
+// What choose_precision(req) depends on, hashed: this build of spectex (version and executable),
+// the cache format, the method (name, checksum of its tables, provenance, wavelengths and
+// weights of its bins), the observer's tables, every light's name and table (the bake's
+// illuminant among them), the colour-aware rounding's weights (or nearest rounding), the budget
+// and the sample stride. Not the threads (the choice does not depend on them).
+// "precision-<32 hex digits>".
+std::string precision_cache_key(const PrecisionRequest& req);
+
+struct PrecisionCacheReport {
+    std::string folder;    // "" when the cache is off
+    std::string entry;     // the entry's path
+    bool hit = false;      // the bits came from the entry
+    bool ignored = false;  // an entry was there but not a valid answer: chosen again, replaced
+    std::string warning;   // the entry could not be stored (the bits are still good)
+};
+
+// choose_precision(req) through the cache in `folder` ("" = no cache). An entry that cannot be
+// read or is not a whole, valid answer for this request (bits per bin 0..10, one per bin, the
+// request's lights in order, finite errors) is a miss: the bits are chosen again and the entry
+// replaced, so a corrupt or hostile entry never changes a bake.
+PrecisionChoice choose_precision_cached(const PrecisionRequest& req, const std::string& folder,
+                                        PrecisionCacheReport* report);
+
+// The text of an entry and back (for the tests of the format).
+std::string precision_cache_text(const std::string& key, const PrecisionChoice& c);
+bool parse_precision_cache_text(const std::string& text, const std::string& key,
+                                const PrecisionRequest& req, PrecisionChoice* c);
 
 }  // namespace spectex

@@ -21,6 +21,15 @@ budget is also planned with `--nonuniform --grid-file`; when that choice is a no
 baked (`--wavelengths-file`) and checked the same way, as a second row. Written to OUT/scenes.md,
 scenes.csv, scenes.json (and appended to report.md in a full run).
 
+With --precision-rows (also alone with --precision-only) it adds one row per method and precision:
+basis, lattice (Jakob-Hanika prior), lattice (LHTSS prior) and jakob-hanika, each at
+`--precision full` and at `--precision auto` with the default decision's budget
+(PRECISION_BUDGET): bytes and bake time of the --size² input (best of --repeat with the bits in a
+fresh cache, and the first bake, which chooses them), D65 on the 256² all-colours subsample
+(`spectex verify`), and method_accuracy.py's mean and worst ΔE00 under A, FL2, FL11, D50 and
+LED-B3 on the tuning sets pooled and on Ohta's held-out ColorChecker, spectra as stored (half).
+Written to OUT/precision.md and precision.json.
+
 With --method-size S (e.g. 4096) it also times a S² bake of --method lattice against --method
 basis, alternating, in the same run, with zip and with no compression (the kernel's share).
 """
@@ -43,6 +52,15 @@ ROOT = HERE.parent.parent
 SPECTRAL = ROOT / "config" / "spectral"
 
 DEFAULT = dict(grid="380:780:5", type="half", compression="zip", basis="smooth", method="basis")
+
+# The precision rows: every method at full precision and with the default decision's budget.
+PRECISION_METHODS = [
+    ("basis", ["--method", "basis"]),
+    ("lattice (jakob-hanika prior)", ["--method", "lattice"]),
+    ("lattice (lhtss prior)", ["--method", "lattice", "--vertex-prior", "lhtss"]),
+    ("jakob-hanika", ["--method", "jakob-hanika"]),
+]
+PRECISION_BUDGET = ["--precision", "auto", "--lights", "D65,A,FL2,FL11,D50,LED-B3", "--max-de", "0.5"]
 
 
 def configurations():
@@ -617,6 +635,9 @@ def main():
     ap.add_argument("--only-methods", action="store_true",
                     help="only the --method-size comparison (no rows, no peers)")
     ap.add_argument("--no-scenes", action="store_true", help="skip the per-scene section")
+    ap.add_argument("--precision-rows", action="store_true",
+                    help="also the method × precision rows (precision.md, precision.json)")
+    ap.add_argument("--precision-only", action="store_true", help="only the method × precision rows")
     ap.add_argument("--scenes-only", action="store_true",
                     help="only the per-scene section (scenes.md, scenes.csv, scenes.json)")
     a = ap.parse_args()
@@ -633,11 +654,15 @@ def main():
             write_method_speed(out, method_speed(a, work))
         elif a.scenes_only:
             write_scenes(out, scenes(a, work))
+        elif a.precision_only:
+            write_precision_rows(out, precision_rows(a, work))
         else:
             run(a, out, work)
+            if a.precision_rows:
+                write_precision_rows(out, precision_rows(a, work))
     finally:
         shutil.rmtree(work, ignore_errors=True)
-    done = ("methods.md, methods.json" if a.only_methods else "scenes.md, scenes.csv, scenes.json" if a.scenes_only
+    done = ("methods.md, methods.json" if a.only_methods else "precision.md, precision.json" if a.precision_only else "scenes.md, scenes.csv, scenes.json" if a.scenes_only
             else "report.md, report.csv, report.svg" + ("" if a.no_scenes else ", scenes.md, scenes.csv, scenes.json"))
     log(f"done in {time.time() - t_start:.0f} s: {out}/ {done}")
 
@@ -700,6 +725,69 @@ def run(a, out, work):
         write_scenes(out, scenes(a, work, speed_png), out / "report.md")
     if a.method_size:
         write_method_speed(out, method_speed(a, work))
+
+
+def precision_rows(a, work):
+    """Each method at --precision full and auto (PRECISION_BUDGET): cost, D65, other light."""
+    import shlex
+
+    import default_decision as dd  # its timed bake and method_accuracy.py driver
+
+    # A cache of this run's own: the first bake of each budgeted row chooses the bits, the rest
+    # take them from there (as every bake after the first does on a user's machine).
+    os.environ["SPECTEX_CACHE_DIR"] = str(work / "cache")
+    photo, cube = work / "precision.png", work / "cube.png"
+    photographic_png(photo, a.size)
+    cube_subsample_png(cube)
+    configs = {}
+    for name, m in PRECISION_METHODS:
+        configs[f"{name}|full"] = m + ["--precision", "full"]
+        configs[f"{name}|auto"] = m + PRECISION_BUDGET
+    rows = {}
+    for key, o in configs.items():
+        exr = work / "precision.exr"
+        cold, _ = dd.timed_bake(a.spectex, photo, exr, o)
+        walls = [dd.timed_bake(a.spectex, photo, exr, o)[0] for _ in range(a.repeat)]
+        name, _, prec = key.partition("|")
+        r = dict(method=name, precision=prec, options=shlex.join(o), first_s=cold, wall_s=min(walls),
+                 walls=walls, bytes=exr.stat().st_size)
+        exr.unlink(missing_ok=True)
+        cexr = work / "precision-cube.exr"
+        dd.run([a.spectex, "bake", cube, "-o", cexr, "-q", *o])
+        v = verify(a, cexr, cube)["source"]
+        r.update(d65_max=v["ciede2000"]["max"], d65_mean=v["ciede2000"]["mean"],
+                 code_match=100.0 * v["code_match"]["share"])
+        cexr.unlink(missing_ok=True)
+        rows[key] = r
+        log(f"  {name} {prec}: {r['wall_s']:.2f} s (first {cold:.2f} s), {r['bytes'] / 1e6:.2f} MB, "
+            f"D65 max {r['d65_max']:.3g}")
+    log("accuracy under other light (method_accuracy.py)")
+    acc = dd.accuracy(a, configs, work)
+    for key in configs:
+        rows[key]["tuning"] = acc[key]["tuning"]
+        rows[key]["ohta"] = acc[key]["ohta"]
+    return dict(size=a.size, repeat=a.repeat, budget=shlex.join(PRECISION_BUDGET), rows=list(rows.values()))
+
+
+def write_precision_rows(out, res):
+    L = [f"## Methods × precision at {res['size']}²\n",
+         f"`spectex bake` of one {res['size']}² photograph-like PNG, 81 bins (380:780:5), half, zip; "
+         f"`auto` is `{res['budget']}`. Time: best of {res['repeat']} with the bits in the cache "
+         "(first: the first bake, which chooses them). D65: ΔE00 max of the 256² all-colours subsample "
+         "(`spectex verify`) and the share of codes that re-encode. Other light: method_accuracy.py, "
+         "mean / worst ΔE00, TUNING sets pooled and Ohta's held-out ColorChecker, spectra as stored.\n",
+         "| method | precision | MB | bake s | first s | D65 max | codes | "
+         + " | ".join(f"{l} TUNING" for l in CC_LIGHTS) + " | " + " | ".join(f"{l} Ohta" for l in CC_LIGHTS) + " |",
+         "|---|---|---|---|---|---|---|" + "---|" * (2 * len(CC_LIGHTS))]
+    for r in res["rows"]:
+        L.append(f"| {r['method']} | {r['precision']} | {r['bytes'] / 1e6:.2f} | {r['wall_s']:.2f} | "
+                 f"{r['first_s']:.2f} | {r['d65_max']:.3g} | {r['code_match']:.2f} % | "
+                 + " | ".join(f"{r['tuning'][l]['mean']:.2f} / {r['tuning'][l]['max']:.2f}" for l in CC_LIGHTS) + " | "
+                 + " | ".join(f"{r['ohta'][l]['mean']:.2f} / {r['ohta'][l]['max']:.2f}" for l in CC_LIGHTS) + " |")
+    text = "\n".join(L) + "\n"
+    (out / "precision.json").write_text(json.dumps(res, indent=1))
+    (out / "precision.md").write_text(text)
+    print(text)
 
 
 def method_speed(a, work):

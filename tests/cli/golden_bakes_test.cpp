@@ -193,6 +193,17 @@ std::vector<Bake> bakes() {
         {"png8-jakob-hanika",
          "rgb8.png",
          {"--method", "jakob-hanika", "--jh-resolution", "9", "--wavelengths", "400:700:10"}},
+        // The precision budget's coarse-grid rounding (its vectorised path is checked against
+        // these bytes, which the scalar one made); the chooser's bits come from no cache.
+        {"png8-precision-auto",
+         "rgb8.png",
+         {"--precision", "auto", "--lights", "D65,A,FL11", "--max-de", "0.5", "--wavelengths",
+          "400:700:10", "--no-cache"}},
+        {"png8-lattice-precision-auto",
+         "rgb8.png",
+         {"--method", "lattice", "--lattice-size", "5", "--vertex-prior", "lhtss", "--precision",
+          "auto", "--lights", "D65,A,FL2,FL11", "--max-de", "0.5", "--wavelengths", "400:700:10",
+          "--no-cache"}},
         {"rgba8-associated", "rgba8.png", {}},
         {"rgba8-unassociated", "rgba8.png", {"--alpha", "unassociated"}},
         {"tif16-default", "rgb16.tif", {}},

@@ -5,10 +5,12 @@
 #include "spectral/precision.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
 #include <random>
 #include <string>
@@ -190,4 +192,193 @@ TEST(Precision, BitsRoundTripThroughTheirHeaderText) {
     EXPECT_THROW(parse_precision_bits("10 9 0 4 11", 5), Error);
     EXPECT_THROW(parse_precision_bits("10 9 -1 4 10", 5), Error);
     EXPECT_THROW(parse_precision_bits("10 9 0x1 4 10", 5), Error);
+}
+
+namespace {
+
+// The coarse-grid rounding as it was first written, one pixel at a time and scalar: the vectorised
+// round_spectra_to_bits must give these bytes bit for bit (its initial rounding, single moves and
+// pair moves; docs/precision.md).
+constexpr float kTol = 1.0f / 16384.0f;
+
+uint16_t ref_other_side(uint16_t h, float v, float s) {
+    if (v > s && (h & 0x7fffu) != 0)
+        return (h & 0x8000u) ? static_cast<uint16_t>(h + 1) : static_cast<uint16_t>(h - 1);
+    if (v < s && (h & 0x7fffu) < 0x7bffu)
+        return (h & 0x8000u) ? static_cast<uint16_t>(h - 1) : static_cast<uint16_t>(h + 1);
+    return h;
+}
+
+uint16_t ref_other_side_step(uint16_t h, float v, float s, uint16_t step) {
+    if (step == 1) return ref_other_side(h, v, s);
+    const uint16_t sign = h & 0x8000u, mag = h & 0x7fffu;
+    if (v > s) {
+        if (mag == 0) return h;
+        return sign ? static_cast<uint16_t>(h + step) : static_cast<uint16_t>(h - step);
+    }
+    if (v < s) {
+        if (sign) return mag == 0 ? step : static_cast<uint16_t>(h - step);
+        if (static_cast<uint32_t>(mag) + step <= 0x7bffu) return static_cast<uint16_t>(h + step);
+    }
+    return h;
+}
+
+bool ref_within(const float* e) {
+    return std::max({std::fabs(e[0]), std::fabs(e[1]), std::fabs(e[2])}) <= kTol;
+}
+
+size_t ref_best_flip(const std::vector<float>* w, size_t bins, const float* delta, const float* e) {
+    size_t best = bins;
+    float best_e2 = e[0] * e[0] + e[1] * e[1] + e[2] * e[2];
+    for (size_t k = 0; k < bins; ++k) {
+        const float x = e[0] + w[0][k] * delta[k], y = e[1] + w[1][k] * delta[k],
+                    z = e[2] + w[2][k] * delta[k];
+        const float t = x * x + y * y + z * z;
+        if (t < best_e2) best_e2 = t, best = k;
+    }
+    return best;
+}
+
+bool ref_round_pixel(const float* s, size_t ss, size_t bins, const std::vector<float>* w,
+                     const std::vector<uint16_t>& steps, float* delta, uint16_t* px, size_t ps) {
+    float e[3] = {0, 0, 0};
+    for (size_t k = 0; k < bins; ++k) {
+        const float v = s[k * ss];
+        const uint16_t h =
+            steps[k] == 1 ? float_to_half(v) : round_half_to_bits(v, 10 - __builtin_ctz(steps[k]));
+        px[k * ps] = h;
+        const float d = half_to_float(h) - v;
+        e[0] += w[0][k] * d;
+        e[1] += w[1][k] * d;
+        e[2] += w[2][k] * d;
+    }
+    if (ref_within(e)) return true;
+    for (size_t k = 0; k < bins; ++k) {
+        const float hv = half_to_float(px[k * ps]);
+        delta[k] = half_to_float(ref_other_side_step(px[k * ps], hv, s[k * ss], steps[k])) - hv;
+    }
+    auto move = [&](size_t k) {
+        uint16_t& h = px[k * ps];
+        h = ref_other_side_step(h, half_to_float(h), s[k * ss], steps[k]);
+        e[0] += w[0][k] * delta[k];
+        e[1] += w[1][k] * delta[k];
+        e[2] += w[2][k] * delta[k];
+        const float hv = half_to_float(h);
+        delta[k] = half_to_float(ref_other_side_step(h, hv, s[k * ss], steps[k])) - hv;
+    };
+    for (int flip = 1; flip <= 32; ++flip) {
+        const size_t best = ref_best_flip(w, bins, delta, e);
+        if (best == bins) break;
+        move(best);
+        if (ref_within(e)) return true;
+    }
+    std::vector<float> v(3 * bins);
+    for (int pair = 0; pair < 16; ++pair) {
+        for (size_t k = 0; k < bins; ++k)
+            for (size_t c = 0; c < 3; ++c) v[3 * k + c] = w[c][k] * delta[k];
+        size_t ba = bins, bb = bins;
+        float best_e2 = e[0] * e[0] + e[1] * e[1] + e[2] * e[2];
+        for (size_t a = 0; a < bins; ++a) {
+            if (delta[a] == 0) continue;
+            const float xa = e[0] + v[3 * a], ya = e[1] + v[3 * a + 1], za = e[2] + v[3 * a + 2];
+            for (size_t b = a + 1; b < bins; ++b) {
+                const float x = xa + v[3 * b], y = ya + v[3 * b + 1], z = za + v[3 * b + 2];
+                const float t = x * x + y * y + z * z;
+                if (t < best_e2) best_e2 = t, ba = a, bb = b;
+            }
+        }
+        if (ba == bins) return false;
+        move(ba);
+        move(bb);
+        if (ref_within(e)) return true;
+    }
+    return false;
+}
+
+size_t ref_round_spectra_to_bits(const float* spectra, size_t ss, size_t n, size_t bins,
+                                 const std::vector<float>& rgb_weight, const std::vector<int>& bits,
+                                 uint16_t* out, size_t ps) {
+    std::vector<uint16_t> steps(bins);
+    for (size_t k = 0; k < bins; ++k) steps[k] = static_cast<uint16_t>(1u << (10 - bits[k]));
+    std::vector<float> w[3];
+    for (size_t c = 0; c < 3; ++c)
+        for (size_t k = 0; k < bins; ++k) w[c].push_back(rgb_weight[3 * k + c]);
+    std::vector<float> delta(bins);
+    size_t widened = 0;
+    for (size_t i = 0; i < n; ++i) {
+        if (ref_round_pixel(spectra + i, ss, bins, w, steps, delta.data(), out + i, ps)) continue;
+        ++widened;
+        round_spectra_to_half(spectra + i, ss, 1, bins, &rgb_weight, out + i, ps);
+    }
+    return widened;
+}
+
+}  // namespace
+
+TEST(Precision, VectorisedCoarseRoundingIsTheScalarOneBitForBit) {
+    // Nearest on the grid, a plane at a time, against round_half_to_bits value by value: random
+    // values over the whole half range and both signs, every grid point and the midpoints between
+    // neighbours (the ties), subnormals, values past the largest half, Inf and NaN.
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+    std::vector<float> vals;
+    for (int t = 0; t < 6000; ++t) vals.push_back(u(rng) * std::ldexp(1.0f, t % 40 - 28));
+    for (uint32_t c = 0; c < 0x7c00u; c += 7) {
+        const float a = half_to_float(static_cast<uint16_t>(c));
+        const float b = half_to_float(static_cast<uint16_t>(c + 1));
+        vals.insert(vals.end(), {a, -a, (a + b) / 2, -(a + b) / 2, std::nextafter(a, 1e9f)});
+    }
+    vals.insert(vals.end(), {0.0f, -0.0f, 65504.0f, 65519.0f, 65520.0f, 1e6f, -1e6f, 1e-45f,
+                             INFINITY, -INFINITY, NAN});
+    for (int bits = 0; bits <= 9; ++bits) {
+        // A grid's midpoints too (its ties): the even grid point wins.
+        std::vector<float> v = vals;
+        const uint32_t step = 1u << (10 - bits);
+        for (uint32_t c = 0; c + step < 0x7c00u; c += step * 3)
+            v.push_back((half_to_float(static_cast<uint16_t>(c)) +
+                         half_to_float(static_cast<uint16_t>(c + step))) /
+                        2);
+        std::vector<uint16_t> out(v.size());
+        round_spectra_to_bits(v.data(), v.size(), v.size(), 1, nullptr, {bits}, out.data(),
+                              v.size());
+        for (size_t i = 0; i < v.size(); ++i)
+            ASSERT_EQ(out[i], round_half_to_bits(v[i], bits)) << "bits " << bits << " v " << v[i];
+    }
+
+    // With the colour-aware correction: random colours, dense-cube colours and out-of-gamut ones,
+    // steep bits and bits of 0 to 3 (pair moves and widened pixels), against the reference.
+    Fitted f = fitted("380:780:5");
+    const size_t bins = static_cast<size_t>(f.method->bins());
+    std::vector<float> r, g, b;
+    std::uniform_real_distribution<float> u01(0.0f, 1.0f);
+    for (int i = 0; i < 3000; ++i)
+        r.push_back(u01(rng)), g.push_back(u01(rng)), b.push_back(u01(rng));
+    for (int i = 0; i < 500; ++i)
+        r.push_back(u01(rng) * 1.4f - 0.2f), g.push_back(u01(rng) * 0.01f), b.push_back(u01(rng));
+    const size_t n = r.size();
+    std::vector<float> spectra(n * bins);
+    f.method->expand_float(r.data(), g.data(), b.data(), n, spectra.data(), n);
+    for (const std::vector<int>& bits :
+         {steep_bits(f.method->lambda()), std::vector<int>(bins, 3), std::vector<int>(bins, 0)}) {
+        std::vector<uint16_t> got(n * bins), want(n * bins);
+        const size_t wg =
+            round_spectra_to_bits(spectra.data(), n, n, bins, &f.weight, bits, got.data(), n);
+        const size_t ww =
+            ref_round_spectra_to_bits(spectra.data(), n, n, bins, f.weight, bits, want.data(), n);
+        EXPECT_EQ(wg, ww);
+        EXPECT_TRUE(got == want) << "bits " << format_precision_bits(bits);
+    }
+    // The scalar path (machines without F16C) too, in a process of its own.
+    if (!std::getenv("SPECTEX_NO_F16C")) {
+        char self[4096];
+        const ssize_t len = ::readlink("/proc/self/exe", self, sizeof self - 1);
+        ASSERT_GT(len, 0);
+        self[len] = 0;
+        const int st = std::system(
+            ("SPECTEX_NO_F16C=1 '" + std::string(self) +
+             "' --gtest_filter=Precision.VectorisedCoarseRoundingIsTheScalarOneBitForBit "
+             ">/dev/null")
+                .c_str());
+        EXPECT_EQ(st, 0) << "the scalar path (SPECTEX_NO_F16C=1) differs from the reference";
+    }
 }
