@@ -8,11 +8,11 @@
 #include <string>
 #include <vector>
 
+#include "base/error.h"
 #include "cli/commands.h"
 #include "io/atomic_file.h"
 #include "io/library_stderr.h"
 #include "spectex/version.h"
-#include "spectral/error.h"
 
 namespace spectex {
 

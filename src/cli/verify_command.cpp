@@ -9,6 +9,8 @@
 #include <iostream>
 #include <sstream>
 
+#include "base/error.h"
+#include "base/task_pool.h"
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
 #include "io/atomic_file.h"
@@ -21,11 +23,9 @@
 #include "pipeline/json_text.h"
 #include "pipeline/light_list.h"
 #include "pipeline/verify.h"
-#include "spectral/error.h"
 #include "spectral/precision.h"
 #include "spectral/provenance_keys.h"
 #include "spectral/spectrum.h"
-#include "spectral/task_pool.h"
 #include "spectral/wavelength_grid.h"
 
 namespace spectex {

@@ -15,12 +15,12 @@
 #include <sstream>
 #include <utility>
 
+#include "base/bounded_read.h"
+#include "base/error.h"
+#include "base/text.h"
 #include "io/icc_profile.h"
 #include "io/image_library.h"
 #include "io/paths.h"
-#include "spectral/bounded_read.h"
-#include "spectral/error.h"
-#include "spectral/text.h"
 
 namespace OCIO = OCIO_NAMESPACE;
 

@@ -12,6 +12,9 @@
 #include <filesystem>
 #include <memory>
 
+#include "base/error.h"
+#include "base/half.h"
+#include "base/task_pool.h"
 #include "io/atomic_file.h"
 #include "io/image_source.h"
 #include "io/linearizer.h"
@@ -20,12 +23,9 @@
 #include "pipeline/pixel_policy.h"
 #include "spectex/version.h"
 #include "spectral/colorimetry.h"
-#include "spectral/error.h"
 #include "spectral/expand.h"
-#include "spectral/half.h"
 #include "spectral/precision.h"
 #include "spectral/provenance_keys.h"
-#include "spectral/task_pool.h"
 
 namespace spectex {
 

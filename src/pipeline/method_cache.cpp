@@ -6,8 +6,8 @@
 #include <map>
 #include <mutex>
 
+#include "base/error.h"
 #include "spectral/colorimetry.h"
-#include "spectral/error.h"
 #include "spectral/spectrum.h"
 #include "spectral/upsampling_methods.h"
 

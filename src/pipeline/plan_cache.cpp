@@ -6,13 +6,13 @@
 #include <cstdlib>
 #include <sstream>
 
+#include "base/error.h"
+#include "base/fnv1a.h"
 #include "io/atomic_file.h"
 #include "io/data_dir.h"
 #include "io/linearizer.h"
 #include "io/source_identity.h"
 #include "spectex/version.h"
-#include "spectral/error.h"
-#include "spectral/fnv1a.h"
 #include "spectral/spectrum.h"
 
 namespace spectex {

@@ -11,6 +11,9 @@
 #include <limits>
 #include <memory>
 
+#include "base/error.h"
+#include "base/task_pool.h"
+#include "base/text.h"
 #include "io/exr_compression.h"
 #include "io/file_identity.h"
 #include "io/image_source.h"
@@ -23,12 +26,9 @@
 #include "spectral/adaptation.h"
 #include "spectral/ciede2000.h"
 #include "spectral/colorimetry.h"
-#include "spectral/error.h"
 #include "spectral/precision.h"
 #include "spectral/provenance_keys.h"
 #include "spectral/spectrum.h"
-#include "spectral/task_pool.h"
-#include "spectral/text.h"
 #include "spectral/wavelength_grid.h"
 
 namespace spectex {

@@ -10,9 +10,9 @@
 #include <ostream>
 #include <string>
 
-#include "spectral/csv_table.h"
-#include "spectral/error.h"
-#include "spectral/fnv1a.h"
+#include "base/csv_table.h"
+#include "base/error.h"
+#include "base/fnv1a.h"
 
 namespace spectex {
 

@@ -7,9 +7,9 @@
 #include <cmath>
 #include <cstdio>
 
+#include "base/csv_table.h"
+#include "base/error.h"
 #include "spectral/colour_temperature.h"
-#include "spectral/csv_table.h"
-#include "spectral/error.h"
 #include "spectral/wavelength_grid.h"
 
 namespace spectex {

@@ -4,7 +4,7 @@
 #include <cstdio>
 #include <cstring>
 
-#include "spectral/fnv1a.h"
+#include "base/fnv1a.h"
 #include "spectral/provenance_keys.h"
 
 namespace spectex {

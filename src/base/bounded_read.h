@@ -8,7 +8,7 @@
 // open(O_RDONLY | O_NONBLOCK | O_NOCTTY), then fstat(descriptor) and the same checks again, and
 // the descriptor must be the file that was stat'ed (same device and inode): a path swapped for a
 // FIFO or a device between the two steps is refused too. Plain POSIX: no image-library headers
-// (spectral/ stays pure).
+// (base/, the floor every other layer stands on).
 #include <sys/types.h>
 
 #include <cstdint>

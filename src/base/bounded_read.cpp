@@ -1,4 +1,4 @@
-#include "spectral/bounded_read.h"
+#include "base/bounded_read.h"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -8,7 +8,7 @@
 #include <cstdio>
 #include <cstring>
 
-#include "spectral/error.h"
+#include "base/error.h"
 
 namespace spectex {
 
