@@ -1,6 +1,6 @@
 #pragma once
 // A bake's source, as its output's header records it (spectex:sourceSize, sourceMtime and
-// sourceHash: provenance_key::kSource* in spectral/provenance_keys.h), so that --update can tell a
+// sourceHash: provenance_key::kSource* in io/provenance_keys.h), so that --update can tell a
 // replaced source from an unchanged one whatever the dates say (a restore, `rsync -t` or a
 // checkout can put an older-dated file in place).
 //

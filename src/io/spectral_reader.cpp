@@ -12,7 +12,7 @@
 #include "base/error.h"
 #include "io/exr_compression.h"
 #include "io/exr_preflight.h"
-#include "spectral/provenance_keys.h"
+#include "io/provenance_keys.h"
 
 namespace spectex {
 

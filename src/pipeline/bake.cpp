@@ -18,6 +18,7 @@
 #include "io/atomic_file.h"
 #include "io/image_source.h"
 #include "io/linearizer.h"
+#include "io/provenance_keys.h"
 #include "io/source_identity.h"
 #include "pipeline/batch.h"
 #include "pipeline/pixel_policy.h"
@@ -25,7 +26,6 @@
 #include "spectral/colorimetry.h"
 #include "spectral/expand.h"
 #include "spectral/precision.h"
-#include "spectral/provenance_keys.h"
 
 namespace spectex {
 
@@ -203,7 +203,8 @@ std::vector<std::pair<std::string, std::string>> header_attributes(
     }
     // The method's own attributes where the basis' always stood (the order is part of the bytes).
     auto at = a.begin() + 3;
-    for (const auto& kv : method.provenance()) at = a.insert(at, kv) + 1;
+    for (const auto& [fact, value] : method.provenance())
+        at = a.insert(at, {method_fact_key(fact), value}) + 1;
     return a;
 }
 

@@ -26,10 +26,10 @@
 #include "io/exr_preflight.h"
 #include "io/linearizer.h"
 #include "io/paths.h"
+#include "io/provenance_keys.h"
 #include "io/source_identity.h"
 #include "pipeline/json_text.h"
 #include "spectex/version.h"
-#include "spectral/provenance_keys.h"
 
 namespace spectex {
 

@@ -18,6 +18,7 @@
 #include "io/file_identity.h"
 #include "io/image_source.h"
 #include "io/linearizer.h"
+#include "io/provenance_keys.h"
 #include "io/source_identity.h"
 #include "io/spectral_exr_info.h"
 #include "io/spectral_reader.h"
@@ -27,7 +28,6 @@
 #include "spectral/ciede2000.h"
 #include "spectral/colorimetry.h"
 #include "spectral/precision.h"
-#include "spectral/provenance_keys.h"
 #include "spectral/spectrum.h"
 #include "spectral/wavelength_grid.h"
 
