@@ -36,6 +36,13 @@ void check_stat(const struct stat& st, const std::string& path, uint64_t max_byt
 
 }  // namespace
 
+bool path_exists(const std::string& path, int* error) {
+    struct stat st;
+    if (::stat(path.c_str(), &st) == 0) return true;
+    if (error) *error = errno;
+    return false;
+}
+
 std::string format_bytes(uint64_t n) {
     char buf[64];
     if (n < 1024) {

@@ -45,6 +45,11 @@ constexpr uint64_t kLutFile = uint64_t{128} << 20;
 constexpr uint64_t kImage = uint64_t{64} << 30;
 }  // namespace file_limits
 
+// Whether something exists at `path` (stat(2) succeeds; links followed), for a name that is a
+// file only when one exists there (--basis, --observer, --illuminant). When not, and `error` is
+// given, *error is stat's errno (ENOENT, EACCES, ENOTDIR, ...).
+bool path_exists(const std::string& path, int* error = nullptr);
+
 // A readable regular file, checked as above. Owns the descriptor.
 class CheckedFile {
   public:
