@@ -10,14 +10,14 @@
 #include <limits>
 #include <sstream>
 
+#include "base/error.h"
+#include "base/text.h"
 #include "io/data_dir.h"
 #include "io/linearizer.h"
 #include "spectral/basis_fit.h"
 #include "spectral/colour_temperature.h"
-#include "spectral/error.h"
 #include "spectral/lattice.h"
 #include "spectral/spectrum.h"
-#include "spectral/text.h"
 
 namespace spectex {
 

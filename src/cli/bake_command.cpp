@@ -12,6 +12,10 @@
 #include <iostream>
 #include <set>
 
+#include "base/error.h"
+#include "base/fnv1a.h"
+#include "base/task_pool.h"
+#include "base/text.h"
 #include "cli/arg_parser.h"
 #include "cli/batch_report.h"
 #include "cli/commands.h"
@@ -34,12 +38,8 @@
 #include "pipeline/plan_cache.h"
 #include "spectral/basis_fit.h"
 #include "spectral/colorimetry.h"
-#include "spectral/error.h"
-#include "spectral/fnv1a.h"
 #include "spectral/precision.h"
 #include "spectral/spectrum.h"
-#include "spectral/task_pool.h"
-#include "spectral/text.h"
 
 namespace spectex {
 

@@ -6,6 +6,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "base/error.h"
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
 #include "cli/output_check.h"
@@ -14,7 +15,6 @@
 #include "io/file_identity.h"
 #include "pipeline/basis_cache.h"
 #include "pipeline/light_list.h"
-#include "spectral/error.h"
 #include "spectral/spectrum.h"
 
 namespace spectex {

@@ -7,14 +7,14 @@
 #include <iostream>
 #include <memory>
 
+#include "base/error.h"
+#include "base/text.h"
 #include "cli/commands.h"
 #include "io/atomic_file.h"
 #include "io/linearizer.h"
 #include "io/paths.h"
 #include "pipeline/bake_batch.h"
 #include "pipeline/batch_files.h"
-#include "spectral/error.h"
-#include "spectral/text.h"
 
 namespace spectex {
 

@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "spectral/text.h"  // one_line
+#include "base/text.h"  // one_line
 
 namespace spectex {
 

@@ -1,12 +1,12 @@
 #include <iostream>
 
+#include "base/error.h"
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
+#include "io/provenance_keys.h"
 #include "io/spectral_exr_info.h"
 #include "io/spectral_reader.h"
 #include "pipeline/json_text.h"
-#include "spectral/error.h"
-#include "spectral/provenance_keys.h"
 #include "spectral/wavelength_grid.h"
 
 namespace spectex {

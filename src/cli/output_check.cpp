@@ -2,11 +2,11 @@
 
 #include <filesystem>
 
+#include "base/error.h"
 #include "cli/arg_parser.h"
 #include "io/atomic_file.h"
 #include "io/data_dir.h"
 #include "io/file_identity.h"
-#include "spectral/error.h"
 
 namespace spectex {
 

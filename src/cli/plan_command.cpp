@@ -5,6 +5,7 @@
 #include <memory>
 #include <tuple>
 
+#include "base/error.h"
 #include "cli/arg_parser.h"
 #include "cli/batch_report.h"
 #include "cli/commands.h"
@@ -16,7 +17,6 @@
 #include "pipeline/light_list.h"
 #include "pipeline/plan.h"
 #include "pipeline/plan_cache.h"
-#include "spectral/error.h"
 
 namespace spectex {
 

@@ -2,6 +2,8 @@
 #include <cctype>
 #include <iostream>
 
+#include "base/error.h"
+#include "base/text.h"
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
 #include "cli/output_check.h"
@@ -10,9 +12,7 @@
 #include "io/file_identity.h"
 #include "pipeline/light_list.h"
 #include "pipeline/plot.h"
-#include "spectral/error.h"
 #include "spectral/spectrum.h"
-#include "spectral/text.h"
 
 namespace spectex {
 

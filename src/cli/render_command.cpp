@@ -5,6 +5,8 @@
 #include <cctype>
 #include <iostream>
 
+#include "base/error.h"
+#include "base/text.h"
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
 #include "cli/output_check.h"
@@ -14,9 +16,7 @@
 #include "pipeline/light_list.h"
 #include "pipeline/look.h"
 #include "pipeline/render.h"
-#include "spectral/error.h"
 #include "spectral/spectrum.h"
-#include "spectral/text.h"
 
 namespace spectex {
 

@@ -4,13 +4,13 @@
 #include <iostream>
 #include <sstream>
 
+#include "base/error.h"
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
 #include "io/data_dir.h"
 #include "pipeline/json_text.h"
 #include "pipeline/light_list.h"
 #include "pipeline/sample.h"
-#include "spectral/error.h"
 #include "spectral/spectrum.h"
 #include "spectral/wavelength_grid.h"
 

@@ -9,6 +9,8 @@
 #include <iostream>
 #include <sstream>
 
+#include "base/error.h"
+#include "base/task_pool.h"
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
 #include "cli/output_check.h"
@@ -17,17 +19,15 @@
 #include "io/file_identity.h"
 #include "io/image_library.h"
 #include "io/linearizer.h"
+#include "io/provenance_keys.h"
 #include "io/spectral_exr_info.h"
 #include "pipeline/batch_files.h"
 #include "pipeline/json_text.h"
 #include "pipeline/light_list.h"
 #include "pipeline/method_table.h"
 #include "pipeline/verify.h"
-#include "spectral/error.h"
 #include "spectral/precision.h"
-#include "spectral/provenance_keys.h"
 #include "spectral/spectrum.h"
-#include "spectral/task_pool.h"
 #include "spectral/wavelength_grid.h"
 
 namespace spectex {

@@ -15,10 +15,10 @@
 #include <mutex>
 #include <vector>
 
+#include "base/bounded_read.h"
+#include "base/error.h"
 #include "io/library_stderr.h"
 #include "io/paths.h"
-#include "spectral/bounded_read.h"
-#include "spectral/error.h"
 
 namespace spectex {
 

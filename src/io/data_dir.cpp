@@ -7,8 +7,8 @@
 #include <cstdlib>
 #include <string>
 
+#include "base/error.h"
 #include "io/paths.h"
-#include "spectral/error.h"
 
 namespace spectex {
 

@@ -3,7 +3,7 @@
 #include <ImfCompression.h>
 #include <openexr.h>
 
-#include "spectral/error.h"
+#include "base/error.h"
 
 namespace spectex {
 

@@ -13,10 +13,10 @@
 #include <map>
 #include <mutex>
 
+#include "base/error.h"
+#include "base/task_pool.h"
 #include "io/exr_compression.h"
-#include "spectral/error.h"
 #include "spectral/expand.h"
-#include "spectral/task_pool.h"
 #include "spectral/wavelength_grid.h"
 
 namespace spectex {

@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
+#include "base/bounded_read.h"
+#include "base/error.h"
 #include "io/exr_compression.h"
-#include "spectral/bounded_read.h"
-#include "spectral/error.h"
 
 namespace spectex {
 

@@ -7,9 +7,9 @@
 #include <cstdlib>
 #include <mutex>
 
+#include "base/error.h"
 #include "io/image_source.h"
 #include "io/paths.h"
-#include "spectral/error.h"
 
 namespace spectex {
 

@@ -18,7 +18,7 @@
 #include <thread>
 #include <utility>
 
-#include "spectral/text.h"
+#include "base/text.h"
 
 #if defined(__SANITIZE_ADDRESS__)
 #define SPECTEX_SANITIZED 1

@@ -13,14 +13,14 @@
 #include <sstream>
 #include <utility>
 
+#include "base/bounded_read.h"
+#include "base/error.h"
+#include "base/fnv1a.h"
 #include "base/memo.h"
+#include "base/text.h"
 #include "io/icc_profile.h"
 #include "io/image_library.h"
 #include "io/paths.h"
-#include "spectral/bounded_read.h"
-#include "spectral/error.h"
-#include "spectral/fnv1a.h"
-#include "spectral/text.h"
 
 namespace OCIO = OCIO_NAMESPACE;
 

@@ -7,8 +7,8 @@
 #include <cstring>
 #include <vector>
 
-#include "spectral/bounded_read.h"
-#include "spectral/error.h"
+#include "base/bounded_read.h"
+#include "base/error.h"
 
 namespace spectex {
 

@@ -1,10 +1,10 @@
 #pragma once
 // A bake's source, as its output's header records it (spectex:sourceSize, sourceMtime and
-// sourceHash: provenance_key::kSource* in spectral/provenance_keys.h), so that --update can tell a
+// sourceHash: provenance_key::kSource* in io/provenance_keys.h), so that --update can tell a
 // replaced source from an unchanged one whatever the dates say (a restore, `rsync -t` or a
 // checkout can put an older-dated file in place).
 //
-// The hash is FNV-1a 64 (spectral/fnv1a.h) over the file's bytes, in file order. A bake computes
+// The hash is FNV-1a 64 (base/fnv1a.h) over the file's bytes, in file order. A bake computes
 // it while the image is decoded: the reader reads through a descriptor that hashes what it reads
 // (io/image_source.cpp); bytes the decoder skipped or read out of order are hashed at the end, so
 // no byte is read twice from the disk in the common case (PNG, JPEG, scanline TIFF and EXR read in
@@ -15,7 +15,7 @@
 #include <cstdint>
 #include <string>
 
-#include "spectral/fnv1a.h"
+#include "base/fnv1a.h"
 
 namespace spectex {
 

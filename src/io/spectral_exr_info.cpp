@@ -28,10 +28,10 @@
 #include <cstring>
 #include <fstream>
 
+#include "base/bounded_read.h"
+#include "base/error.h"
 #include "io/exr_compression.h"
 #include "io/exr_preflight.h"
-#include "spectral/bounded_read.h"
-#include "spectral/error.h"
 #include "spectral/wavelength_grid.h"
 
 namespace spectex {

@@ -15,10 +15,10 @@
 #include <cstdlib>
 #include <cstring>
 
+#include "base/error.h"
+#include "base/half.h"
 #include "io/atomic_file.h"
 #include "io/exr_core_writer.h"
-#include "spectral/error.h"
-#include "spectral/half.h"
 #include "spectral/wavelength_grid.h"
 
 namespace spectex {

@@ -9,10 +9,10 @@
 #include <algorithm>
 #include <map>
 
+#include "base/error.h"
 #include "io/exr_compression.h"
 #include "io/exr_preflight.h"
-#include "spectral/error.h"
-#include "spectral/provenance_keys.h"
+#include "io/provenance_keys.h"
 
 namespace spectex {
 

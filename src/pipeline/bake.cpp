@@ -12,21 +12,21 @@
 #include <memory>
 #include <optional>
 
+#include "base/error.h"
+#include "base/half.h"
+#include "base/task_pool.h"
+#include "base/text.h"
 #include "io/atomic_file.h"
 #include "io/file_identity.h"
 #include "io/image_source.h"
 #include "io/linearizer.h"
+#include "io/provenance_keys.h"
 #include "io/source_identity.h"
 #include "pipeline/pixel_policy.h"
 #include "spectex/version.h"
 #include "spectral/colorimetry.h"
-#include "spectral/error.h"
 #include "spectral/expand.h"
-#include "spectral/half.h"
 #include "spectral/precision.h"
-#include "spectral/provenance_keys.h"
-#include "spectral/task_pool.h"
-#include "spectral/text.h"
 
 namespace spectex {
 
@@ -144,7 +144,8 @@ std::vector<std::pair<std::string, std::string>> header_attributes(
     };
     // The method's own attributes stand where the basis' always stood (the order is part of the
     // bytes).
-    for (const auto& kv : method.provenance()) a.push_back(kv);
+    for (const auto& [fact, value] : method.provenance())
+        a.push_back({method_fact_key(fact), value});
     a.insert(a.end(),
              {
                  {provenance_key::kSourceAbsolute, source.string()},

@@ -14,15 +14,15 @@
 #include <mutex>
 #include <thread>
 
+#include "base/error.h"
+#include "base/task_pool.h"
+#include "base/text.h"
 #include "io/atomic_file.h"
 #include "io/file_identity.h"
 #include "io/image_library.h"
 #include "io/image_source.h"
 #include "io/linearizer.h"
 #include "io/paths.h"
-#include "spectral/error.h"
-#include "spectral/task_pool.h"
-#include "spectral/text.h"
 
 namespace spectex {
 

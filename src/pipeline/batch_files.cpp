@@ -19,17 +19,17 @@
 #include <regex>
 #include <sstream>
 
+#include "base/bounded_read.h"
+#include "base/error.h"
+#include "base/fnv1a.h"
+#include "base/text.h"
 #include "io/exr_preflight.h"
 #include "io/linearizer.h"
 #include "io/paths.h"
+#include "io/provenance_keys.h"
 #include "io/source_identity.h"
 #include "pipeline/json_text.h"
 #include "spectex/version.h"
-#include "spectral/bounded_read.h"
-#include "spectral/error.h"
-#include "spectral/fnv1a.h"
-#include "spectral/provenance_keys.h"
-#include "spectral/text.h"
 
 namespace spectex {
 

@@ -3,8 +3,8 @@
 #include <cmath>
 #include <cstdio>
 
-#include "spectral/error.h"
-#include "spectral/text.h"
+#include "base/error.h"
+#include "base/text.h"
 
 namespace spectex {
 

@@ -3,11 +3,11 @@
 #include <optional>
 #include <set>
 
+#include "base/error.h"
+#include "base/text.h"
 #include "io/file_identity.h"
 #include "spectral/colour_temperature.h"
-#include "spectral/error.h"
 #include "spectral/spectrum.h"
-#include "spectral/text.h"
 
 namespace spectex {
 

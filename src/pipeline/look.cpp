@@ -1,7 +1,7 @@
 #include "pipeline/look.h"
 
+#include "base/error.h"
 #include "spectral/adaptation.h"
-#include "spectral/error.h"
 #include "spectral/spectrum.h"
 #include "spectral/wavelength_grid.h"
 

@@ -4,9 +4,9 @@
 #include <chrono>
 #include <cstdio>
 
+#include "base/error.h"
 #include "base/memo.h"
 #include "spectral/colorimetry.h"
-#include "spectral/error.h"
 #include "spectral/spectrum.h"
 #include "spectral/upsampling_methods.h"
 

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "spectral/error.h"
+#include "base/error.h"
 
 namespace spectex {
 

@@ -8,18 +8,18 @@
 #include <memory>
 #include <sstream>
 
+#include "base/error.h"
+#include "base/task_pool.h"
+#include "base/text.h"
 #include "pipeline/json_text.h"
 #include "pipeline/light_list.h"
 #include "pipeline/plan_cache.h"
 #include "pipeline/plan_search.h"
 #include "pipeline/plan_texture.h"
 #include "spectral/colorimetry.h"
-#include "spectral/error.h"
 #include "spectral/precision.h"
 #include "spectral/spectrum.h"
 #include "spectral/srgb_axis.h"
-#include "spectral/task_pool.h"
-#include "spectral/text.h"
 
 namespace spectex {
 

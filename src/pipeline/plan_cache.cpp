@@ -7,13 +7,14 @@
 #include <filesystem>
 #include <sstream>
 
+#include "base/error.h"
+#include "base/fnv1a.h"
 #include "io/atomic_file.h"
 #include "io/data_dir.h"
 #include "io/linearizer.h"
+#include "io/provenance_keys.h"
 #include "io/source_identity.h"
 #include "spectex/version.h"
-#include "spectral/error.h"
-#include "spectral/fnv1a.h"
 #include "spectral/spectrum.h"
 
 namespace spectex {
@@ -361,8 +362,8 @@ std::string precision_cache_key(const PrecisionRequest& req) {
     k.text(m.checksum());
     const auto prov = m.provenance();
     k.number(static_cast<double>(prov.size()));
-    for (const auto& [name, value] : prov) {
-        k.text(name);
+    for (const auto& [fact, value] : prov) {
+        k.text(method_fact_key(fact));
         k.text(value);
     }
     k.values(m.lambda());

@@ -7,11 +7,11 @@
 #include <limits>
 #include <set>
 
+#include "base/error.h"
+#include "base/task_pool.h"
 #include "spectral/basis_fit.h"
 #include "spectral/ciede2000.h"
 #include "spectral/colorimetry.h"
-#include "spectral/error.h"
-#include "spectral/task_pool.h"
 
 namespace spectex {
 

@@ -5,12 +5,12 @@
 #include <cstdio>
 #include <sstream>
 
+#include "base/error.h"
+#include "base/text.h"
 #include "io/atomic_file.h"
 #include "io/spectral_reader.h"
 #include "pipeline/look.h"
-#include "spectral/error.h"
 #include "spectral/spectrum.h"
-#include "spectral/text.h"
 #include "spectral/wavelength_grid.h"
 
 namespace spectex {

@@ -3,14 +3,14 @@
 #include <algorithm>
 #include <memory>
 
+#include "base/error.h"
+#include "base/task_pool.h"
 #include "io/atomic_file.h"
 #include "io/image_library.h"
 #include "io/spectral_reader.h"
 #include "pipeline/bitmap_font.h"
 #include "pipeline/look.h"
 #include "spectral/adaptation.h"
-#include "spectral/error.h"
-#include "spectral/task_pool.h"
 
 namespace spectex {
 

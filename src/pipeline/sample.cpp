@@ -1,6 +1,6 @@
 #include "pipeline/sample.h"
 
-#include "spectral/error.h"
+#include "base/error.h"
 
 namespace spectex {
 

@@ -11,10 +11,14 @@
 #include <limits>
 #include <memory>
 
+#include "base/error.h"
+#include "base/task_pool.h"
+#include "base/text.h"
 #include "io/exr_compression.h"
 #include "io/file_identity.h"
 #include "io/image_source.h"
 #include "io/linearizer.h"
+#include "io/provenance_keys.h"
 #include "io/source_identity.h"
 #include "io/spectral_exr_info.h"
 #include "io/spectral_reader.h"
@@ -24,12 +28,8 @@
 #include "spectral/adaptation.h"
 #include "spectral/ciede2000.h"
 #include "spectral/colorimetry.h"
-#include "spectral/error.h"
 #include "spectral/precision.h"
-#include "spectral/provenance_keys.h"
 #include "spectral/spectrum.h"
-#include "spectral/task_pool.h"
-#include "spectral/text.h"
 #include "spectral/wavelength_grid.h"
 
 namespace spectex {

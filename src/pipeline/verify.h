@@ -9,8 +9,8 @@
 #include <utility>
 #include <vector>
 
+#include "base/error.h"
 #include "io/alpha_kind.h"
-#include "spectral/error.h"
 
 namespace spectex {
 

@@ -1,8 +1,5 @@
 #include "spectral/basis.h"
 
-#include <sys/stat.h>
-
-#include <cerrno>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -10,9 +7,10 @@
 #include <ostream>
 #include <string>
 
-#include "spectral/csv_table.h"
-#include "spectral/error.h"
-#include "spectral/fnv1a.h"
+#include "base/bounded_read.h"
+#include "base/csv_table.h"
+#include "base/error.h"
+#include "base/fnv1a.h"
 
 namespace spectex {
 
@@ -46,9 +44,8 @@ std::vector<std::string> shipped_bases() { return {"mallett2019"}; }
 Basis load_basis(const std::string& data_dir, const std::string& name_or_file) {
     for (const auto& b : shipped_bases())
         if (b == name_or_file) return read_basis_csv(data_dir + "/spectral/basis_" + b + ".csv", b);
-    struct stat st;
-    if (::stat(name_or_file.c_str(), &st) == 0) return read_basis_csv(name_or_file, name_or_file);
-    const int err = errno;
+    int err = 0;
+    if (path_exists(name_or_file, &err)) return read_basis_csv(name_or_file, name_or_file);
     // A name that looks like a path is a missing file, not an unknown name.
     const bool path_like =
         name_or_file.find('/') != std::string::npos || name_or_file.find('.') != std::string::npos;

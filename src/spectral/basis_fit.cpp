@@ -7,7 +7,7 @@
 #include <limits>
 #include <vector>
 
-#include "spectral/error.h"
+#include "base/error.h"
 #include "spectral/qp_solver.h"
 
 namespace spectex {

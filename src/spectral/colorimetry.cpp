@@ -4,8 +4,8 @@
 #include <cstdio>
 #include <cstdlib>
 
-#include "spectral/error.h"
-#include "spectral/text.h"
+#include "base/error.h"
+#include "base/text.h"
 
 namespace spectex {
 

@@ -9,7 +9,7 @@
 #include <immintrin.h>
 #endif
 
-#include "spectral/half.h"
+#include "base/half.h"
 #include "spectral/half_bits.h"
 
 namespace spectex {

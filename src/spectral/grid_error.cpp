@@ -5,11 +5,11 @@
 #include <cstdio>
 #include <cstring>
 
+#include "base/error.h"
+#include "base/half.h"
+#include "base/task_pool.h"
 #include "spectral/ciede2000.h"
-#include "spectral/error.h"
-#include "spectral/half.h"
 #include "spectral/srgb_axis.h"
-#include "spectral/task_pool.h"
 
 namespace spectex {
 

@@ -9,7 +9,7 @@
 #include <immintrin.h>
 #endif
 
-#include "spectral/error.h"
+#include "base/error.h"
 #include "spectral/jakob_hanika.h"
 
 namespace spectex {

@@ -7,11 +7,11 @@
 #include <cstdio>
 #include <cstring>
 
-#include "spectral/error.h"
-#include "spectral/fnv1a.h"
+#include "base/error.h"
+#include "base/fnv1a.h"
+#include "base/text.h"
 #include "spectral/jakob_hanika.h"
 #include "spectral/lhtss.h"
-#include "spectral/text.h"
 #include "spectral/vertex_qp.h"
 
 namespace spectex {

@@ -5,15 +5,15 @@
 #include <cstdio>
 #include <numeric>
 
+#include "base/error.h"
+#include "base/half.h"
+#include "base/task_pool.h"
+#include "base/text.h"
 #include "spectral/ciede2000.h"
 #include "spectral/colorimetry.h"
-#include "spectral/error.h"
 #include "spectral/expand.h"
 #include "spectral/grid_error.h"
-#include "spectral/half.h"
 #include "spectral/half_bits.h"
-#include "spectral/task_pool.h"
-#include "spectral/text.h"
 
 namespace spectex {
 

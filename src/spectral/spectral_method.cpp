@@ -2,8 +2,6 @@
 
 #include <algorithm>
 
-#include "spectral/provenance_keys.h"
-
 namespace spectex {
 
 void SpectralMethod::expand_half(const float* r, const float* g, const float* b, size_t n,
@@ -26,11 +24,11 @@ BasisMethod::BasisMethod(Basis basis, std::string source)
       source_(std::move(source)),
       m_(ExpansionMatrix::from_basis(basis_)) {}
 
-std::vector<std::pair<std::string, std::string>> BasisMethod::provenance() const {
-    return {{provenance_key::kMethod, "basis"},
-            {provenance_key::kBasis, basis_.name},
-            {provenance_key::kBasisSource, source_},
-            {provenance_key::kBasisChecksum, checksum()}};
+std::vector<std::pair<MethodFact, std::string>> BasisMethod::provenance() const {
+    return {{MethodFact::Method, "basis"},
+            {MethodFact::Basis, basis_.name},
+            {MethodFact::BasisSource, source_},
+            {MethodFact::BasisChecksum, checksum()}};
 }
 
 void BasisMethod::expand_float(const float* r, const float* g, const float* b, size_t n, float* out,

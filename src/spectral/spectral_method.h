@@ -15,6 +15,21 @@
 
 namespace spectex {
 
+// What a method records of itself in a baked file's header (provenance()). The maths says what it
+// is; the name of the attribute each fact is written under belongs to the file's side
+// (io/provenance_keys.h, method_fact_key), so that spectral/ knows nothing of file formats.
+enum class MethodFact {
+    Method,             // "basis", "lattice", "jakob-hanika"
+    Basis,              // the basis' name
+    BasisSource,        // where the basis came from
+    BasisChecksum,      // of the basis' tables
+    LatticeSize,        // vertices per axis
+    VertexPrior,        // the lattice's vertex prior
+    JhTableResolution,  // nodes per axis of the Jakob-Hanika table
+    MethodSource,       // how the lattice or table was built
+    MethodChecksum,     // of the lattice or table
+};
+
 class SpectralMethod {
   public:
     virtual ~SpectralMethod() = default;
@@ -24,8 +39,8 @@ class SpectralMethod {
     int bins() const { return static_cast<int>(lambda().size()); }
     // Of everything that decides the spectra (tables, sizes): "fnv1a64:<hex>".
     virtual std::string checksum() const = 0;
-    // spectex:* header attributes that describe the method, in a fixed order.
-    virtual std::vector<std::pair<std::string, std::string>> provenance() const = 0;
+    // The facts that describe the method, in a fixed order (the header's attributes keep it).
+    virtual std::vector<std::pair<MethodFact, std::string>> provenance() const = 0;
     // spectrum(a·x + b·y) = a·spectrum(x) + b·spectrum(y): filtering linear RGB before expanding is
     // then the same as filtering spectra (MIP levels).
     virtual bool is_linear() const = 0;
@@ -53,7 +68,7 @@ class BasisMethod : public SpectralMethod {
     std::string name() const override { return "basis"; }
     const std::vector<double>& lambda() const override { return basis_.lambda; }
     std::string checksum() const override { return basis_.checksum(); }
-    std::vector<std::pair<std::string, std::string>> provenance() const override;
+    std::vector<std::pair<MethodFact, std::string>> provenance() const override;
     bool is_linear() const override { return true; }
     void expand_float(const float* r, const float* g, const float* b, size_t n, float* out,
                       size_t plane_stride) const override;

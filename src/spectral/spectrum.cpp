@@ -1,27 +1,19 @@
 #include "spectral/spectrum.h"
 
-#include <sys/stat.h>
-
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 
+#include "base/bounded_read.h"
+#include "base/csv_table.h"
+#include "base/error.h"
 #include "spectral/colour_temperature.h"
-#include "spectral/csv_table.h"
-#include "spectral/error.h"
 #include "spectral/wavelength_grid.h"
 
 namespace spectex {
 
 namespace {
-
-// A name that is not a shipped table is a file when something exists at that path: it is then
-// read (and refused when it is not a regular file of bounded size) by read_csv_table.
-bool exists(const std::string& path) {
-    struct stat st;
-    return ::stat(path.c_str(), &st) == 0;
-}
 
 // A power or a colour-matching value is finite, not negative and at most 1e12, as
 // Colorimetry::make checks it on a grid: checked on the table when it is loaded, so that a bad
@@ -144,7 +136,9 @@ std::string shipped_illuminants_list(const std::string& default_name) {
 Observer load_observer(const std::string& data_dir, const std::string& name) {
     for (const auto& o : shipped_observers())
         if (o == name) return load_observer_csv(data_dir + "/spectral/observer_" + o + ".csv", o);
-    if (exists(name)) return load_observer_csv(name, name);
+    // A name that is not a shipped table is a file when something exists at that path: it is then
+    // read (and refused when it is not a regular file of bounded size) by read_csv_table.
+    if (path_exists(name)) return load_observer_csv(name, name);
     throw Error("unknown observer '" + name + "' (known: cie1931-2, cie1964-10, or a CSV file)");
 }
 
@@ -155,7 +149,7 @@ Spectrum load_illuminant(const std::string& data_dir, const std::string& name_or
     // A name written as a temperature is one, whatever files exist ("./3200K" names such a file).
     if (const auto kelvin = colour_temperature_of(name_or_file))
         return colour_temperature_light(*kelvin);
-    if (exists(name_or_file)) return load_illuminant_csv(name_or_file, name_or_file);
+    if (path_exists(name_or_file)) return load_illuminant_csv(name_or_file, name_or_file);
     throw Error("unknown illuminant '" + name_or_file + "' (known: " + shipped_illuminants_list() +
                 ", a colour temperature such as 3200K, or a CSV file)");
 }

@@ -4,8 +4,7 @@
 #include <cstdio>
 #include <cstring>
 
-#include "spectral/fnv1a.h"
-#include "spectral/provenance_keys.h"
+#include "base/fnv1a.h"
 
 namespace spectex {
 
@@ -26,14 +25,14 @@ LatticeMethod::LatticeMethod(SpectralLattice lattice, std::vector<double> lambda
       conditions_(std::move(conditions)),
       blend_(blend) {}
 
-std::vector<std::pair<std::string, std::string>> LatticeMethod::provenance() const {
+std::vector<std::pair<MethodFact, std::string>> LatticeMethod::provenance() const {
     std::string prior = to_string(lattice_.prior());
     if (lattice_.prior() == VertexPrior::Blend) prior += " (weight " + number(blend_) + ")";
-    return {{provenance_key::kMethod, "lattice"},
-            {provenance_key::kLatticeSize, std::to_string(lattice_.size())},
-            {provenance_key::kVertexPrior, prior},
-            {provenance_key::kMethodSource, "built by spectex: " + conditions_},
-            {provenance_key::kMethodChecksum, checksum()}};
+    return {{MethodFact::Method, "lattice"},
+            {MethodFact::LatticeSize, std::to_string(lattice_.size())},
+            {MethodFact::VertexPrior, prior},
+            {MethodFact::MethodSource, "built by spectex: " + conditions_},
+            {MethodFact::MethodChecksum, checksum()}};
 }
 
 JakobHanikaMethod::JakobHanikaMethod(JakobHanikaTable table, std::vector<double> lambda,
@@ -55,14 +54,14 @@ JakobHanikaMethod::JakobHanikaMethod(JakobHanikaTable table, std::vector<double>
     checksum_ = h.text();
 }
 
-std::vector<std::pair<std::string, std::string>> JakobHanikaMethod::provenance() const {
-    return {{provenance_key::kMethod, "jakob-hanika"},
-            {provenance_key::kJhTableResolution, std::to_string(table_.res())},
-            {provenance_key::kMethodSource,
+std::vector<std::pair<MethodFact, std::string>> JakobHanikaMethod::provenance() const {
+    return {{MethodFact::Method, "jakob-hanika"},
+            {MethodFact::JhTableResolution, std::to_string(table_.res())},
+            {MethodFact::MethodSource,
              "built by spectex: " + conditions_ +
                  " (not exact: largest linear RGB residual at the table's nodes " +
                  number(table_.max_rgb_residual) + ")"},
-            {provenance_key::kMethodChecksum, checksum()}};
+            {MethodFact::MethodChecksum, checksum()}};
 }
 
 }  // namespace spectex

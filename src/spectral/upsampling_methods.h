@@ -24,7 +24,7 @@ class LatticeMethod : public SpectralMethod {
     std::string name() const override { return "lattice"; }
     const std::vector<double>& lambda() const override { return lambda_; }
     std::string checksum() const override { return lattice_.checksum(); }
-    std::vector<std::pair<std::string, std::string>> provenance() const override;
+    std::vector<std::pair<MethodFact, std::string>> provenance() const override;
     bool is_linear() const override { return false; }
     void expand_float(const float* r, const float* g, const float* b, size_t n, float* out,
                       size_t plane_stride) const override {
@@ -48,7 +48,7 @@ class JakobHanikaMethod : public SpectralMethod {
     std::string name() const override { return "jakob-hanika"; }
     const std::vector<double>& lambda() const override { return lambda_; }
     std::string checksum() const override { return checksum_; }
-    std::vector<std::pair<std::string, std::string>> provenance() const override;
+    std::vector<std::pair<MethodFact, std::string>> provenance() const override;
     bool is_linear() const override { return false; }
     void expand_float(const float* r, const float* g, const float* b, size_t n, float* out,
                       size_t plane_stride) const override {

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "spectral/error.h"
+#include "base/error.h"
 #include "spectral/qp_solver.h"
 
 namespace spectex {

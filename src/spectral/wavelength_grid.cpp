@@ -7,9 +7,9 @@
 #include <fstream>
 #include <sstream>
 
-#include "spectral/bounded_read.h"
-#include "spectral/error.h"
-#include "spectral/text.h"
+#include "base/bounded_read.h"
+#include "base/error.h"
+#include "base/text.h"
 
 namespace spectex {
 

@@ -22,11 +22,11 @@
 #include <string>
 #include <vector>
 
+#include "base/half.h"
 #include "spectral/basis.h"
 #include "spectral/basis_fit.h"
 #include "spectral/colorimetry.h"
 #include "spectral/expand.h"
-#include "spectral/half.h"
 #include "spectral/jakob_hanika.h"
 #include "spectral/lattice.h"
 

@@ -16,7 +16,7 @@
 
 #include "cli_util.h"
 #include "exr_read.h"
-#include "spectral/provenance_keys.h"
+#include "io/provenance_keys.h"
 
 using namespace spectex_test;
 

@@ -14,7 +14,7 @@
 
 #include "cli/cli_util.h"
 #include "cli/exr_read.h"
-#include "spectral/provenance_keys.h"
+#include "io/provenance_keys.h"
 
 using namespace spectex_test;
 namespace key = spectex::provenance_key;

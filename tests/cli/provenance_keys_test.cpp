@@ -1,7 +1,7 @@
 // The spectex:* header attributes a bake writes are exactly the keys of
-// src/spectral/provenance_keys.h: none written under a name the readers (info, verify, --update) do
+// src/io/provenance_keys.h: none written under a name the readers (info, verify, --update) do
 // not know, and no constant that no bake writes.
-#include "spectral/provenance_keys.h"
+#include "io/provenance_keys.h"
 
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
@@ -56,7 +56,7 @@ TEST(ProvenanceKeys, EveryKeyABakeWritesIsAConstant) {
         ASSERT_EQ(r.status, 0) << r.err;
         for (const std::string& name : spectex_attributes(out)) {
             EXPECT_EQ(known.count(name), 1u)
-                << name << " is written but is not in src/spectral/provenance_keys.h";
+                << name << " is written but is not in src/io/provenance_keys.h";
             written.insert(name);
         }
         // Only the lossy bake (the second) records a lossy compression.

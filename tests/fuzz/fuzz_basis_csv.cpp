@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "spectral/csv_table.h"
-#include "spectral/error.h"
+#include "base/csv_table.h"
+#include "base/error.h"
 
 static void check(const spectex::CsvTable& t) {
     if (t.data.size() != t.columns.size()) std::abort();

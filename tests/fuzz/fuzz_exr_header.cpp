@@ -13,8 +13,8 @@
 #include <cstdlib>
 #include <string>
 
+#include "base/error.h"
 #include "io/spectral_exr_info.h"
-#include "spectral/error.h"
 #include "spectral/wavelength_grid.h"
 
 static std::string temp_path() {

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "spectral/error.h"
+#include "base/error.h"
 #include "spectral/wavelength_grid.h"
 
 static void check_grid(const spectex::WavelengthGrid& g) {

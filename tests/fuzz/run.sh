@@ -41,11 +41,11 @@ compile() {  # compile SRC OBJ EXTRA_FLAGS...
 }
 
 declare -A deps
-# The sources each harness links (what their code calls; spectral/text.cpp: parse_finite,
+# The sources each harness links (what their code calls; base/text.cpp: parse_finite,
 # one_line; io/exr_compression.cpp: the compression table the header readers look up).
-deps[fuzz_wavelength_grid]="spectral/wavelength_grid.cpp spectral/bounded_read.cpp spectral/text.cpp"
-deps[fuzz_basis_csv]="spectral/csv_table.cpp spectral/bounded_read.cpp spectral/text.cpp"
-deps[fuzz_exr_header]="spectral/wavelength_grid.cpp spectral/bounded_read.cpp spectral/text.cpp io/spectral_exr_info.cpp io/exr_preflight.cpp io/exr_compression.cpp"
+deps[fuzz_wavelength_grid]="spectral/wavelength_grid.cpp base/bounded_read.cpp base/text.cpp"
+deps[fuzz_basis_csv]="base/csv_table.cpp base/bounded_read.cpp base/text.cpp"
+deps[fuzz_exr_header]="spectral/wavelength_grid.cpp base/bounded_read.cpp base/text.cpp io/spectral_exr_info.cpp io/exr_preflight.cpp io/exr_compression.cpp"
 
 status=0
 summary=()

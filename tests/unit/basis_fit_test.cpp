@@ -6,9 +6,9 @@
 #include <fstream>
 #include <sstream>
 
+#include "base/csv_table.h"
+#include "base/error.h"
 #include "pipeline/basis_cache.h"
-#include "spectral/csv_table.h"
-#include "spectral/error.h"
 
 using namespace spectex;
 

@@ -1,5 +1,5 @@
 // The bounded reader: regular files only, of bounded size, checked before reading; never blocks.
-#include "spectral/bounded_read.h"
+#include "base/bounded_read.h"
 
 #include <fcntl.h>
 #include <gtest/gtest.h>
@@ -12,8 +12,8 @@
 #include <functional>
 #include <string>
 
-#include "spectral/csv_table.h"
-#include "spectral/error.h"
+#include "base/csv_table.h"
+#include "base/error.h"
 #include "spectral/wavelength_grid.h"
 
 using namespace spectex;

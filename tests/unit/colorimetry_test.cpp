@@ -2,8 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include "base/error.h"
 #include "spectral/basis.h"
-#include "spectral/error.h"
 #include "spectral/spectrum.h"
 
 using namespace spectex;

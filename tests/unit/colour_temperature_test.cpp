@@ -6,7 +6,7 @@
 
 #include <cmath>
 
-#include "spectral/error.h"
+#include "base/error.h"
 #include "spectral/spectrum.h"
 
 using namespace spectex;

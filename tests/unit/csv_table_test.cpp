@@ -1,11 +1,11 @@
-#include "spectral/csv_table.h"
+#include "base/csv_table.h"
 
 #include <gtest/gtest.h>
 
 #include <sstream>
 
+#include "base/error.h"
 #include "spectral/basis.h"
-#include "spectral/error.h"
 
 using namespace spectex;
 

@@ -10,8 +10,8 @@
 #include <random>
 #include <string>
 
+#include "base/half.h"
 #include "spectral/colorimetry.h"
-#include "spectral/half.h"
 #include "spectral/spectrum.h"
 
 using namespace spectex;

@@ -19,12 +19,12 @@
 #include <string>
 #include <vector>
 
+#include "base/error.h"
+#include "base/half.h"
 #include "io/atomic_file.h"
 #include "io/exr_core_writer.h"
 #include "io/spectral_exr_info.h"
 #include "io/spectral_exr_writer.h"
-#include "spectral/error.h"
-#include "spectral/half.h"
 
 using namespace spectex;
 

@@ -20,10 +20,10 @@
 #include <string>
 #include <vector>
 
+#include "base/half.h"
 #include "io/atomic_file.h"
 #include "io/exr_core_writer.h"
 #include "io/spectral_exr_writer.h"
-#include "spectral/half.h"
 #include "spectral/wavelength_grid.h"
 
 using namespace spectex;

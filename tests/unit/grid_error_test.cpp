@@ -8,10 +8,10 @@
 #include <cmath>
 #include <vector>
 
+#include "base/error.h"
 #include "spectral/basis_fit.h"
 #include "spectral/ciede2000.h"
 #include "spectral/colorimetry.h"
-#include "spectral/error.h"
 
 using namespace spectex;
 

@@ -5,8 +5,8 @@
 
 #include <set>
 
+#include "base/error.h"
 #include "pipeline/basis_cache.h"
-#include "spectral/error.h"
 #include "spectral/spectrum.h"
 
 using namespace spectex;

@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "base/text.h"
 #include "pipeline/batch_files.h"
-#include "spectral/text.h"
 
 using namespace spectex;
 

@@ -9,9 +9,9 @@
 #include <random>
 #include <string>
 
+#include "base/error.h"
 #include "spectral/basis_fit.h"
 #include "spectral/colorimetry.h"
-#include "spectral/error.h"
 #include "spectral/jakob_hanika.h"
 #include "spectral/lhtss.h"
 #include "spectral/qp_solver.h"

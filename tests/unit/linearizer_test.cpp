@@ -10,7 +10,7 @@
 #include <random>
 #include <vector>
 
-#include "spectral/error.h"
+#include "base/error.h"
 
 using namespace spectex;
 

@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "base/error.h"
 #include "spectral/colorimetry.h"
-#include "spectral/error.h"
 #include "spectral/spectrum.h"
 #include "spectral/srgb_axis.h"
 

@@ -16,12 +16,12 @@
 #include <string>
 #include <vector>
 
+#include "base/error.h"
+#include "base/half.h"
 #include "spectral/basis_fit.h"
 #include "spectral/colorimetry.h"
-#include "spectral/error.h"
 #include "spectral/expand.h"
 #include "spectral/grid_error.h"
-#include "spectral/half.h"
 #include "spectral/half_bits.h"
 #include "spectral/spectrum.h"
 

@@ -5,10 +5,14 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <iterator>
 #include <random>
+#include <set>
 #include <string>
 #include <vector>
 
+#include "io/provenance_keys.h"
 #include "spectral/basis_fit.h"
 #include "spectral/colorimetry.h"
 #include "spectral/spectrum.h"
@@ -98,11 +102,38 @@ TEST(SpectralMethod, BasisProvenanceIsTheBasisAttributes) {
     BasisMethod method(s.basis, "fitted by spectex: x");
     auto p = method.provenance();
     ASSERT_EQ(p.size(), 4u);
-    EXPECT_EQ(p[0].first, "spectex:method");
+    EXPECT_EQ(p[0].first, MethodFact::Method);
+    EXPECT_STREQ(method_fact_key(p[0].first), "spectex:method");
     EXPECT_EQ(p[0].second, "basis");
-    EXPECT_EQ(p[1].first, "spectex:basis");
+    EXPECT_EQ(p[1].first, MethodFact::Basis);
+    EXPECT_STREQ(method_fact_key(p[1].first), "spectex:basis");
+    EXPECT_STREQ(method_fact_key(p[2].first), "spectex:basisSource");
+    EXPECT_STREQ(method_fact_key(p[3].first), "spectex:basisChecksum");
     EXPECT_EQ(p[2].second, "fitted by spectex: x");
     EXPECT_EQ(p[3].second, s.basis.checksum());
     EXPECT_EQ(method.checksum(), s.basis.checksum());
     EXPECT_TRUE(method.is_linear());
+}
+
+// The maths names what a method is (MethodFact); io/provenance_keys.h names the attribute: every
+// fact has a key of its own, and it is one that the readers know (kAll).
+TEST(SpectralMethod, EveryMethodFactHasItsOwnKnownKey) {
+    const MethodFact facts[] = {MethodFact::Method,
+                                MethodFact::Basis,
+                                MethodFact::BasisSource,
+                                MethodFact::BasisChecksum,
+                                MethodFact::LatticeSize,
+                                MethodFact::VertexPrior,
+                                MethodFact::JhTableResolution,
+                                MethodFact::MethodSource,
+                                MethodFact::MethodChecksum};
+    std::set<std::string> keys;
+    for (MethodFact f : facts) {
+        const std::string key = method_fact_key(f);
+        EXPECT_TRUE(std::any_of(std::begin(provenance_key::kAll), std::end(provenance_key::kAll),
+                                [&](const char* k) { return key == k; }))
+            << key;
+        keys.insert(key);
+    }
+    EXPECT_EQ(keys.size(), std::size(facts));
 }

@@ -1,7 +1,7 @@
 // The task facility: every index runs once, errors come back, waits run unstarted work, and
 // nesting deeper than the pool is wide finishes (a deadlock would hang the test: ctest's timeout
 // turns a hang into a failure).
-#include "spectral/task_pool.h"
+#include "base/task_pool.h"
 
 #include <gtest/gtest.h>
 

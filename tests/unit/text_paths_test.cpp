@@ -1,4 +1,4 @@
-// The one copy of each small text and path rule (spectral/text.h, io/paths.h), which the options,
+// The one copy of each small text and path rule (base/text.h, io/paths.h), which the options,
 // the wavelength grids, the CSV tables and the batch code all read through.
 #include <gtest/gtest.h>
 
@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "base/text.h"
 #include "io/paths.h"
-#include "spectral/text.h"
 
 using namespace spectex;
 

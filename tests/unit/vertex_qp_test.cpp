@@ -7,8 +7,8 @@
 #include <random>
 #include <string>
 
+#include "base/error.h"
 #include "spectral/colorimetry.h"
-#include "spectral/error.h"
 #include "spectral/qp_solver.h"
 #include "spectral/spectrum.h"
 

@@ -12,11 +12,11 @@
 #include <cstring>
 #include <mutex>
 
+#include "base/bounded_read.h"
+#include "base/error.h"
+#include "base/text.h"
 #include "io/image_source.h"
 #include "io/oiio/oiio_library.h"
-#include "spectral/bounded_read.h"
-#include "spectral/error.h"
-#include "spectral/text.h"
 
 namespace spectex {
 

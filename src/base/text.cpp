@@ -1,5 +1,5 @@
 // Small text helpers shared by every layer (one copy of each).
-#include "spectral/text.h"
+#include "base/text.h"
 
 #include <cctype>
 #include <cerrno>

@@ -1,4 +1,4 @@
-#include "spectral/csv_table.h"
+#include "base/csv_table.h"
 
 #include <cerrno>
 #include <cmath>
@@ -8,9 +8,9 @@
 #include <ostream>
 #include <sstream>
 
-#include "spectral/bounded_read.h"
-#include "spectral/error.h"
-#include "spectral/text.h"
+#include "base/bounded_read.h"
+#include "base/error.h"
+#include "base/text.h"
 
 namespace spectex {
 

@@ -8,7 +8,7 @@
 // open(O_RDONLY | O_NONBLOCK | O_NOCTTY), then fstat(descriptor) and the same checks again, and
 // the descriptor must be the file that was stat'ed (same device and inode): a path swapped for a
 // FIFO or a device between the two steps is refused too. Plain POSIX: no image-library headers
-// (spectral/ stays pure).
+// (base/, the floor every other layer stands on).
 #include <sys/types.h>
 
 #include <cstdint>
@@ -44,6 +44,11 @@ constexpr uint64_t kLutFile = uint64_t{128} << 20;
 // is read); this cap only refuses absurd files (a 16384^2 image of 64 float channels is 64 GiB).
 constexpr uint64_t kImage = uint64_t{64} << 30;
 }  // namespace file_limits
+
+// Whether something exists at `path` (stat(2) succeeds; links followed), for a name that is a
+// file only when one exists there (--basis, --observer, --illuminant). When not, and `error` is
+// given, *error is stat's errno (ENOENT, EACCES, ENOTDIR, ...).
+bool path_exists(const std::string& path, int* error = nullptr);
 
 // A readable regular file, checked as above. Owns the descriptor.
 class CheckedFile {

@@ -1,4 +1,4 @@
-#include "spectral/task_pool.h"
+#include "base/task_pool.h"
 
 #include <algorithm>
 #include <atomic>

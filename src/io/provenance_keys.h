@@ -1,8 +1,11 @@
 #pragma once
 // The names of the spectex:* header attributes, which record how a file was baked (README, "The
-// output file"): written by the bake (pipeline/bake.cpp) and the methods' provenance(), read by
-// `info`, `verify` and `bake --update`. Every use names the constant, never the string. They live
-// here, in the lowest layer, because the spectral methods describe themselves with them.
+// output file"): written by the bake (pipeline/bake.cpp), read by `info`, `verify` and `bake
+// --update`. Every use names the constant, never the string. They are names in a file format, so
+// they live in io/; a spectral method describes itself with MethodFacts
+// (spectral/spectral_method.h) and method_fact_key below names each.
+#include "spectral/spectral_method.h"
+
 namespace spectex {
 namespace provenance_key {
 
@@ -126,4 +129,30 @@ constexpr const char* kAll[] = {
 };
 
 }  // namespace provenance_key
+
+// The attribute a method's fact (SpectralMethod::provenance()) is written under.
+inline const char* method_fact_key(MethodFact fact) {
+    switch (fact) {
+        case MethodFact::Method:
+            return provenance_key::kMethod;
+        case MethodFact::Basis:
+            return provenance_key::kBasis;
+        case MethodFact::BasisSource:
+            return provenance_key::kBasisSource;
+        case MethodFact::BasisChecksum:
+            return provenance_key::kBasisChecksum;
+        case MethodFact::LatticeSize:
+            return provenance_key::kLatticeSize;
+        case MethodFact::VertexPrior:
+            return provenance_key::kVertexPrior;
+        case MethodFact::JhTableResolution:
+            return provenance_key::kJhTableResolution;
+        case MethodFact::MethodSource:
+            return provenance_key::kMethodSource;
+        case MethodFact::MethodChecksum:
+            return provenance_key::kMethodChecksum;
+    }
+    return provenance_key::kMethod;  // not reached: the switch names every fact
+}
+
 }  // namespace spectex

@@ -1,4 +1,4 @@
-#include "spectral/bounded_read.h"
+#include "base/bounded_read.h"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -8,7 +8,7 @@
 #include <cstdio>
 #include <cstring>
 
-#include "spectral/error.h"
+#include "base/error.h"
 
 namespace spectex {
 
@@ -35,6 +35,13 @@ void check_stat(const struct stat& st, const std::string& path, uint64_t max_byt
 }
 
 }  // namespace
+
+bool path_exists(const std::string& path, int* error) {
+    struct stat st;
+    if (::stat(path.c_str(), &st) == 0) return true;
+    if (error) *error = errno;
+    return false;
+}
 
 std::string format_bytes(uint64_t n) {
     char buf[64];
