@@ -1,6 +1,5 @@
 #include "io/exr_core_writer.h"
 
-#include <libdeflate.h>
 #include <openexr.h>
 #include <unistd.h>
 
@@ -16,6 +15,7 @@
 #include "base/error.h"
 #include "base/task_pool.h"
 #include "io/exr_compression.h"
+#include "io/exr_zip.h"
 #include "spectral/expand.h"
 #include "spectral/wavelength_grid.h"
 
@@ -30,33 +30,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) {
     return std::chrono::duration<double>(Clock::now() - t).count();
-}
-
-// EXR's ZIP pre-pass (ImfZip.cpp, internal_zip.c): even bytes of the block, then odd bytes, then
-// each byte replaced by its difference from the previous one, plus 128.
-void zip_prepare(const uint8_t* in, size_t n, uint8_t* out) {
-    uint8_t* t1 = out;
-    uint8_t* t2 = out + (n + 1) / 2;
-    size_t i = 0;
-    for (; i + 1 < n; i += 2) {
-        *t1++ = in[i];
-        *t2++ = in[i + 1];
-    }
-    if (i < n) *t1++ = in[i];
-    int p = n ? out[0] : 0;
-    for (size_t j = 1; j < n; ++j) {
-        const int v = out[j];
-        out[j] = static_cast<uint8_t>(v - p + (128 + 256));
-        p = v;
-    }
-}
-// The inverse, for a block that deflate cannot shrink and that is therefore stored raw.
-void zip_restore(uint8_t* prepared, size_t n, uint8_t* out) {
-    for (size_t j = 1; j < n; ++j)
-        prepared[j] = static_cast<uint8_t>(prepared[j - 1] + prepared[j] - 128);
-    const uint8_t* t1 = prepared;
-    const uint8_t* t2 = prepared + (n + 1) / 2;
-    for (size_t i = 0; i < n; ++i) out[i] = (i % 2 == 0) ? *t1++ : *t2++;
 }
 
 // A channel of the file and where its samples come from.
@@ -110,16 +83,8 @@ struct ExrCoreWriter::Impl {
     int next_write = 0;   // index of the next chunk to write
     std::mutex mu;        // guards everything above and the error
     std::mutex write_mu;  // serialises writes to the file
-    // A deflate compressor and its scratch block per compression running at once, kept for the
-    // next chunk.
-    struct Deflater {
-        libdeflate_compressor* z = nullptr;
-        std::vector<uint8_t> scratch;
-        ~Deflater() {
-            if (z) libdeflate_free_compressor(z);
-        }
-    };
-    std::vector<std::unique_ptr<Deflater>> deflaters;  // idle ones; guarded by mu
+    // The deflate compressors, one per compression running at once (io/exr_zip.h).
+    std::unique_ptr<DeflaterPool> deflaters;
     std::exception_ptr error;
     std::string io_error;    // the first write() failure, with errno's text
     std::string core_error;  // the last message from OpenEXR's core
@@ -204,47 +169,17 @@ struct ExrCoreWriter::Impl {
         }
     }
 
-    void compress_chunk(Chunk& c, libdeflate_compressor* z, std::vector<uint8_t>& scratch) {
-        const size_t n = c.raw_bytes;
-        if (scratch.size() < n) scratch.resize(n);
-        zip_prepare(c.data.data(), n, scratch.data());
-        // A block is stored compressed only if that makes it smaller (the reader tells the two
-        // apart by size), so the output may use at most n - 1 bytes.
-        size_t out =
-            n > 1 ? libdeflate_zlib_compress(z, scratch.data(), n, c.data.data(), n - 1) : 0;
-        if (out == 0) {
-            zip_restore(scratch.data(), n, c.data.data());
-            out = n;
-            std::lock_guard<std::mutex> lock(stats_mu);
-            ++stats.raw_chunks;
-        }
-        c.bytes = out;
-    }
-
-    std::unique_ptr<Deflater> take_deflater() {
-        {
-            std::lock_guard<std::mutex> lock(mu);
-            if (!deflaters.empty()) {
-                std::unique_ptr<Deflater> d = std::move(deflaters.back());
-                deflaters.pop_back();
-                return d;
-            }
-        }
-        auto d = std::make_unique<Deflater>();
-        d->z = libdeflate_alloc_compressor(L.zip_level);
-        if (!d->z) throw Error(name + ": cannot allocate a deflate compressor");
-        return d;
-    }
-
     // One task of the pool: compresses chunk c, then writes whatever is next in line. Never
     // throws: a failure is kept in `error` for the caller's thread.
     void compress_task(Chunk* c) {
         auto t0 = Clock::now();
         try {
-            std::unique_ptr<Deflater> d = take_deflater();
-            compress_chunk(*c, d->z, d->scratch);
-            std::lock_guard<std::mutex> lock(mu);
-            deflaters.push_back(std::move(d));
+            bool raw = false;
+            c->bytes = deflaters->compress(c->data.data(), c->raw_bytes, &raw);
+            if (raw) {
+                std::lock_guard<std::mutex> lock(stats_mu);
+                ++stats.raw_chunks;
+            }
         } catch (...) {
             std::lock_guard<std::mutex> lock(mu);
             if (!error) error = std::current_exception();
@@ -361,6 +296,7 @@ ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const SpectralExrL
     I.tiled = L.tile_width > 0;
     I.lines_per_chunk = I.tiled ? L.tile_height : L.compression.lines_per_chunk;
     I.compress = comp != EXR_COMPRESSION_NONE;
+    if (I.compress) I.deflaters = std::make_unique<DeflaterPool>(L.zip_level, name);
     I.chunk_count = (L.height + I.lines_per_chunk - 1) / I.lines_per_chunk;  // tiled: set below
 
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
