@@ -28,6 +28,7 @@
 #include "io/image_library.h"
 #include "io/library_stderr.h"
 #include "io/linearizer.h"
+#include "io/ocio_config.h"
 #include "pipeline/bake.h"
 #include "pipeline/bake_batch.h"
 #include "pipeline/basis_cache.h"

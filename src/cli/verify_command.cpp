@@ -19,6 +19,7 @@
 #include "io/file_identity.h"
 #include "io/image_library.h"
 #include "io/linearizer.h"
+#include "io/ocio_config.h"
 #include "io/provenance_keys.h"
 #include "io/spectral_exr_info.h"
 #include "pipeline/batch_files.h"

@@ -120,16 +120,8 @@ int name_says_linear(const std::string& name);
 }  // namespace spectex
 
 namespace spectex {
-// "fnv1a64:<hex>" of an OCIO config's bytes (recorded as spectex:configChecksum, so that verify
-// knows whether the config a file was baked with is still the same). Throws Error as every reader.
-std::string config_checksum(const std::string& config_path);
-// The OCIO config a command uses: --config, else $OCIO, else <data_dir>/spectex.ocio.
-std::string ocio_config_path(const std::string& data_dir, const std::string& config_override);
 // A colour space of that config which decodes like an sRGB texture (the IEC 61966-2-1 curve on
 // Rec.709 primaries, D65), found by its transform, not its name; "" when it has none. For a
 // --colorspace suggestion: it builds a processor per colour space, so call it once, not per file.
 std::string srgb_texture_space(const std::string& data_dir, const std::string& config_override);
-// The files that config reads: itself and the LUT files its transforms reference, resolved through
-// its context. Throws Error when the config cannot be read (not a regular file, too large, ...).
-std::vector<std::string> ocio_config_files(const std::string& config_path);
 }  // namespace spectex

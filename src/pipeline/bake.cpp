@@ -20,6 +20,7 @@
 #include "io/file_identity.h"
 #include "io/image_source.h"
 #include "io/linearizer.h"
+#include "io/ocio_config.h"
 #include "io/provenance_keys.h"
 #include "io/source_identity.h"
 #include "pipeline/pixel_policy.h"

@@ -25,6 +25,7 @@
 #include "base/text.h"
 #include "io/exr_preflight.h"
 #include "io/linearizer.h"
+#include "io/ocio_config.h"
 #include "io/paths.h"
 #include "io/provenance_keys.h"
 #include "io/source_identity.h"

@@ -12,6 +12,7 @@
 #include "io/atomic_file.h"
 #include "io/data_dir.h"
 #include "io/linearizer.h"
+#include "io/ocio_config.h"
 #include "io/provenance_keys.h"
 #include "io/source_identity.h"
 #include "spectex/version.h"

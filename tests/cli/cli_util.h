@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -263,6 +264,31 @@ inline std::string lut_config_text(const std::string& search_path, const std::st
            "    to_scene_reference: !<GroupTransform>\n      children:\n"
            "        - !<FileTransform> {src: \"" +
            lut_src + "\", interpolation: linear}\n";
+}
+
+// Writes `text` to `path` (binary, replacing it); throws when the file cannot be written.
+inline void write_text(const std::string& path, const std::string& text) {
+    std::ofstream f(path, std::ios::binary);
+    f << text;
+    if (!f.flush()) throw std::runtime_error("cannot write " + path);
+}
+
+// Renames header attributes in place (same length), as a file made before spectex wrote them;
+// throws when a key is not in the file.
+inline void hide_attributes(const std::string& exr, const std::vector<std::string>& keys) {
+    std::string bytes = read_file(exr);
+    for (const std::string& key : keys) {
+        const size_t at = bytes.find(key + std::string(1, '\0'));
+        if (at == std::string::npos) throw std::runtime_error(exr + " has no attribute " + key);
+        bytes[at + key.size() - 1] = 'X';
+    }
+    write_text(exr, bytes);
+}
+
+inline std::string replace_all(std::string s, const std::string& from, const std::string& to) {
+    for (size_t p = s.find(from); p != std::string::npos; p = s.find(from, p + to.size()))
+        s.replace(p, from.size(), to);
+    return s;
 }
 
 }  // namespace spectex_test

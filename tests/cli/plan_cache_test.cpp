@@ -92,10 +92,6 @@ std::string make_png(const ScratchDir& dir, const std::string& name, int w, int 
     return path;
 }
 
-void write_text(const std::string& path, const std::string& text) {
-    std::ofstream(path, std::ios::binary) << text;
-}
-
 // A light as a CSV: D65-like flat table scaled by `v` over 300-830 nm.
 void write_light(const std::string& path, double v) {
     std::string t = "wavelength,value\n";

@@ -77,10 +77,6 @@ Outcome outcome(const std::string& path) {
     return {im.attr("spectex:precisionBits"), im.attr("spectex:precisionWorstDe"), im.pixels};
 }
 
-void write_text(const std::string& path, const std::string& text) {
-    std::ofstream(path, std::ios::binary) << text;
-}
-
 }  // namespace
 
 TEST(PrecisionCache, SecondBakeTakesTheBitsFromTheCacheAndGivesTheSameFile) {

@@ -20,11 +20,6 @@ using namespace spectex_test;
 
 namespace {
 
-void write_text(const std::string& path, const std::string& text) {
-    std::ofstream out(path, std::ios::binary);
-    out << text;
-}
-
 const std::string kChart =
     std::string(SPECTEX_TEST_SOURCE_DIR) + "/examples/textures/colour_chart.png";
 

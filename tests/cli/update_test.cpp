@@ -112,30 +112,6 @@ void write_png(const std::string& path) {
     write_image(path, 4, 4, 3, OIIO::TypeDesc::UINT8, px.data());
 }
 
-void write_text(const std::string& path, const std::string& text) {
-    FILE* f = std::fopen(path.c_str(), "wb");
-    ASSERT_NE(f, nullptr);
-    std::fwrite(text.data(), 1, text.size(), f);
-    std::fclose(f);
-}
-
-// Renames header attributes in place (same length), as a file made before spectex wrote them.
-void hide_attributes(const std::string& exr, const std::vector<std::string>& keys) {
-    std::string bytes = read_file(exr);
-    for (const std::string& key : keys) {
-        const size_t at = bytes.find(key + std::string(1, '\0'));
-        ASSERT_NE(at, std::string::npos) << key;
-        bytes[at + key.size() - 1] = 'X';
-    }
-    write_text(exr, bytes);
-}
-
-std::string replace_all(std::string s, const std::string& from, const std::string& to) {
-    for (size_t p = s.find(from); p != std::string::npos; p = s.find(from, p + to.size()))
-        s.replace(p, from.size(), to);
-    return s;
-}
-
 std::string shipped_config() {
     return read_file(std::string(SPECTEX_TEST_DATA_DIR) + "/spectex.ocio");
 }

@@ -31,10 +31,6 @@ void write_basis(const std::string& path, F f) {
     for (int l = 380; l <= 780; l += 5) o << l << "," << f(l) << "\n";
 }
 
-void write_text(const std::string& path, const std::string& text) {
-    std::ofstream(path, std::ios::binary) << text;
-}
-
 // An observer with x = y = z at every wavelength: its colours lie on one line.
 std::string write_degenerate_observer(const ScratchDir& d) {
     std::string t = "wavelength,x,y,z\n";

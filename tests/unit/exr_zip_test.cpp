@@ -54,9 +54,9 @@ TEST(ExrZip, ACompressedBlockInflatesToTheSamples) {
     ASSERT_NE(d, nullptr);
     std::vector<uint8_t> prepared(samples.size()), back(samples.size());
     size_t got = 0;
-    EXPECT_EQ(libdeflate_zlib_decompress(d, block.data(), bytes, prepared.data(), prepared.size(),
-                                         &got),
-              LIBDEFLATE_SUCCESS);
+    EXPECT_EQ(
+        libdeflate_zlib_decompress(d, block.data(), bytes, prepared.data(), prepared.size(), &got),
+        LIBDEFLATE_SUCCESS);
     libdeflate_free_decompressor(d);
     ASSERT_EQ(got, samples.size());
     zip_restore(prepared.data(), got, back.data());
