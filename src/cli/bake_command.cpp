@@ -37,6 +37,7 @@
 #include "pipeline/method_table.h"
 #include "pipeline/plan.h"
 #include "pipeline/plan_cache.h"
+#include "pipeline/plan_report.h"
 #include "spectral/basis_fit.h"
 #include "spectral/colorimetry.h"
 #include "spectral/precision.h"

@@ -17,6 +17,7 @@
 #include "pipeline/light_list.h"
 #include "pipeline/plan.h"
 #include "pipeline/plan_cache.h"
+#include "pipeline/plan_report.h"
 
 namespace spectex {
 

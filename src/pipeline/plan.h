@@ -127,12 +127,6 @@ PlanResult plan_grids(const PlanSpec& spec);
 // auto reads for the same method, grid, lights and budget.
 void add_plan_precision(const PlanSpec& spec, PlanResult& res, const std::string& cache = "");
 
-// The text table and the JSON document of a plan.
-std::string plan_table(const PlanSpec& spec, const PlanResult& r);
-std::string plan_json(const PlanSpec& spec, const PlanResult& r);
-// "no candidate grid meets 0.5 ΔE00 under every light: the best is 380:780:1, 0.73 under FL11"
-std::string plan_failure(const PlanSpec& spec, const PlanResult& r);
-
 }  // namespace spectex
 
 namespace spectex {
