@@ -24,7 +24,6 @@ std::string wavelength_list(const WavelengthGrid& g) {
     return out;
 }
 
-
 }  // namespace
 
 std::string plan_table(const PlanSpec& spec, const PlanResult& r) {
