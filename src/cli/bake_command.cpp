@@ -87,6 +87,13 @@ T pick(const std::string& option, const std::string& value,
     throw UsageError(option + ": '" + value + "' is not one of " + list);
 }
 
+// The value an enum's table (base/enum_names.h) gives `value`; a usage error listing its words.
+template <typename E, size_t N>
+E pick_name(const std::string& option, const std::string& value, const EnumNames<E, N>& names) {
+    if (const auto v = names.find(value)) return *v;
+    throw UsageError(option + ": '" + value + "' is not one of " + names.list());
+}
+
 bool ends_with_exr(const std::string& s) { return ends_with_nocase(s, ".exr"); }
 
 // A folder, links followed; false when it cannot be examined.
@@ -411,12 +418,8 @@ void check_method_options(BakeCli& c) {
         pick<AlphaKind>("--alpha", c.alpha,
                         {{to_string(AlphaKind::Associated), AlphaKind::Associated},
                          {to_string(AlphaKind::Unassociated), AlphaKind::Unassociated}});
-    c.settings.range = pick<RangePolicy>("--out-of-range", c.range,
-                                         {{"clamp", RangePolicy::Clamp},
-                                          {"keep", RangePolicy::Keep},
-                                          {"error", RangePolicy::Error}});
-    c.settings.nan = pick<NanPolicy>(
-        "--nan", c.nan, {{"replace", NanPolicy::Replace}, {"error", NanPolicy::Error}});
+    c.settings.range = pick_name("--out-of-range", c.range, kRangePolicyNames);
+    c.settings.nan = pick_name("--nan", c.nan, kNanPolicyNames);
     try {
         c.settings.compression = ExrCompression::parse(c.compression);
     } catch (const Error& e) {

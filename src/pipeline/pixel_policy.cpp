@@ -7,10 +7,8 @@
 
 namespace spectex {
 
-std::string to_string(RangePolicy p) {
-    return p == RangePolicy::Clamp ? "clamp" : p == RangePolicy::Keep ? "keep" : "error";
-}
-std::string to_string(NanPolicy p) { return p == NanPolicy::Replace ? "replace" : "error"; }
+std::string to_string(RangePolicy p) { return kRangePolicyNames.name(p); }
+std::string to_string(NanPolicy p) { return kNanPolicyNames.name(p); }
 
 PolicedCounts police_rgba(float* rgba, size_t n, const Linearizer& lin, const PixelPolicy& policy,
                           const std::string& input, size_t width, int y0, uint8_t* changed) {

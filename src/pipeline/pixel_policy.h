@@ -11,12 +11,17 @@
 #include <cstdint>
 #include <string>
 
+#include "base/enum_names.h"
 #include "io/linearizer.h"
 
 namespace spectex {
 
 enum class RangePolicy { Clamp, Keep, Error };
 enum class NanPolicy { Replace, Error };
+inline constexpr EnumNames<RangePolicy, 3> kRangePolicyNames{
+    {{{RangePolicy::Clamp, "clamp"}, {RangePolicy::Keep, "keep"}, {RangePolicy::Error, "error"}}}};
+inline constexpr EnumNames<NanPolicy, 2> kNanPolicyNames{
+    {{{NanPolicy::Replace, "replace"}, {NanPolicy::Error, "error"}}}};
 std::string to_string(RangePolicy p);
 std::string to_string(NanPolicy p);
 

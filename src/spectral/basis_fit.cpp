@@ -90,12 +90,11 @@ Eigen::VectorXd to_vector(const Basis& b) {
 }  // namespace
 
 FitObjective parse_objective(const std::string& name) {
-    if (name == "norm") return FitObjective::Norm;
-    if (name == "smooth") return FitObjective::Smooth;
-    throw Error("unknown objective '" + name + "' (known: norm, smooth)");
+    if (const auto o = kFitObjectiveNames.find(name)) return *o;
+    throw Error("unknown objective '" + name + "' (known: " + kFitObjectiveNames.list() + ")");
 }
 
-std::string to_string(FitObjective o) { return o == FitObjective::Norm ? "norm" : "smooth"; }
+std::string to_string(FitObjective o) { return kFitObjectiveNames.name(o); }
 
 FitCertificate certify_basis(const Basis& basis, const Colorimetry& c) {
     FitCertificate cert;

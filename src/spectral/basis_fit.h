@@ -4,12 +4,15 @@
 // an objective. A convex QP, solved by solve_qp() and certified from the basis it returns.
 #include <string>
 
+#include "base/enum_names.h"
 #include "spectral/basis.h"
 #include "spectral/colorimetry.h"
 
 namespace spectex {
 
 enum class FitObjective { Norm, Smooth };
+inline constexpr EnumNames<FitObjective, 2> kFitObjectiveNames{
+    {{{FitObjective::Norm, "norm"}, {FitObjective::Smooth, "smooth"}}}};
 FitObjective parse_objective(const std::string& name);  // "norm" | "smooth"
 std::string to_string(FitObjective o);
 

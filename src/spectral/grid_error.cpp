@@ -14,23 +14,11 @@
 namespace spectex {
 
 Reconstruction parse_reconstruction(const std::string& name) {
-    if (name == "linear") return Reconstruction::Linear;
-    if (name == "nearest") return Reconstruction::Nearest;
-    if (name == "box") return Reconstruction::Box;
-    throw Error("'" + name + "' is not one of linear, nearest, box");
+    if (const auto r = kReconstructionNames.find(name)) return *r;
+    throw Error("'" + name + "' is not one of " + kReconstructionNames.list());
 }
 
-std::string to_string(Reconstruction r) {
-    switch (r) {
-        case Reconstruction::Linear:
-            return "linear";
-        case Reconstruction::Nearest:
-            return "nearest";
-        case Reconstruction::Box:
-            return "box";
-    }
-    return "linear";
-}
+std::string to_string(Reconstruction r) { return kReconstructionNames.name(r); }
 
 Eigen::MatrixXd reconstruction_matrix(const std::vector<double>& bins,
                                       const std::vector<double>& fine, Reconstruction r) {

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "base/enum_names.h"
 #include "spectral/spectral_method.h"
 #include "spectral/spectrum.h"
 #include "spectral/wavelength_grid.h"
@@ -29,6 +30,10 @@ namespace spectex {
 // sample is the box function's mean over [λ - 0.5, λ + 0.5] (differs from nearest only in the 1 nm
 // cells that straddle an edge). All hold the end values beyond the first and last bin.
 enum class Reconstruction { Linear, Nearest, Box };
+inline constexpr EnumNames<Reconstruction, 3> kReconstructionNames{
+    {{{Reconstruction::Linear, "linear"},
+      {Reconstruction::Nearest, "nearest"},
+      {Reconstruction::Box, "box"}}}};
 Reconstruction parse_reconstruction(const std::string& name);  // throws Error naming the choices
 std::string to_string(Reconstruction r);
 

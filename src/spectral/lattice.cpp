@@ -16,27 +16,12 @@
 
 namespace spectex {
 
-std::string to_string(VertexPrior p) {
-    switch (p) {
-        case VertexPrior::JakobHanika:
-            return "jakob-hanika";
-        case VertexPrior::Smooth:
-            return "smooth";
-        case VertexPrior::Blend:
-            return "blend";
-        case VertexPrior::Lhtss:
-            return "lhtss";
-    }
-    return "?";
-}
+std::string to_string(VertexPrior p) { return kVertexPriorNames.name(p); }
 
 VertexPrior parse_vertex_prior(const std::string& s) {
-    const std::string l = lower_ascii(s);
-    if (l == "jakob-hanika" || l == "jh" || l == "jakob_hanika") return VertexPrior::JakobHanika;
-    if (l == "smooth") return VertexPrior::Smooth;
-    if (l == "blend") return VertexPrior::Blend;
-    if (l == "lhtss") return VertexPrior::Lhtss;
-    throw Error("unknown vertex prior '" + s + "' (expected jakob-hanika, smooth, blend or lhtss)");
+    if (const auto p = kVertexPriorNames.find(lower_ascii(s))) return *p;
+    throw Error("unknown vertex prior '" + s + "' (expected " +
+                kVertexPriorNames.list(", ", " or ") + ")");
 }
 
 namespace {

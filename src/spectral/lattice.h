@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "base/enum_names.h"
 #include "spectral/colorimetry.h"
 #include "spectral/srgb_axis.h"
 
@@ -26,6 +27,14 @@ namespace spectex {
 //   bounded in (0, 1) by construction, then projected like the sigmoid (a no-op to rounding when
 //   its Newton solve converged, and the guarantee of exactness when it did not).
 enum class VertexPrior { JakobHanika, Smooth, Blend, Lhtss };
+// Canonical words first; "jh" and "jakob_hanika" are read too.
+inline constexpr EnumNames<VertexPrior, 6> kVertexPriorNames{
+    {{{VertexPrior::JakobHanika, "jakob-hanika"},
+      {VertexPrior::Smooth, "smooth"},
+      {VertexPrior::Blend, "blend"},
+      {VertexPrior::Lhtss, "lhtss"},
+      {VertexPrior::JakobHanika, "jh"},
+      {VertexPrior::JakobHanika, "jakob_hanika"}}}};
 std::string to_string(VertexPrior p);  // "jakob-hanika" | "smooth" | "blend" | "lhtss"
 VertexPrior parse_vertex_prior(const std::string&);  // the same names (and "jh"); throws Error
 
