@@ -177,4 +177,10 @@ std::string one_line(const std::string& text) {
     return out;
 }
 
+std::string number_text(double v, const char* format) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, format, v);
+    return buf;
+}
+
 }  // namespace spectex

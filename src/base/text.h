@@ -45,4 +45,7 @@ std::string quote_path(const std::string& path);
 // that would act on a terminal or hide text (C1 controls, bidi overrides, zero-width marks) \uXXXX.
 std::string one_line(const std::string& text);
 
+// A number as printf's `format` writes it ("%.3g" of 0.1234 is "0.123"), for messages and reports.
+std::string number_text(double v, const char* format = "%.6g");
+
 }  // namespace spectex

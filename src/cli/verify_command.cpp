@@ -11,6 +11,7 @@
 
 #include "base/error.h"
 #include "base/task_pool.h"
+#include "base/text.h"
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
 #include "cli/output_check.h"

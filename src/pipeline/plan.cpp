@@ -25,11 +25,7 @@ namespace spectex {
 
 namespace {
 
-std::string fmt(double v, const char* f = "%.3g") {
-    char buf[48];
-    std::snprintf(buf, sizeof buf, f, v);
-    return buf;
-}
+std::string fmt(double v, const char* f = "%.3g") { return number_text(v, f); }
 
 std::string thousands(uint64_t v) {
     std::string s = std::to_string(v), o;

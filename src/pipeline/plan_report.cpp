@@ -11,11 +11,7 @@ namespace spectex {
 
 namespace {
 
-std::string fmt(double v, const char* f = "%.3g") {
-    char buf[48];
-    std::snprintf(buf, sizeof buf, f, v);
-    return buf;
-}
+std::string fmt(double v, const char* f = "%.3g") { return number_text(v, f); }
 
 // "400,412.5,425": the wavelengths, shortest decimals.
 std::string wavelength_list(const WavelengthGrid& g) {

@@ -214,9 +214,8 @@ std::string recorded_source(const std::string& exr,
 std::vector<VerifyOutcome> verify_files(const std::vector<std::string>& files,
                                         const VerifySettings& s, const VerifyGates& g,
                                         bool source_from_header, int jobs);
-// Report text: a number ("%.6g" unless told), and a share as a percentage with enough digits to
-// show one sample of a large image ("0%" and "100%" exactly when none or all).
-std::string number_text(double v, const char* format = "%.6g");
+// Report text: a share as a percentage with enough digits to show one sample of a large image ("0%"
+// and "100%" exactly when none or all); numbers are base/text's number_text.
 std::string share_text(uint64_t count, uint64_t total);
 // The gates that were applied, as text ("non-finite samples: none", ...), for the report.
 std::vector<std::string> gates_applied(const VerifyReport& r, const VerifyGates& g);

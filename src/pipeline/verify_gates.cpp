@@ -10,12 +10,6 @@
 
 namespace spectex {
 
-std::string number_text(double v, const char* format) {
-    char buf[64];
-    std::snprintf(buf, sizeof buf, format, v);
-    return buf;
-}
-
 std::string share_text(uint64_t count, uint64_t total) {
     if (total == 0 || count == 0) return "0%";
     if (count == total) return "100%";

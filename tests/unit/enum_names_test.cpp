@@ -46,7 +46,8 @@ TEST(EnumNames, EveryTableRoundTripsItsValues) {
     expect_round_trip(kAlphaKindNames,
                       {AlphaKind::None, AlphaKind::Associated, AlphaKind::Unassociated},
                       "none, associated, unassociated");
-    expect_round_trip(kRangePolicyNames, {RangePolicy::Clamp, RangePolicy::Keep, RangePolicy::Error},
+    expect_round_trip(kRangePolicyNames,
+                      {RangePolicy::Clamp, RangePolicy::Keep, RangePolicy::Error},
                       "clamp, keep, error");
     expect_round_trip(kNanPolicyNames, {NanPolicy::Replace, NanPolicy::Error}, "replace, error");
 }
