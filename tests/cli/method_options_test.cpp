@@ -73,7 +73,7 @@ TEST(MethodOptions, BothCommandsDescribeEveryMethod) {
 // larger error.
 TEST(MethodOptions, PlanMeasuresTheJakobHanikaTableAskedFor) {
     std::vector<std::string> worst;
-    for (const std::string res : {"5", "33"}) {
+    for (const std::string res : {"5", "9"}) {
         const RunResult r = run_spectex({"plan", "--method", "jakob-hanika", "--jh-resolution", res,
                                          "--lights", "D65", "--max-de", "50", "--grids",
                                          "380:780:20", "--no-cache", "--json", "-"});
