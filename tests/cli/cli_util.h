@@ -17,7 +17,25 @@
 
 extern char** environ;
 
+// The spectex under test is built with AddressSanitizer (tests/sanitize/run.sh defines
+// SPECTEX_TEST_BINARY_SANITIZED for a harness compiled without it; a harness compiled with it runs
+// the binary of the same build). Such a binary reserves terabytes of address space for its shadow
+// and faults in more pages, so memory bounds are set and scaled for it.
+#if defined(SPECTEX_TEST_BINARY_SANITIZED) || defined(__SANITIZE_ADDRESS__)
+#define SPECTEX_TEST_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define SPECTEX_TEST_ASAN 1
+#endif
+#endif
+
 namespace spectex_test {
+
+#ifdef SPECTEX_TEST_ASAN
+constexpr bool kBinarySanitized = true;
+#else
+constexpr bool kBinarySanitized = false;
+#endif
 
 struct RunResult {
     int status = -1;  // exit status, or 128+signal

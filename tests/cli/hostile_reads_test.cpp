@@ -42,21 +42,10 @@ using namespace spectex_test;
 
 namespace {
 
-// AddressSanitizer reserves terabytes of address space for its shadow at start-up, so it cannot
-// run under RLIMIT_AS: in a sanitized build the same 2 GiB bound is set through ASAN_OPTIONS
-// (allocations over it fail as they would under the limit; a resident size over it is an error).
-#if defined(__SANITIZE_ADDRESS__)
-#define SPECTEX_TEST_ASAN 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define SPECTEX_TEST_ASAN 1
-#endif
-#endif
-#ifdef SPECTEX_TEST_ASAN
-constexpr bool kSanitized = true;
-#else
-constexpr bool kSanitized = false;
-#endif
+// An AddressSanitizer binary cannot run under RLIMIT_AS (its shadow): the same 2 GiB bound is
+// set through ASAN_OPTIONS then (allocations over it fail as they would under the limit; a
+// resident size over it is an error).
+constexpr bool kSanitized = kBinarySanitized;
 
 // The environment of a limited run: this process's, plus `extra`, plus the memory bound for ASan.
 std::vector<std::string> limited_environment(const std::vector<std::string>& extra) {
@@ -79,11 +68,7 @@ std::vector<std::string> limited_environment(const std::vector<std::string>& ext
 // AddressSanitizer (-O1, instrumented, tests/sanitize/run.sh) the same reads run 3-5x slower: the
 // bounds are scaled, not dropped (a read of a truncated 4 MB EXR took 11-14 s there on a loaded
 // 2-core machine).
-#ifdef SPECTEX_TEST_ASAN
-constexpr double kSanitizerScale = 4.0;
-#else
-constexpr double kSanitizerScale = 1.0;
-#endif
+constexpr double kSanitizerScale = kBinarySanitized ? 4.0 : 1.0;
 constexpr double kFailFast = 10.0 * kSanitizerScale;
 constexpr double kTimeout = 20.0 * kSanitizerScale;
 

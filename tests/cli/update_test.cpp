@@ -36,18 +36,7 @@ using namespace spectex_test;
 // Under AddressSanitizer (tests/sanitize/run.sh) every process maps its shadow memory and the
 // instrumented code faults in more pages: the bounds on page faults and resident memory measure the
 // sanitizer, not spectex, so they are scaled (what loads, and what is built, is still asserted).
-#if defined(__SANITIZE_ADDRESS__)
-#define SPECTEX_COST_ASAN 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define SPECTEX_COST_ASAN 1
-#endif
-#endif
-#ifdef SPECTEX_COST_ASAN
-constexpr double kCostScale = 8.0;
-#else
-constexpr double kCostScale = 1.0;
-#endif
+constexpr double kCostScale = kBinarySanitized ? 8.0 : 1.0;
 
 namespace {
 
