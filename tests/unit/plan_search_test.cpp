@@ -45,7 +45,9 @@ struct Scene {
 
 }  // namespace
 
-TEST(PlanSearch, ReturnedGridsMeetTheBudgetWithFewerBinsThanAnyUniformOne) {
+// A whole non-uniform search (several seconds; minutes under the sanitizers, which the other
+// PlanSearch tests cover on the same code with smaller searches): a Slow suite.
+TEST(PlanSearchSlow, ReturnedGridsMeetTheBudgetWithFewerBinsThanAnyUniformOne) {
     Scene s({"D65", "FL11"}, 0.5);
     const std::vector<WavelengthGrid> uniform = {WavelengthGrid::parse("400:700:20"),
                                                  WavelengthGrid::parse("400:700:10"),
