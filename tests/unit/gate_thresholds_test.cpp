@@ -1,8 +1,9 @@
 // verify's gates (pipeline/verify.h gate_failures) on reports made here, without a file: each gate
 // passes at its threshold and fails just past it, the default gates apply only where their premise
 // holds (an exact method, codes a half file can keep), --report-only gates nothing, and a changed
-// source or a lossy compression is said in the failure. The CLI tests (verify_gates_test.cpp,
-// verify_test.cpp) reach the same gates through real files; here every threshold is exact.
+// source or a lossy compression is said in the failure. The CLI tests
+// (tests/cli/verify_gates_test.cpp, verify_test.cpp) reach the same gates through real files; here
+// every threshold is exact.
 #include <gtest/gtest.h>
 
 #include <string>
