@@ -318,21 +318,12 @@ size_t round_spectra_to_bits(const float* spectra, size_t spectra_stride, size_t
     const bool f16c = have_f16c();
     auto round_bin = f16c ? round_bin_on_grid_f16c : round_bin_on_grid_scalar;
     float er[kBlock], eg[kBlock], eb[kBlock];
-    if (!rgb_weight) {
-        for (size_t i0 = 0; i0 < n; i0 += kBlock) {
-            const size_t len = std::min(kBlock, n - i0);
-            std::fill(er, er + len, 0.0f);
-            std::fill(eg, eg + len, 0.0f);
-            std::fill(eb, eb + len, 0.0f);
-            for (size_t k = 0; k < bins; ++k)
-                round_bin(spectra + k * spectra_stride + i0, len, steps[k], 0, 0, 0,
-                          out + k * plane_stride + i0, er, eg, eb);
-        }
-        return 0;
-    }
     // A coarse grid moves the colour by more per flip, so it is given more flips than full half.
     constexpr int kMaxCoarseFlips = 32;
-    GridScratch g(*rgb_weight, bins);
+    // Without colour weights, every bin to nearest on its grid and nothing else: the same loop
+    // with weights 0 (the errors it sums are then not looked at).
+    const std::vector<float> no_weight(rgb_weight ? 0 : 3 * bins, 0.0f);
+    GridScratch g(rgb_weight ? *rgb_weight : no_weight, bins);
     size_t widened = 0;
     for (size_t i0 = 0; i0 < n; i0 += kBlock) {
         const size_t len = std::min(kBlock, n - i0);
@@ -344,6 +335,7 @@ size_t round_spectra_to_bits(const float* spectra, size_t spectra_stride, size_t
         for (size_t k = 0; k < bins; ++k)
             round_bin(spectra + k * spectra_stride + i0, len, steps[k], g.w[0][k], g.w[1][k],
                       g.w[2][k], out + k * plane_stride + i0, er, eg, eb);
+        if (!rgb_weight) continue;
         for (size_t i = 0; i < len; ++i) {
             float e[3] = {er[i], eg[i], eb[i]};
             if (within_tolerance(e)) continue;
