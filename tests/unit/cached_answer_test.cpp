@@ -12,19 +12,12 @@
 #include <sstream>
 #include <string>
 
+#include "temp_dir.h"
+
 using namespace spectex;
+using spectex_test::TempDir;
 
 namespace {
-
-struct TempDir {
-    TempDir() {
-        char t[] = "/tmp/spectex-unit-XXXXXX";
-        path = mkdtemp(t);
-    }
-    ~TempDir() { std::system(("rm -rf '" + path + "'").c_str()); }
-    std::string operator/(const std::string& n) const { return path + "/" + n; }
-    std::string path;
-};
 
 std::string read(const std::string& path) {
     std::ifstream in(path);
