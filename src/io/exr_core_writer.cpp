@@ -7,13 +7,11 @@
 #include <cerrno>
 #include <chrono>
 #include <cstring>
-#include <deque>
-#include <exception>
-#include <map>
 #include <mutex>
 
 #include "base/error.h"
 #include "base/task_pool.h"
+#include "io/exr_chunk_queue.h"
 #include "io/exr_compression.h"
 #include "io/exr_zip.h"
 #include "spectral/expand.h"
@@ -48,13 +46,6 @@ bool ExrCoreWriter::supports(const std::string& compression) {
 }
 
 struct ExrCoreWriter::Impl {
-    struct Chunk {
-        std::vector<uint8_t> data;  // packed rows; after compression, the bytes to write
-        size_t raw_bytes = 0, bytes = 0;
-        int index = 0, rows = 0, filled = 0;
-        int tx = 0, ty = 0, level = 0;  // tiled files
-    };
-
     SpectralExrLayout L;
     std::string name;
     int fd = -1;
@@ -67,29 +58,13 @@ struct ExrCoreWriter::Impl {
     bool tiled = false;
     std::vector<std::pair<int, int>> level_size;  // tiled: width, height of each level
     int next_level = 0, next_row = 0;             // tiled: where the caller must continue
-
-    // Chunk buffers: `free` ones wait to be filled; each filled one becomes a compression task of
-    // the shared pool (`pending`, in chunk order, touched by the caller's thread only); `done`
-    // holds compressed chunks until every earlier chunk is written (the file's line order is
-    // increasing).
-    std::vector<std::unique_ptr<Chunk>> all;
-    std::vector<Chunk*> free;
-    std::deque<Task> pending;
-    std::map<int, Chunk*> done;
-    int max_buffers = 2;
-    size_t max_chunk_bytes = 0;
-    Chunk* current = nullptr;
-    int next_chunk = 0;   // index of the next chunk to start filling
-    int next_write = 0;   // index of the next chunk to write
-    std::mutex mu;        // guards everything above and the error
-    std::mutex write_mu;  // serialises writes to the file
-    // The deflate compressors, one per compression running at once (io/exr_zip.h).
-    std::unique_ptr<DeflaterPool> deflaters;
-    std::exception_ptr error;
+    ExrChunk* current = nullptr;                  // scanline files: the chunk being filled
+    // The chunks in flight, compressed by the pool and written in order (io/exr_chunk_queue).
+    std::unique_ptr<ExrChunkQueue> queue;
+    std::mutex mu;           // guards the two messages below
     std::string io_error;    // the first write() failure, with errno's text
     std::string core_error;  // the last message from OpenEXR's core
-    SpectralExrWriter::Timing stats;
-    std::mutex stats_mu;
+    double pack_seconds = 0;
 
     static int64_t write_fn(exr_const_context_t, void* user, const void* buffer, uint64_t sz,
                             uint64_t offset, exr_stream_error_func_ptr_t) {
@@ -132,126 +107,24 @@ struct ExrCoreWriter::Impl {
         if (rv != EXR_ERR_SUCCESS) fail(what, rv);
     }
 
-    void rethrow_locked() {
-        if (error) std::rethrow_exception(error);
+    // Hands one compressed chunk to OpenEXR's core (the queue calls it in chunk order).
+    void write_chunk(const ExrChunk& c) {
+        const exr_result_t rv =
+            tiled ? exr_write_tile_chunk(ctxt, 0, c.tx, c.ty, c.level, c.level, c.data.data(),
+                                         c.bytes)
+                  : exr_write_scanline_chunk(ctxt, 0, L.y + c.index * lines_per_chunk,
+                                             c.data.data(), c.bytes);
+        if (rv != EXR_ERR_SUCCESS) fail("writing chunk " + std::to_string(c.index), rv);
     }
 
-    // Writes every compressed chunk that is next in line. Any thread may call it.
-    void write_ready() {
-        std::lock_guard<std::mutex> wl(write_mu);
-        for (;;) {
-            Chunk* c = nullptr;
-            {
-                std::lock_guard<std::mutex> lock(mu);
-                auto it = done.find(next_write);
-                if (it == done.end() || error) return;
-                c = it->second;
-                done.erase(it);
-            }
-            const exr_result_t rv =
-                tiled ? exr_write_tile_chunk(ctxt, 0, c->tx, c->ty, c->level, c->level,
-                                             c->data.data(), c->bytes)
-                      : exr_write_scanline_chunk(ctxt, 0, L.y + c->index * lines_per_chunk,
-                                                 c->data.data(), c->bytes);
-            std::exception_ptr e;
-            if (rv != EXR_ERR_SUCCESS) {
-                try {
-                    fail("writing chunk " + std::to_string(c->index), rv);
-                } catch (...) {
-                    e = std::current_exception();
-                }
-            }
-            std::lock_guard<std::mutex> lock(mu);
-            if (e && !error) error = e;
-            ++next_write;
-            free.push_back(c);
-            if (error) return;
-        }
-    }
-
-    // One task of the pool: compresses chunk c, then writes whatever is next in line. Never
-    // throws: a failure is kept in `error` for the caller's thread.
-    void compress_task(Chunk* c) {
-        auto t0 = Clock::now();
-        try {
-            bool raw = false;
-            c->bytes = deflaters->compress(c->data.data(), c->raw_bytes, &raw);
-            if (raw) {
-                std::lock_guard<std::mutex> lock(stats_mu);
-                ++stats.raw_chunks;
-            }
-        } catch (...) {
-            std::lock_guard<std::mutex> lock(mu);
-            if (!error) error = std::current_exception();
-            return;
-        }
-        {
-            std::lock_guard<std::mutex> lock(stats_mu);
-            stats.compress_seconds += since(t0);
-        }
-        {
-            std::lock_guard<std::mutex> lock(mu);
-            done[c->index] = c;
-        }
-        write_ready();
-    }
-
-    // Waits for the oldest compression still pending (running it here if no worker has begun it).
-    // Once it has returned, every chunk up to it is written and its buffer is free again.
-    bool finish_oldest() {
-        if (pending.empty()) return false;
-        Task t = std::move(pending.front());
-        pending.pop_front();
-        t.wait();
-        return true;
-    }
-
-    void drain() {
-        while (finish_oldest()) {
-        }
-    }
-
-    Chunk* acquire() {
-        auto t0 = Clock::now();
-        std::unique_lock<std::mutex> lock(mu);
-        while (!error && free.empty() && static_cast<int>(all.size()) >= max_buffers) {
-            lock.unlock();
-            if (!finish_oldest()) throw Error(name + ": internal: no chunk buffer can come free");
-            lock.lock();
-        }
-        rethrow_locked();
-        Chunk* c;
-        if (!free.empty()) {
-            c = free.back();
-            free.pop_back();
-        } else {
-            all.push_back(std::make_unique<Chunk>());
-            c = all.back().get();
-            ++stats.buffers;
-        }
-        lock.unlock();
-        c->index = next_chunk++;
-        c->filled = 0;
+    // The next chunk; a scanline chunk knows its rows and bytes from its index.
+    ExrChunk& acquire() {
+        ExrChunk& c = queue->acquire();
         if (!tiled) {
-            c->rows = std::min(lines_per_chunk, L.height - c->index * lines_per_chunk);
-            c->raw_bytes = row_bytes * static_cast<size_t>(c->rows);
+            c.rows = std::min(lines_per_chunk, L.height - c.index * lines_per_chunk);
+            c.raw_bytes = row_bytes * static_cast<size_t>(c.rows);
         }
-        if (c->data.size() < max_chunk_bytes) c->data.resize(max_chunk_bytes);
-        stats.wait_seconds += since(t0);
         return c;
-    }
-
-    void submit(Chunk* c) {
-        stats.chunk_bytes = std::max(stats.chunk_bytes, c->raw_bytes);
-        if (compress) {
-            pending.push_back(TaskPool::shared().submit([this, c] { compress_task(c); }));
-            return;
-        }
-        std::unique_lock<std::mutex> lock(mu);
-        c->bytes = c->raw_bytes;
-        done[c->index] = c;
-        lock.unlock();
-        write_ready();
     }
 
     // Packs one line of cw pixels of every channel, in file order, at dst (EXR's layout within a
@@ -296,7 +169,6 @@ ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const SpectralExrL
     I.tiled = L.tile_width > 0;
     I.lines_per_chunk = I.tiled ? L.tile_height : L.compression.lines_per_chunk;
     I.compress = comp != EXR_COMPRESSION_NONE;
-    if (I.compress) I.deflaters = std::make_unique<DeflaterPool>(L.zip_level, name);
     I.chunk_count = (L.height + I.lines_per_chunk - 1) / I.lines_per_chunk;  // tiled: set below
 
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
@@ -374,6 +246,7 @@ ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const SpectralExrL
                 "cannot set chromaticities");
     }
     I.check(exr_write_header(I.ctxt), "cannot write the header");
+    size_t max_chunk_bytes = 0;
     if (I.tiled) {
         int32_t lx = 0, ly = 0;
         I.check(exr_get_tile_levels(I.ctxt, part, &lx, &ly), "cannot count the levels");
@@ -385,22 +258,26 @@ ExrCoreWriter::ExrCoreWriter(int fd, const std::string& name, const SpectralExrL
             I.chunk_count +=
                 ((w + L.tile_width - 1) / L.tile_width) * ((h + L.tile_height - 1) / L.tile_height);
         }
-        I.max_chunk_bytes =
+        max_chunk_bytes =
             I.pixel_bytes * static_cast<size_t>(L.tile_width) * static_cast<size_t>(L.tile_height);
     } else {
-        I.max_chunk_bytes = I.row_bytes * static_cast<size_t>(I.lines_per_chunk);
+        max_chunk_bytes = I.row_bytes * static_cast<size_t>(I.lines_per_chunk);
     }
 
     // Memory: L.threads + 1 chunk buffers (one being filled, the others compressing or waiting
     // for a worker), never more, whatever the bin count; a scratch block per compression running
     // at once, L.threads + 1 at most when the caller finishes the oldest itself (acquire).
     const int compressing = I.compress ? std::max(1, L.threads) : 0;
-    I.max_buffers = compressing + 1;
+    I.queue = std::make_unique<ExrChunkQueue>(
+        name, compressing + 1, max_chunk_bytes,
+        I.compress ? std::make_unique<DeflaterPool>(L.zip_level, name) : nullptr,
+        [&I](const ExrChunk& c) { I.write_chunk(c); });
     if (I.compress) TaskPool::shared().reserve(compressing);
 }
 
 ExrCoreWriter::~ExrCoreWriter() {
-    impl_->drain();  // the tasks use the buffers and the context freed below
+    if (impl_->queue)
+        impl_->queue->drain();  // the tasks use the buffers and the context freed below
     if (impl_->ctxt)
         exr_finish(&impl_->ctxt);  // frees the context; the AtomicFile discards the data
 }
@@ -412,19 +289,18 @@ void ExrCoreWriter::write_rows(int rows, const void* spectral, size_t plane_stri
     if (I.tiled) throw Error(I.name + ": internal: write_rows on a tiled file");
     const size_t w = static_cast<size_t>(I.L.width);
     for (int r = 0; r < rows; ++r) {
-        if (!I.current) I.current = I.acquire();
+        if (!I.current) I.current = &I.acquire();
         auto t0 = Clock::now();
-        Impl::Chunk& c = *I.current;
+        ExrChunk& c = *I.current;
         I.pack_line(c.data.data() + static_cast<size_t>(c.filled) * I.row_bytes, w,
                     static_cast<size_t>(r) * w, spectral, plane_stride, alpha, pr, pg, pb);
-        I.stats.pack_seconds += since(t0);
+        I.pack_seconds += since(t0);
         if (++c.filled == c.rows) {
             I.current = nullptr;
-            I.submit(&c);
+            I.queue->submit(c);
         }
     }
-    std::lock_guard<std::mutex> lock(I.mu);
-    I.rethrow_locked();
+    I.queue->rethrow();
 }
 
 void ExrCoreWriter::write_level_rows(int level, int row0, int rows, const void* spectral,
@@ -448,7 +324,7 @@ void ExrCoreWriter::write_level_rows(int level, int row0, int rows, const void* 
         const int tile_rows = std::min(th, lh - y0);
         for (int x0 = 0; x0 < lw; x0 += tw) {
             const size_t cw = static_cast<size_t>(std::min(tw, lw - x0));
-            Impl::Chunk& c = *I.acquire();
+            ExrChunk& c = I.acquire();
             auto t0 = Clock::now();
             c.level = level;
             c.tx = x0 / tw;
@@ -460,8 +336,8 @@ void ExrCoreWriter::write_level_rows(int level, int row0, int rows, const void* 
                 dst = I.pack_line(dst, cw,
                                   static_cast<size_t>(y0 - row0 + y) * w + static_cast<size_t>(x0),
                                   spectral, plane_stride, alpha, pr, pg, pb);
-            I.stats.pack_seconds += since(t0);
-            I.submit(&c);
+            I.pack_seconds += since(t0);
+            I.queue->submit(c);
         }
     }
     I.next_row = row0 + rows;
@@ -469,8 +345,7 @@ void ExrCoreWriter::write_level_rows(int level, int row0, int rows, const void* 
         ++I.next_level;
         I.next_row = 0;
     }
-    std::lock_guard<std::mutex> lock(I.mu);
-    I.rethrow_locked();
+    I.queue->rethrow();
 }
 
 int ExrCoreWriter::levels() const {
@@ -485,20 +360,14 @@ int ExrCoreWriter::level_height(int level) const {
 
 void ExrCoreWriter::finish() {
     Impl& I = *impl_;
-    {
-        std::unique_lock<std::mutex> lock(I.mu);
-        if (I.current || I.next_chunk != I.chunk_count)
-            throw Error(I.name + ": internal: " + std::to_string(I.next_chunk) + " of " +
-                        std::to_string(I.chunk_count) + " chunks were given rows");
-    }
-    I.drain();
-    {
-        std::lock_guard<std::mutex> lock(I.mu);
-        I.rethrow_locked();
-        if (I.next_write != I.chunk_count)
-            throw Error(I.name + ": internal: " + std::to_string(I.next_write) + " of " +
-                        std::to_string(I.chunk_count) + " chunks were written");
-    }
+    if (I.current || I.queue->started() != I.chunk_count)
+        throw Error(I.name + ": internal: " + std::to_string(I.queue->started()) + " of " +
+                    std::to_string(I.chunk_count) + " chunks were given rows");
+    I.queue->drain();
+    I.queue->rethrow();
+    if (I.queue->written() != I.chunk_count)
+        throw Error(I.name + ": internal: " + std::to_string(I.queue->written()) + " of " +
+                    std::to_string(I.chunk_count) + " chunks were written");
     exr_result_t rv = exr_finish(&I.ctxt);  // writes the offset table
     I.ctxt = nullptr;
     if (rv != EXR_ERR_SUCCESS) I.fail("cannot finish the file", rv);
@@ -507,8 +376,9 @@ void ExrCoreWriter::finish() {
 }
 
 SpectralExrWriter::Timing ExrCoreWriter::stats() const {
-    std::lock_guard<std::mutex> lock(impl_->stats_mu);
-    return impl_->stats;
+    SpectralExrWriter::Timing t = impl_->queue->timing();
+    t.pack_seconds = impl_->pack_seconds;
+    return t;
 }
 
 }  // namespace spectex

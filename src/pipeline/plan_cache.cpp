@@ -15,6 +15,7 @@
 #include "io/ocio_config.h"
 #include "io/provenance_keys.h"
 #include "io/source_identity.h"
+#include "pipeline/cached_answer.h"
 #include "spectex/version.h"
 #include "spectral/spectrum.h"
 
@@ -337,17 +338,15 @@ PlanResult plan_grids_cached(const PlanSpec& spec, const std::string& folder,
     if (!(spec.max_de > 0)) throw Error("the budget must be a positive ΔE00");
     check_plan_cost(spec);
     const std::string key = plan_cache_key(spec);
-    rep.entry = folder + "/" + key;
-    std::string text;
-    PlanResult r;
-    if (read_small_regular_file(rep.entry, kPlanCacheEntryLimit, &text) &&
-        parse_plan_cache_text(text, key, &r)) {
-        rep.hit = true;
+    PlanResult r = cached_answer<PlanResult>(
+        folder, key, kPlanCacheEntryLimit,
+        [&](const std::string& text, PlanResult* out) {
+            return parse_plan_cache_text(text, key, out);
+        },
+        [&] { return plan_grids(spec); },
+        [&](const PlanResult& answer) { return plan_cache_text(key, answer); }, rep);
+    if (rep.hit)
         r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        return r;
-    }
-    r = plan_grids(spec);
-    rep.warning = store_file_in_folder(folder, key, plan_cache_text(key, r));
     return r;
 }
 
@@ -457,20 +456,13 @@ PrecisionChoice choose_precision_cached(const PrecisionRequest& req, const std::
     if (!(req.max_de > 0) || !std::isfinite(req.max_de) || req.lights.empty())
         return choose_precision(req);
     const std::string key = precision_cache_key(req);
-    rep.entry = folder + "/" + key;
-    std::string text;
-    PrecisionChoice c;
-    if (read_small_regular_file(rep.entry, kPrecisionCacheEntryLimit, &text) &&
-        parse_precision_cache_text(text, key, req, &c)) {
-        rep.hit = true;
-        return c;
-    }
-    std::error_code ec;
-    rep.ignored = std::filesystem::symlink_status(rep.entry, ec).type() !=
-                  std::filesystem::file_type::not_found;
-    c = choose_precision(req);
-    rep.warning = store_file_in_folder(folder, key, precision_cache_text(key, c));
-    return c;
+    return cached_answer<PrecisionChoice>(
+        folder, key, kPrecisionCacheEntryLimit,
+        [&](const std::string& text, PrecisionChoice* out) {
+            return parse_precision_cache_text(text, key, req, out);
+        },
+        [&] { return choose_precision(req); },
+        [&](const PrecisionChoice& answer) { return precision_cache_text(key, answer); }, rep);
 }
 
 }  // namespace spectex

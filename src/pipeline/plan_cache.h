@@ -6,6 +6,7 @@
 // same chosen grid and the same figures (spectex:planWorstDe) as the search.
 #include <string>
 
+#include "pipeline/cached_answer.h"
 #include "pipeline/plan.h"
 #include "spectral/precision.h"
 
@@ -27,12 +28,8 @@ constexpr size_t kPlanCacheEntryLimit = size_t(64) << 20;
 // texture cannot be read (as plan_grids would).
 std::string plan_cache_key(const PlanSpec& spec);
 
-struct PlanCacheReport {
-    std::string folder;   // "" when the cache is off
-    std::string entry;    // the entry's path
-    bool hit = false;     // the answer came from the entry
-    std::string warning;  // the entry could not be stored (the answer is still good)
-};
+// What became of the entry (pipeline/cached_answer.h): folder, entry, hit, ignored, warning.
+using PlanCacheReport = CacheReport;
 
 // plan_grids(spec) through the cache in `folder` ("" = no cache): an entry that cannot be read or
 // parsed (corrupt, truncated, a link, a folder, too large) is a miss, recomputed and replaced;
@@ -60,13 +57,7 @@ constexpr size_t kPrecisionCacheEntryLimit = size_t(1) << 20;
 // "precision-<32 hex digits>".
 std::string precision_cache_key(const PrecisionRequest& req);
 
-struct PrecisionCacheReport {
-    std::string folder;    // "" when the cache is off
-    std::string entry;     // the entry's path
-    bool hit = false;      // the bits came from the entry
-    bool ignored = false;  // an entry was there but not a valid answer: chosen again, replaced
-    std::string warning;   // the entry could not be stored (the bits are still good)
-};
+using PrecisionCacheReport = CacheReport;
 
 // choose_precision(req) through the cache in `folder` ("" = no cache). An entry that cannot be
 // read or is not a whole, valid answer for this request (bits per bin 0..10, one per bin, the

@@ -182,6 +182,9 @@ constexpr double kDefaultMaxDe = 0.5;
 std::vector<std::string> gate_failures(const VerifyReport& r, const VerifyGates& g);
 // "the source <file> changed since this file was baked (<why>)" ("" when it did not).
 std::string stale_failure(const VerifyReport& r);
+// A file's result: "ok", "FAILED", or "STALE" when the source changed since the bake (a failure of
+// its own kind).
+std::string verify_result_word(const VerifyReport& r, const std::vector<std::string>& failures);
 
 // One file of a verify run: its report and the gates it failed, or why it could not be verified.
 struct VerifyOutcome {

@@ -98,6 +98,11 @@ std::string stale_failure(const VerifyReport& r) {
            r.change.why + ")";
 }
 
+std::string verify_result_word(const VerifyReport& r, const std::vector<std::string>& failures) {
+    if (failures.empty()) return "ok";
+    return r.source_changed && failures.front() == stale_failure(r) ? "STALE" : "FAILED";
+}
+
 std::vector<std::string> gate_failures(const VerifyReport& r, const VerifyGates& g) {
     std::vector<std::string> f;
     for (const Gate& x : gates_of(r, g))

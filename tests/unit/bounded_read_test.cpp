@@ -15,20 +15,12 @@
 #include "base/csv_table.h"
 #include "base/error.h"
 #include "spectral/wavelength_grid.h"
+#include "temp_dir.h"
 
 using namespace spectex;
+using spectex_test::TempDir;
 
 namespace {
-
-struct TempDir {
-    TempDir() {
-        char t[] = "/tmp/spectex-unit-XXXXXX";
-        path = mkdtemp(t);
-    }
-    ~TempDir() { std::system(("rm -rf '" + path + "'").c_str()); }
-    std::string operator/(const std::string& n) const { return path + "/" + n; }
-    std::string path;
-};
 
 std::string error_of(const std::function<void()>& f) {
     try {

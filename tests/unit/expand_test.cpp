@@ -18,9 +18,9 @@ using namespace spectex;
 
 namespace {
 
-// The colour-aware rounding of src/spectral/expand.cpp as first written (a straight transcription
-// of its definition, with the public block conversions), kept as the reference that the optimised
-// kernel must match bit for bit.
+// The colour-aware rounding of src/spectral/half_rounding.cpp as first written (a straight
+// transcription of its definition, with the public block conversions), kept as the reference that
+// the optimised kernel must match bit for bit.
 constexpr size_t kRefBlock = 512;
 constexpr float kRefColourTolerance = 1.0f / 16384.0f;
 constexpr int kRefMaxFlips = 16;
