@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
-#include <chrono>
-#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -13,8 +11,6 @@
 #include <set>
 
 #include "base/error.h"
-#include "base/fnv1a.h"
-#include "base/task_pool.h"
 #include "base/text.h"
 #include "cli/arg_parser.h"
 #include "cli/batch_report.h"
@@ -27,29 +23,21 @@
 #include "io/file_identity.h"
 #include "io/image_library.h"
 #include "io/library_stderr.h"
-#include "io/linearizer.h"
 #include "io/ocio_config.h"
 #include "pipeline/bake.h"
 #include "pipeline/bake_batch.h"
-#include "pipeline/basis_cache.h"
+#include "pipeline/bake_request.h"
 #include "pipeline/batch_files.h"
 #include "pipeline/light_list.h"
 #include "pipeline/method_table.h"
 #include "pipeline/plan.h"
 #include "pipeline/plan_cache.h"
 #include "pipeline/plan_report.h"
-#include "spectral/basis_fit.h"
-#include "spectral/colorimetry.h"
 #include "spectral/precision.h"
-#include "spectral/spectrum.h"
 
 namespace spectex {
 
 namespace {
-
-// A user basis must reproduce the primaries to a third of the darkest 8-bit sRGB step in linear
-// (1/255/12.92 = 3.0e-4); the shipped tables do to 4e-8.
-constexpr double kBasisPrimaryTolerance = 1e-4;
 
 struct BakeCli {
     std::string output, basis = "fit", wavelengths = "380:780:5", type = "half",
@@ -67,8 +55,9 @@ struct BakeCli {
     int threads = 0, jobs = 1;
     bool quiet = false, verbose = false, progress = false, update = false, force = false,
          fail_fast = false, dry_run = false;
-    BakeSettings settings;
-    PlanSpec plan;  // --wavelengths auto
+    // What the set-up is asked (pipeline/bake_request): the options, the grid, --wavelengths
+    // auto's plan; the method (m.spec) and the precision request are copied in once all are read.
+    BakeRequest req;
     bool plan_lights = false, plan_budget = false, no_cache = false;
     // --precision full|auto and --precision-de (docs/precision.md).
     std::string precision = "full";
@@ -175,10 +164,10 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
             long long l = 0;
             if (!parse_whole(v, 1, 12, &l))
                 throw UsageError("--zip-level: '" + v + "' is not a level from 1 to 12");
-            c.settings.zip_level = static_cast<int>(l);
+            c.req.options.zip_level = static_cast<int>(l);
         });
     p.flag("--preview", "Also write R, G, B channels (linear Rec.709) for image viewers.",
-           [&] { c.settings.preview = true; });
+           [&] { c.req.options.preview = true; });
     p.option(
         "--tile", "W[xH]", "Write a tiled file with W x H tiles (maketx's default is 64x64).",
         [&](const std::string& v) {
@@ -189,14 +178,14 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
                                                     : parse_whole(v.substr(x + 1), 1, 4096, &h));
             if (!ok)
                 throw UsageError("--tile: '" + v + "' is not W or WxH with sizes from 1 to 4096");
-            c.settings.tile_width = static_cast<int>(w);
-            c.settings.tile_height = static_cast<int>(h);
+            c.req.options.tile_width = static_cast<int>(w);
+            c.req.options.tile_height = static_cast<int>(h);
         });
     p.flag("--mipmap",
            "Write a MIP-mapped tiled texture (64x64 tiles unless --tile) for renderers' texture "
            "systems; "
            "levels are filtered on linear RGB before expansion.",
-           [&] { c.settings.mipmap = true; });
+           [&] { c.req.options.mipmap = true; });
     p.option("--wrap", "MODE[,MODE]",
              "Record the texture wrap mode, maketx's: black, clamp, periodic or mirror, one for "
              "both directions or s,t (e.g. periodic,clamp); written as the wrapmodes attribute "
@@ -225,7 +214,7 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
              [&](const std::string& v) {
                  if (v != "colour" && v != "nearest")
                      throw UsageError("--half-rounding: '" + v + "' is not one of colour, nearest");
-                 c.settings.colour_rounding = v == "colour";
+                 c.req.options.colour_rounding = v == "colour";
              });
     p.option("--precision", "full|auto",
              "Half's mantissa bits per bin. full (default): all 10 in every bin. auto: per bin, "
@@ -261,10 +250,10 @@ void declare_colour_options(ArgParser& p, BakeCli& c) {
         "Default: what the file states (its ICC profile, OpenEXR chromaticities, a tag such as "
         "PNG's sRGB chunk) when the config can name it, else the config's file rules; a profile "
         "it cannot name is a warning.",
-        [&](const std::string& v) { c.settings.colorspace = v; });
+        [&](const std::string& v) { c.req.options.colorspace = v; });
     p.option("--config", "FILE",
              "OCIO config to use instead of $OCIO or the shipped config/spectex.ocio.",
-             [&](const std::string& v) { c.settings.config = v; });
+             [&](const std::string& v) { c.req.options.config = v; });
     p.option("--out-of-range", "clamp|keep|error",
              "Linear values outside [0, 1]: clamp per channel (default), keep (spectra may leave "
              "[0, 1]; in half, a value beyond 65504 fails the file), or fail.",
@@ -288,7 +277,7 @@ void declare_spectra_options(ArgParser& p, BakeCli& c) {
     p.option("--wavelengths-file", "FILE",
              "Output wavelengths, one per line (any strictly increasing list, at most 4701).",
              [&](const std::string& v) { c.wavelengths_file = v; });
-    add_plan_options(p, c.plan, c.plan_lights, c.plan_budget);
+    add_plan_options(p, c.req.plan, c.plan_lights, c.plan_budget);
     add_cache_option(p, c.no_cache);
     p.section("Method");
     add_method_options(p, c.m, true);
@@ -348,9 +337,10 @@ void declare_batch_options(ArgParser& p, BakeCli& c) {
              "core (at least 8): more only share\nthe same cores, and the kernel limits the "
              "threads of a process.",
              [&](const std::string& v) { c.threads = parse_int("--threads", v, 0, 1024); });
-    p.option("--max-pixels", "N",
-             "Refuse inputs with more pixels than this (default 268435456 = 16384^2).",
-             [&](const std::string& v) { c.settings.max_pixels = parse_count("--max-pixels", v); });
+    p.option(
+        "--max-pixels", "N",
+        "Refuse inputs with more pixels than this (default 268435456 = 16384^2).",
+        [&](const std::string& v) { c.req.options.max_pixels = parse_count("--max-pixels", v); });
     p.flag("-q, --quiet",
            "Print errors and warnings about the data only (clamped or replaced pixels, a level "
            "or subimage left out, a colour space chosen by a config's default rule).",
@@ -411,22 +401,22 @@ std::string wrap_modes(const BakeCli& c) {
 
 // Sample type, alpha, range and NaN policies, compression; the options of each method.
 void check_method_options(BakeCli& c) {
-    c.settings.wrapmodes = wrap_modes(c);
-    c.settings.type = pick<SampleType>("--type", c.type,
-                                       {{"half", SampleType::Half}, {"float", SampleType::Float}});
-    c.settings.alpha =
+    c.req.options.wrapmodes = wrap_modes(c);
+    c.req.options.type = pick<SampleType>(
+        "--type", c.type, {{"half", SampleType::Half}, {"float", SampleType::Float}});
+    c.req.options.alpha =
         pick<AlphaKind>("--alpha", c.alpha,
                         {{to_string(AlphaKind::Associated), AlphaKind::Associated},
                          {to_string(AlphaKind::Unassociated), AlphaKind::Unassociated}});
-    c.settings.range = pick_name("--out-of-range", c.range, kRangePolicyNames);
-    c.settings.nan = pick_name("--nan", c.nan, kNanPolicyNames);
+    c.req.options.range = pick_name("--out-of-range", c.range, kRangePolicyNames);
+    c.req.options.nan = pick_name("--nan", c.nan, kNanPolicyNames);
     try {
-        c.settings.compression = ExrCompression::parse(c.compression);
+        c.req.options.compression = ExrCompression::parse(c.compression);
     } catch (const Error& e) {
         throw UsageError(std::string("--compression: ") + e.what());
     }
-    const ExrCompression& z = c.settings.compression;
-    if (z.lossy_for(c.settings.type == SampleType::Half) && !c.allow_lossy)
+    const ExrCompression& z = c.req.options.compression;
+    if (z.lossy_for(c.req.options.type == SampleType::Half) && !c.allow_lossy)
         throw UsageError("--compression: " + z.name + " is " + z.lossy_text() +
                          ": OpenEXR changes " + c.type +
                          " samples with it (values leave [0, 1], colours shift); use a lossless "
@@ -450,7 +440,7 @@ void check_precision_options(const BakeCli& c) {
     if (c.type != "half")
         throw UsageError("--precision auto chooses bits of half; --type " + c.type +
                          " keeps every bit");
-    if (!c.settings.colour_rounding)
+    if (!c.req.options.colour_rounding)
         throw UsageError(
             "--precision auto keeps every 8-bit code through the colour-aware rounding; "
             "--half-rounding nearest would lose them on the coarser grids");
@@ -473,11 +463,11 @@ void check_grid_options(BakeCli& c) {
         if (c.m.spec.kind == MethodKind::Basis && c.m.basis != "fit")
             throw UsageError("--wavelengths auto fits the basis on the chosen grid; --basis " +
                              c.m.basis + " has a grid of its own");
-        if (c.plan.nonuniform && !method_row(c.m.spec.kind).linear)
+        if (c.req.plan.nonuniform && !method_row(c.m.spec.kind).linear)
             throw UsageError("--nonuniform searches with a linear method's 3x3 maps: --method " +
                              c.m.spec.name() + " is not linear (use --method basis)");
     } else if (((c.plan_lights || c.plan_budget) && c.precision != "auto") ||
-               !c.plan.candidates.empty() || c.plan.nonuniform) {
+               !c.req.plan.candidates.empty() || c.req.plan.nonuniform) {
         throw UsageError(
             "--lights, --max-de, --grids and --nonuniform choose the grid of --wavelengths "
             "auto (--lights and --max-de also the bits of --precision auto)");
@@ -485,31 +475,40 @@ void check_grid_options(BakeCli& c) {
     check_precision_options(c);
     if (c.wavelengths_file.empty() && !automatic) {
         try {
-            c.settings.grid = WavelengthGrid::parse_exact(c.wavelengths);
+            c.req.grid = WavelengthGrid::parse_exact(c.wavelengths);
         } catch (const Error& e) {
             throw UsageError(std::string("--wavelengths: ") + e.what());
         }
     }
 }
 
-// The method as --wavelengths auto plans with it: the one bake builds (its grid set per candidate).
-void fill_plan_method(BakeCli& c) {
-    c.plan.method = c.m.spec;
-    c.plan.method.fit.data_dir = c.settings.data_dir;
+// The request's values that are not parsed into it directly: the method (its options and
+// conditions, once all are read and checked) and the grid's and precision's requests.
+void fill_request(BakeCli& c) {
+    BakeRequest& r = c.req;
+    r.method = c.m.spec;
+    r.basis = c.m.basis;
+    r.grid_given = c.wavelengths_given;
+    r.grid_file = c.wavelengths_file;
+    r.auto_grid = c.wavelengths == "auto";
+    r.precision_auto = c.precision == "auto";
+    r.precision_de = c.precision_de_given ? c.precision_de : 0;
+    r.threads = c.threads;
+    r.no_cache = c.no_cache;
+    if (c.progress || (!c.quiet && stderr_is_terminal()))
+        r.plan.progress = plan_progress("spectex: --wavelengths auto: ");
 }
 
 // What the options cost, refused before any work when over a documented limit: the method's
 // table on the grid given (method_table.h), or with --wavelengths auto the plan (plan.h), its
 // lights each once.
-void check_cost_options(BakeCli& c) {
+void check_cost_options(const BakeCli& c) {
     try {
         if (c.wavelengths == "auto") {
-            c.plan.lights = distinct_lights(c.plan.lights);
-            fill_plan_method(c);
-            check_plan_cost(c.plan);
+            check_plan_cost(bake_plan_spec(c.req));
         } else if (c.wavelengths_file.empty()) {
-            check_method_cost(c.m.spec, c.settings.grid.size(),
-                              std::to_string(c.settings.grid.size()) + " bins");
+            check_method_cost(c.m.spec, c.req.grid.size(),
+                              std::to_string(c.req.grid.size()) + " bins");
         }
     } catch (const LimitError& e) {
         throw UsageError(e.what());
@@ -534,13 +533,6 @@ std::string file_options(const std::vector<ArgParser::Given>& given) {
 }
 
 // Raised when something every file needs cannot be read before any work (exit 2, no usage hint).
-// --wavelengths auto found no grid within the budget: the work's answer, exit 1 as in plan (the
-// settings themselves were valid).
-class UnmetBudget : public Error {
-  public:
-    explicit UnmetBudget(const std::string& what) : Error(what) {}
-};
-
 class SetupFailure : public std::runtime_error {
   public:
     explicit SetupFailure(const std::string& what) : std::runtime_error(what) {}
@@ -550,7 +542,7 @@ class SetupFailure : public std::runtime_error {
 // (pipeline/bake_batch).
 BatchPlan plan_bake_files(BakeCli& c, const std::vector<std::string>& inputs) {
     BatchPlan plan;
-    c.settings.data_dir = find_data_dir();
+    c.req.data_dir = find_data_dir();
     if (!c.base_dir.empty() && !is_directory(c.base_dir))
         throw UsageError("--base-dir: '" + c.base_dir + "' is not a folder");
     // --output-dir is created (with its parents) when missing, like mkdir -p; the folders below
@@ -573,11 +565,11 @@ BatchPlan plan_bake_files(BakeCli& c, const std::vector<std::string>& inputs) {
 // No output may be a file this command reads, whatever its spelling or links.
 void check_outputs_against_reads(const BakeCli& c, const BatchPlan& plan) {
     ReadFiles reads;
-    reads.add_data_dir(c.settings.data_dir);
+    reads.add_data_dir(c.req.data_dir);
     for (const auto& file : plan.files) reads.add(file.first, "an input");
     reads.add(c.from_list, "--from-list");
     {
-        const std::string config = ocio_config_path(c.settings.data_dir, c.settings.config);
+        const std::string config = ocio_config_path(c.req.data_dir, c.req.options.config);
         std::vector<std::string> files;
         try {
             files =
@@ -593,7 +585,7 @@ void check_outputs_against_reads(const BakeCli& c, const BatchPlan& plan) {
     reads.add(c.m.spec.fit.illuminant, "--illuminant");
     reads.add(c.wavelengths_file, "--wavelengths-file");
     if (c.wavelengths == "auto")
-        for (const auto& l : c.plan.lights) reads.add(l, "--lights");
+        for (const auto& l : c.req.plan.lights) reads.add(l, "--lights");
     // Every collision, before any work: a batch that found them as it went had already baked the
     // first of each pair (and exited 1 after a long run).
     {
@@ -624,299 +616,102 @@ void check_outputs_against_reads(const BakeCli& c, const BatchPlan& plan) {
     }
 }
 
-// --wavelengths auto: how the grid is chosen, recorded in the header (and hashed).
-void record_auto_plan(BakeCli& c) {
-    auto& rec = c.settings.plan;
-    char num[64];
-    for (const auto& l : c.plan.lights) rec.lights += (rec.lights.empty() ? "" : ",") + l;
-    std::snprintf(num, sizeof num, "%g", c.plan.max_de);
-    rec.max_de = num;
-    rec.reconstruction = to_string(c.plan.reconstruction);
-    std::snprintf(num, sizeof num, "%g:%g", c.plan.range_start, c.plan.range_end);
-    rec.range = num;
-    rec.nonuniform = c.plan.nonuniform;
-}
+// What bake's set-up tells (pipeline/bake_request), printed as bake prints it: on stderr, warnings
+// unless -q, the choices made unless -q, the rest under -v.
+class SetupReport : public BakeSetupListener {
+  public:
+    SetupReport(const BakeCli& c, const BakeSettings& hashed) : c_(c), hashed_(hashed) {}
 
-// --basis mallett2019 or FILE (with --method basis): read now (cheap), checked against the output
-// grid, which it sets without --wavelengths; null for a fitted basis or another method.
-std::shared_ptr<Basis> load_given_basis(BakeCli& c) {
-    if (c.m.spec.kind != MethodKind::Basis || c.m.basis == "fit") return nullptr;
-    Basis basis = load_basis(c.settings.data_dir, c.m.basis);
-    // A given basis is exact for the conditions it was made for; the default ones are
-    // recorded.
-    if (c.m.basis == "mallett2019")
-        c.settings.observer = "cie1931-2", c.settings.illuminant = "D65";
-    WavelengthGrid basis_grid;
-    try {
-        basis_grid = WavelengthGrid::from_list(basis.lambda);
-    } catch (const LimitError& e) {
-        throw LimitError("--basis: " + c.m.basis + ": " + e.what());
+    void grid_planned(const PlanSpec& spec, const PlanResult& pr,
+                      const PlanCacheReport& rep) override {
+        report_plan_cache(spec, rep, c_.verbose, c_.quiet);
+        if (c_.verbose) std::cerr << plan_table(spec, pr);
+        if (pr.chosen < 0 || c_.quiet) return;
+        const GridRow& row = pr.rows[static_cast<size_t>(pr.chosen)];
+        char num[64];
+        std::snprintf(num, sizeof num, "%.4g", row.worst);
+        std::cerr << "spectex: --wavelengths auto: " << grid_label(row.grid) << " (" << row.bins
+                  << " bins), worst " << num << " ΔE00 under " << row.worst_light << ", within "
+                  << hashed_.plan.max_de << " under " << join_names(spec.lights) << " ("
+                  << pr.seconds << " s" << (rep.hit ? ", from the cache" : "") << ")\n";
     }
-    // Without --wavelengths, the output is on the basis' own grid.
-    if (!c.wavelengths_given && c.wavelengths_file.empty()) c.settings.grid = basis_grid;
-    if (!same_wavelengths(c.settings.grid.lambda, basis_grid.lambda))
-        throw Error("basis " + c.m.basis + " is on " + basis_grid.describe() +
-                    ", not on the output grid " + c.settings.grid.describe() +
-                    " (the default --basis fit works on any grid)");
-    check_basis_values(basis);
-    return std::make_shared<Basis>(std::move(basis));
-}
 
-// The method's recipe: what builds it, the tables' values included (a user table that changes
-// under the same name changes the hash).
-std::string method_recipe(const BakeCli& c, const Basis* file_basis, const Observer& observer,
-                          const Spectrum& illuminant) {
-    Fnv1a64 h;
-    auto add = [&](const std::string& t) { h.add(t.data(), t.size() + 1); };
-    auto add_values = [&](const std::vector<double>& v) {
-        h.add(v.data(), v.size() * sizeof(double));
-    };
-    if (file_basis) {
-        add("basis " + file_basis->checksum());
-    } else {
-        add(method_row(c.m.spec.kind).recipe(c.m.spec));
+    void grid_known(const WavelengthGrid& grid) override {
+        note_grid_cost("bake",
+                       c_.wavelengths == "auto" ? "--wavelengths auto chose " + grid_label(grid)
+                       : c_.wavelengths_file.empty() ? "--wavelengths " + grid.describe()
+                                                     : "--wavelengths-file " + c_.wavelengths_file,
+                       grid.size(), hashed_.type == SampleType::Half ? 2 : 4, c_.quiet);
     }
-    add_values(observer.x.lambda);
-    add_values(observer.x.value);
-    add_values(observer.y.value);
-    add_values(observer.z.value);
-    add_values(illuminant.lambda);
-    add_values(illuminant.value);
-    if (c.wavelengths == "auto") {
-        // The grid is chosen later from these (and this version): the choice is hashed by
-        // its inputs.
-        for (const auto& l : c.plan.lights) {
-            const Spectrum light = load_illuminant(c.settings.data_dir, l);
-            add("light " + l);
-            add_values(light.lambda);
-            add_values(light.value);
-        }
-        for (const auto& g : c.plan.candidates) {
-            add("candidate");
-            add_values(g.lambda);
-        }
-        add(std::string(c.plan.half ? "half" : "float") + " stride " +
-            std::to_string(c.plan.sample_stride) + " colours " + c.plan.colours);
-    }
-    return h.text();
-}
 
-double precision_budget(const BakeCli& c) {
-    return c.precision_de_given ? c.precision_de : c.plan.max_de;
-}
-
-// --precision auto's lights: --lights, then the --illuminant the rounding is exact for, each once.
-std::vector<std::string> precision_lights(const BakeCli& c) {
-    std::vector<std::string> names = c.plan.lights;
-    names.push_back(c.settings.illuminant);
-    return distinct_lights(names);
-}
-
-// What chooses the bits of --precision auto, hashed into the settings (known before the method is
-// built, so that --update builds nothing for files that are up to date): budget, sample, and each
-// light's table.
-void record_precision_recipe(BakeCli& c) {
-    if (c.precision != "auto") return;
-    auto& rec = c.settings.precision;
-    char num[64];
-    std::snprintf(num, sizeof num, "%g", precision_budget(c));
-    rec.max_de = num;
-    for (const auto& l : precision_lights(c)) rec.lights += (rec.lights.empty() ? "" : ",") + l;
-    const int axis = (255 + kPrecisionSampleStride - 1) / kPrecisionSampleStride + 1;
-    rec.sample = "8-bit sRGB codes 0, " + std::to_string(kPrecisionSampleStride) +
-                 ", ... 255 per axis (" + std::to_string(axis * axis * axis) + " colours)";
-    Fnv1a64 h;
-    auto add = [&](const std::string& t) { h.add(t.data(), t.size() + 1); };
-    add("auto " + rec.max_de + " stride " + std::to_string(kPrecisionSampleStride));
-    for (const auto& l : precision_lights(c)) {
-        const Spectrum light = load_illuminant(c.settings.data_dir, l);
-        add("light " + l);
-        h.add(light.lambda.data(), light.lambda.size() * sizeof(double));
-        h.add(light.value.data(), light.value.size() * sizeof(double));
+    void method_built(const MethodSpec& spec, const MethodResult& made) override {
+        if (!made.warning.empty()) warning(made.warning);
+        if (c_.verbose)
+            std::cerr << "spectex: " << spec.describe() << ": built in " << made.build_seconds
+                      << " s\n";
     }
-    rec.recipe = h.text();
-}
 
-// --precision auto: the bits chosen once per batch for the built method (every file of it gets
-// the same bits).
-void choose_precision_bits(BakeCli& c, const Observer& observer, const Spectrum& illuminant) {
-    if (c.precision != "auto") return;
-    const auto t0 = std::chrono::steady_clock::now();
-    auto& rec = c.settings.precision;
-    PrecisionRequest req;
-    req.method = c.settings.method.get();
-    req.observer = observer;
-    for (const auto& l : precision_lights(c))
-        req.lights.push_back(l == c.settings.illuminant ? illuminant
-                                                        : load_illuminant(c.settings.data_dir, l));
-    std::vector<float> rgb_weight;
-    if (c.settings.colour_rounding) {
-        const Colorimetry cm =
-            Colorimetry::make(observer, illuminant, c.settings.grid, primaries_by_name("srgb"));
-        const Eigen::Matrix3Xd R = cm.rgb_weights();
-        for (Eigen::Index k = 0; k < R.cols(); ++k)
-            for (int ch = 0; ch < 3; ++ch) rgb_weight.push_back(static_cast<float>(R(ch, k)));
-        req.rgb_weight = &rgb_weight;
+    void warning(const std::string& text) override {
+        if (!c_.quiet) std::cerr << "spectex: warning: " << text << "\n";
     }
-    req.max_de = precision_budget(c);
-    req.stride = kPrecisionSampleStride;
-    req.threads = c.threads > 0 ? c.threads : hardware_threads();
-    PrecisionCacheReport rep;
-    const PrecisionChoice pc = choose_precision_cached(req, c.no_cache ? "" : cache_folder(), &rep);
-    if (!rep.warning.empty() && !c.quiet)
-        std::cerr << "spectex: warning: the precision's bits are not kept in the cache: "
-                  << one_line(rep.warning)
-                  << " (SPECTEX_CACHE_DIR moves the cache; --no-cache does without)\n";
-    if (rep.ignored && !c.quiet)
-        std::cerr << "spectex: warning: " << one_line(quote_path(rep.entry))
-                  << ": not a valid entry of the precision's bits; chosen again\n";
-    if (rep.hit && c.verbose)
-        std::cerr << "spectex: the precision's bits from the cache: "
-                  << one_line(quote_path(rep.entry)) << "\n";
-    rec.bits = pc.bits;
-    std::string worst;
-    double w = 0;
-    for (size_t j = 0; j < pc.light.size(); ++j) {
-        char num[96];
-        std::snprintf(num, sizeof num, "%s%s %.3g", worst.empty() ? "" : ", ", pc.light[j].c_str(),
-                      pc.worst_de[j]);
-        worst += num;
-        w = std::max(w, pc.worst_de[j]);
-    }
-    rec.worst_de = worst;
-    if (!c.quiet) {
-        const double s =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+    void precision_chosen(const BakeSettings::Precision& rec, const PrecisionChoice& pc,
+                          const PrecisionCacheReport& rep, double seconds) override {
+        if (!rep.warning.empty() && !c_.quiet)
+            std::cerr << "spectex: warning: the precision's bits are not kept in the cache: "
+                      << one_line(rep.warning)
+                      << " (SPECTEX_CACHE_DIR moves the cache; --no-cache does without)\n";
+        if (rep.ignored && !c_.quiet)
+            std::cerr << "spectex: warning: " << one_line(quote_path(rep.entry))
+                      << ": not a valid entry of the precision's bits; chosen again\n";
+        if (rep.hit && c_.verbose)
+            std::cerr << "spectex: the precision's bits from the cache: "
+                      << one_line(quote_path(rep.entry)) << "\n";
+        if (c_.quiet) return;
+        double w = 0;
+        for (double d : pc.worst_de) w = std::max(w, d);
         char num[64], worst_num[64];
         std::snprintf(num, sizeof num, "%.0f%%", 100 * kept_fraction(pc.bits));
         std::snprintf(worst_num, sizeof worst_num, "%.3g", w);
         std::cerr << "spectex: --precision auto: " << num << " of half's mantissa bits kept (bits "
                   << format_precision_bits(pc.bits) << "), worst " << worst_num << " ΔE00 within "
-                  << rec.max_de << " under " << rec.lights << " (" << s << " s"
+                  << rec.max_de << " under " << rec.lights << " (" << seconds << " s"
                   << (rep.hit ? ", from the cache" : "") << ")\n";
     }
-}
 
-// --wavelengths auto: the grid chosen once per batch (every file of it gets the same grid).
-void choose_auto_grid(BakeCli& c) {
-    auto& rec = c.settings.plan;
-    // Once per batch: every file of it gets the same grid.
-    fill_plan_method(c);
-    c.plan.method.fit.data_dir = c.settings.data_dir;
-    c.plan.half = c.settings.type == SampleType::Half;
-    c.plan.threads = c.threads;
-    if (c.progress || (!c.quiet && stderr_is_terminal()))
-        c.plan.progress = plan_progress("spectex: --wavelengths auto: ");
-    bool from_cache = false;
-    const PlanResult pr = plan_with_cache(c.plan, c.no_cache, c.verbose, c.quiet, &from_cache);
-    if (c.verbose) std::cerr << plan_table(c.plan, pr);
-    if (pr.chosen < 0) throw UnmetBudget(plan_failure(c.plan, pr));
-    const GridRow& row = pr.rows[static_cast<size_t>(pr.chosen)];
-    c.settings.grid = row.grid;
-    char num[64];
-    std::snprintf(num, sizeof num, "%.4g", row.worst);
-    rec.worst_de = num;
-    if (!c.quiet)
-        std::cerr << "spectex: --wavelengths auto: " << grid_label(row.grid) << " (" << row.bins
-                  << " bins), worst " << rec.worst_de << " ΔE00 under " << row.worst_light
-                  << ", within " << rec.max_de << " under " << join_names(c.plan.lights) << " ("
-                  << pr.seconds << " s" << (from_cache ? ", from the cache" : "") << ")\n";
-}
+  private:
+    const BakeCli& c_;
+    const BakeSettings& hashed_;
+};
 
-// --colorspace, checked against the config once for every file.
-void check_colour_space(const BakeCli& c) {
-    if (!c.settings.colorspace.empty())
-        (void)Linearizer::make(ColourRequest{c.settings.data_dir, c.settings.config,
-                                             c.settings.colorspace, "", ColourTags{}});
-}
-
-// The spectral method every file is baked with: built, fitted or checked once.
-void build_method(BakeCli& c, std::shared_ptr<Basis> file_basis, const Observer& observer,
-                  const Spectrum& illuminant) {
-    check_colour_space(c);
-    if (c.m.spec.kind != MethodKind::Basis || c.m.basis == "fit") {
-        MethodSpec spec = c.m.spec;
-        spec.fit.data_dir = c.settings.data_dir;
-        spec.fit.grid = c.settings.grid;
-        MethodResult made = make_method(spec);
-        c.settings.method = made.method;
-        if (!made.warning.empty() && !c.quiet)
-            std::cerr << "spectex: warning: " << made.warning << "\n";
-        if (c.verbose)
-            std::cerr << "spectex: " << spec.describe() << ": built in " << made.build_seconds
-                      << " s\n";
-    } else {
-        // How far the basis is from reproducing the primaries under the colorimetry it is
-        // used with: a wrong table (another observer, a flat one) bakes wrong colours
-        // without a word.
-        Colorimetry cm =
-            Colorimetry::make(observer, illuminant, c.settings.grid, primaries_by_name("srgb"));
-        const FitCertificate cert = certify_basis(*file_basis, cm);
-        const double miss =
-            std::max({cert.colour_residual[0], cert.colour_residual[1], cert.colour_residual[2]});
-        if (miss > kBasisPrimaryTolerance && !c.quiet)
-            std::cerr << "spectex: warning: basis " << c.m.basis << " misses the sRGB primaries by "
-                      << miss << " in linear RGB under " << c.settings.observer << " and "
-                      << c.settings.illuminant << " (tolerance " << kBasisPrimaryTolerance
-                      << "): baked colours will be off by up to that\n";
-        c.settings.method = std::make_shared<BasisMethod>(
-            std::move(*file_basis),
-            c.m.basis == "mallett2019" ? "published table (Mallett & Yuksel 2019)" : "file");
+// The settings every file is baked with (pipeline/bake_request). Those that are the same for
+// every file (grid, colour config and space, observer, illuminant, basis, method) are checked
+// once, before any input is read: one message, exit 2. The settings hash is known before anything
+// expensive is built (a basis fit, a lattice or Jakob-Hanika table, --wavelengths auto's search,
+// an OCIO processor), so that --update checks the outputs' headers first and a run whose files
+// are all up to date builds nothing (its settings then carry no method), and a dry run lists the
+// files from the hash and the headers. Throws Error (exit 2), UnmetBudget (exit 1).
+BakeSettings prepare_settings(const BakeCli& c, BatchPlan& plan) {
+    const BakeSetup setup(c.req);
+    if (c.dry_run) {
+        setup.check_colour_space();
+        return setup.hashed();
     }
-}
-
-// Settings that are the same for every file (grid, colour config and space, observer,
-// illuminant, basis, method) are checked once, before any input is read: one message, exit 2.
-// The settings hash is computed from the recipe (the options and the tables' contents), before
-// anything expensive is built (a basis fit, a lattice or Jakob-Hanika table, --wavelengths
-// auto's search, an OCIO processor), so that --update checks the outputs' headers first and a
-// run whose files are all up to date builds nothing.
-// Throws Error (exit 2).
-void prepare_settings(BakeCli& c, BatchPlan& plan) {
-    if (!c.wavelengths_file.empty()) {
-        try {
-            c.settings.grid = WavelengthGrid::from_file(c.wavelengths_file);
-        } catch (const LimitError& e) {
-            throw LimitError(std::string("--wavelengths-file: ") + e.what());
-        }
-    }
-    const bool automatic = c.wavelengths == "auto";
-    if (automatic) record_auto_plan(c);
-    c.settings.observer = c.m.spec.fit.observer;
-    c.settings.illuminant = c.m.spec.fit.illuminant;
-    std::shared_ptr<Basis> file_basis = load_given_basis(c);
-    const Observer observer = load_observer(c.settings.data_dir, c.settings.observer);
-    const Spectrum illuminant = load_illuminant(c.settings.data_dir, c.settings.illuminant);
-    c.settings.method_recipe = method_recipe(c, file_basis.get(), observer, illuminant);
-    record_precision_recipe(c);
-    // Reads the colour config (checked: a regular file of bounded size): an Error, exit 2.
-    c.settings.settings_hash = settings_hash(c.settings);
-    c.settings.legacy_settings_hash = legacy_settings_hash(c.settings);
-    // A dry run lists the files from the settings hash and the headers: nothing is built.
-    if (c.dry_run) return check_colour_space(c);
     bool all_up_to_date = false;
     if (c.update && !c.force) {
         all_up_to_date = true;
         for (const auto& [in, out] : plan.files) {
-            plan.prechecked.push_back(check_update(in, out, c.settings));
+            plan.prechecked.push_back(check_update(in, out, setup.hashed()));
             all_up_to_date = all_up_to_date && plan.prechecked.back().up_to_date;
         }
     }
-    if (all_up_to_date) return;
-    if (automatic) choose_auto_grid(c);
-    note_grid_cost("bake",
-                   automatic ? "--wavelengths auto chose " + grid_label(c.settings.grid)
-                   : c.wavelengths_file.empty() ? "--wavelengths " + c.settings.grid.describe()
-                                                : "--wavelengths-file " + c.wavelengths_file,
-                   c.settings.grid.size(), c.settings.type == SampleType::Half ? 2 : 4, c.quiet);
-    build_method(c, std::move(file_basis), observer, illuminant);
-    choose_precision_bits(c, observer, illuminant);
+    if (all_up_to_date) return setup.hashed();
+    SetupReport report(c, setup.hashed());
+    return setup.finish(report);
 }
-
 // Threads, and how the batch runs and reports.
-void finish_batch_plan(BakeCli& c, BatchPlan& plan) {
+void finish_batch_plan(const BakeCli& c, BatchPlan& plan) {
     size_batch_threads(plan, c.jobs, c.threads);
-    c.settings.threads = plan.threads;
     plan.update = c.update && !c.force;
     plan.make_folders = OutputNaming{c.output, c.output_dir, c.base_dir}.per_input();
     plan.fail_fast = c.fail_fast;
@@ -949,10 +744,11 @@ int run_bake(const std::vector<std::string>& args) {
         check_illuminant_setting("--illuminant", c.m.spec.fit.illuminant);
         c.m.spec.fit.illuminant =
             light_name(c.m.spec.fit.illuminant);  // recorded: 3200K, however written
-        for (const auto& l : c.plan.lights) check_illuminant_setting("--lights", l);
+        for (const auto& l : c.req.plan.lights) check_illuminant_setting("--lights", l);
         check_grid_options(c);
+        fill_request(c);
         check_cost_options(c);
-        c.settings.file_options = file_options(p.given());
+        c.req.options.file_options = file_options(p.given());
     } catch (const UsageError& e) {
         return usage_error("bake", e.what());
     }
@@ -972,8 +768,9 @@ int run_bake(const std::vector<std::string>& args) {
         return 1;
     }
 
+    BakeSettings settings;
     try {
-        prepare_settings(c, plan);
+        settings = prepare_settings(c, plan);
     } catch (const UnmetBudget& e) {
         print_error(e.what());
         return 1;
@@ -984,7 +781,7 @@ int run_bake(const std::vector<std::string>& args) {
         return 2;
     }
     finish_batch_plan(c, plan);
-    return c.dry_run ? run_dry_run(plan, c.settings) : run_batch(plan, c.settings);
+    return c.dry_run ? run_dry_run(plan, settings) : run_batch(plan, settings);
 }
 
 }  // namespace spectex

@@ -126,6 +126,11 @@ PlanResult plan_with_cache(const PlanSpec& spec, bool no_cache, bool verbose, bo
     PlanCacheReport rep;
     PlanResult r = plan_grids_cached(spec, no_cache ? "" : cache_folder(), &rep);
     if (from_cache) *from_cache = rep.hit;
+    report_plan_cache(spec, rep, verbose, quiet);
+    return r;
+}
+
+void report_plan_cache(const PlanSpec& spec, const PlanCacheReport& rep, bool verbose, bool quiet) {
     if (!rep.warning.empty() && !quiet)
         std::cerr << "spectex: warning: the plan's answer is not kept in the cache: "
                   << one_line(rep.warning)
@@ -134,7 +139,6 @@ PlanResult plan_with_cache(const PlanSpec& spec, bool no_cache, bool verbose, bo
         std::cerr << "spectex: the plan's answer from the cache: "
                   << one_line(quote_path(rep.entry)) << "\n";
     if (rep.hit && spec.progress) spec.progress("the answer from the cache", 0, 0);
-    return r;
 }
 
 void note_grid_cost(const std::string& command, const std::string& what, size_t bins,
