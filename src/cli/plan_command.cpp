@@ -266,10 +266,7 @@ void check_plan_options(PlanOptions& o, const std::vector<std::string>& pos) {
     if (spec.precision_de > 0 && !spec.precision)
         throw UsageError("--precision-de belongs to --precision auto");
     spec.lights = distinct_lights(spec.lights);
-    check_observer_setting("--observer", spec.method.fit.observer);
-    check_illuminant_setting("--illuminant", spec.method.fit.illuminant);
-    spec.method.fit.illuminant = light_name(spec.method.fit.illuminant);
-    for (const auto& l : spec.lights) check_illuminant_setting("--lights", l);
+    check_conditions(spec.method, spec.lights);
     try {
         check_plan_cost(spec);
     } catch (const LimitError& e) {
