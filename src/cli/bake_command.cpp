@@ -1,546 +1,33 @@
-#include <unistd.h>
-
 #include <algorithm>
-#include <cctype>
-#include <cerrno>
-#include <chrono>
-#include <cmath>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
-#include <filesystem>
 #include <iostream>
-#include <set>
 
 #include "base/error.h"
-#include "base/fnv1a.h"
-#include "base/task_pool.h"
 #include "base/text.h"
 #include "cli/arg_parser.h"
+#include "cli/bake_options.h"
 #include "cli/batch_report.h"
 #include "cli/commands.h"
-#include "cli/method_options.h"
 #include "cli/output_check.h"
 #include "io/atomic_file.h"
 #include "io/data_dir.h"
-#include "io/exr_compression.h"
 #include "io/file_identity.h"
-#include "io/image_library.h"
 #include "io/library_stderr.h"
-#include "io/linearizer.h"
 #include "io/ocio_config.h"
 #include "pipeline/bake.h"
 #include "pipeline/bake_batch.h"
-#include "pipeline/basis_cache.h"
+#include "pipeline/bake_request.h"
 #include "pipeline/batch_files.h"
-#include "pipeline/light_list.h"
-#include "pipeline/method_table.h"
 #include "pipeline/plan.h"
 #include "pipeline/plan_cache.h"
 #include "pipeline/plan_report.h"
-#include "spectral/basis_fit.h"
-#include "spectral/colorimetry.h"
 #include "spectral/precision.h"
-#include "spectral/spectrum.h"
 
 namespace spectex {
 
 namespace {
 
-// A user basis must reproduce the primaries to a third of the darkest 8-bit sRGB step in linear
-// (1/255/12.92 = 3.0e-4); the shipped tables do to 4e-8.
-constexpr double kBasisPrimaryTolerance = 1e-4;
-
-struct BakeCli {
-    std::string output, basis = "fit", wavelengths = "380:780:5", type = "half",
-                        compression = ExrCompression::kDefault;
-    std::string alpha = "associated", range = "clamp", nan = "replace";
-    std::string wavelengths_file;
-    // --method and the options of each method (method_options.h): what bake builds and what
-    // --wavelengths auto plans with.
-    MethodOptions m;
-    bool allow_lossy = false;  // --allow-lossy: a compression that changes samples is wanted
-    bool wavelengths_given = false;
-    std::string output_dir, base_dir, from_list, json, shard;
-    std::string wrap, swrap, twrap;  // --wrap MODE[,MODE], --swrap, --twrap
-    bool wrap_given = false, swrap_given = false, twrap_given = false;
-    int threads = 0, jobs = 1;
-    bool quiet = false, verbose = false, progress = false, update = false, force = false,
-         fail_fast = false, dry_run = false;
-    BakeSettings settings;
-    PlanSpec plan;  // --wavelengths auto
-    bool plan_lights = false, plan_budget = false, no_cache = false;
-    // --precision full|auto and --precision-de (docs/precision.md).
-    std::string precision = "full";
-    double precision_de = 0;  // 0: --max-de's
-    bool precision_de_given = false;
-};
-
-template <typename T>
-T pick(const std::string& option, const std::string& value,
-       std::initializer_list<std::pair<const char*, T>> choices) {
-    std::string list;
-    for (const auto& [name, v] : choices) {
-        if (value == name) return v;
-        list += (list.empty() ? "" : ", ") + std::string(name);
-    }
-    throw UsageError(option + ": '" + value + "' is not one of " + list);
-}
-
-// The value an enum's table (base/enum_names.h) gives `value`; a usage error listing its words.
-template <typename E, size_t N>
-E pick_name(const std::string& option, const std::string& value, const EnumNames<E, N>& names) {
-    if (const auto v = names.find(value)) return *v;
-    throw UsageError(option + ": '" + value + "' is not one of " + names.list());
-}
-
-bool ends_with_exr(const std::string& s) { return ends_with_nocase(s, ".exr"); }
-
-// A folder, links followed; false when it cannot be examined.
-bool is_directory(const std::string& p) {
-    std::error_code ec;
-    return std::filesystem::is_directory(p, ec);
-}
-
-// Something that is not a folder (links followed): a file, a device, a FIFO...
-bool exists_not_directory(const std::string& p) {
-    std::error_code ec;
-    const std::filesystem::file_status st = std::filesystem::status(p, ec);
-    return std::filesystem::exists(st) && !std::filesystem::is_directory(st);
-}
-
-// What -o and --output-dir name, checked before any work (exit 2): a folder, a name without .exr
-// (the file is an OpenEXR whatever it is called) and unknown template tokens are mistakes.
-void check_output_option(const std::string& output, const std::string& output_dir) {
-    std::string tokens;
-    for (const auto& t : template_tokens()) tokens += (tokens.empty() ? "" : ", ") + t;
-    if (!output.empty()) {
-        if (std::string bad = unknown_template_token(output); !bad.empty())
-            throw UsageError("-o: unknown template token '" + bad + "' in '" + output +
-                             "' (tokens: " + tokens + ")");
-        if (output.back() == '/' || is_directory(output))
-            throw UsageError("-o: '" + output +
-                             "' is a folder; give a file name, or use --output-dir DIR");
-        const bool templ = has_template_tokens(output);
-        if (!ends_with_exr(output) && (templ || output_dir.empty()))
-            throw UsageError("-o: '" + output +
-                             "' does not end in .exr; spectex writes OpenEXR files");
-    }
-    if (!output_dir.empty()) {
-        if (std::string bad = unknown_template_token(output_dir);
-            !bad.empty() || has_template_tokens(output_dir))
-            throw UsageError("--output-dir: '" + output_dir +
-                             "' is a folder, not a template (tokens go in -o)");
-        if (exists_not_directory(output_dir))
-            throw UsageError("--output-dir: '" + output_dir + "' exists and is not a folder");
-    }
-}
-
-void declare_output_options(ArgParser& p, BakeCli& c) {
-    p.section("Output file");
-    p.option("-o, --output", "FILE|TEMPLATE",
-             "Output OpenEXR file, or a template with {dir}, {reldir} (with --base-dir), {stem}, "
-             "{ext} (e.g. "
-             "'{dir}/{stem}.spectral.exr') for several inputs; a template's folders are created. "
-             "Written "
-             "atomically; never the input.",
-             [&](const std::string& v) { c.output = v; });
-    p.option("--output-dir", "DIR",
-             "Write <DIR>/<stem>.exr for every input (or -o TEMPLATE inside DIR); with --base-dir, "
-             "<DIR>/{reldir}/<stem>.exr: the tree mirrored. Folders are created as needed.",
-             [&](const std::string& v) { c.output_dir = v; });
-    p.option("--base-dir", "DIR",
-             "The top of an asset tree: {reldir} is an input's folder relative to DIR, and inputs "
-             "outside "
-             "DIR are refused.",
-             [&](const std::string& v) { c.base_dir = v; });
-    p.option("--type", "half|float", "Sample type of the spectral channels (default half).",
-             [&](const std::string& v) { c.type = v; });
-    p.option("--compression", "NAME",
-             ExrCompression::list(", ", " or ") + " (default " + c.compression +
-                 "). A lossy one (it changes samples of the --type written) is refused unless "
-                 "--allow-lossy.",
-             [&](const std::string& v) { c.compression = v; });
-    p.flag("--allow-lossy",
-           "Accept a lossy --compression: samples may leave [0, 1] and colours change, the file "
-           "records spectex:lossyCompression and verify's failures name it.",
-           [&] { c.allow_lossy = true; });
-    p.option(
-        "--zip-level", "L",
-        "Deflate level of zip and zips, 1 (fastest) to 12 (smallest); default 4. Level 1 took 0.6x "
-        "the "
-        "CPU time of 4 for files about 5 % larger; 6 took 1.7x for 0.5 % smaller "
-        "(docs/performance.md).",
-        [&](const std::string& v) {
-            long long l = 0;
-            if (!parse_whole(v, 1, 12, &l))
-                throw UsageError("--zip-level: '" + v + "' is not a level from 1 to 12");
-            c.settings.zip_level = static_cast<int>(l);
-        });
-    p.flag("--preview", "Also write R, G, B channels (linear Rec.709) for image viewers.",
-           [&] { c.settings.preview = true; });
-    p.option(
-        "--tile", "W[xH]", "Write a tiled file with W x H tiles (maketx's default is 64x64).",
-        [&](const std::string& v) {
-            const size_t x = v.find('x');
-            long long w = 0, h = 0;
-            const bool ok = v[0] != '-' && parse_whole(v.substr(0, x), 1, 4096, &w) &&
-                            (x == std::string::npos ? (h = w, true)
-                                                    : parse_whole(v.substr(x + 1), 1, 4096, &h));
-            if (!ok)
-                throw UsageError("--tile: '" + v + "' is not W or WxH with sizes from 1 to 4096");
-            c.settings.tile_width = static_cast<int>(w);
-            c.settings.tile_height = static_cast<int>(h);
-        });
-    p.flag("--mipmap",
-           "Write a MIP-mapped tiled texture (64x64 tiles unless --tile) for renderers' texture "
-           "systems; "
-           "levels are filtered on linear RGB before expansion.",
-           [&] { c.settings.mipmap = true; });
-    p.option("--wrap", "MODE[,MODE]",
-             "Record the texture wrap mode, maketx's: black, clamp, periodic or mirror, one for "
-             "both directions or s,t (e.g. periodic,clamp); written as the wrapmodes attribute "
-             "OpenImageIO's texture system reads. Tiled outputs record black,black without it, "
-             "scanline ones nothing. It changes no pixel (MIP levels are box-filtered inside the "
-             "image whatever the mode).",
-             [&](const std::string& v) {
-                 c.wrap = v;
-                 c.wrap_given = true;
-             });
-    p.option("--swrap", "MODE", "The wrap mode in s (horizontally) only, as maketx's --swrap.",
-             [&](const std::string& v) {
-                 c.swrap = v;
-                 c.swrap_given = true;
-             });
-    p.option("--twrap", "MODE", "The wrap mode in t (vertically) only, as maketx's --twrap.",
-             [&](const std::string& v) {
-                 c.twrap = v;
-                 c.twrap_given = true;
-             });
-    p.option("--half-rounding", "colour|nearest",
-             "colour (default): round each half bin up or down so that the spectrum's integrated "
-             "colour stays "
-             "closest to the exact one (all 8-bit sRGB colours re-encode exactly); nearest: plain "
-             "rounding.",
-             [&](const std::string& v) {
-                 if (v != "colour" && v != "nearest")
-                     throw UsageError("--half-rounding: '" + v + "' is not one of colour, nearest");
-                 c.settings.colour_rounding = v == "colour";
-             });
-    p.option("--precision", "full|auto",
-             "Half's mantissa bits per bin. full (default): all 10 in every bin. auto: per bin, "
-             "the fewest that keep the worst ΔE00 between the rounded and the unrounded spectra "
-             "within --precision-de (default --max-de) under every one of --lights and the light "
-             "the method is exact for, over a dense sample of the 8-bit cube; the colour-aware "
-             "rounding keeps every 8-bit colour's code under that light (smaller ZIP files; "
-             "recorded as spectex:precision*; half only). The bits are kept in the cache for the "
-             "next bake with the same settings (see --no-cache).",
-             [&](const std::string& v) {
-                 if (v != "full" && v != "auto")
-                     throw UsageError("--precision: '" + v + "' is not one of full, auto");
-                 c.precision = v;
-             });
-    p.option("--precision-de", "DE",
-             "The budget of --precision auto when it differs from --max-de (the grid's budget "
-             "with --wavelengths auto): the worst ΔE00, rounded against unrounded.",
-             [&](const std::string& v) {
-                 c.precision_de = parse_budget_de("--precision-de", v);
-                 c.precision_de_given = true;
-             });
-    p.option("--alpha", "associated|unassociated",
-             "Whether the spectral channels are premultiplied by A (default associated, OpenEXR's "
-             "convention).",
-             [&](const std::string& v) { c.alpha = v; });
-}
-
-void declare_colour_options(ArgParser& p, BakeCli& c) {
-    p.section("Colour");
-    p.option(
-        "--colorspace", "NAME",
-        "Colour space of the input (an OCIO name or alias, e.g. srgb_tx, lin_srgb, acescg, raw). "
-        "Default: what the file states (its ICC profile, OpenEXR chromaticities, a tag such as "
-        "PNG's sRGB chunk) when the config can name it, else the config's file rules; a profile "
-        "it cannot name is a warning.",
-        [&](const std::string& v) { c.settings.colorspace = v; });
-    p.option("--config", "FILE",
-             "OCIO config to use instead of $OCIO or the shipped config/spectex.ocio.",
-             [&](const std::string& v) { c.settings.config = v; });
-    p.option("--out-of-range", "clamp|keep|error",
-             "Linear values outside [0, 1]: clamp per channel (default), keep (spectra may leave "
-             "[0, 1]; in half, a value beyond 65504 fails the file), or fail.",
-             [&](const std::string& v) { c.range = v; });
-    p.option("--nan", "replace|error", "NaN and infinite values: replace with 0 (default) or fail.",
-             [&](const std::string& v) { c.nan = v; });
-}
-
-void declare_spectra_options(ArgParser& p, BakeCli& c) {
-    p.section("Wavelength grid");
-    p.option("--wavelengths", "START:END:STEP|auto",
-             "Output wavelength grid in nm (default 380:780:5; at most 4701 bins, 0.1 nm over "
-             "360:830: more is a\nusage error; a grid finer than 1 nm over 360:830 says what it "
-             "costs first). auto: the cheapest grid\nwithin --max-de under every one of --lights, "
-             "chosen once per batch as 'spectex plan' does (recorded\nin the header; the answer "
-             "is kept in the cache for the next run and shard, see --no-cache).",
-             [&](const std::string& v) {
-                 c.wavelengths = v;
-                 c.wavelengths_given = true;
-             });
-    p.option("--wavelengths-file", "FILE",
-             "Output wavelengths, one per line (any strictly increasing list, at most 4701).",
-             [&](const std::string& v) { c.wavelengths_file = v; });
-    add_plan_options(p, c.plan, c.plan_lights, c.plan_budget);
-    add_cache_option(p, c.no_cache);
-    p.section("Method");
-    add_method_options(p, c.m, true);
-    observer_option(p, "Observer of the fitted basis", c.m.spec.fit.observer);
-    p.option("--illuminant", "NAME|FILE",
-             "Illuminant under which the fitted basis is exact: " +
-                 shipped_illuminants_list(FitSpec().illuminant) + " (any case), " +
-                 colour_temperature_help() + ", or a CSV wavelength,value.",
-             [&](const std::string& v) { c.m.spec.fit.illuminant = v; });
-}
-
-void declare_batch_options(ArgParser& p, BakeCli& c) {
-    p.section("Batches and farms");
-    p.option("--from-list", "FILE",
-             "Read input paths from FILE, one per line ('-' = stdin; a pipe such as <(find ...) "
-             "too), after those given.",
-             [&](const std::string& v) { c.from_list = v; });
-    p.option("--jobs", "N",
-             "Bake N files at once (default 1, at most the number of files); with --threads, N x "
-             "threads in all.",
-             [&](const std::string& v) { c.jobs = parse_int("--jobs", v, 1, 256); });
-    p.option("--shard", "K/N",
-             "Bake only file i (0-based, in the byte-sorted, tile-expanded input list) with i mod "
-             "N = K-1 (K, N whole numbers from 1 to 10^9).",
-             [&](const std::string& v) { c.shard = v; });
-    p.flag("-n, --dry-run",
-           "List each input -> output and what this command would do with it (bake, skip as up "
-           "to date with --update, fail, and why; without --update, whether --update would skip "
-           "it), on stdout, after the same checks as a real run (usage, collisions: exit 2; a "
-           "file that would fail: exit 1). Reads headers only: no pixel is decoded, the method "
-           "is not built, and nothing is written or created but the --json report.",
-           [&] { c.dry_run = true; });
-    p.flag("--update",
-           "Skip files whose output was made from this same source (size, modification time, "
-           "content hash) with the same settings and the same colour transform (what the OCIO "
-           "config does to the file, spectex:colorTransform: a comment in the config rebuilds "
-           "nothing).",
-           [&] { c.update = true; });
-    p.flag("--force", "Rebuild every file even with --update.", [&] { c.force = true; });
-    p.flag("--fail-fast",
-           "Stop at the first failed file (default: bake the others and fail at the end).",
-           [&] { c.fail_fast = true; });
-    p.option("--json", "FILE",
-             "Write one JSON record per file (JSON Lines, schema_version " +
-                 std::to_string(kJsonSchemaVersion) +
-                 "); '-' = stdout; a stream such as "
-                 "/dev/stderr is written through.",
-             [&](const std::string& v) { c.json = stdout_as_dash(v); });
-    p.flag("--progress",
-           "Show progress on stderr even when it is not a terminal (and that of --wavelengths "
-           "auto's search).",
-           [&] { c.progress = true; });
-    p.section("Resources");
-    p.option("--threads", "N",
-             "Threads per file for OpenEXR compression and decoding (default: cores / jobs). "
-             "--jobs x --threads\nis held within the process's thread budget, 4 threads per "
-             "core (at least 8): more only share\nthe same cores, and the kernel limits the "
-             "threads of a process.",
-             [&](const std::string& v) { c.threads = parse_int("--threads", v, 0, 1024); });
-    p.option("--max-pixels", "N",
-             "Refuse inputs with more pixels than this (default 268435456 = 16384^2).",
-             [&](const std::string& v) { c.settings.max_pixels = parse_count("--max-pixels", v); });
-    p.flag("-q, --quiet",
-           "Print errors and warnings about the data only (clamped or replaced pixels, a level "
-           "or subimage left out, a colour space chosen by a config's default rule).",
-           [&] { c.quiet = true; });
-    p.flag("-v, --verbose", "Print what was done for each file.", [&] { c.verbose = true; });
-}
-
-// Every option of bake, filling `c` as they are parsed.
-void declare_bake_options(ArgParser& p, BakeCli& c) {
-    declare_output_options(p, c);
-    declare_colour_options(p, c);
-    declare_spectra_options(p, c);
-    declare_batch_options(p, c);
-    // What most runs set; everything else is in the sections by task below them.
-    p.common({"--output", "--output-dir", "--colorspace", "--method", "--wavelengths", "--type",
-              "--update", "--jobs", "--json", "--quiet", "--verbose", "--help"});
-}
-
-// What must be given, and what goes with what (throws UsageError).
-void check_given_options(const BakeCli& c, const std::vector<std::string>& inputs) {
-    if (inputs.empty() && c.from_list.empty()) throw UsageError("no input file");
-    if (c.output.empty() && c.output_dir.empty())
-        throw UsageError("no output (-o OUTPUT.exr, -o TEMPLATE or --output-dir DIR)");
-    check_output_option(c.output, c.output_dir);
-    if (!c.shard.empty()) {
-        try {
-            Shard::parse(c.shard);
-        } catch (const Error& e) {
-            throw UsageError(e.what());
-        }
-    }
-}
-
-// One of maketx's wrap modes, in any case, as maketx writes it (lower case). Throws UsageError
-// naming the option.
-std::string wrap_mode(const std::string& option, const std::string& value) {
-    const std::string m = lower_ascii(value);
-    for (const char* known : {"black", "clamp", "periodic", "mirror"})
-        if (m == known) return m;
-    throw UsageError(option + ": '" + value +
-                     "' is not a wrap mode (black, clamp, periodic or mirror)");
-}
-
-// --wrap MODE[,MODE], --swrap, --twrap as the "s,t" maketx records (--swrap and --twrap over
-// --wrap, a direction given no mode black); "" when none was given. Throws UsageError.
-std::string wrap_modes(const BakeCli& c) {
-    if (!c.wrap_given && !c.swrap_given && !c.twrap_given) return "";
-    std::string s = "black", t = "black";
-    if (c.wrap_given) {
-        const size_t comma = c.wrap.find(',');
-        s = wrap_mode("--wrap", c.wrap.substr(0, comma));
-        t = comma == std::string::npos ? s : wrap_mode("--wrap", c.wrap.substr(comma + 1));
-    }
-    if (c.swrap_given) s = wrap_mode("--swrap", c.swrap);
-    if (c.twrap_given) t = wrap_mode("--twrap", c.twrap);
-    return s + "," + t;
-}
-
-// Sample type, alpha, range and NaN policies, compression; the options of each method.
-void check_method_options(BakeCli& c) {
-    c.settings.wrapmodes = wrap_modes(c);
-    c.settings.type = pick<SampleType>("--type", c.type,
-                                       {{"half", SampleType::Half}, {"float", SampleType::Float}});
-    c.settings.alpha =
-        pick<AlphaKind>("--alpha", c.alpha,
-                        {{to_string(AlphaKind::Associated), AlphaKind::Associated},
-                         {to_string(AlphaKind::Unassociated), AlphaKind::Unassociated}});
-    c.settings.range = pick_name("--out-of-range", c.range, kRangePolicyNames);
-    c.settings.nan = pick_name("--nan", c.nan, kNanPolicyNames);
-    try {
-        c.settings.compression = ExrCompression::parse(c.compression);
-    } catch (const Error& e) {
-        throw UsageError(std::string("--compression: ") + e.what());
-    }
-    const ExrCompression& z = c.settings.compression;
-    if (z.lossy_for(c.settings.type == SampleType::Half) && !c.allow_lossy)
-        throw UsageError("--compression: " + z.name + " is " + z.lossy_text() +
-                         ": OpenEXR changes " + c.type +
-                         " samples with it (values leave [0, 1], colours shift); use a lossless "
-                         "one (" +
-                         ExrCompression::lossless_list(", ", " or ") +
-                         "), or add --allow-lossy to accept the loss");
-    check_method_options(c.m);
-    const MethodRow& row = method_row(c.m.spec.kind);
-    if (!row.takes_out_of_range && c.range == "keep")
-        throw UsageError("--out-of-range keep needs a method defined outside [0, 1] (--method " +
-                         method_table().front().name + "): the " + row.name +
-                         " method is defined on linear RGB in [0, 1] only");
-}
-
-// --precision auto: half only, and the scene's lights and a budget to choose with.
-void check_precision_options(const BakeCli& c) {
-    if (c.precision != "auto") {
-        if (c.precision_de_given) throw UsageError("--precision-de belongs to --precision auto");
-        return;
-    }
-    if (c.type != "half")
-        throw UsageError("--precision auto chooses bits of half; --type " + c.type +
-                         " keeps every bit");
-    if (!c.settings.colour_rounding)
-        throw UsageError(
-            "--precision auto keeps every 8-bit code through the colour-aware rounding; "
-            "--half-rounding nearest would lose them on the coarser grids");
-    if (!c.plan_lights)
-        throw UsageError("--precision auto needs --lights (the scene's lights it must hold)");
-    if (!c.plan_budget && !c.precision_de_given)
-        throw UsageError("--precision auto needs --max-de or --precision-de (the ΔE00 budget)");
-}
-
-// The output grid: given, read from a file, or chosen by --wavelengths auto.
-void check_grid_options(BakeCli& c) {
-    const bool automatic = c.wavelengths == "auto";
-    if (automatic) {
-        if (!c.wavelengths_file.empty())
-            throw UsageError("--wavelengths auto and --wavelengths-file are two grids; give one");
-        if (!c.plan_lights || !c.plan_budget)
-            throw UsageError(
-                "--wavelengths auto needs --lights and --max-de (the scene's lights and the "
-                "error budget)");
-        if (c.m.spec.kind == MethodKind::Basis && c.m.basis != "fit")
-            throw UsageError("--wavelengths auto fits the basis on the chosen grid; --basis " +
-                             c.m.basis + " has a grid of its own");
-        if (c.plan.nonuniform && !method_row(c.m.spec.kind).linear)
-            throw UsageError("--nonuniform searches with a linear method's 3x3 maps: --method " +
-                             c.m.spec.name() + " is not linear (use --method basis)");
-    } else if (((c.plan_lights || c.plan_budget) && c.precision != "auto") ||
-               !c.plan.candidates.empty() || c.plan.nonuniform) {
-        throw UsageError(
-            "--lights, --max-de, --grids and --nonuniform choose the grid of --wavelengths "
-            "auto (--lights and --max-de also the bits of --precision auto)");
-    }
-    check_precision_options(c);
-    if (c.wavelengths_file.empty() && !automatic) {
-        try {
-            c.settings.grid = WavelengthGrid::parse_exact(c.wavelengths);
-        } catch (const Error& e) {
-            throw UsageError(std::string("--wavelengths: ") + e.what());
-        }
-    }
-}
-
-// The method as --wavelengths auto plans with it: the one bake builds (its grid set per candidate).
-void fill_plan_method(BakeCli& c) {
-    c.plan.method = c.m.spec;
-    c.plan.method.fit.data_dir = c.settings.data_dir;
-}
-
-// What the options cost, refused before any work when over a documented limit: the method's
-// table on the grid given (method_table.h), or with --wavelengths auto the plan (plan.h), its
-// lights each once.
-void check_cost_options(BakeCli& c) {
-    try {
-        if (c.wavelengths == "auto") {
-            c.plan.lights = distinct_lights(c.plan.lights);
-            fill_plan_method(c);
-            check_plan_cost(c.plan);
-        } else if (c.wavelengths_file.empty()) {
-            check_method_cost(c.m.spec, c.settings.grid.size(),
-                              std::to_string(c.settings.grid.size()) + " bins");
-        }
-    } catch (const LimitError& e) {
-        throw UsageError(e.what());
-    }
-}
-
-// The options given that make each file what it is, shell-quoted, each after a space, for the
-// command line each output records (file_command_line): every option but those that list, name,
-// select, skip or report the batch's files, or only say how much to print. The one input and its
-// output take the place of the batch's.
-std::string file_options(const std::vector<ArgParser::Given>& given) {
-    static const std::set<std::string> batch_only = {
-        "--output", "--output-dir", "--base-dir",  "--from-list", "--shard", "--jobs",    "--json",
-        "--update", "--force",      "--fail-fast", "--progress",  "--quiet", "--verbose", "--help"};
-    std::string out;
-    for (const auto& g : given) {
-        if (batch_only.count(g.name)) continue;
-        out += " " + quote_path(g.name);
-        if (g.has_value) out += " " + quote_path(g.value);
-    }
-    return out;
-}
-
 // Raised when something every file needs cannot be read before any work (exit 2, no usage hint).
-// --wavelengths auto found no grid within the budget: the work's answer, exit 1 as in plan (the
-// settings themselves were valid).
-class UnmetBudget : public Error {
-  public:
-    explicit UnmetBudget(const std::string& what) : Error(what) {}
-};
-
 class SetupFailure : public std::runtime_error {
   public:
     explicit SetupFailure(const std::string& what) : std::runtime_error(what) {}
@@ -550,7 +37,7 @@ class SetupFailure : public std::runtime_error {
 // (pipeline/bake_batch).
 BatchPlan plan_bake_files(BakeCli& c, const std::vector<std::string>& inputs) {
     BatchPlan plan;
-    c.settings.data_dir = find_data_dir();
+    c.req.data_dir = find_data_dir();
     if (!c.base_dir.empty() && !is_directory(c.base_dir))
         throw UsageError("--base-dir: '" + c.base_dir + "' is not a folder");
     // --output-dir is created (with its parents) when missing, like mkdir -p; the folders below
@@ -573,11 +60,11 @@ BatchPlan plan_bake_files(BakeCli& c, const std::vector<std::string>& inputs) {
 // No output may be a file this command reads, whatever its spelling or links.
 void check_outputs_against_reads(const BakeCli& c, const BatchPlan& plan) {
     ReadFiles reads;
-    reads.add_data_dir(c.settings.data_dir);
+    reads.add_data_dir(c.req.data_dir);
     for (const auto& file : plan.files) reads.add(file.first, "an input");
     reads.add(c.from_list, "--from-list");
     {
-        const std::string config = ocio_config_path(c.settings.data_dir, c.settings.config);
+        const std::string config = ocio_config_path(c.req.data_dir, c.req.options.config);
         std::vector<std::string> files;
         try {
             files =
@@ -593,7 +80,7 @@ void check_outputs_against_reads(const BakeCli& c, const BatchPlan& plan) {
     reads.add(c.m.spec.fit.illuminant, "--illuminant");
     reads.add(c.wavelengths_file, "--wavelengths-file");
     if (c.wavelengths == "auto")
-        for (const auto& l : c.plan.lights) reads.add(l, "--lights");
+        for (const auto& l : c.req.plan.lights) reads.add(l, "--lights");
     // Every collision, before any work: a batch that found them as it went had already baked the
     // first of each pair (and exited 1 after a long run).
     {
@@ -624,299 +111,102 @@ void check_outputs_against_reads(const BakeCli& c, const BatchPlan& plan) {
     }
 }
 
-// --wavelengths auto: how the grid is chosen, recorded in the header (and hashed).
-void record_auto_plan(BakeCli& c) {
-    auto& rec = c.settings.plan;
-    char num[64];
-    for (const auto& l : c.plan.lights) rec.lights += (rec.lights.empty() ? "" : ",") + l;
-    std::snprintf(num, sizeof num, "%g", c.plan.max_de);
-    rec.max_de = num;
-    rec.reconstruction = to_string(c.plan.reconstruction);
-    std::snprintf(num, sizeof num, "%g:%g", c.plan.range_start, c.plan.range_end);
-    rec.range = num;
-    rec.nonuniform = c.plan.nonuniform;
-}
+// What bake's set-up tells (pipeline/bake_request), printed as bake prints it: on stderr, warnings
+// unless -q, the choices made unless -q, the rest under -v.
+class SetupReport : public BakeSetupListener {
+  public:
+    SetupReport(const BakeCli& c, const BakeSettings& hashed) : c_(c), hashed_(hashed) {}
 
-// --basis mallett2019 or FILE (with --method basis): read now (cheap), checked against the output
-// grid, which it sets without --wavelengths; null for a fitted basis or another method.
-std::shared_ptr<Basis> load_given_basis(BakeCli& c) {
-    if (c.m.spec.kind != MethodKind::Basis || c.m.basis == "fit") return nullptr;
-    Basis basis = load_basis(c.settings.data_dir, c.m.basis);
-    // A given basis is exact for the conditions it was made for; the default ones are
-    // recorded.
-    if (c.m.basis == "mallett2019")
-        c.settings.observer = "cie1931-2", c.settings.illuminant = "D65";
-    WavelengthGrid basis_grid;
-    try {
-        basis_grid = WavelengthGrid::from_list(basis.lambda);
-    } catch (const LimitError& e) {
-        throw LimitError("--basis: " + c.m.basis + ": " + e.what());
+    void grid_planned(const PlanSpec& spec, const PlanResult& pr,
+                      const PlanCacheReport& rep) override {
+        report_plan_cache(spec, rep, c_.verbose, c_.quiet);
+        if (c_.verbose) std::cerr << plan_table(spec, pr);
+        if (pr.chosen < 0 || c_.quiet) return;
+        const GridRow& row = pr.rows[static_cast<size_t>(pr.chosen)];
+        char num[64];
+        std::snprintf(num, sizeof num, "%.4g", row.worst);
+        std::cerr << "spectex: --wavelengths auto: " << grid_label(row.grid) << " (" << row.bins
+                  << " bins), worst " << num << " ΔE00 under " << row.worst_light << ", within "
+                  << hashed_.plan.max_de << " under " << join_names(spec.lights) << " ("
+                  << pr.seconds << " s" << (rep.hit ? ", from the cache" : "") << ")\n";
     }
-    // Without --wavelengths, the output is on the basis' own grid.
-    if (!c.wavelengths_given && c.wavelengths_file.empty()) c.settings.grid = basis_grid;
-    if (!same_wavelengths(c.settings.grid.lambda, basis_grid.lambda))
-        throw Error("basis " + c.m.basis + " is on " + basis_grid.describe() +
-                    ", not on the output grid " + c.settings.grid.describe() +
-                    " (the default --basis fit works on any grid)");
-    check_basis_values(basis);
-    return std::make_shared<Basis>(std::move(basis));
-}
 
-// The method's recipe: what builds it, the tables' values included (a user table that changes
-// under the same name changes the hash).
-std::string method_recipe(const BakeCli& c, const Basis* file_basis, const Observer& observer,
-                          const Spectrum& illuminant) {
-    Fnv1a64 h;
-    auto add = [&](const std::string& t) { h.add(t.data(), t.size() + 1); };
-    auto add_values = [&](const std::vector<double>& v) {
-        h.add(v.data(), v.size() * sizeof(double));
-    };
-    if (file_basis) {
-        add("basis " + file_basis->checksum());
-    } else {
-        add(method_row(c.m.spec.kind).recipe(c.m.spec));
+    void grid_known(const WavelengthGrid& grid) override {
+        note_grid_cost("bake",
+                       c_.wavelengths == "auto" ? "--wavelengths auto chose " + grid_label(grid)
+                       : c_.wavelengths_file.empty() ? "--wavelengths " + grid.describe()
+                                                     : "--wavelengths-file " + c_.wavelengths_file,
+                       grid.size(), hashed_.type == SampleType::Half ? 2 : 4, c_.quiet);
     }
-    add_values(observer.x.lambda);
-    add_values(observer.x.value);
-    add_values(observer.y.value);
-    add_values(observer.z.value);
-    add_values(illuminant.lambda);
-    add_values(illuminant.value);
-    if (c.wavelengths == "auto") {
-        // The grid is chosen later from these (and this version): the choice is hashed by
-        // its inputs.
-        for (const auto& l : c.plan.lights) {
-            const Spectrum light = load_illuminant(c.settings.data_dir, l);
-            add("light " + l);
-            add_values(light.lambda);
-            add_values(light.value);
-        }
-        for (const auto& g : c.plan.candidates) {
-            add("candidate");
-            add_values(g.lambda);
-        }
-        add(std::string(c.plan.half ? "half" : "float") + " stride " +
-            std::to_string(c.plan.sample_stride) + " colours " + c.plan.colours);
-    }
-    return h.text();
-}
 
-double precision_budget(const BakeCli& c) {
-    return c.precision_de_given ? c.precision_de : c.plan.max_de;
-}
-
-// --precision auto's lights: --lights, then the --illuminant the rounding is exact for, each once.
-std::vector<std::string> precision_lights(const BakeCli& c) {
-    std::vector<std::string> names = c.plan.lights;
-    names.push_back(c.settings.illuminant);
-    return distinct_lights(names);
-}
-
-// What chooses the bits of --precision auto, hashed into the settings (known before the method is
-// built, so that --update builds nothing for files that are up to date): budget, sample, and each
-// light's table.
-void record_precision_recipe(BakeCli& c) {
-    if (c.precision != "auto") return;
-    auto& rec = c.settings.precision;
-    char num[64];
-    std::snprintf(num, sizeof num, "%g", precision_budget(c));
-    rec.max_de = num;
-    for (const auto& l : precision_lights(c)) rec.lights += (rec.lights.empty() ? "" : ",") + l;
-    const int axis = (255 + kPrecisionSampleStride - 1) / kPrecisionSampleStride + 1;
-    rec.sample = "8-bit sRGB codes 0, " + std::to_string(kPrecisionSampleStride) +
-                 ", ... 255 per axis (" + std::to_string(axis * axis * axis) + " colours)";
-    Fnv1a64 h;
-    auto add = [&](const std::string& t) { h.add(t.data(), t.size() + 1); };
-    add("auto " + rec.max_de + " stride " + std::to_string(kPrecisionSampleStride));
-    for (const auto& l : precision_lights(c)) {
-        const Spectrum light = load_illuminant(c.settings.data_dir, l);
-        add("light " + l);
-        h.add(light.lambda.data(), light.lambda.size() * sizeof(double));
-        h.add(light.value.data(), light.value.size() * sizeof(double));
+    void method_built(const MethodSpec& spec, const MethodResult& made) override {
+        if (!made.warning.empty()) warning(made.warning);
+        if (c_.verbose)
+            std::cerr << "spectex: " << spec.describe() << ": built in " << made.build_seconds
+                      << " s\n";
     }
-    rec.recipe = h.text();
-}
 
-// --precision auto: the bits chosen once per batch for the built method (every file of it gets
-// the same bits).
-void choose_precision_bits(BakeCli& c, const Observer& observer, const Spectrum& illuminant) {
-    if (c.precision != "auto") return;
-    const auto t0 = std::chrono::steady_clock::now();
-    auto& rec = c.settings.precision;
-    PrecisionRequest req;
-    req.method = c.settings.method.get();
-    req.observer = observer;
-    for (const auto& l : precision_lights(c))
-        req.lights.push_back(l == c.settings.illuminant ? illuminant
-                                                        : load_illuminant(c.settings.data_dir, l));
-    std::vector<float> rgb_weight;
-    if (c.settings.colour_rounding) {
-        const Colorimetry cm =
-            Colorimetry::make(observer, illuminant, c.settings.grid, primaries_by_name("srgb"));
-        const Eigen::Matrix3Xd R = cm.rgb_weights();
-        for (Eigen::Index k = 0; k < R.cols(); ++k)
-            for (int ch = 0; ch < 3; ++ch) rgb_weight.push_back(static_cast<float>(R(ch, k)));
-        req.rgb_weight = &rgb_weight;
+    void warning(const std::string& text) override {
+        if (!c_.quiet) std::cerr << "spectex: warning: " << text << "\n";
     }
-    req.max_de = precision_budget(c);
-    req.stride = kPrecisionSampleStride;
-    req.threads = c.threads > 0 ? c.threads : hardware_threads();
-    PrecisionCacheReport rep;
-    const PrecisionChoice pc = choose_precision_cached(req, c.no_cache ? "" : cache_folder(), &rep);
-    if (!rep.warning.empty() && !c.quiet)
-        std::cerr << "spectex: warning: the precision's bits are not kept in the cache: "
-                  << one_line(rep.warning)
-                  << " (SPECTEX_CACHE_DIR moves the cache; --no-cache does without)\n";
-    if (rep.ignored && !c.quiet)
-        std::cerr << "spectex: warning: " << one_line(quote_path(rep.entry))
-                  << ": not a valid entry of the precision's bits; chosen again\n";
-    if (rep.hit && c.verbose)
-        std::cerr << "spectex: the precision's bits from the cache: "
-                  << one_line(quote_path(rep.entry)) << "\n";
-    rec.bits = pc.bits;
-    std::string worst;
-    double w = 0;
-    for (size_t j = 0; j < pc.light.size(); ++j) {
-        char num[96];
-        std::snprintf(num, sizeof num, "%s%s %.3g", worst.empty() ? "" : ", ", pc.light[j].c_str(),
-                      pc.worst_de[j]);
-        worst += num;
-        w = std::max(w, pc.worst_de[j]);
-    }
-    rec.worst_de = worst;
-    if (!c.quiet) {
-        const double s =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+    void precision_chosen(const BakeSettings::Precision& rec, const PrecisionChoice& pc,
+                          const PrecisionCacheReport& rep, double seconds) override {
+        if (!rep.warning.empty() && !c_.quiet)
+            std::cerr << "spectex: warning: the precision's bits are not kept in the cache: "
+                      << one_line(rep.warning)
+                      << " (SPECTEX_CACHE_DIR moves the cache; --no-cache does without)\n";
+        if (rep.ignored && !c_.quiet)
+            std::cerr << "spectex: warning: " << one_line(quote_path(rep.entry))
+                      << ": not a valid entry of the precision's bits; chosen again\n";
+        if (rep.hit && c_.verbose)
+            std::cerr << "spectex: the precision's bits from the cache: "
+                      << one_line(quote_path(rep.entry)) << "\n";
+        if (c_.quiet) return;
+        double w = 0;
+        for (double d : pc.worst_de) w = std::max(w, d);
         char num[64], worst_num[64];
         std::snprintf(num, sizeof num, "%.0f%%", 100 * kept_fraction(pc.bits));
         std::snprintf(worst_num, sizeof worst_num, "%.3g", w);
         std::cerr << "spectex: --precision auto: " << num << " of half's mantissa bits kept (bits "
                   << format_precision_bits(pc.bits) << "), worst " << worst_num << " ΔE00 within "
-                  << rec.max_de << " under " << rec.lights << " (" << s << " s"
+                  << rec.max_de << " under " << rec.lights << " (" << seconds << " s"
                   << (rep.hit ? ", from the cache" : "") << ")\n";
     }
-}
 
-// --wavelengths auto: the grid chosen once per batch (every file of it gets the same grid).
-void choose_auto_grid(BakeCli& c) {
-    auto& rec = c.settings.plan;
-    // Once per batch: every file of it gets the same grid.
-    fill_plan_method(c);
-    c.plan.method.fit.data_dir = c.settings.data_dir;
-    c.plan.half = c.settings.type == SampleType::Half;
-    c.plan.threads = c.threads;
-    if (c.progress || (!c.quiet && stderr_is_terminal()))
-        c.plan.progress = plan_progress("spectex: --wavelengths auto: ");
-    bool from_cache = false;
-    const PlanResult pr = plan_with_cache(c.plan, c.no_cache, c.verbose, c.quiet, &from_cache);
-    if (c.verbose) std::cerr << plan_table(c.plan, pr);
-    if (pr.chosen < 0) throw UnmetBudget(plan_failure(c.plan, pr));
-    const GridRow& row = pr.rows[static_cast<size_t>(pr.chosen)];
-    c.settings.grid = row.grid;
-    char num[64];
-    std::snprintf(num, sizeof num, "%.4g", row.worst);
-    rec.worst_de = num;
-    if (!c.quiet)
-        std::cerr << "spectex: --wavelengths auto: " << grid_label(row.grid) << " (" << row.bins
-                  << " bins), worst " << rec.worst_de << " ΔE00 under " << row.worst_light
-                  << ", within " << rec.max_de << " under " << join_names(c.plan.lights) << " ("
-                  << pr.seconds << " s" << (from_cache ? ", from the cache" : "") << ")\n";
-}
+  private:
+    const BakeCli& c_;
+    const BakeSettings& hashed_;
+};
 
-// --colorspace, checked against the config once for every file.
-void check_colour_space(const BakeCli& c) {
-    if (!c.settings.colorspace.empty())
-        (void)Linearizer::make(ColourRequest{c.settings.data_dir, c.settings.config,
-                                             c.settings.colorspace, "", ColourTags{}});
-}
-
-// The spectral method every file is baked with: built, fitted or checked once.
-void build_method(BakeCli& c, std::shared_ptr<Basis> file_basis, const Observer& observer,
-                  const Spectrum& illuminant) {
-    check_colour_space(c);
-    if (c.m.spec.kind != MethodKind::Basis || c.m.basis == "fit") {
-        MethodSpec spec = c.m.spec;
-        spec.fit.data_dir = c.settings.data_dir;
-        spec.fit.grid = c.settings.grid;
-        MethodResult made = make_method(spec);
-        c.settings.method = made.method;
-        if (!made.warning.empty() && !c.quiet)
-            std::cerr << "spectex: warning: " << made.warning << "\n";
-        if (c.verbose)
-            std::cerr << "spectex: " << spec.describe() << ": built in " << made.build_seconds
-                      << " s\n";
-    } else {
-        // How far the basis is from reproducing the primaries under the colorimetry it is
-        // used with: a wrong table (another observer, a flat one) bakes wrong colours
-        // without a word.
-        Colorimetry cm =
-            Colorimetry::make(observer, illuminant, c.settings.grid, primaries_by_name("srgb"));
-        const FitCertificate cert = certify_basis(*file_basis, cm);
-        const double miss =
-            std::max({cert.colour_residual[0], cert.colour_residual[1], cert.colour_residual[2]});
-        if (miss > kBasisPrimaryTolerance && !c.quiet)
-            std::cerr << "spectex: warning: basis " << c.m.basis << " misses the sRGB primaries by "
-                      << miss << " in linear RGB under " << c.settings.observer << " and "
-                      << c.settings.illuminant << " (tolerance " << kBasisPrimaryTolerance
-                      << "): baked colours will be off by up to that\n";
-        c.settings.method = std::make_shared<BasisMethod>(
-            std::move(*file_basis),
-            c.m.basis == "mallett2019" ? "published table (Mallett & Yuksel 2019)" : "file");
+// The settings every file is baked with (pipeline/bake_request). Those that are the same for
+// every file (grid, colour config and space, observer, illuminant, basis, method) are checked
+// once, before any input is read: one message, exit 2. The settings hash is known before anything
+// expensive is built (a basis fit, a lattice or Jakob-Hanika table, --wavelengths auto's search,
+// an OCIO processor), so that --update checks the outputs' headers first and a run whose files
+// are all up to date builds nothing (its settings then carry no method), and a dry run lists the
+// files from the hash and the headers. Throws Error (exit 2), UnmetBudget (exit 1).
+BakeSettings prepare_settings(const BakeCli& c, BatchPlan& plan) {
+    const BakeSetup setup(c.req);
+    if (c.dry_run) {
+        setup.check_colour_space();
+        return setup.hashed();
     }
-}
-
-// Settings that are the same for every file (grid, colour config and space, observer,
-// illuminant, basis, method) are checked once, before any input is read: one message, exit 2.
-// The settings hash is computed from the recipe (the options and the tables' contents), before
-// anything expensive is built (a basis fit, a lattice or Jakob-Hanika table, --wavelengths
-// auto's search, an OCIO processor), so that --update checks the outputs' headers first and a
-// run whose files are all up to date builds nothing.
-// Throws Error (exit 2).
-void prepare_settings(BakeCli& c, BatchPlan& plan) {
-    if (!c.wavelengths_file.empty()) {
-        try {
-            c.settings.grid = WavelengthGrid::from_file(c.wavelengths_file);
-        } catch (const LimitError& e) {
-            throw LimitError(std::string("--wavelengths-file: ") + e.what());
-        }
-    }
-    const bool automatic = c.wavelengths == "auto";
-    if (automatic) record_auto_plan(c);
-    c.settings.observer = c.m.spec.fit.observer;
-    c.settings.illuminant = c.m.spec.fit.illuminant;
-    std::shared_ptr<Basis> file_basis = load_given_basis(c);
-    const Observer observer = load_observer(c.settings.data_dir, c.settings.observer);
-    const Spectrum illuminant = load_illuminant(c.settings.data_dir, c.settings.illuminant);
-    c.settings.method_recipe = method_recipe(c, file_basis.get(), observer, illuminant);
-    record_precision_recipe(c);
-    // Reads the colour config (checked: a regular file of bounded size): an Error, exit 2.
-    c.settings.settings_hash = settings_hash(c.settings);
-    c.settings.legacy_settings_hash = legacy_settings_hash(c.settings);
-    // A dry run lists the files from the settings hash and the headers: nothing is built.
-    if (c.dry_run) return check_colour_space(c);
     bool all_up_to_date = false;
     if (c.update && !c.force) {
         all_up_to_date = true;
         for (const auto& [in, out] : plan.files) {
-            plan.prechecked.push_back(check_update(in, out, c.settings));
+            plan.prechecked.push_back(check_update(in, out, setup.hashed()));
             all_up_to_date = all_up_to_date && plan.prechecked.back().up_to_date;
         }
     }
-    if (all_up_to_date) return;
-    if (automatic) choose_auto_grid(c);
-    note_grid_cost("bake",
-                   automatic ? "--wavelengths auto chose " + grid_label(c.settings.grid)
-                   : c.wavelengths_file.empty() ? "--wavelengths " + c.settings.grid.describe()
-                                                : "--wavelengths-file " + c.wavelengths_file,
-                   c.settings.grid.size(), c.settings.type == SampleType::Half ? 2 : 4, c.quiet);
-    build_method(c, std::move(file_basis), observer, illuminant);
-    choose_precision_bits(c, observer, illuminant);
+    if (all_up_to_date) return setup.hashed();
+    SetupReport report(c, setup.hashed());
+    return setup.finish(report);
 }
-
 // Threads, and how the batch runs and reports.
-void finish_batch_plan(BakeCli& c, BatchPlan& plan) {
+void finish_batch_plan(const BakeCli& c, BatchPlan& plan) {
     size_batch_threads(plan, c.jobs, c.threads);
-    c.settings.threads = plan.threads;
     plan.update = c.update && !c.force;
     plan.make_folders = OutputNaming{c.output, c.output_dir, c.base_dir}.per_input();
     plan.fail_fast = c.fail_fast;
@@ -943,16 +233,7 @@ int run_bake(const std::vector<std::string>& args) {
     std::vector<std::string> inputs;
     try {
         if (p.parse_or_help(args, inputs)) return 0;
-        check_given_options(c, inputs);
-        check_method_options(c);
-        check_observer_setting("--observer", c.m.spec.fit.observer);
-        check_illuminant_setting("--illuminant", c.m.spec.fit.illuminant);
-        c.m.spec.fit.illuminant =
-            light_name(c.m.spec.fit.illuminant);  // recorded: 3200K, however written
-        for (const auto& l : c.plan.lights) check_illuminant_setting("--lights", l);
-        check_grid_options(c);
-        check_cost_options(c);
-        c.settings.file_options = file_options(p.given());
+        check_bake_options(c, inputs, p.given());
     } catch (const UsageError& e) {
         return usage_error("bake", e.what());
     }
@@ -972,8 +253,9 @@ int run_bake(const std::vector<std::string>& args) {
         return 1;
     }
 
+    BakeSettings settings;
     try {
-        prepare_settings(c, plan);
+        settings = prepare_settings(c, plan);
     } catch (const UnmetBudget& e) {
         print_error(e.what());
         return 1;
@@ -984,7 +266,7 @@ int run_bake(const std::vector<std::string>& args) {
         return 2;
     }
     finish_batch_plan(c, plan);
-    return c.dry_run ? run_dry_run(plan, c.settings) : run_batch(plan, c.settings);
+    return c.dry_run ? run_dry_run(plan, settings) : run_batch(plan, settings);
 }
 
 }  // namespace spectex

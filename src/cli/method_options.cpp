@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "cli/arg_parser.h"
+#include "pipeline/light_list.h"
 
 namespace spectex {
 
@@ -81,6 +82,13 @@ void check_method_options(const MethodOptions& o) {
             throw UsageError(option + " belongs to --method " + owner->name + ", not --method " +
                              o.spec.name());
     }
+}
+
+void check_conditions(MethodSpec& spec, const std::vector<std::string>& lights) {
+    check_observer_setting("--observer", spec.fit.observer);
+    check_illuminant_setting("--illuminant", spec.fit.illuminant);
+    spec.fit.illuminant = light_name(spec.fit.illuminant);  // recorded: 3200K, however written
+    for (const auto& l : lights) check_illuminant_setting("--lights", l);
 }
 
 }  // namespace spectex

@@ -25,5 +25,9 @@ void add_method_options(ArgParser& p, MethodOptions& o, bool with_basis_table);
 // An option given that belongs to another method than --method's: a UsageError naming both
 // ("--jh-resolution belongs to --method jakob-hanika, not --method lattice").
 void check_method_options(const MethodOptions& o);
+// The conditions bake and plan share, once all options are read: --observer and --illuminant
+// (its name made canonical, 3200k -> 3200K, as headers and reports record it) and each of
+// --lights, tables that can be read. Throws UsageError naming the option.
+void check_conditions(MethodSpec& spec, const std::vector<std::string>& lights);
 
 }  // namespace spectex

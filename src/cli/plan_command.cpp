@@ -126,6 +126,11 @@ PlanResult plan_with_cache(const PlanSpec& spec, bool no_cache, bool verbose, bo
     PlanCacheReport rep;
     PlanResult r = plan_grids_cached(spec, no_cache ? "" : cache_folder(), &rep);
     if (from_cache) *from_cache = rep.hit;
+    report_plan_cache(spec, rep, verbose, quiet);
+    return r;
+}
+
+void report_plan_cache(const PlanSpec& spec, const PlanCacheReport& rep, bool verbose, bool quiet) {
     if (!rep.warning.empty() && !quiet)
         std::cerr << "spectex: warning: the plan's answer is not kept in the cache: "
                   << one_line(rep.warning)
@@ -134,7 +139,6 @@ PlanResult plan_with_cache(const PlanSpec& spec, bool no_cache, bool verbose, bo
         std::cerr << "spectex: the plan's answer from the cache: "
                   << one_line(quote_path(rep.entry)) << "\n";
     if (rep.hit && spec.progress) spec.progress("the answer from the cache", 0, 0);
-    return r;
 }
 
 void note_grid_cost(const std::string& command, const std::string& what, size_t bins,
@@ -262,10 +266,7 @@ void check_plan_options(PlanOptions& o, const std::vector<std::string>& pos) {
     if (spec.precision_de > 0 && !spec.precision)
         throw UsageError("--precision-de belongs to --precision auto");
     spec.lights = distinct_lights(spec.lights);
-    check_observer_setting("--observer", spec.method.fit.observer);
-    check_illuminant_setting("--illuminant", spec.method.fit.illuminant);
-    spec.method.fit.illuminant = light_name(spec.method.fit.illuminant);
-    for (const auto& l : spec.lights) check_illuminant_setting("--lights", l);
+    check_conditions(spec.method, spec.lights);
     try {
         check_plan_cost(spec);
     } catch (const LimitError& e) {

@@ -25,7 +25,6 @@
 #include "io/source_identity.h"
 #include "pipeline/pixel_policy.h"
 #include "spectex/version.h"
-#include "spectral/colorimetry.h"
 #include "spectral/expand.h"
 #include "spectral/precision.h"
 
@@ -225,22 +224,6 @@ SpectralExrLayout output_layout(const BakeSettings& s, const SourceInfo& info,
     return layout;
 }
 
-// Colour-aware half rounding integrates under the colorimetry the method is exact for: its
-// observer and illuminant on the output bins. Empty when the output is not rounded that way.
-std::vector<float> half_rounding_weights(const BakeSettings& s, const SpectralMethod& method) {
-    std::vector<float> rgb_weight;
-    if (s.type != SampleType::Half || !s.colour_rounding) return rgb_weight;
-    Colorimetry c = Colorimetry::make(load_observer(s.data_dir, s.observer),
-                                      load_illuminant(s.data_dir, s.illuminant), s.grid,
-                                      primaries_by_name("srgb"));
-    const Eigen::Matrix3Xd R = c.rgb_weights();
-    rgb_weight.resize(3 * static_cast<size_t>(method.bins()));
-    for (int k = 0; k < method.bins(); ++k)
-        for (int ch = 0; ch < 3; ++ch)
-            rgb_weight[3 * static_cast<size_t>(k) + ch] = static_cast<float>(R(ch, k));
-    return rgb_weight;
-}
-
 // The pixel stages of one file between the reader and the writer: read and police rows into
 // linear (premultiplied) planes, expand planes to bins, hand them to the writer; and the two
 // orders they run in (scanlines with two strips in flight, or a MIP pyramid).
@@ -262,7 +245,7 @@ class PixelStages {
           premultiply_(has_alpha_ && s.alpha == AlphaKind::Associated),
           policy_{info_.alpha == AlphaKind::Associated, s.nan, s.range,
                   s.type == SampleType::Half ? kHalfMax : 0.0f},
-          rgb_weight_(half_rounding_weights(s, method)),
+          rgb_weight_(s.half_rgb_weight),
           feedback_(rgb_weight_.empty() ? nullptr : &rgb_weight_),
           bins_(static_cast<size_t>(method.bins())),
           w_(static_cast<size_t>(info_.width)),
@@ -427,7 +410,7 @@ class PixelStages {
     const SourceInfo& info_;
     const bool has_alpha_, premultiply_;
     const PixelPolicy policy_;
-    const std::vector<float> rgb_weight_;
+    const std::vector<float>& rgb_weight_;  // the batch's (BakeSettings::half_rgb_weight)
     const std::vector<float>* feedback_;
     const size_t bins_, w_;
     const bool tiled_;
@@ -470,6 +453,11 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     if (!same_wavelengths(method.lambda(), s.grid.lambda))
         throw Error("the " + method.name() + " method is not on the output grid " +
                     s.grid.describe());
+    const bool colour_rounding = s.type == SampleType::Half && s.colour_rounding;
+    if (s.half_rgb_weight.size() != (colour_rounding ? 3 * s.grid.size() : 0))
+        throw Error(
+            "the settings' colour-rounding weights are not those of the output grid "
+            "(settings not made by prepare_bake)");
 
     auto src = ImageSource::open(input, s.max_pixels);
     const SourceInfo& info = src->info();

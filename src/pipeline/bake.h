@@ -15,14 +15,11 @@
 
 namespace spectex {
 
-struct BakeSettings {
+// What the command line says of every file's output, taken as given: colour, layout, policies.
+// The set-up (pipeline/bake_request) adds what is resolved or built from the rest.
+struct BakeOptions {
     std::string colorspace;  // --colorspace ("" = metadata, then file rules)
     std::string config;      // --config ("" = $OCIO, then the shipped config)
-    std::string data_dir;
-    std::shared_ptr<const SpectralMethod> method;  // RGB -> spectrum, already on the output grid
-    std::string observer = "cie1931-2";
-    std::string illuminant = "D65";
-    WavelengthGrid grid;
     SampleType type = SampleType::Half;
     ExrCompression compression = ExrCompression::parse(ExrCompression::kDefault);
     int zip_level = 4;  // deflate level of zip/zips (1 fastest .. 12 smallest)
@@ -35,18 +32,32 @@ struct BakeSettings {
     // options of the command line each output records (spectex:commandLine, with its own input and
     // output: file_command_line below), never the batch's list of files.
     std::string file_options;
-    std::string settings_hash;         // recorded as spectex:settingsHash (for --update)
-    std::string legacy_settings_hash;  // --update of outputs that record no colour transform
-    // What builds `method` (options and the tables' values), hashed into settings_hash instead of
-    // the built method's checksum, so that the hash is known before the method is built.
-    std::string method_recipe;
-    int threads = 1;                      // OpenEXR compression threads for this file
     int tile_width = 0, tile_height = 0;  // tiled output when > 0
     bool mipmap = false;          // MIP-mapped (tiled) output, levels filtered on linear RGB
     bool colour_rounding = true;  // half: round bins to keep the integrated colour closest
     // --wrap/--swrap/--twrap: the "wrapmodes" attribute, "s,t" (e.g. "periodic,clamp"); "" when
     // none was given (a tiled output then records maketx's default, black,black).
     std::string wrapmodes;
+};
+
+// Everything a file of a batch is baked with: the options, and what the set-up resolved and built
+// from the request once per batch (pipeline/bake_request: prepare_bake). Const once made.
+struct BakeSettings : BakeOptions {
+    std::string data_dir;
+    std::shared_ptr<const SpectralMethod> method;  // RGB -> spectrum, already on the output grid
+    // The conditions the method is exact for (a given table's own: mallett2019 is cie1931-2, D65).
+    std::string observer = "cie1931-2";
+    std::string illuminant = "D65";
+    WavelengthGrid grid;
+    // Half's colour-aware rounding: the sRGB weights of each bin (bins x 3) under the observer and
+    // illuminant, computed once for the batch; empty for float or nearest rounding.
+    std::vector<float> half_rgb_weight;
+    std::string settings_hash;         // recorded as spectex:settingsHash (for --update)
+    std::string legacy_settings_hash;  // --update of outputs that record no colour transform
+    // What builds `method` (options and the tables' values), hashed into settings_hash instead of
+    // the built method's checksum, so that the hash is known before the method is built.
+    std::string method_recipe;
+    int threads = 1;  // OpenEXR compression threads for this file (the batch's, bake_batch)
     // --wavelengths auto: what chose the grid, recorded as spectex:plan* and hashed.
     struct Plan {
         std::string lights, max_de, reconstruction, range, worst_de;  // empty: the grid was given

@@ -62,9 +62,16 @@ std::chrono::milliseconds progress_period(bool terminal) {
 namespace {
 
 // The batch's state shared by its workers and its progress ticker.
+// The batch's settings with its threads per file (size_batch_threads' plan.threads).
+BakeSettings with_file_threads(const BakeSettings& s, int threads) {
+    BakeSettings out = s;
+    out.threads = threads;
+    return out;
+}
+
 struct BatchRun {
     const BatchPlan& plan;
-    const BakeSettings& settings;
+    const BakeSettings settings;
     BatchListener& listener;
     const size_t total;
     std::vector<std::string> clash;
@@ -76,7 +83,7 @@ struct BatchRun {
 
     BatchRun(const BatchPlan& p, const BakeSettings& s, BatchListener& l, size_t jobs)
         : plan(p),
-          settings(s),
+          settings(with_file_threads(s, p.threads)),
           listener(l),
           total(p.files.size()),
           clash(output_clashes(p.files)),

@@ -21,8 +21,7 @@ std::string conditions(const FitSpec& f) {
 }
 
 Colorimetry colorimetry(const FitSpec& f) {
-    return Colorimetry::make(load_observer(f.data_dir, f.observer),
-                             load_illuminant(f.data_dir, f.illuminant), f.grid,
+    return Colorimetry::make(fit_observer(f), fit_illuminant(f), f.grid,
                              primaries_by_name(f.primaries));
 }
 
