@@ -36,9 +36,9 @@ struct PlanResult;
 // *from_cache (when given) says whether it did.
 PlanResult plan_with_cache(const PlanSpec& spec, bool no_cache, bool verbose, bool quiet,
                            bool* from_cache = nullptr);
-struct PlanCacheReport;
+struct CacheReport;
 // What plan_with_cache says of the cache, for a plan made elsewhere (bake's set-up).
-void report_plan_cache(const PlanSpec& spec, const PlanCacheReport& rep, bool verbose, bool quiet);
+void report_plan_cache(const PlanSpec& spec, const CacheReport& rep, bool verbose, bool quiet);
 // Before a long run: what a grid finer than 1 nm over 360-830 nm costs (bins, bytes per pixel
 // uncompressed, memory per 1,000 pixels of image width), on stderr unless `quiet`.
 void note_grid_cost(const std::string& command, const std::string& what, size_t bins,

@@ -130,7 +130,7 @@ PlanResult plan_with_cache(const PlanSpec& spec, bool no_cache, bool verbose, bo
     return r;
 }
 
-void report_plan_cache(const PlanSpec& spec, const PlanCacheReport& rep, bool verbose, bool quiet) {
+void report_plan_cache(const PlanSpec& spec, const CacheReport& rep, bool verbose, bool quiet) {
     if (!rep.warning.empty() && !quiet)
         std::cerr << "spectex: warning: the plan's answer is not kept in the cache: "
                   << one_line(rep.warning)
