@@ -542,8 +542,8 @@ void round_bin_on_grid_scalar(const float* src, size_t len, uint16_t step, float
     }
 }
 
-// The moves a run of one bin's pixels has just after step 1: delta[i], the value of
-// other_side_step() of dst[i] minus dst[i]'s, for the pixels whose colour needs moves.
+// The first move of each pixel of a run of one bin, just after step 1: delta[i], the value of
+// other_side_step() of h[i] minus h[i]'s (settle_on_grid's starting deltas).
 void grid_deltas_scalar(const float* src, const uint16_t* h, size_t len, uint16_t step,
                         float* delta) {
     for (size_t i = 0; i < len; ++i) {
@@ -791,7 +791,7 @@ bool within_tolerance(const float* e, const float* tol) {
 // The greedy moves of one pixel (bin k at s[k * spectra_stride], out at px[k * plane_stride])
 // already rounded to nearest on the grids of steps[k] with colour error e: the single moves of
 // round_spectra_to_half (in its order and with its float sums), then, past kMaxFlips, pair moves;
-// true when the colour ends within kColourTolerance.
+// true when the colour ends within tol (per channel).
 bool settle_on_grid(const float* s, size_t spectra_stride, const std::vector<uint16_t>& steps,
                     int max_flips, const float* tol, const float* delta0, float* e, uint16_t* px,
                     size_t plane_stride, GridScratch& g, bool avx) {
