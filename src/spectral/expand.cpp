@@ -868,8 +868,9 @@ size_t round_spectra_to_bits(const float* spectra, size_t spectra_stride, size_t
     GridScratch g(*rgb_weight, bins);
     size_t widened = 0;
     // The block is rounded into planes of its own length and copied out at the end: the output's
-    // planes are a strip apart (a multiple of 4 KB), so one pixel's bins there all fall in the
-    // same cache set and the moves below would fetch each from beyond L2.
+    // planes are a strip apart (whole ZIP chunks of rows: a large power-of-two multiple for common
+    // widths), so one pixel's bins there can all fall in one cache set, and the moves below would
+    // fetch each from beyond L2.
     std::vector<uint16_t> local(bins * std::min(kBlock, n));
     std::vector<float> deltas(local.size());
     float tr[kBlock], tg[kBlock], tb[kBlock];
