@@ -774,27 +774,13 @@ bool best_pair(const GridScratch& g, const float* e, bool avx, size_t* ba, size_
     return found;
 }
 
-// The coarse grids' tolerance, per channel: the larger of kColourTolerance and kRelativeTolerance
-// times the channel's exact value. What it must keep is every 8-bit sRGB code re-encoding to
-// itself: the distance from a code's linear value to the next decision level is never below
-// 1.5e-4 (in the linear toe) nor below 0.445 % of the value (at code 255, the smallest relative
-// step); 6.1e-5 and 2^-9 (0.195 %) stay under each by a factor of at least 2.28 at every code, the
-// margin left for the expansion's own error. Float-exact colour is not promised for half: half
-// itself keeps 0.024 % per bin. The tighter full-precision tolerance alone made nine pixels in ten
-// of a photograph search for moves; this one leaves most pixels as rounded.
-constexpr float kRelativeTolerance = 1.0f / 512.0f;
-
-bool within_tolerance(const float* e, const float* tol) {
-    return std::fabs(e[0]) <= tol[0] && std::fabs(e[1]) <= tol[1] && std::fabs(e[2]) <= tol[2];
-}
-
 // The greedy moves of one pixel (bin k at s[k * spectra_stride], out at px[k * plane_stride])
 // already rounded to nearest on the grids of steps[k] with colour error e: the single moves of
 // round_spectra_to_half (in its order and with its float sums), then, past kMaxFlips, pair moves;
-// true when the colour ends within tol (per channel).
+// true when the colour ends within kColourTolerance.
 bool settle_on_grid(const float* s, size_t spectra_stride, const std::vector<uint16_t>& steps,
-                    int max_flips, const float* tol, const float* delta0, float* e, uint16_t* px,
-                    size_t plane_stride, GridScratch& g, bool avx) {
+                    int max_flips, const float* delta0, float* e, uint16_t* px, size_t plane_stride,
+                    GridScratch& g, bool avx) {
     const size_t bins = g.bins;
     const std::vector<float>* w = g.w;
     float* delta = g.delta.data();
@@ -814,7 +800,7 @@ bool settle_on_grid(const float* s, size_t spectra_stride, const std::vector<uin
         const size_t best = best_flip_grid(g, e, avx);
         if (best == bins) break;
         move(best);
-        if (within_tolerance(e, tol)) return true;
+        if (within_tolerance(e)) return true;
     }
     if (max_flips <= kMaxFlips) return false;
     // Coarse steps: single moves overshoot, but two bins moved in opposite directions can change
@@ -827,7 +813,7 @@ bool settle_on_grid(const float* s, size_t spectra_stride, const std::vector<uin
         if (!best_pair(g, e, avx, &ba, &bb)) return false;
         move(ba);
         move(bb);
-        if (within_tolerance(e, tol)) return true;
+        if (within_tolerance(e)) return true;
     }
     return false;
 }
@@ -873,7 +859,6 @@ size_t round_spectra_to_bits(const float* spectra, size_t spectra_stride, size_t
     // fetch each from beyond L2.
     std::vector<uint16_t> local(bins * std::min(kBlock, n));
     std::vector<float> deltas(local.size());
-    float tr[kBlock], tg[kBlock], tb[kBlock];
     auto grid_deltas = f16c ? grid_deltas_f16c : grid_deltas_scalar;
     for (size_t i0 = 0; i0 < n; i0 += kBlock) {
         const size_t len = std::min(kBlock, n - i0);
@@ -885,30 +870,17 @@ size_t round_spectra_to_bits(const float* spectra, size_t spectra_stride, size_t
         for (size_t k = 0; k < bins; ++k)
             round_bin(spectra + k * spectra_stride + i0, len, steps[k], g.w[0][k], g.w[1][k],
                       g.w[2][k], local.data() + k * len, er, eg, eb);
-        // Each pixel's exact colour (bins in increasing order), for the relative tolerance, and
-        // each bin's move to its other grid neighbour, a plane at a time.
-        std::fill(tr, tr + len, 0.0f);
-        std::fill(tg, tg + len, 0.0f);
-        std::fill(tb, tb + len, 0.0f);
-        for (size_t k = 0; k < bins; ++k) {
-            const float* src = spectra + k * spectra_stride + i0;
-            const float wr = g.w[0][k], wg = g.w[1][k], wb = g.w[2][k];
-            for (size_t i = 0; i < len; ++i) {
-                tr[i] += wr * src[i];
-                tg[i] += wg * src[i];
-                tb[i] += wb * src[i];
-            }
-            grid_deltas(src, local.data() + k * len, len, steps[k], deltas.data() + k * len);
-        }
+        // Each bin's first move to its other grid neighbour, a plane at a time.
+        for (size_t k = 0; k < bins; ++k)
+            grid_deltas(spectra + k * spectra_stride + i0, local.data() + k * len, len, steps[k],
+                        deltas.data() + k * len);
         for (size_t i = 0; i < len; ++i) {
             float e[3] = {er[i], eg[i], eb[i]};
-            float tol[3] = {tr[i], tg[i], tb[i]};
-            for (float& t : tol) t = std::max(kColourTolerance, std::fabs(t) * kRelativeTolerance);
-            if (within_tolerance(e, tol)) continue;
+            if (within_tolerance(e)) continue;
             const float* s = spectra + i0 + i;
             uint16_t* px = local.data() + i;
-            if (settle_on_grid(s, spectra_stride, steps, kMaxCoarseFlips, tol, deltas.data() + i, e,
-                               px, len, g, f16c))
+            if (settle_on_grid(s, spectra_stride, steps, kMaxCoarseFlips, deltas.data() + i, e, px,
+                               len, g, f16c))
                 continue;
             // Full half, exactly as round_spectra_to_half rounds this pixel.
             ++widened;

@@ -10,10 +10,9 @@ namespace spectex {
 // Reduced precision: bin k keeps bits[k] (0..10) of the half's 10 mantissa bits, i.e. its half
 // code is a multiple of 2^(10 - bits[k]) (the coarser grid of values; 1.0 and 0 are on every grid,
 // so values in [0, 1] stay there). Every bin is rounded to nearest on its grid (ties to the even
-// grid point); with rgb_weight, a pixel whose integrated colour then misses in a channel by more
-// than max(6.1e-5, 2^-9 x that channel's exact value) has its fewest bins moved to their other
-// neighbour on the same grid (up to 32 single moves, then pairs). A pixel that its grids cannot
-// bring within that tolerance is rounded at full precision instead, exactly as
+// grid point); with rgb_weight, a pixel whose integrated colour then misses by more than 6.1e-5 has
+// its fewest bins moved to their other neighbour on the same grid (up to 32 moves). A pixel that
+// its grids cannot bring within 6.1e-5 is rounded at full precision instead, exactly as
 // round_spectra_to_half rounds it: every pixel's colour under the rounding's colorimetry is then
 // held as at full precision. All bits 10 is round_spectra_to_half, bit for bit. Returns the
 // number of pixels rounded at full precision.
