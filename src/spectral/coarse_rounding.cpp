@@ -80,6 +80,16 @@ void round_bin_on_grid_scalar(const float* src, size_t len, uint16_t step, float
     }
 }
 
+// The first move of each pixel of a run of one bin, just after step 1: delta[i], the value of
+// other_side_step() of h[i] minus h[i]'s (settle_on_grid's starting deltas).
+void grid_deltas_scalar(const float* src, const uint16_t* h, size_t len, uint16_t step,
+                        float* delta) {
+    for (size_t i = 0; i < len; ++i) {
+        const float hv = half_to_float(h[i]);
+        delta[i] = half_to_float(other_side_step(h[i], hv, src[i], step)) - hv;
+    }
+}
+
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 // Eight 32-bit lane masks as eight 16-bit ones.
 __attribute__((target("avx"), always_inline)) inline __m128i mask16(__m256 m) {
@@ -144,6 +154,52 @@ __attribute__((target("avx,f16c"))) void round_bin_on_grid_f16c(const float* src
                                  eb + i);
 }
 
+// grid_deltas_scalar, eight pixels at a time, bit for bit: other_side_step's cases as masks on
+// the codes (other_side()'s for step 1), the values converted exactly by F16C.
+__attribute__((target("avx,f16c"))) void grid_deltas_f16c(const float* src, const uint16_t* h,
+                                                          size_t len, uint16_t step, float* delta) {
+    const __m128i vstep = _mm_set1_epi16(static_cast<short>(step));
+    const __m128i sign_bit = _mm_set1_epi16(static_cast<short>(0x8000));
+    const __m128i mag_bits = _mm_set1_epi16(0x7fff);
+    const __m128i zero = _mm_setzero_si128();
+    // Moving up stays finite: mag + step <= 0x7bff, i.e. mag <= 0x7bff - step (no overflow).
+    const __m128i up_limit = _mm_set1_epi16(static_cast<short>(0x7bff - step));
+    const __m128i below_largest = _mm_set1_epi16(0x7bff);
+    size_t i = 0;
+    for (; i + 8 <= len; i += 8) {
+        const __m128i c = _mm_loadu_si128(reinterpret_cast<const __m128i*>(h + i));
+        const __m256 v = _mm256_cvtph_ps(c), sv = _mm256_loadu_ps(src + i);
+        const __m128i gt = mask16(_mm256_cmp_ps(v, sv, _CMP_GT_OQ));
+        const __m128i lt = mask16(_mm256_cmp_ps(v, sv, _CMP_LT_OQ));
+        const __m128i neg = _mm_cmpeq_epi16(_mm_and_si128(c, sign_bit), sign_bit);
+        const __m128i mag = _mm_and_si128(c, mag_bits);
+        const __m128i mag0 = _mm_cmpeq_epi16(mag, zero);
+        const __m128i plus = _mm_add_epi16(c, vstep), minus = _mm_sub_epi16(c, vstep);
+        // v > s: the code unchanged at magnitude 0, else plus when negative, minus when positive.
+        const __m128i on_gt = _mm_or_si128(_mm_and_si128(neg, plus), _mm_andnot_si128(neg, minus));
+        const __m128i gt_moves = _mm_andnot_si128(mag0, gt);
+        __m128i lt_neg, lt_neg_moves, lt_pos_moves;
+        if (step == 1) {
+            // other_side(): minus when negative and mag < 0x7bff; plus when positive and the same.
+            const __m128i small = _mm_cmpgt_epi16(below_largest, mag);
+            lt_neg = minus;
+            lt_neg_moves = _mm_and_si128(lt, _mm_and_si128(neg, small));
+            lt_pos_moves = _mm_and_si128(lt, _mm_andnot_si128(neg, small));
+        } else {
+            // Negative: step at magnitude 0, else minus; positive: plus while it stays finite.
+            lt_neg = _mm_or_si128(_mm_and_si128(mag0, vstep), _mm_andnot_si128(mag0, minus));
+            lt_neg_moves = _mm_and_si128(lt, neg);
+            lt_pos_moves = _mm_andnot_si128(_mm_or_si128(neg, _mm_cmpgt_epi16(mag, up_limit)), lt);
+        }
+        __m128i o = c;
+        o = _mm_or_si128(_mm_and_si128(gt_moves, on_gt), _mm_andnot_si128(gt_moves, o));
+        o = _mm_or_si128(_mm_and_si128(lt_neg_moves, lt_neg), _mm_andnot_si128(lt_neg_moves, o));
+        o = _mm_or_si128(_mm_and_si128(lt_pos_moves, plus), _mm_andnot_si128(lt_pos_moves, o));
+        _mm256_storeu_ps(delta + i, _mm256_sub_ps(_mm256_cvtph_ps(o), v));
+    }
+    if (i < len) grid_deltas_scalar(src + i, h + i, len - i, step, delta + i);
+}
+
 // best_flip over planes padded to a multiple of 8 bins (weights and deltas 0 past bins).
 __attribute__((target("avx"))) size_t best_flip_padded_avx(const float* wr, const float* wg,
                                                            const float* wb, size_t bins,
@@ -185,6 +241,10 @@ __attribute__((target("avx"))) size_t best_partner_avx(const float* vx, const fl
     return found;
 }
 #else
+void grid_deltas_f16c(const float* src, const uint16_t* h, size_t len, uint16_t step,
+                      float* delta) {
+    grid_deltas_scalar(src, h, len, step, delta);
+}
 void round_bin_on_grid_f16c(const float* src, size_t len, uint16_t step, float wr, float wg,
                             float wb, uint16_t* dst, float* er, float* eg, float* eb) {
     round_bin_on_grid_scalar(src, len, step, wr, wg, wb, dst, er, eg, eb);
@@ -257,16 +317,13 @@ bool best_pair(const GridScratch& g, const float* e, bool avx, size_t* ba, size_
 // round_spectra_to_half (in its order and with its float sums), then, past kMaxFlips, pair moves;
 // true when the colour ends within kColourTolerance.
 bool settle_on_grid(const float* s, size_t spectra_stride, const std::vector<uint16_t>& steps,
-                    int max_flips, float* e, uint16_t* px, size_t plane_stride, GridScratch& g,
-                    bool avx) {
+                    int max_flips, const float* delta0, float* e, uint16_t* px, size_t plane_stride,
+                    GridScratch& g, bool avx) {
     const size_t bins = g.bins;
     const std::vector<float>* w = g.w;
     float* delta = g.delta.data();
-    for (size_t k = 0; k < bins; ++k) {
-        const uint16_t h = px[k * plane_stride];
-        const float hv = half_to_float(h);
-        delta[k] = half_to_float(other_side_step(h, hv, s[k * spectra_stride], steps[k])) - hv;
-    }
+    // The pixel's moves as step 1 left them (grid_deltas), a plane_stride apart.
+    for (size_t k = 0; k < bins; ++k) delta[k] = delta0[k * plane_stride];
     auto move = [&](size_t k) {
         uint16_t& h = px[k * plane_stride];
         const float sk = s[k * spectra_stride];
@@ -325,6 +382,13 @@ size_t round_spectra_to_bits(const float* spectra, size_t spectra_stride, size_t
     const std::vector<float> no_weight(rgb_weight ? 0 : 3 * bins, 0.0f);
     GridScratch g(rgb_weight ? *rgb_weight : no_weight, bins);
     size_t widened = 0;
+    // The block is rounded into planes of its own length and copied out at the end: the output's
+    // planes are a strip apart (whole ZIP chunks of rows: a large power-of-two multiple for common
+    // widths), so one pixel's bins there can all fall in one cache set, and the moves below would
+    // fetch each from beyond L2.
+    std::vector<uint16_t> local(bins * std::min(kBlock, n));
+    std::vector<float> deltas(local.size());
+    auto grid_deltas = f16c ? grid_deltas_f16c : grid_deltas_scalar;
     for (size_t i0 = 0; i0 < n; i0 += kBlock) {
         const size_t len = std::min(kBlock, n - i0);
         std::fill(er, er + len, 0.0f);
@@ -334,20 +398,28 @@ size_t round_spectra_to_bits(const float* spectra, size_t spectra_stride, size_t
         // the bins in increasing order, as one pixel at a time would sum it.
         for (size_t k = 0; k < bins; ++k)
             round_bin(spectra + k * spectra_stride + i0, len, steps[k], g.w[0][k], g.w[1][k],
-                      g.w[2][k], out + k * plane_stride + i0, er, eg, eb);
-        if (!rgb_weight) continue;
-        for (size_t i = 0; i < len; ++i) {
-            float e[3] = {er[i], eg[i], eb[i]};
-            if (within_tolerance(e)) continue;
-            const float* s = spectra + i0 + i;
-            uint16_t* px = out + i0 + i;
-            if (settle_on_grid(s, spectra_stride, steps, kMaxCoarseFlips, e, px, plane_stride, g,
-                               f16c))
-                continue;
-            // Full half, exactly as round_spectra_to_half rounds this pixel.
-            ++widened;
-            round_spectra_to_half(s, spectra_stride, 1, bins, rgb_weight, px, plane_stride);
+                      g.w[2][k], local.data() + k * len, er, eg, eb);
+        if (rgb_weight) {
+            // Each bin's first move to its other grid neighbour, a plane at a time.
+            for (size_t k = 0; k < bins; ++k)
+                grid_deltas(spectra + k * spectra_stride + i0, local.data() + k * len, len,
+                            steps[k], deltas.data() + k * len);
+            for (size_t i = 0; i < len; ++i) {
+                float e[3] = {er[i], eg[i], eb[i]};
+                if (within_tolerance(e)) continue;
+                const float* s = spectra + i0 + i;
+                uint16_t* px = local.data() + i;
+                if (settle_on_grid(s, spectra_stride, steps, kMaxCoarseFlips, deltas.data() + i, e,
+                                   px, len, g, f16c))
+                    continue;
+                // Full half, exactly as round_spectra_to_half rounds this pixel.
+                ++widened;
+                round_spectra_to_half(s, spectra_stride, 1, bins, rgb_weight, px, len);
+            }
         }
+        for (size_t k = 0; k < bins; ++k)
+            std::copy(local.data() + k * len, local.data() + (k + 1) * len,
+                      out + k * plane_stride + i0);
     }
     return widened;
 }

@@ -343,6 +343,21 @@ TEST(Precision, VectorisedCoarseRoundingIsTheScalarOneBitForBit) {
                               v.size());
         for (size_t i = 0; i < v.size(); ++i)
             ASSERT_EQ(out[i], round_half_to_bits(v[i], bits)) << "bits " << bits << " v " << v[i];
+        // The same edge values with colour weights on two bins: the moves' first deltas
+        // (negative values, zeros of both signs, the range's end, Inf and NaN) as the reference's.
+        const size_t m = v.size();
+        std::vector<float> two(2 * m);
+        std::copy(v.begin(), v.end(), two.begin());
+        std::copy(v.rbegin(), v.rend(), two.begin() + static_cast<std::ptrdiff_t>(m));
+        const std::vector<float> w2 = {0.5f, 0.3f, 0.2f, 0.1f, 0.6f, 0.3f};
+        for (const std::vector<int>& b2 : {std::vector<int>{bits, bits}, {bits, 10}}) {
+            std::vector<uint16_t> got(2 * m), want(2 * m);
+            const size_t wg = round_spectra_to_bits(two.data(), m, m, 2, &w2, b2, got.data(), m);
+            const size_t ww =
+                ref_round_spectra_to_bits(two.data(), m, m, 2, w2, b2, want.data(), m);
+            EXPECT_EQ(wg, ww) << "bits " << bits;
+            EXPECT_TRUE(got == want) << "bits " << bits;
+        }
     }
 
     // With the colour-aware correction: random colours, dense-cube colours and out-of-gamut ones,
