@@ -24,6 +24,7 @@
 #include "pipeline/batch_files.h"
 #include "pipeline/method_table.h"
 #include "pipeline/pixel_policy.h"
+#include "pipeline/table_memo.h"
 #include "pipeline/verify_measure.h"
 #include "spectral/adaptation.h"
 #include "spectral/colorimetry.h"
@@ -120,12 +121,12 @@ Colorimetry file_colorimetry(const std::string& exr_path, const SpectralExrInfo&
     try {
         WavelengthGrid grid = WavelengthGrid::from_list(lambdas);
         r.wavelengths = grid.describe();
-        Observer obs = load_observer(s.data_dir, r.observer);
-        Colorimetry col = Colorimetry::make(obs, load_illuminant(s.data_dir, r.illuminant), grid,
+        const auto obs = observer_table(s.data_dir, r.observer);
+        Colorimetry col = Colorimetry::make(*obs, *illuminant_table(s.data_dir, r.illuminant), grid,
                                             primaries_by_name("srgb"));
         for (const auto& name : s.other_lights) {
-            const Colorimetry cl = Colorimetry::make(obs, load_illuminant(s.data_dir, name), grid,
-                                                     primaries_by_name("srgb"));
+            const Colorimetry cl = Colorimetry::make(*obs, *illuminant_table(s.data_dir, name),
+                                                     grid, primaries_by_name("srgb"));
             ctx.lights.push_back({bradford_adaptation(cl.white_xyz, col.white_xyz) * cl.W});
             OtherLightReport lr;
             lr.light = name;
