@@ -183,4 +183,13 @@ std::string number_text(double v, const char* format) {
     return buf;
 }
 
+std::string thousands(uint64_t v) {
+    std::string s = std::to_string(v), o;
+    for (size_t i = 0; i < s.size(); ++i) {
+        if (i && (s.size() - i) % 3 == 0) o += ',';
+        o += s[i];
+    }
+    return o;
+}
+
 }  // namespace spectex

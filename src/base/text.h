@@ -48,4 +48,7 @@ std::string one_line(const std::string& text);
 // A number as printf's `format` writes it ("%.3g" of 0.1234 is "0.123"), for messages and reports.
 std::string number_text(double v, const char* format = "%.6g");
 
+// v with its thousands grouped by commas: "16,777,216".
+std::string thousands(uint64_t v);
+
 }  // namespace spectex

@@ -14,6 +14,7 @@
 #include "pipeline/json_text.h"
 #include "pipeline/light_list.h"
 #include "pipeline/plan_cache.h"
+#include "pipeline/plan_colours.h"
 #include "pipeline/plan_search.h"
 #include "pipeline/plan_texture.h"
 #include "spectral/colorimetry.h"
@@ -26,15 +27,6 @@ namespace spectex {
 namespace {
 
 std::string fmt(double v, const char* f = "%.3g") { return number_text(v, f); }
-
-std::string thousands(uint64_t v) {
-    std::string s = std::to_string(v), o;
-    for (size_t i = 0; i < s.size(); ++i) {
-        if (i && (s.size() - i) % 3 == 0) o += ',';
-        o += s[i];
-    }
-    return o;
-}
 
 // Progress of the search, when someone listens.
 void tell(const PlanSpec& spec, const char* stage, size_t done, size_t total) {
@@ -92,81 +84,6 @@ double relative_bake_time(int bins) { return 0.24 + 0.76 * bins / 81.0; }
 
 namespace {
 
-// The scene as the renderer sees it: its range at 1 nm, the observer, and each light's weights.
-struct Scene {
-    WavelengthGrid fine;
-    Observer observer;
-    std::vector<LightWeights> lights;
-};
-
-Scene load_scene(const PlanSpec& spec) {
-    const std::string& dir = spec.method.fit.data_dir;
-    Scene s;
-    s.fine = renderer_grid(spec.range_start, spec.range_end);
-    s.observer = load_observer(dir, spec.method.fit.observer);
-    for (const auto& name : spec.lights)
-        s.lights.push_back(light_weights(s.observer, load_illuminant(dir, name), s.fine));
-    for (size_t j = 0; j < s.lights.size(); ++j) s.lights[j].name = spec.lights[j];
-    return s;
-}
-
-// The colours that decide: the dense sample of the 8-bit cube, or the texture's own (every row on
-// them), in linear sRGB with the 8-bit sRGB code of each (for the worst colour).
-struct Colours {
-    std::vector<std::array<uint8_t, 3>> codes;
-    std::vector<float> sr, sg, sb;
-    Eigen::Matrix3Xd srgb;
-    std::string text;  // how they were taken, for the report
-};
-
-Colours cube_sample_colours(const PlanSpec& spec) {
-    Colours c;
-    c.codes = code_sample(spec.sample_stride);
-    const auto& t = srgb_code_table();
-    for (const auto& code : c.codes) {
-        c.sr.push_back(static_cast<float>(t[code[0]]));
-        c.sg.push_back(static_cast<float>(t[code[1]]));
-        c.sb.push_back(static_cast<float>(t[code[2]]));
-    }
-    c.text = thousands(c.codes.size()) + " colours (every " + std::to_string(spec.sample_stride) +
-             "th 8-bit sRGB code and 255 per axis, the cube's faces included)";
-    return c;
-}
-
-Colours texture_sample_colours(const PlanSpec& spec) {
-    const TextureColours tc = texture_colours(spec.texture, spec.method.fit.data_dir, spec.config,
-                                              spec.colorspace, spec.max_pixels, spec.texture_cap);
-    if (tc.rgb.empty())
-        throw Error(spec.texture + ": no pixel with alpha above 0: no colour to plan for");
-    Colours c;
-    for (const auto& rgb : tc.rgb) {
-        c.sr.push_back(rgb[0]);
-        c.sg.push_back(rgb[1]);
-        c.sb.push_back(rgb[2]);
-        auto code = [](float v) {
-            return static_cast<uint8_t>(std::lround(255.0 * srgb_encode(v)));
-        };
-        c.codes.push_back({{code(rgb[0]), code(rgb[1]), code(rgb[2])}});
-    }
-    c.text = thousands(tc.rgb.size()) + " colours of " + spec.texture + " (" +
-             (tc.rgb.size() < tc.distinct
-                  ? "an even subset of its " + thousands(tc.distinct) + " distinct ones, "
-                  : std::string("every distinct one, ")) +
-             thousands(tc.pixels) + " pixels" +
-             (tc.transparent ? ", " + thousands(tc.transparent) + " with alpha 0 left out"
-                             : std::string()) +
-             "; " + tc.colorspace + ")";
-    return c;
-}
-
-Colours plan_colours(const PlanSpec& spec) {
-    Colours c = spec.texture.empty() ? cube_sample_colours(spec) : texture_sample_colours(spec);
-    c.srgb.resize(3, static_cast<Eigen::Index>(c.sr.size()));
-    for (size_t i = 0; i < c.sr.size(); ++i)
-        c.srgb.col(static_cast<Eigen::Index>(i)) << c.sr[i], c.sg[i], c.sb[i];
-    return c;
-}
-
 // The method on the renderer's 1 nm range, which every candidate is measured against.
 std::shared_ptr<const SpectralMethod> build_reference(const PlanSpec& spec,
                                                       const WavelengthGrid& fine) {
@@ -187,7 +104,7 @@ std::string method_text(const PlanSpec& spec) {
 }
 
 // The candidates (with --nonuniform, the search's grids added), fewest bins first.
-std::vector<WavelengthGrid> candidate_grids(const PlanSpec& spec, const Scene& scene,
+std::vector<WavelengthGrid> candidate_grids(const PlanSpec& spec, const PlanScene& scene,
                                             const SpectralMethod& ref, bool linear, int threads,
                                             std::string* search_note) {
     std::vector<WavelengthGrid> grids = spec.candidates.empty()
@@ -246,7 +163,7 @@ std::vector<GridRow> build_rows(const PlanSpec& spec, Candidates& cand) {
 }
 
 // Each light's weights after the renderer's reconstruction from a row's grid to 1 nm.
-void reconstruct_lights(const PlanSpec& spec, const Scene& scene, Candidates& cand,
+void reconstruct_lights(const PlanSpec& spec, const PlanScene& scene, Candidates& cand,
                         std::vector<GridRow>& rows) {
     for (auto& row : rows) row.lights.resize(scene.lights.size());
     cand.recon.resize(rows.size());
@@ -302,8 +219,8 @@ void set_figures(LightError& le, const ErrorStats& st) {
 // What a measurement of the rows needs.
 struct Measure {
     const PlanSpec& spec;
-    const Scene& scene;
-    const Colours& colours;
+    const PlanScene& scene;
+    const PlanColours& colours;
     const Candidates& cand;
     const SpectralMethod& ref;
     int threads;
@@ -320,7 +237,7 @@ struct LinearMaps {
 // A row's figures on the sample through its 3×3 maps, with the real half rounding; keeps the
 // largest change half rounding made to any colour's error for the cube.
 void linear_row_on_sample(const Measure& m, size_t i, LinearMaps& maps, GridRow& row) {
-    const Colours& c = m.colours;
+    const PlanColours& c = m.colours;
     const auto& lights = m.scene.lights;
     const Eigen::MatrixXd B = basis_matrix(*m.cand.methods[i]);
     for (size_t j = 0; j < lights.size(); ++j) maps.rows[i].push_back(m.cand.recon[i][j] * B);
@@ -438,7 +355,7 @@ void measure_linear(const Measure& m, const std::string& mode, PlanResult& res) 
 
 // Another method: every row on the sample, spectra built per colour.
 void measure_nonlinear(const Measure& m, PlanResult& res) {
-    const Colours& c = m.colours;
+    const PlanColours& c = m.colours;
     const auto& lights = m.scene.lights;
     std::vector<Eigen::Matrix3Xd> ref_w;
     for (const auto& lw : lights) ref_w.push_back(lw.W);
@@ -499,72 +416,6 @@ void explain_choice(double max_de, PlanResult& res) {
 
 namespace {
 
-// The colours a row is measured on: the dense sample's size (stride s: 0, s, 2s, ... and 255 per
-// axis), or the texture's cap.
-uint64_t colours_per_row(const PlanSpec& spec) {
-    if (!spec.texture.empty()) return spec.texture_cap;
-    const uint64_t stride = static_cast<uint64_t>(std::max(1, spec.sample_stride));
-    const uint64_t axis = 255 / stride + 1 + (255 % stride ? 1 : 0);
-    return axis * axis * axis;
-}
-
-uint64_t candidate_bins(const PlanSpec& spec) {
-    uint64_t bins = 0;
-    for (const auto& g : spec.candidates.empty()
-                             ? default_candidates(spec.range_start, spec.range_end)
-                             : spec.candidates)
-        bins += g.size();
-    return bins;
-}
-
-}  // namespace
-
-uint64_t plan_cost(const PlanSpec& spec) {
-    return candidate_bins(spec) * static_cast<uint64_t>(spec.lights.size()) * colours_per_row(spec);
-}
-
-void check_plan_cost(const PlanSpec& spec) {
-    const uint64_t bins = candidate_bins(spec);
-    if (method_row(spec.method.kind).table_axis(spec.method) > 0) {
-        const MethodSpec& m = spec.method;
-        const uint64_t fine =
-            static_cast<uint64_t>(std::max(0.0, spec.range_end - spec.range_start)) + 1;
-        check_method_cost(m, bins + fine,
-                          std::to_string(bins + fine) +
-                              " bins (every candidate grid's and the 1 nm reference's, held "
-                              "together)");
-    }
-    const uint64_t cost = plan_cost(spec);
-    if (cost <= kPlanCostLimit) return;
-    // The option furthest above its default carries the blame.
-    const PlanSpec defaults;
-    const uint64_t default_bins = candidate_bins(defaults),
-                   default_colours = colours_per_row(defaults);
-    const double by_grids = static_cast<double>(bins) / static_cast<double>(default_bins),
-                 by_lights = static_cast<double>(spec.lights.size()) / 3.0,
-                 by_colours = static_cast<double>(colours_per_row(spec)) /
-                              static_cast<double>(default_colours);
-    std::string option = "--grids";
-    if (by_lights > by_grids && by_lights >= by_colours) option = "--lights";
-    if (by_colours > by_grids && by_colours > by_lights)
-        option = spec.texture.empty() ? "--sample-stride" : "--texture";
-    char figure[32], limit[32];
-    std::snprintf(figure, sizeof figure, "%.3g", static_cast<double>(cost));
-    std::snprintf(limit, sizeof limit, "%.3g", static_cast<double>(kPlanCostLimit));
-    const size_t grids = spec.candidates.empty()
-                             ? default_candidates(spec.range_start, spec.range_end).size()
-                             : spec.candidates.size();
-    throw LimitError(
-        option + ": " + std::to_string(grids) + " grid" + (grids == 1 ? "" : "s") + " of " +
-        std::to_string(bins) + " bins in all x " + std::to_string(spec.lights.size()) + " light" +
-        (spec.lights.size() == 1 ? "" : "s") + " x " + thousands(colours_per_row(spec)) +
-        " colours = " + figure + " spectral samples to measure, over the limit of " + limit +
-        " (8 times the default table); give coarser or fewer --grids, fewer "
-        "--lights or a larger --sample-stride");
-}
-
-namespace {
-
 // --precision auto on the chosen grid: the bits bake --precision auto would keep (its lights: the
 // plan's and the illuminant the method is exact for; its sample of the cube).
 void plan_precision(const PlanSpec& spec, const Observer& observer, const WavelengthGrid& grid,
@@ -597,8 +448,8 @@ PlanResult plan_grids(const PlanSpec& spec) {
     if (spec.lights.empty()) throw Error("no lights to plan for");
     if (!(spec.max_de > 0)) throw Error("the budget must be a positive ΔE00");
     check_plan_cost(spec);
-    const Scene scene = load_scene(spec);
-    const Colours colours = plan_colours(spec);
+    const PlanScene scene = load_plan_scene(spec);
+    const PlanColours colours = plan_colours(spec);
     // A texture's colours are all there is: no cube.
     const std::string mode = spec.texture.empty() ? spec.colours : "sample";
     const int threads =
