@@ -1,6 +1,7 @@
 #include "pipeline/basis_cache.h"
 
 #include "base/memo.h"
+#include "pipeline/table_memo.h"
 #include "spectral/colorimetry.h"
 #include "spectral/spectrum.h"
 
@@ -12,12 +13,13 @@ std::string FitSpec::describe() const {
 }
 
 Observer fit_observer(const FitSpec& spec) {
-    return spec.observer_table ? *spec.observer_table : load_observer(spec.data_dir, spec.observer);
+    return spec.observer_table ? *spec.observer_table
+                               : *observer_table(spec.data_dir, spec.observer);
 }
 
 Spectrum fit_illuminant(const FitSpec& spec) {
     return spec.illuminant_table ? *spec.illuminant_table
-                                 : load_illuminant(spec.data_dir, spec.illuminant);
+                                 : *illuminant_table(spec.data_dir, spec.illuminant);
 }
 
 FitResult fit_basis_for(const FitSpec& spec) {

@@ -17,6 +17,7 @@
 #include "pipeline/plan_colours.h"
 #include "pipeline/plan_search.h"
 #include "pipeline/plan_texture.h"
+#include "pipeline/table_memo.h"
 #include "spectral/colorimetry.h"
 #include "spectral/precision.h"
 #include "spectral/spectrum.h"
@@ -114,10 +115,10 @@ std::vector<WavelengthGrid> candidate_grids(const PlanSpec& spec, const PlanScen
         if (!linear)
             throw Error("--nonuniform searches with the basis' 3x3 maps: it needs --method basis");
         tell(spec, "searching non-uniform grids", 0, 1);
-        const NonuniformSearch found =
-            search_nonuniform(spec, scene.observer,
-                              load_illuminant(spec.method.fit.data_dir, spec.method.fit.illuminant),
-                              scene.fine, scene.lights, basis_matrix(ref), grids, threads);
+        const NonuniformSearch found = search_nonuniform(
+            spec, scene.observer,
+            *illuminant_table(spec.method.fit.data_dir, spec.method.fit.illuminant), scene.fine,
+            scene.lights, basis_matrix(ref), grids, threads);
         for (const auto& g : found.grids)
             if (std::none_of(grids.begin(), grids.end(), [&](const WavelengthGrid& u) {
                     return same_wavelengths(u.lambda, g.lambda);
@@ -181,7 +182,7 @@ void reconstruct_lights(const PlanSpec& spec, const PlanScene& scene, Candidates
 std::vector<float> rgb_weight_for(const PlanSpec& spec, const Observer& obs,
                                   const WavelengthGrid& g) {
     const Colorimetry c = Colorimetry::make(
-        obs, load_illuminant(spec.method.fit.data_dir, spec.method.fit.illuminant), g,
+        obs, *illuminant_table(spec.method.fit.data_dir, spec.method.fit.illuminant), g,
         primaries_by_name(spec.method.fit.primaries));
     const Eigen::Matrix3Xd R = c.rgb_weights();
     std::vector<float> w(3 * g.size());
@@ -427,7 +428,8 @@ void plan_precision(const PlanSpec& spec, const Observer& observer, const Wavele
     PrecisionRequest req;
     req.method = method.get();
     req.observer = observer;
-    for (const auto& l : names) req.lights.push_back(load_illuminant(spec.method.fit.data_dir, l));
+    for (const auto& l : names)
+        req.lights.push_back(*illuminant_table(spec.method.fit.data_dir, l));
     const std::vector<float> w = rgb_weight_for(spec, observer, grid);
     req.rgb_weight = &w;
     req.max_de = spec.precision_de > 0 ? spec.precision_de : spec.max_de;
@@ -481,7 +483,7 @@ void add_plan_precision(const PlanSpec& spec, PlanResult& res, const std::string
     if (!spec.precision || !spec.half || res.chosen < 0) return;
     const int threads =
         std::min(spec.threads > 0 ? spec.threads : hardware_threads(), thread_budget());
-    plan_precision(spec, load_observer(spec.method.fit.data_dir, spec.method.fit.observer),
+    plan_precision(spec, *observer_table(spec.method.fit.data_dir, spec.method.fit.observer),
                    res.rows[static_cast<size_t>(res.chosen)].grid, threads, cache, res);
 }
 

@@ -16,6 +16,7 @@
 #include "io/provenance_keys.h"
 #include "io/source_identity.h"
 #include "pipeline/cached_answer.h"
+#include "pipeline/table_memo.h"
 #include "spectex/version.h"
 #include "spectral/spectrum.h"
 
@@ -90,15 +91,15 @@ std::string plan_cache_key(const PlanSpec& spec) {
     k.text(m.fit.primaries);
     k.text(to_string(m.fit.objective));
     k.text(m.fit.allow_infeasible ? "infeasible allowed" : "exact");
-    const Observer obs = load_observer(dir, m.fit.observer);
+    const Observer obs = *observer_table(dir, m.fit.observer);
     k.spectrum(obs.x);
     k.spectrum(obs.y);
     k.spectrum(obs.z);
-    k.spectrum(load_illuminant(dir, m.fit.illuminant));
+    k.spectrum(*illuminant_table(dir, m.fit.illuminant));
     k.number(static_cast<double>(spec.lights.size()));
     for (const auto& l : spec.lights) {
         k.text(l);
-        k.spectrum(load_illuminant(dir, l));
+        k.spectrum(*illuminant_table(dir, l));
     }
     k.number(spec.max_de);
     k.text(to_string(spec.reconstruction));

@@ -5,6 +5,7 @@
 #include "base/error.h"
 #include "base/text.h"
 #include "pipeline/plan_texture.h"
+#include "pipeline/table_memo.h"
 #include "spectral/srgb_axis.h"
 
 namespace spectex {
@@ -13,9 +14,9 @@ PlanScene load_plan_scene(const PlanSpec& spec) {
     const std::string& dir = spec.method.fit.data_dir;
     PlanScene s;
     s.fine = renderer_grid(spec.range_start, spec.range_end);
-    s.observer = load_observer(dir, spec.method.fit.observer);
+    s.observer = *observer_table(dir, spec.method.fit.observer);
     for (const auto& name : spec.lights)
-        s.lights.push_back(light_weights(s.observer, load_illuminant(dir, name), s.fine));
+        s.lights.push_back(light_weights(s.observer, *illuminant_table(dir, name), s.fine));
     for (size_t j = 0; j < s.lights.size(); ++j) s.lights[j].name = spec.lights[j];
     return s;
 }

@@ -1,7 +1,8 @@
 #pragma once
 // The observer and illuminant tables by the name a command or a file gives (a shipped name or a
 // CSV path), read once per process: a verify of a thousand files that record the same observer
-// and lights reads each table once, as a bake's set-up does for its batch. A table that cannot be
+// and lights reads each table once, as does a plan that measures 21 candidate grids (and builds a
+// method on each), as a bake's set-up does for its batch. A table that cannot be
 // read throws the same Error for every caller.
 #include <memory>
 #include <string>
