@@ -135,10 +135,10 @@ def main():
             for m in methods:
                 fk, bk_ = ("floor", "bake") if m == "basis" else (f"floor_{m}", f"bake_{m}")
                 runs[fk].append(floor("380:780:5", m if multi else None))
-                runs[bk_].append(bake(["--method", m] if multi else []))
+                runs[bk_].append(bake(["--method", m]))  # named: the floor writes that method's spectra
                 log(f"  run {i + 1}, {m}: floor {runs[fk][-1]['wall']:.2f} s, bake {runs[bk_][-1]['wall']:.2f} s")
             if not a.no_nearest:
-                runs["bake_nearest"].append(bake(["--half-rounding", "nearest"]))
+                runs["bake_nearest"].append(bake(["--method", "basis", "--half-rounding", "nearest"]))
                 log(f"  run {i + 1}: bake nearest {runs['bake_nearest'][-1]['wall']:.2f} s")
         for k, v in runs.items():
             best = min(v, key=lambda r: r["wall"])
@@ -146,7 +146,7 @@ def main():
             rows[k] = best
         if not a.no_401:
             log("  401 bins (380:780:1), one run for memory")
-            rows["bake_401"] = bake(["--wavelengths", "380:780:1"])
+            rows["bake_401"] = bake(["--method", "basis", "--wavelengths", "380:780:1"])
             rows["bake_401"]["rss_max"] = rows["bake_401"]["rss"]
             names["bake_401"] = "bake, 401 bins (380:780:1)"
             floor_of["bake_401"] = None  # no 401-bin floor is run: memory only

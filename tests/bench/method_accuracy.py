@@ -489,7 +489,9 @@ def run_spectex(args, groups):
     work = Path(tempfile.mkdtemp(prefix="spectex-acc-"))
     try:
         for spec in args.methods:
-            if spec.startswith("--"):
+            if spec == "default":  # spectex bake's default: no method option at all
+                extra = []
+            elif spec.startswith("--"):
                 extra = spec.split()
             else:
                 m, _, n = spec.partition(":")

@@ -51,6 +51,8 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent.parent
 SPECTRAL = ROOT / "config" / "spectral"
 
+# The reference row: the basis fitted smooth (spectex bake's default before the LHTSS lattice with its
+# precision budget; method_args names it, so the row's figures keep their meaning).
 DEFAULT = dict(grid="380:780:5", type="half", compression="zip", basis="smooth", method="basis")
 
 # The precision rows: every method at full precision and with the default decision's budget.
