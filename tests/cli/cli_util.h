@@ -37,6 +37,21 @@ constexpr bool kBinarySanitized = true;
 constexpr bool kBinarySanitized = false;
 #endif
 
+// Every spectex this binary runs keeps its answers (plans, --precision auto's bits) in a cache of
+// the test run's own, never the user's ~/.cache/spectex: a folder of the build tree named by the
+// size and time of the spectex under test, so a rebuilt binary starts with an empty one. The
+// default bake chooses its bits once per build instead of once per test; a test of the cache
+// names a folder of its own, and --no-cache or SPECTEX_CACHE_DIR= (empty) turn it off.
+inline const bool kTestCacheSet = [] {
+    struct stat st {};
+    std::string dir = SPECTEX_TEST_CACHE_ROOT;
+    if (::stat(SPECTEX_BINARY, &st) == 0)
+        dir += "/" + std::to_string(st.st_size) + "-" + std::to_string(st.st_mtim.tv_sec) + "." +
+               std::to_string(st.st_mtim.tv_nsec);
+    ::setenv("SPECTEX_CACHE_DIR", dir.c_str(), 1);
+    return true;
+}();
+
 struct RunResult {
     int status = -1;  // exit status, or 128+signal
     std::string out, err;

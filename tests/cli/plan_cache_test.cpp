@@ -22,12 +22,8 @@ using namespace spectex_test;
 
 // The tests that bake with --wavelengths auto or search many plans are in PlanCacheSlow: the
 // whole suite runs them, the sanitizer build (which runs the rest about four times slower) not.
-// No test of this binary uses the real cache of the user running it (~/.cache/spectex): the cache
-// is off (SPECTEX_CACHE_DIR set and empty) unless a test names a folder of its own.
-static const bool kCacheOffInTests = [] {
-    ::setenv("SPECTEX_CACHE_DIR", "", 1);
-    return true;
-}();
+// No test of this binary uses the real cache of the user running it (~/.cache/spectex): the
+// run's own (cli_util.h) unless a test names a folder of its own.
 
 namespace {
 

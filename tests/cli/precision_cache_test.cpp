@@ -20,12 +20,6 @@ namespace {
 
 const std::string kHit = "from the cache";
 
-// The cache is off for every run of this binary unless a test names a folder of its own.
-const bool kCacheOffInTests = [] {
-    ::setenv("SPECTEX_CACHE_DIR", "", 1);
-    return true;
-}();
-
 struct Env {
     explicit Env(const std::string& cache) {
         const char* old = std::getenv("SPECTEX_CACHE_DIR");
