@@ -162,7 +162,9 @@ class SetupReport : public BakeSetupListener {
         if (rep.hit && c_.verbose)
             std::cerr << "spectex: the precision's bits from the cache: "
                       << one_line(quote_path(rep.entry)) << "\n";
-        if (c_.quiet) return;
+        // The bits asked for are said; the default bake's own only with -v (its bake says nothing
+        // more than any other, and a failed file's error stays the first line).
+        if (c_.quiet || (c_.default_bake && !c_.precision_given && !c_.verbose)) return;
         double w = 0;
         for (double d : pc.worst_de) w = std::max(w, d);
         char num[64], worst_num[64];

@@ -102,15 +102,16 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
            [&] { c.allow_lossy = true; });
     p.option(
         "--zip-level", "L",
-        "Deflate level of zip and zips, 1 (fastest) to 12 (smallest); default 4. Level 1 took 0.6x "
-        "the "
-        "CPU time of 4 for files about 5 % larger; 6 took 1.7x for 0.5 % smaller "
-        "(docs/performance.md).",
+        "Deflate level of zip and zips, 1 (fastest) to 12 (smallest); default 4, or 1 with "
+        "--precision auto taken by default. Level 1 took 0.6x the CPU time of 4 for files about "
+        "5 % larger (10 % with --precision auto, whose zeroed low bits slow level 4 down); 6 took "
+        "1.7x for 0.5 % smaller (docs/performance.md).",
         [&](const std::string& v) {
             long long l = 0;
             if (!parse_whole(v, 1, 12, &l))
                 throw UsageError("--zip-level: '" + v + "' is not a level from 1 to 12");
             c.req.options.zip_level = static_cast<int>(l);
+            c.zip_level_given = true;
         });
     p.flag("--preview", "Also write R, G, B channels (linear Rec.709) for image viewers.",
            [&] { c.req.options.preview = true; });
@@ -163,7 +164,10 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
                  c.req.options.colour_rounding = v == "colour";
              });
     p.option("--precision", "full|auto",
-             "Half's mantissa bits per bin. full (default): all 10 in every bin. auto: per bin, "
+             "Half's mantissa bits per bin. full: all 10 in every bin. auto (the default without "
+             "--method, where the output is half, colour-rounded and losslessly compressed: under "
+             "D65,A,FL2,FL11,D50,LED-B3 within 0.5 unless --lights or --max-de are given, and "
+             "--zip-level 1 unless given; else full): per bin, "
              "the fewest that keep the worst ΔE00 between the rounded and the unrounded spectra "
              "within --precision-de (default --max-de) under every one of --lights and the light "
              "the method is exact for, over a dense sample of the 8-bit cube; the colour-aware "
@@ -174,6 +178,7 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
                  if (v != "full" && v != "auto")
                      throw UsageError("--precision: '" + v + "' is not one of full, auto");
                  c.precision = v;
+                 c.precision_given = true;
              });
     p.option("--precision-de", "DE",
              "The budget of --precision auto when it differs from --max-de (the grid's budget "
@@ -226,7 +231,11 @@ void declare_spectra_options(ArgParser& p, BakeCli& c) {
     add_plan_options(p, c.req.plan, c.plan_lights, c.plan_budget);
     add_cache_option(p, c.no_cache);
     p.section("Method");
-    add_method_options(p, c.m, true);
+    add_method_options(
+        p, c.m, true,
+        "Default: the lattice with --vertex-prior lhtss, in half with --precision auto (see "
+        "there); an option of one method without --method (--basis, --lattice-size...) takes "
+        "that method, at full precision.");
     observer_option(p, "Observer of the fitted basis", c.m.spec.fit.observer);
     p.option("--illuminant", "NAME|FILE",
              "Illuminant under which the fitted basis is exact: " +
@@ -358,12 +367,33 @@ void check_method_options(BakeCli& c) {
                          "one (" +
                          ExrCompression::lossless_list(", ", " or ") +
                          "), or add --allow-lossy to accept the loss");
+    // Without --method: bake's default, unless an option says which method (one of its own, or
+    // --out-of-range keep and --nonuniform, which only the basis takes).
+    const bool basis_only = c.range == "keep" || c.req.plan.nonuniform;
+    c.default_bake =
+        resolve_method(c.m, basis_only ? MethodSpec{} : DefaultBake::method()) && !basis_only;
     check_method_options(c.m);
     const MethodRow& row = method_row(c.m.spec.kind);
     if (!row.takes_out_of_range && c.range == "keep")
         throw UsageError("--out-of-range keep needs a method defined outside [0, 1] (--method " +
                          method_table().front().name + "): the " + row.name +
                          " method is defined on linear RGB in [0, 1] only");
+}
+
+// --precision not given: full, but for the default bake where a budget can be kept (half, the
+// colour-aware rounding, a compression that keeps the samples): auto. The default bake's budget
+// is under DefaultBake's lights and within its ΔE00 unless --lights or --max-de say otherwise,
+// deflated at DefaultBake's level unless --zip-level says.
+void resolve_precision(BakeCli& c) {
+    if (!c.precision_given) {
+        const bool keeps = c.type == "half" && c.req.options.colour_rounding &&
+                           !c.req.options.compression.lossy_for(true);
+        c.precision = c.default_bake && keeps ? "auto" : "full";
+    }
+    if (!c.default_bake || c.precision != "auto") return;
+    if (!c.plan_lights) c.req.plan.lights = DefaultBake::lights();
+    if (!c.plan_budget) c.req.plan.max_de = DefaultBake::max_de;
+    if (!c.zip_level_given) c.req.options.zip_level = DefaultBake::zip_level;
 }
 
 // --precision auto: half only, and the scene's lights and a budget to choose with.
@@ -379,6 +409,7 @@ void check_precision_options(const BakeCli& c) {
         throw UsageError(
             "--precision auto keeps every 8-bit code through the colour-aware rounding; "
             "--half-rounding nearest would lose them on the coarser grids");
+    if (c.default_bake) return;  // its lights and budget, unless given (resolve_precision)
     if (!c.plan_lights)
         throw UsageError("--precision auto needs --lights (the scene's lights it must hold)");
     if (!c.plan_budget && !c.precision_de_given)
@@ -388,6 +419,7 @@ void check_precision_options(const BakeCli& c) {
 // The output grid: given, read from a file, or chosen by --wavelengths auto.
 void check_grid_options(BakeCli& c) {
     const bool automatic = c.wavelengths == "auto";
+    resolve_precision(c);
     if (automatic) {
         if (!c.wavelengths_file.empty())
             throw UsageError("--wavelengths auto and --wavelengths-file are two grids; give one");

@@ -30,9 +30,14 @@ struct BakeCli {
     // What the set-up is asked (pipeline/bake_request): the options, the grid, --wavelengths
     // auto's plan; the method (m.spec) and the precision request are copied in once all are read.
     BakeRequest req;
-    bool plan_lights = false, plan_budget = false, no_cache = false;
-    // --precision full|auto and --precision-de (docs/precision.md).
-    std::string precision = "full";
+    bool plan_lights = false, plan_budget = false, no_cache = false, zip_level_given = false;
+    // Neither --method nor an option of one method: the default bake (DefaultBake), its method,
+    // and its precision budget where one can be kept.
+    bool default_bake = false;
+    // --precision full|auto and --precision-de (docs/precision.md); "" until resolved: auto for
+    // the default bake (DefaultBake) where a budget can be kept, else full.
+    std::string precision;
+    bool precision_given = false;
     double precision_de = 0;  // 0: --max-de's
     bool precision_de_given = false;
 };

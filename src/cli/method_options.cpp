@@ -13,18 +13,20 @@ bool MethodOptions::given_any_of(const MethodRow& row) const {
     return false;
 }
 
-void add_method_options(ArgParser& p, MethodOptions& o, bool with_basis_table) {
+void add_method_options(ArgParser& p, MethodOptions& o, bool with_basis_table,
+                        const std::string& default_help) {
     auto note = [&o](const std::string& option) {
         if (std::find(o.given.begin(), o.given.end(), option) == o.given.end())
             o.given.push_back(option);
     };
     std::string help = "How a linear RGB becomes a spectrum.";
     for (const auto& row : method_table()) help += " " + row.name + ": " + row.help + ".";
-    help += " Default " + method_table().front().name + ".";
+    help += " " + default_help;
     p.option("--method", method_names("|"), help, [&o](const std::string& v) {
         const MethodRow* row = find_method(v);
         if (!row) throw UsageError("--method: '" + v + "' is not one of " + method_names(", "));
         o.spec.kind = row->kind;
+        o.method_given = true;
     });
     if (with_basis_table)
         p.option("--basis", "fit|mallett2019|FILE",
@@ -73,6 +75,29 @@ void add_method_options(ArgParser& p, MethodOptions& o, bool with_basis_table) {
                  o.spec.jh_resolution = parse_int("--jh-resolution", v, 3, 64);
                  note("--jh-resolution");
              });
+}
+
+bool resolve_method(MethodOptions& o, const MethodSpec& fallback) {
+    if (o.method_given) return false;
+    const MethodRow* owner = nullptr;
+    for (const auto& option : o.given) {
+        const MethodRow* row = method_of_option(option);
+        if (!row) continue;
+        if (owner && owner != row)
+            throw UsageError(owner->options.front() + " belongs to --method " + owner->name + ", " +
+                             option + " to --method " + row->name + "; give --method");
+        owner = row;
+    }
+    if (owner) {
+        o.spec.kind = owner->kind;
+        return false;
+    }
+    // The fallback's method and its options' values, the conditions (observer, illuminant) as
+    // given.
+    const FitSpec fit = o.spec.fit;
+    o.spec = fallback;
+    o.spec.fit = fit;
+    return true;
 }
 
 void check_method_options(const MethodOptions& o) {

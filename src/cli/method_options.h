@@ -17,11 +17,17 @@ struct MethodOptions {
     std::string basis = "fit";  // --basis fit|mallett2019|FILE (bake only)
     // The options given that belong to one method, by long name, in order.
     std::vector<std::string> given;
+    bool method_given = false;  // --method
     bool given_any_of(const MethodRow& row) const;
 };
 
 // with_basis_table: also --basis (bake reads a basis table; plan fits one on each grid).
-void add_method_options(ArgParser& p, MethodOptions& o, bool with_basis_table);
+// default_help: what --method's help says of the method taken without it.
+void add_method_options(ArgParser& p, MethodOptions& o, bool with_basis_table,
+                        const std::string& default_help);
+// Without --method, the method of the options given (--basis mallett2019 alone is the basis, as
+// it always was), else `fallback` (bake's default). True when the fallback was taken.
+bool resolve_method(MethodOptions& o, const MethodSpec& fallback);
 // An option given that belongs to another method than --method's: a UsageError naming both
 // ("--jh-resolution belongs to --method jakob-hanika, not --method lattice").
 void check_method_options(const MethodOptions& o);

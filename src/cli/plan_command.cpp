@@ -14,6 +14,7 @@
 #include "io/atomic_file.h"
 #include "io/data_dir.h"
 #include "io/library_stderr.h"
+#include "pipeline/bake_request.h"
 #include "pipeline/light_list.h"
 #include "pipeline/plan.h"
 #include "pipeline/plan_cache.h"
@@ -167,12 +168,16 @@ struct PlanOptions {
     PlanSpec spec;
     std::string type = "half", json, grid_file;
     MethodOptions m;  // --method and its options, copied into spec.method once all are read
-    bool lights_given = false, budget_given = false, no_cache = false, progress = false;
+    bool lights_given = false, budget_given = false, no_cache = false, progress = false,
+         precision_given = false;
 };
 
 // --method and what builds it (method_options.h), --observer and --illuminant.
 void add_method_and_conditions(ArgParser& p, PlanOptions& o) {
-    add_method_options(p, o.m, false);
+    add_method_options(p, o.m, false,
+                       "Default: bake's, the lattice with --vertex-prior lhtss, and its bits "
+                       "(--precision auto) with the grid; an option of one method without "
+                       "--method takes that method, and --nonuniform the basis.");
     observer_option(p, "Observer of the method and of the error", o.m.spec.fit.observer);
     p.option("--illuminant", "NAME|FILE",
              "Illuminant the method is exact for (default D65), as in bake (a name, a colour "
@@ -194,11 +199,13 @@ void add_measure_options(ArgParser& p, PlanOptions& o) {
     p.option("--precision", "full|auto",
              "auto: also choose the chosen grid's mantissa bits per bin as bake --precision auto "
              "does (within --precision-de, default --max-de, under --lights and --illuminant), "
-             "and print bins and bits together. Half only; default full.",
+             "and print bins and bits together. Half only; default auto for bake's default "
+             "method, else full.",
              [&](const std::string& v) {
                  if (v != "full" && v != "auto")
                      throw UsageError("--precision: '" + v + "' is not one of full, auto");
                  spec.precision = v == "auto";
+                 o.precision_given = true;
              });
     p.option(
         "--precision-de", "DE",
@@ -255,6 +262,12 @@ void add_measure_options(ArgParser& p, PlanOptions& o) {
 void check_plan_options(PlanOptions& o, const std::vector<std::string>& pos) {
     PlanSpec& spec = o.spec;
     if (!pos.empty()) throw UsageError("unexpected argument '" + pos[0] + "'");
+    // As bake: its default method and bits, unless a method is named or implied (--nonuniform
+    // searches with the basis' 3x3 maps only).
+    const bool default_method =
+        resolve_method(o.m, spec.nonuniform ? MethodSpec{} : DefaultBake::method()) &&
+        !spec.nonuniform;
+    if (default_method && !o.precision_given && o.type == "half") spec.precision = true;
     check_method_options(o.m);
     spec.method = o.m.spec;
     if (spec.nonuniform && !method_row(spec.method.kind).linear)

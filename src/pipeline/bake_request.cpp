@@ -261,6 +261,18 @@ void choose_precision_bits(const BakeRequest& r, const BakeTables& t, BakeSettin
 
 }  // namespace
 
+MethodSpec DefaultBake::method() {
+    MethodSpec m;
+    m.kind = MethodKind::Lattice;
+    m.vertex_prior = "lhtss";
+    return m;
+}
+
+const std::vector<std::string>& DefaultBake::lights() {
+    static const std::vector<std::string> names = {"D65", "A", "FL2", "FL11", "D50", "LED-B3"};
+    return names;
+}
+
 const Spectrum& BakeTables::light(const std::string& name) const {
     for (const auto& l : lights)
         if (l.first == name) return l.second;

@@ -66,8 +66,21 @@ std::string lattice_head(const MethodSpec& s) {
 }
 
 MethodResult build_lattice(const MethodSpec& s) {
-    SpectralLattice lattice = SpectralLattice::build(colorimetry(s.fit), s.lattice_size,
-                                                     parse_vertex_prior(s.vertex_prior), s.blend);
+    // A vertex with no exact spectrum in [0, 1] (a coarse grid, an illuminant whose gamut is not
+    // sRGB's): the way out is the basis fitted closest, which --allow-infeasible takes (it belongs
+    // to the basis, so without --method it chooses it).
+    auto lattice = [&] {
+        try {
+            return SpectralLattice::build(colorimetry(s.fit), s.lattice_size,
+                                          parse_vertex_prior(s.vertex_prior), s.blend);
+        } catch (const LimitError&) {
+            throw;
+        } catch (const Error& e) {
+            throw Error(std::string(e.what()) +
+                        "; every vertex must be exact and in [0, 1]: --allow-infeasible bakes "
+                        "the least-squares closest basis instead");
+        }
+    }();
     MethodResult r;
     r.method = std::make_shared<LatticeMethod>(std::move(lattice), s.fit.grid.lambda,
                                                conditions(s.fit), s.blend);

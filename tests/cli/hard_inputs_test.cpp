@@ -900,6 +900,7 @@ TEST(HardInputs, KeepRefusesValuesHalfCannotStore) {
     px[10] = 1e38f;
     px[40] = -7e4f;
     write_image(d / "hdr.exr", 8, 8, 3, OIIO::TypeDesc::FLOAT, px.data());
+    // Without --method: --out-of-range keep takes the basis, the one method defined outside [0, 1].
     RunResult r = run_spectex({"bake", d / "hdr.exr", "-o", d / "h.exr", "--out-of-range", "keep"});
     EXPECT_EQ(r.status, 1) << r.err;
     EXPECT_TRUE(has_text(r.err, "largest half value")) << r.err;

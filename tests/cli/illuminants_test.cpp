@@ -104,9 +104,16 @@ TEST(Illuminants, NamesWorkInAnyCaseInBakeAndBasis) {
 TEST(Illuminants, InfeasibleIlluminantIsReportedAndAllowInfeasibleBakes) {
     ScratchDir d;
     std::string png = make_png(d, "in.png", 4, 4);
-    RunResult r = run_spectex({"bake", png, "-o", d / "o.exr", "-q", "--illuminant", "LED-B3"});
+    RunResult r = run_spectex(
+        {"bake", png, "-o", d / "o.exr", "-q", "--method", "basis", "--illuminant", "LED-B3"});
     EXPECT_EQ(r.status, 2);  // a setting no file can be baked with: checked once, before any input
     EXPECT_TRUE(contains(r.err, "no basis reproduces these primaries")) << r.err;
+    EXPECT_TRUE(contains(r.err, "--allow-infeasible")) << r.err;
+    // The default lattice has vertices no reflectance reaches there either, and says the same way
+    // out (--allow-infeasible belongs to the basis, so it takes it).
+    r = run_spectex({"bake", png, "-o", d / "o.exr", "-q", "--illuminant", "LED-B3"});
+    EXPECT_EQ(r.status, 2);
+    EXPECT_TRUE(contains(r.err, "no reflectance in [0, 1] has this colour")) << r.err;
     EXPECT_TRUE(contains(r.err, "--allow-infeasible")) << r.err;
     RunResult a = run_spectex(
         {"bake", png, "-o", d / "o.exr", "-q", "--illuminant", "LED-B3", "--allow-infeasible"});

@@ -29,7 +29,7 @@ TEST(Methods, OptionsThatDoNotBelongToTheMethodAreUsageErrors) {
         {{"--method", "lattice", "--basis", "mallett2019"}, "--basis"},
         {{"--method", "jakob-hanika", "--objective", "norm"}, "--objective"},
         {{"--method", "lattice", "--allow-infeasible"}, "--allow-infeasible"},
-        {{"--lattice-size", "17"}, "--lattice-size"},
+        {{"--lattice-size", "17", "--basis", "mallett2019"}, "give --method"},
         {{"--method", "jakob-hanika", "--vertex-prior", "smooth"}, "--vertex-prior"},
         {{"--method", "lattice", "--lattice-size", "1"}, "--lattice-size"},
         {{"--method", "lattice", "--vertex-prior", "gauss"}, "--vertex-prior"},
@@ -45,6 +45,33 @@ TEST(Methods, OptionsThatDoNotBelongToTheMethodAreUsageErrors) {
     EXPECT_FALSE(file_exists(d / "o.exr"));
 }
 
+// Without --method, an option of one method takes that method as it always was, at full precision
+// (scripts written before the default changed keep their output); nothing takes bake's default.
+TEST(Methods, AnOptionOfOneMethodTakesThatMethod) {
+    ScratchDir d;
+    write_png(d / "in.png");
+    const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
+        {{"--basis", "mallett2019"}, "basis"},
+        {{"--objective", "norm"}, "basis"},
+        {{"--lattice-size", "5"}, "lattice"},
+        {{"--jh-resolution", "5"}, "jakob-hanika"},
+        {{"--out-of-range", "keep", "--type", "float"}, "basis"},
+        {{}, "lattice"},
+    };
+    for (const auto& [extra, method] : cases) {
+        std::vector<std::string> args = {"bake", d / "in.png", "-o", d / "o.exr", "-q"};
+        args.insert(args.end(), extra.begin(), extra.end());
+        const RunResult r = run_spectex(args);
+        ASSERT_EQ(r.status, 0) << r.err;
+        const ExrImage img = read_exr(d / "o.exr");
+        EXPECT_EQ(img.attr("spectex:method"), method) << extra.size();
+        // Only the default bake keeps fewer bits; a method taken from its options keeps all.
+        EXPECT_EQ(img.has_attr("spectex:precision"), extra.empty()) << method;
+        if (method == "lattice")
+            EXPECT_EQ(img.attr("spectex:vertexPrior"), extra.empty() ? "lhtss" : "jakob-hanika");
+    }
+}
+
 TEST(Methods, TheHeaderAndTheSettingsHashRecordTheMethod) {
     ScratchDir d;
     write_png(d / "in.png");
@@ -53,11 +80,15 @@ TEST(Methods, TheHeaderAndTheSettingsHashRecordTheMethod) {
         std::string method, size, prior;
     };
     const std::vector<Case> cases = {
-        {{}, "basis", "", ""},
+        {{"--method", "basis"}, "basis", "", ""},
+        {{}, "lattice", "9", "lhtss"},  // the default bake
         {{"--method", "lattice"}, "lattice", "9", "jakob-hanika"},
         {{"--method", "lattice", "--lattice-size", "5"}, "lattice", "5", "jakob-hanika"},
         {{"--method", "lattice", "--vertex-prior", "smooth"}, "lattice", "9", "smooth"},
-        {{"--method", "lattice", "--vertex-prior", "LHTSS"}, "lattice", "9", "lhtss"},
+        {{"--method", "lattice", "--vertex-prior", "LHTSS", "--lattice-size", "5"},
+         "lattice",
+         "5",
+         "lhtss"},
         {{"--method", "jakob-hanika"}, "jakob-hanika", "", ""},
     };
     std::vector<std::string> hashes, checksums;
@@ -92,9 +123,14 @@ TEST(Methods, TheHeaderAndTheSettingsHashRecordTheMethod) {
     RunResult same = run_spectex(
         {"bake", d / "in.png", "-o", d / "u.exr", "--method", "lattice", "--update", "-v"});
     EXPECT_TRUE(contains(same.err, "up to date")) << same.err;
-    RunResult other = run_spectex({"bake", d / "in.png", "-o", d / "u.exr", "--update", "-v"});
+    RunResult other = run_spectex(
+        {"bake", d / "in.png", "-o", d / "u.exr", "--method", "basis", "--update", "-v"});
     EXPECT_FALSE(contains(other.err, "up to date")) << other.err;
     EXPECT_EQ(read_exr(d / "u.exr").attr("spectex:method"), "basis");
+    // The default bake's lattice (the LHTSS prior, budgeted) is not the JH-prior lattice either.
+    RunResult dflt = run_spectex({"bake", d / "in.png", "-o", d / "u.exr", "--update", "-v"});
+    EXPECT_FALSE(contains(dflt.err, "up to date")) << dflt.err;
+    EXPECT_EQ(read_exr(d / "u.exr").attr("spectex:vertexPrior"), "lhtss");
 }
 
 TEST(Methods, ALatticeVertexWithoutAnExactSpectrumIsAClearFailure) {

@@ -54,10 +54,11 @@ RunResult run_env(const std::vector<std::string>& args, const std::vector<std::s
 
 // A small, fast plan: one light, two coarse grids, a sparse sample (216 colours).
 std::vector<std::string> quick_plan(const std::vector<std::string>& more = {}) {
+    // The basis, named: plan's default (bake's) would also choose bits, whose entries are apart.
     std::vector<std::string> a = {
-        "plan",      "--grids", "380:780:20,380:780:10", "--lights", "D65",
-        "--colours", "sample",  "--sample-stride",       "51",       "--max-de",
-        "5"};
+        "plan",     "--method", "basis",     "--grids", "380:780:20,380:780:10",
+        "--lights", "D65",      "--colours", "sample",  "--sample-stride",
+        "51",       "--max-de", "5"};
     a.insert(a.end(), more.begin(), more.end());
     return a;
 }

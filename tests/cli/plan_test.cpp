@@ -4,17 +4,21 @@
 
 #include <cstdlib>
 #include <fstream>
+#include <nlohmann/json.hpp>
 
 #include "cli/cli_util.h"
 #include "cli/exr_read.h"
+#include "io/provenance_keys.h"
 
 using namespace spectex_test;
+namespace key = spectex::provenance_key;
 
 namespace {
 
-// Three grids under D65 alone (about 1.2, 0.27 and 0.07 ΔE00 worst, docs/plan.md): fast enough.
-const std::vector<std::string> kThree = {"--lights", "D65", "--grids",
-                                         "380:780:20,380:780:10,380:780:5"};
+// Three grids under D65 alone for the basis (about 1.2, 0.27 and 0.07 ΔE00 worst, docs/plan.md):
+// fast enough. The basis, named: its figures are the documented ones (plan's default is bake's).
+const std::vector<std::string> kThree = {"--method", "basis",   "--lights",
+                                         "D65",      "--grids", "380:780:20,380:780:10,380:780:5"};
 
 std::vector<std::string> with(std::vector<std::string> a, const std::vector<std::string>& more) {
     a.insert(a.end(), more.begin(), more.end());
@@ -48,6 +52,29 @@ TEST(Plan, BudgetPicksTheCheapestGridThatMeetsIt) {
         run_spectex(with(with({"plan"}, kThree), {"--max-de", "0.15", "--colours", "sample"}));
     ASSERT_EQ(tight.status, 0) << tight.err;
     EXPECT_NE(tight.out.find("* 380:780:5 "), std::string::npos) << tight.out;
+}
+
+// Without a method, plan measures bake's default (the LHTSS lattice) and reports the bits its
+// bake keeps; a method named is planned at full precision unless --precision auto is asked.
+TEST(Plan, WithoutAMethodPlansBakesDefaultWithItsBits) {
+    const std::vector<std::string> quick = {
+        "plan",   "--lights",        "D65", "--grids", "380:780:10", "--max-de", "5", "--colours",
+        "sample", "--sample-stride", "51",  "--json",  "-"};
+    RunResult r = run_spectex(quick);
+    ASSERT_EQ(r.status, 0) << r.err;
+    auto j = nlohmann::json::parse(r.out.substr(0, r.out.find('\n')));
+    EXPECT_EQ(j["method"].get<std::string>().rfind("lattice 9, lhtss prior", 0), 0u) << j["method"];
+    ASSERT_TRUE(j.contains("precision")) << r.out;
+    EXPECT_EQ(j["precision"]["bits"].size(), 41u);
+    r = run_spectex(with(quick, {"--method", "basis"}));
+    ASSERT_EQ(r.status, 0) << r.err;
+    j = nlohmann::json::parse(r.out.substr(0, r.out.find('\n')));
+    EXPECT_EQ(j["method"].get<std::string>().rfind("basis", 0), 0u) << j["method"];
+    EXPECT_FALSE(j.contains("precision")) << r.out;
+    // --type float keeps every bit, the default's too.
+    r = run_spectex(with(quick, {"--type", "float"}));
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_FALSE(nlohmann::json::parse(r.out.substr(0, r.out.find('\n'))).contains("precision"));
 }
 
 TEST(Plan, ImpossibleBudgetIsAnErrorWithTheBestAchievable) {
@@ -93,7 +120,8 @@ TEST(Plan, UsageErrors) {
     EXPECT_EQ(run_spectex({"plan", "--range", "400.5:700"}).status, 2);
     EXPECT_EQ(run_spectex({"plan", "--max-de", "-1"}).status, 2);
     EXPECT_EQ(run_spectex({"plan", "--grids", "400:700:7"}).status, 2);
-    EXPECT_EQ(run_spectex({"plan", "--lattice-size", "5"}).status, 2);
+    EXPECT_EQ(run_spectex({"plan", "--method", "basis", "--lattice-size", "5"}).status, 2);
+    EXPECT_EQ(run_spectex({"plan", "--lattice-size", "5", "--objective", "norm"}).status, 2);
 }
 
 TEST(Plan, BakeAutoRecordsTheChoiceAndUpdateTreatsItAsSettings) {
@@ -144,7 +172,14 @@ TEST(Plan, BakeAutoRecordsTheChoiceAndUpdateTreatsItAsSettings) {
                            "--lights", "A"})
                   .status,
               2);
-    EXPECT_EQ(run_spectex({"bake", d / "in.png", "-o", d / "x.exr", "--max-de", "0.5"}).status, 2);
+    EXPECT_EQ(run_spectex(
+                  {"bake", d / "in.png", "-o", d / "x.exr", "--method", "basis", "--max-de", "0.5"})
+                  .status,
+              2);
+    // Without --method, the default bake's --precision auto takes them as its own.
+    EXPECT_EQ(
+        run_spectex({"bake", d / "in.png", "-o", d / "x.exr", "--max-de", "0.5", "-q"}).status, 0);
+    EXPECT_EQ(read_exr(d / "x.exr").attr(key::kPrecisionMaxDe), "0.5");
 }
 
 // --nonuniform: under D65 and FL11 at 0.5 the search finds a grid with fewer
@@ -242,9 +277,10 @@ TEST(Plan, TextureColoursDecide) {
         px[4 * static_cast<size_t>(i) + 3] = hole ? 0 : 255;
     }
     write_image(d / "grey.png", 16, 16, 4, OIIO::TypeDesc::UINT8, px.data());
+    // The basis: its greys are flat spectra, which 20 nm holds (the default lattice's are not).
     const std::vector<std::string> grids = {
-        "--lights", "D65,A",   "--max-de",
-        "0.05",     "--grids", "400:700:20,400:700:10,400:700:5,380:780:5"};
+        "--method", "basis", "--lights", "D65,A",
+        "--max-de", "0.05",  "--grids",  "400:700:20,400:700:10,400:700:5,380:780:5"};
     RunResult r =
         run_spectex(with(with({"plan", "--texture", d / "grey.png"}, grids), {"--json", "-"}));
     ASSERT_EQ(r.status, 0) << r.err;

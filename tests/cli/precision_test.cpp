@@ -75,9 +75,9 @@ uint64_t file_size(const std::string& p) {
 TEST(Precision, AutoBakeKeepsTheChosenBitsRecordsThemAndStaysExactUnderD65) {
     ScratchDir d;
     const std::string png = cube_png(d), full = d / "full.exr", autob = d / "auto.exr";
-    ASSERT_EQ(run_spectex({"bake", png, "-o", full, "-q"}).status, 0);
-    const RunResult r = run_spectex({"bake", png, "-o", autob, "--precision", "auto", "--lights",
-                                     "D65,A,FL11", "--max-de", "0.5"});
+    ASSERT_EQ(run_spectex({"bake", png, "-o", full, "-q", "--method", "basis"}).status, 0);
+    const RunResult r = run_spectex({"bake", png, "-o", autob, "--method", "basis", "--precision",
+                                     "auto", "--lights", "D65,A,FL11", "--max-de", "0.5"});
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_TRUE(has(r.err, "--precision auto:")) << r.err;
     const ExrImage img = read_exr(autob);
@@ -194,14 +194,72 @@ TEST(Precision, UsageErrorsAreRefusedBeforeAnyWork) {
         {{"--precision", "auto", "--lights", "A", "--precision-de", "0"}, "not a positive"},
         {{"--lights", "A", "--max-de", "1"}, "choose the grid of --wavelengths auto"},
     };
+    // A method named: its --precision is what is given (the default bake's own: below).
     for (const auto& c : cases) {
-        std::vector<std::string> a = {"bake", in, "-o", out};
+        std::vector<std::string> a = {"bake", in, "-o", out, "--method", "basis"};
         a.insert(a.end(), c.args.begin(), c.args.end());
         const RunResult r = run_spectex(a);
         EXPECT_EQ(r.status, 2) << c.says << ": " << r.err;
         EXPECT_TRUE(has(r.err, c.says)) << r.err;
         EXPECT_FALSE(file_exists(out));
     }
+}
+
+// The default bake (no method option) keeps a budget where one can be kept: under six lights within
+// 0.5, deflated at level 1, unless --lights, --max-de, --zip-level or --precision say otherwise;
+// full where a budget cannot be kept (float, nearest rounding, a lossy compression). Its bits are
+// said only with -v, and a bake that asked for them says them.
+TEST(Precision, TheDefaultBakeKeepsABudgetWhereItCan) {
+    ScratchDir d;
+    std::vector<uint8_t> px(12, 128);
+    write_image(d / "in.png", 2, 2, 3, OIIO::TypeDesc::UINT8, px.data());
+    const std::string in = d / "in.png", out = d / "o.exr";
+    auto bake = [&](std::vector<std::string> extra) {
+        std::vector<std::string> a = {"bake", in, "-o", out};
+        a.insert(a.end(), extra.begin(), extra.end());
+        return run_spectex(a);
+    };
+    RunResult r = bake({});
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_FALSE(has(r.err, "--precision auto")) << r.err;
+    ExrImage img = read_exr(out);
+    EXPECT_EQ(img.attr(key::kPrecision), "auto");
+    EXPECT_EQ(img.attr(key::kPrecisionLights), "D65,A,FL2,FL11,D50,LED-B3");
+    EXPECT_EQ(img.attr(key::kPrecisionMaxDe), "0.5");
+    EXPECT_EQ(img.attr(key::kZipLevel), "1");
+    r = bake({"-v"});
+    EXPECT_TRUE(has(r.err, "--precision auto: ")) << r.err;
+    r = bake({"--precision", "auto"});
+    EXPECT_TRUE(has(r.err, "--precision auto: ")) << r.err;
+
+    // The scene's lights and budget, and another level.
+    ASSERT_EQ(bake({"--lights", "A,FL11", "--max-de", "1", "--zip-level", "6"}).status, 0);
+    img = read_exr(out);
+    EXPECT_EQ(img.attr(key::kPrecisionLights), "A,FL11,D65");  // and the light it is exact for
+    EXPECT_EQ(img.attr(key::kPrecisionMaxDe), "1");
+    EXPECT_EQ(img.attr(key::kZipLevel), "6");
+    ASSERT_EQ(bake({"--precision-de", "0.25"}).status, 0);
+    EXPECT_EQ(read_exr(out).attr(key::kPrecisionMaxDe), "0.25");
+
+    // Where no budget can be kept, or none is wanted: full, at level 4.
+    for (const auto& extra : std::vector<std::vector<std::string>>{
+             {"--precision", "full"},
+             {"--type", "float"},
+             {"--half-rounding", "nearest"},
+             {"--compression", "b44", "--allow-lossy"},
+             {"--method", "lattice", "--vertex-prior", "lhtss"}}) {
+        r = bake(extra);
+        ASSERT_EQ(r.status, 0) << extra.front() << ": " << r.err;
+        img = read_exr(out);
+        EXPECT_FALSE(img.has_attr(key::kPrecision)) << extra.front();
+        EXPECT_EQ(img.attr(key::kMethod), "lattice") << extra.front();
+        if (extra.front() != "--compression")  // b44 has no level
+            EXPECT_EQ(img.attr(key::kZipLevel), "4") << extra.front();
+    }
+    // Still refused: a budget asked of what cannot keep one.
+    r = bake({"--precision", "auto", "--type", "float"});
+    EXPECT_EQ(r.status, 2);
+    EXPECT_TRUE(has(r.err, "--type float keeps every bit")) << r.err;
 }
 
 TEST(Precision, PlanPrintsBitsWithTheGrid) {

@@ -39,7 +39,7 @@ TEST(ProvenanceKeys, EveryKeyABakeWritesIsAConstant) {
     // accepted with --allow-lossy (spectex:lossyCompression, written only then), and the bits of
     // --precision auto.
     const std::vector<std::vector<std::string>> bakes = {
-        {},
+        {"--method", "basis"},
         {"--method", "lattice", "--lattice-size", "3", "--compression", "b44", "--allow-lossy"},
         {"--method", "jakob-hanika", "--jh-resolution", "4"},
         {"--wavelengths", "auto", "--lights", "D65", "--grids", "380:780:20", "--max-de", "5"},

@@ -98,7 +98,7 @@ def env():
         e.codes = gc.read_codes(e.png)
         assert len(e.codes) == 274625 and len({tuple(c) for c in e.codes[::97]}) == len(e.codes[::97])
         e.ref = os.path.join(d, "ref.exr")
-        r = run(SPECTEX, "bake", e.png, "-o", e.ref, "--wavelengths", f"{RANGE[0]}:{RANGE[1]}:1", "--type", "float",
+        r = run(SPECTEX, "bake", e.png, "-o", e.ref, "--method", "basis", "--wavelengths", f"{RANGE[0]}:{RANGE[1]}:1", "--type", "float",
                 "-q", "--threads", "2")
         assert r.returncode == 0, r.stderr
         e.integ = gc.Integrator(LIGHTS, RANGE)
@@ -113,14 +113,14 @@ def env():
 def candidate(env, grid):
     if grid not in env.baked:
         out = os.path.join(env.dir, f"c_{grid.replace(':', '_')}.exr")
-        r = run(SPECTEX, "bake", env.png, "-o", out, "--wavelengths", grid, "-q", "--threads", "2")
+        r = run(SPECTEX, "bake", env.png, "-o", out, "--method", "basis", "--wavelengths", grid, "-q", "--threads", "2")
         assert r.returncode == 0, r.stderr
         env.baked[grid] = out
     return env.baked[grid]
 
 
 def plan(grid, rule):
-    r = run(SPECTEX, "plan", "--colours", "sample", "--grids", grid, "--lights", ",".join(LIGHTS),
+    r = run(SPECTEX, "plan", "--method", "basis", "--colours", "sample", "--grids", grid, "--lights", ",".join(LIGHTS),
             "--reconstruction", rule, "--max-de", "100", "--json", "-", "--threads", "2")
     assert r.returncode == 0, r.stderr
     p = json.loads(r.stdout)
@@ -236,7 +236,7 @@ def test_plan_agrees_with_the_checker_on_a_nonuniform_grid(env, rule):
     assert uniform and all(len(wl) < g["bins"] for g in uniform), "offered only when it needs fewer bins"
     assert read_grid_file(gfile) == wl
     out = os.path.join(env.dir, f"nonuniform_{rule}.exr")
-    r = run(SPECTEX, "bake", env.png, "-o", out, "--wavelengths-file", gfile, "-q", "--threads", "2")
+    r = run(SPECTEX, "bake", env.png, "-o", out, "--method", "basis", "--wavelengths-file", gfile, "-q", "--threads", "2")
     assert r.returncode == 0, r.stderr
     cx, f = env.integ.xyz_of_file(out, rule)
     assert f.wavelengths.tolist() == wl and f.format == "half"
