@@ -165,7 +165,7 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
              });
     p.option("--precision", "full|auto",
              "Half's mantissa bits per bin. full: all 10 in every bin. auto (the default without "
-             "--method, where the output is half, colour-rounded and losslessly compressed: under "
+             "--method, where the output is half, colour-rounded and compressed losslessly: under "
              "D65,A,FL2,FL11,D50,LED-B3 within 0.5 unless --lights or --max-de are given, and "
              "--zip-level 1 unless given; else full): per bin, "
              "the fewest that keep the worst ΔE00 between the rounded and the unrounded spectra "
@@ -380,14 +380,16 @@ void check_method_options(BakeCli& c) {
                          " method is defined on linear RGB in [0, 1] only");
 }
 
-// --precision not given: full, but for the default bake where a budget can be kept (half, the
-// colour-aware rounding, a compression that keeps the samples): auto. The default bake's budget
+// --precision not given: full, but for the default bake where a budget can be kept and pays (half,
+// the colour-aware rounding, a compression that keeps the samples): auto. The default bake's budget
 // is under DefaultBake's lights and within its ΔE00 unless --lights or --max-de say otherwise,
 // deflated at DefaultBake's level unless --zip-level says.
 void resolve_precision(BakeCli& c) {
     if (!c.precision_given) {
-        const bool keeps = c.type == "half" && c.req.options.colour_rounding &&
-                           !c.req.options.compression.lossy_for(true);
+        // Zeroed low bits are smaller only where a compression keeps the samples and sees them.
+        const ExrCompression& z = c.req.options.compression;
+        const bool keeps = c.type == "half" && c.req.options.colour_rounding && z.name != "none" &&
+                           !z.lossy_for(true);
         c.precision = c.default_bake && keeps ? "auto" : "full";
     }
     if (!c.default_bake || c.precision != "auto") return;

@@ -80,12 +80,14 @@ void add_method_options(ArgParser& p, MethodOptions& o, bool with_basis_table,
 bool resolve_method(MethodOptions& o, const MethodSpec& fallback) {
     if (o.method_given) return false;
     const MethodRow* owner = nullptr;
+    std::string first;  // the first option given of owner's
     for (const auto& option : o.given) {
         const MethodRow* row = method_of_option(option);
         if (!row) continue;
         if (owner && owner != row)
-            throw UsageError(owner->options.front() + " belongs to --method " + owner->name + ", " +
-                             option + " to --method " + row->name + "; give --method");
+            throw UsageError(first + " belongs to --method " + owner->name + ", " + option +
+                             " to --method " + row->name + "; give --method");
+        if (!owner) first = option;
         owner = row;
     }
     if (owner) {

@@ -247,13 +247,14 @@ TEST(Precision, TheDefaultBakeKeepsABudgetWhereItCan) {
              {"--type", "float"},
              {"--half-rounding", "nearest"},
              {"--compression", "b44", "--allow-lossy"},
+             {"--compression", "none"},
              {"--method", "lattice", "--vertex-prior", "lhtss"}}) {
         r = bake(extra);
         ASSERT_EQ(r.status, 0) << extra.front() << ": " << r.err;
         img = read_exr(out);
         EXPECT_FALSE(img.has_attr(key::kPrecision)) << extra.front();
         EXPECT_EQ(img.attr(key::kMethod), "lattice") << extra.front();
-        if (extra.front() != "--compression")  // b44 has no level
+        if (extra.front() != "--compression")  // b44 and none have no level
             EXPECT_EQ(img.attr(key::kZipLevel), "4") << extra.front();
     }
     // Still refused: a budget asked of what cannot keep one.

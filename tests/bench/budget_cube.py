@@ -1,0 +1,93 @@
+#!/usr/bin/env python3
+"""The precision budget over every 8-bit colour: the worst ΔE00 between a bake's stored spectra and
+the same method's spectra in float, under each light, on all 16,777,216 colours of the cube.
+
+    build/venv/bin/python tests/bench/budget_cube.py --spectex build/src/spectex [--options "..."]
+
+The chooser of --precision auto decides on 35,937 colours and default_decision.py checks 274,625;
+this checks them all. --options are the candidate's bake options (default: none, spectex bake's
+default, whose budget is 0.5 under D65, A, FL2, FL11, D50, LED-B3); the reference is the same
+options with --type float (and --precision full). CIE 1931 2°, 380:780:5, L*a*b* relative to each
+light's own white (both spectra under the same light: no adaptation). The files are read 256 rows at
+a time, so memory stays near 1 GB. About 5 minutes on 2 cores. A benchmark, not a test.
+"""
+import argparse
+import re
+import shlex
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+import method_accuracy as ma  # noqa: E402
+import speed_vs_error as sve  # noqa: E402
+
+LIGHTS = ["D65", "A", "FL2", "FL11", "D50", "LED-B3"]
+
+
+def spectral_channels(spec):
+    chans = sorted((float(m.group(1).replace(",", ".")), i) for i, n in enumerate(spec.channelnames)
+                   if (m := re.fullmatch(r"T\.(\d+(?:,\d+)?)nm", n)))
+    return np.array([w for w, _ in chans]), [i for _, i in chans]
+
+
+def rows(exr, step=256):
+    """(y0, pixels × bins on method_accuracy's grid) of a spectral EXR, `step` rows at a time."""
+    import OpenImageIO as oiio
+
+    inp = oiio.ImageInput.open(str(exr))
+    spec = inp.spec()
+    wl, idx = spectral_channels(spec)
+    if len(wl) != len(ma.GRID) or np.abs(wl - ma.GRID).max() > 1e-6:
+        raise SystemExit(f"{exr}: the check needs the 380:780:5 grid, the file has {len(wl)} bins")
+    for y0 in range(0, spec.height, step):
+        y1 = min(spec.height, y0 + step)
+        px = inp.read_scanlines(0, 0, y0, y1, 0, 0, spec.nchannels, oiio.FLOAT)
+        yield y0, px.reshape(-1, spec.nchannels)[:, idx].astype(np.float64)
+    inp.close()
+
+
+def main():
+    import colour
+
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--spectex", default=str(HERE.parent.parent / "build/src/spectex"))
+    ap.add_argument("--options", default="", help="the candidate's bake options (default: none)")
+    ap.add_argument("--budget", type=float, default=0.5, help="the ΔE00 the bake should hold (default 0.5)")
+    a = ap.parse_args()
+    opts = shlex.split(a.options)
+    t0 = time.time()
+    with tempfile.TemporaryDirectory(prefix="spectex-budget-") as d:
+        d = Path(d)
+        cube, stored, ref = d / "cube.png", d / "stored.exr", d / "float.exr"
+        sve.cube_full_png(cube)
+        subprocess.run([a.spectex, "bake", cube, "-o", stored, "-q", *opts], check=True)
+        subprocess.run([a.spectex, "bake", cube, "-o", ref, "-q", *opts, "--type", "float"], check=True)
+        W = {L: ma.weights(L) for L in LIGHTS}
+        whites = {L: colour.XYZ_to_xy(W[L].sum(1)) for L in LIGHTS}
+        worst = {L: 0.0 for L in LIGHTS}
+        over = {L: 0 for L in LIGHTS}
+        for (y, s), (_, f) in zip(rows(stored), rows(ref)):
+            for L in LIGHTS:
+                de = colour.delta_E(colour.XYZ_to_Lab(s @ W[L].T, whites[L]),
+                                    colour.XYZ_to_Lab(f @ W[L].T, whites[L]), method="CIE 2000")
+                worst[L] = max(worst[L], float(de.max()))
+                over[L] += int((de > a.budget).sum())
+            if y % 1024 == 0:
+                print(f"  rows {y}..: " + ", ".join(f"{L} {worst[L]:.3f}" for L in LIGHTS), file=sys.stderr, flush=True)
+    print(f"# The budget over all 16,777,216 colours: spectex bake {a.options or '(the default)'}\n")
+    print("| light | worst ΔE00 | colours over " + f"{a.budget:g} |")
+    print("|---|---|---|")
+    for L in LIGHTS:
+        print(f"| {L} | {worst[L]:.3f} | {over[L]:,} |")
+    print(f"\n{time.time() - t0:.0f} s.")
+    return 0 if max(worst.values()) <= a.budget else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
