@@ -369,9 +369,7 @@ void check_method_options(BakeCli& c) {
                          "), or add --allow-lossy to accept the loss");
     // Without --method: bake's default, unless an option says which method (one of its own, or
     // --out-of-range keep and --nonuniform, which only the basis takes).
-    const bool basis_only = c.range == "keep" || c.req.plan.nonuniform;
-    c.default_bake =
-        resolve_method(c.m, basis_only ? MethodSpec{} : DefaultBake::method()) && !basis_only;
+    c.default_bake = resolve_method(c.m, c.range == "keep" || c.req.plan.nonuniform);
     check_method_options(c.m);
     const MethodRow& row = method_row(c.m.spec.kind);
     if (!row.takes_out_of_range && c.range == "keep")

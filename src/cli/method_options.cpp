@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "cli/arg_parser.h"
+#include "pipeline/bake_request.h"
 #include "pipeline/light_list.h"
 
 namespace spectex {
@@ -77,7 +78,7 @@ void add_method_options(ArgParser& p, MethodOptions& o, bool with_basis_table,
              });
 }
 
-bool resolve_method(MethodOptions& o, const MethodSpec& fallback) {
+bool resolve_method(MethodOptions& o, bool basis_only) {
     if (o.method_given) return false;
     const MethodRow* owner = nullptr;
     std::string first;  // the first option given of owner's
@@ -94,12 +95,11 @@ bool resolve_method(MethodOptions& o, const MethodSpec& fallback) {
         o.spec.kind = owner->kind;
         return false;
     }
-    // The fallback's method and its options' values, the conditions (observer, illuminant) as
-    // given.
+    // The method and its options' values, the conditions (observer, illuminant) as given.
     const FitSpec fit = o.spec.fit;
-    o.spec = fallback;
+    o.spec = basis_only ? MethodSpec{} : DefaultBake::method();
     o.spec.fit = fit;
-    return true;
+    return !basis_only;
 }
 
 void check_method_options(const MethodOptions& o) {

@@ -26,8 +26,9 @@ struct MethodOptions {
 void add_method_options(ArgParser& p, MethodOptions& o, bool with_basis_table,
                         const std::string& default_help);
 // Without --method, the method of the options given (--basis mallett2019 alone is the basis, as
-// it always was), else `fallback` (bake's default). True when the fallback was taken.
-bool resolve_method(MethodOptions& o, const MethodSpec& fallback);
+// it always was), else the basis when `basis_only` (an option only the basis takes, such as
+// --nonuniform), else bake's default (DefaultBake). True when bake's default was taken.
+bool resolve_method(MethodOptions& o, bool basis_only);
 // An option given that belongs to another method than --method's: a UsageError naming both
 // ("--jh-resolution belongs to --method jakob-hanika, not --method lattice").
 void check_method_options(const MethodOptions& o);

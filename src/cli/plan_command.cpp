@@ -14,7 +14,6 @@
 #include "io/atomic_file.h"
 #include "io/data_dir.h"
 #include "io/library_stderr.h"
-#include "pipeline/bake_request.h"
 #include "pipeline/light_list.h"
 #include "pipeline/plan.h"
 #include "pipeline/plan_cache.h"
@@ -264,9 +263,7 @@ void check_plan_options(PlanOptions& o, const std::vector<std::string>& pos) {
     if (!pos.empty()) throw UsageError("unexpected argument '" + pos[0] + "'");
     // As bake: its default method and bits, unless a method is named or implied (--nonuniform
     // searches with the basis' 3x3 maps only).
-    const bool default_method =
-        resolve_method(o.m, spec.nonuniform ? MethodSpec{} : DefaultBake::method()) &&
-        !spec.nonuniform;
+    const bool default_method = resolve_method(o.m, spec.nonuniform);
     if (default_method && !o.precision_given && o.type == "half") spec.precision = true;
     check_method_options(o.m);
     spec.method = o.m.spec;
