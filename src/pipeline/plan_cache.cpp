@@ -1,5 +1,6 @@
 #include "pipeline/plan_cache.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -258,7 +259,52 @@ std::string plan_cache_text(const std::string& key, const PlanResult& r) {
     return o.str();
 }
 
-bool parse_plan_cache_text(const std::string& text, const std::string& key, PlanResult* out) {
+namespace {
+
+bool same_grid(const WavelengthGrid& a, const WavelengthGrid& b) {
+    return a.lambda == b.lambda && a.weight == b.weight && a.uniform == b.uniform;
+}
+
+// Whether a well-formed answer is one the search could have given for `spec`: every candidate grid
+// measured and no other grid (but those of the non-uniform search), each row's figures for
+// the spec's lights in order, its worst and verdict those of its figures. The seal already tells
+// a damaged entry; this keeps an entry made for other settings (or by a bug) from being taken.
+bool plausible_plan(const PlanSpec& spec, const PlanResult& r) {
+    const std::vector<WavelengthGrid> cand =
+        spec.candidates.empty() ? default_candidates(spec.range_start, spec.range_end)
+                                : spec.candidates;
+    std::vector<int> seen(cand.size(), 0);
+    for (const GridRow& row : r.rows) {
+        bool found = false;
+        for (size_t i = 0; i < cand.size(); ++i)
+            if (same_grid(row.grid, cand[i])) {
+                ++seen[i];
+                found = true;
+            }
+        if (!found && !spec.nonuniform) return false;
+        if (!row.ok) continue;
+        if (row.lights.size() != spec.lights.size()) return false;
+        double worst = 0;
+        bool over = false;
+        for (size_t j = 0; j < row.lights.size(); ++j) {
+            const LightError& le = row.lights[j];
+            if (le.light != spec.lights[j] || !(le.worst >= 0) || !(le.p99 >= 0) ||
+                !(le.p99 <= le.worst) || !(le.half_shift >= 0))
+                return false;
+            worst = std::max(worst, le.worst);
+            over = over || le.worst > spec.max_de;
+        }
+        if (row.worst != worst || row.passes == over) return false;
+    }
+    for (int n : seen)
+        if (n == 0) return false;
+    return spec.nonuniform || r.rows.size() == cand.size();
+}
+
+}  // namespace
+
+bool parse_plan_cache_text(const std::string& text, const std::string& key, const PlanSpec& spec,
+                           PlanResult* out) {
     Words w(text);
     w.expect("spectex-plan-cache");
     w.expect(std::to_string(kPlanCacheFormat));
@@ -312,6 +358,7 @@ bool parse_plan_cache_text(const std::string& text, const std::string& key, Plan
     const int n = static_cast<int>(r.rows.size());
     if (r.chosen >= n || r.best >= n) return false;
     if (r.chosen >= 0 && !r.rows[static_cast<size_t>(r.chosen)].passes) return false;
+    if (!plausible_plan(spec, r)) return false;
     *out = std::move(r);
     return true;
 }
@@ -342,7 +389,7 @@ PlanResult plan_grids_cached(const PlanSpec& spec, const std::string& folder,
     PlanResult r = cached_answer<PlanResult>(
         folder, key, kPlanCacheEntryLimit,
         [&](const std::string& text, PlanResult* out) {
-            return parse_plan_cache_text(text, key, out);
+            return parse_plan_cache_text(text, key, spec, out);
         },
         [&] { return plan_grids(spec); },
         [&](const PlanResult& answer) { return plan_cache_text(key, answer); }, rep);
@@ -399,22 +446,13 @@ std::string precision_cache_text(const std::string& key, const PrecisionChoice& 
         o << "light " << hex_text(c.light[j]) << ' '
           << exact(j < c.worst_de.size() ? c.worst_de[j] : 0.0) << "\n";
     o << "colours " << c.colours << " evaluations " << c.evaluations << "\n";
-    // Of every byte above: an entry damaged into other well-formed numbers is a miss too.
-    const std::string body = o.str();
-    Fnv1a64 h;
-    h.add(body.data(), body.size());
-    return body + "check " + h.text() + "\nend\n";
+    return o.str();
 }
 
 bool parse_precision_cache_text(const std::string& text, const std::string& key,
                                 const PrecisionRequest& req, PrecisionChoice* out) {
     if (!req.method) return false;
-    const size_t check = text.rfind("check ");
-    if (check == std::string::npos) return false;
-    Fnv1a64 h;
-    h.add(text.data(), check);
-    if (text.compare(check, std::string::npos, "check " + h.text() + "\nend\n") != 0) return false;
-    Words w(text.substr(0, check));
+    Words w(text);
     w.expect("spectex-precision-cache");
     w.expect(std::to_string(kPrecisionCacheFormat));
     w.expect("key");

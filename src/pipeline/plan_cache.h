@@ -14,7 +14,7 @@ namespace spectex {
 
 // The cache format; a change of what an entry holds or means changes it, and every older entry
 // misses.
-constexpr int kPlanCacheFormat = 1;
+constexpr int kPlanCacheFormat = 2;
 // An entry larger than this is not read (a hostile or broken file): the largest real one, 21 rows
 // of 4,701 bins with their weights, is about 5 MB.
 constexpr size_t kPlanCacheEntryLimit = size_t(64) << 20;
@@ -37,10 +37,12 @@ using PlanCacheReport = CacheReport;
 PlanResult plan_grids_cached(const PlanSpec& spec, const std::string& folder,
                              PlanCacheReport* report);
 
-// The text of an entry and back (for the tests of the format); parse returns false on anything
-// that is not a whole, well-formed entry for `key`.
+// The body of an entry (pipeline/cached_answer.h seals it) and back; parse returns false on
+// anything that is not a whole, well-formed body for `key` and an answer the search could have
+// given for `spec` (every candidate grid once, the spec's lights, figures and verdicts that agree).
 std::string plan_cache_text(const std::string& key, const PlanResult& r);
-bool parse_plan_cache_text(const std::string& text, const std::string& key, PlanResult* r);
+bool parse_plan_cache_text(const std::string& text, const std::string& key, const PlanSpec& spec,
+                           PlanResult* r);
 
 // The bits of --precision auto kept between runs: choose_precision measures about a hundred bit
 // vectors on the cube sample (4 s for the basis, 10-26 s for the lattice on 2 busy cores), paid
@@ -66,7 +68,7 @@ using PrecisionCacheReport = CacheReport;
 PrecisionChoice choose_precision_cached(const PrecisionRequest& req, const std::string& folder,
                                         PrecisionCacheReport* report);
 
-// The text of an entry and back (for the tests of the format).
+// The body of an entry (pipeline/cached_answer.h seals it) and back.
 std::string precision_cache_text(const std::string& key, const PrecisionChoice& c);
 bool parse_precision_cache_text(const std::string& text, const std::string& key,
                                 const PrecisionRequest& req, PrecisionChoice* c);

@@ -17,6 +17,7 @@
 #include "cli_util.h"
 #include "exr_read.h"
 #include "io/provenance_keys.h"
+#include "pipeline/cached_answer.h"
 
 using namespace spectex_test;
 
@@ -252,7 +253,7 @@ TEST(PlanCache, BadEntriesAreRecomputedNeverTrusted) {
     recomputed("a truncated entry");
     const RunResult whole = run_env(quick_plan(), env);
     EXPECT_NE(whole.err.find(kHit), std::string::npos) << "the entry was stored again";
-    write_text(entry, "spectex-plan-cache 1\ngarbage\n");
+    write_text(entry, "spectex-plan-cache 2\ngarbage\n");
     recomputed("a corrupt entry");
     // Well formed but impossible: the chosen row out of range.
     {
@@ -261,6 +262,30 @@ TEST(PlanCache, BadEntriesAreRecomputedNeverTrusted) {
         bad.replace(at, bad.find(' ', at + 7) - at, "chosen 99");
         write_text(entry, bad);
         recomputed("a chosen row out of range");
+    }
+    // Well formed and plausible, but not what the search measured: the chosen grid's first
+    // wavelength lowered by 1 nm (380 nm is 0x1.7cp+8 in the entry's exact numbers), and a
+    // light's worst error changed. Only a check over the whole entry tells these from an answer.
+    {
+        std::string bad = text;
+        const size_t at = bad.find("0x1.7cp+8", bad.find("\nrow "));
+        ASSERT_NE(at, std::string::npos) << text;
+        bad.replace(at, 9, "0x1.7bp+8");
+        write_text(entry, bad);
+        recomputed("a grid the search never measured");
+        // Sealed again (as a bug, or an entry of other settings, would be): the grid is still
+        // none of the candidates the search measures, and is not taken.
+        write_text(entry, spectex::sealed_entry(bad.substr(0, bad.rfind("check "))));
+        recomputed("a resealed grid the search never measured");
+    }
+    {
+        std::string bad = text;
+        const size_t at = bad.find("\nlight ");
+        ASSERT_NE(at, std::string::npos) << text;
+        const size_t num = bad.find(" 0x", at);
+        bad.replace(num, 3, " -0x");
+        write_text(entry, bad);
+        recomputed("a light's error changed");
     }
     // A link to a valid copy elsewhere: not followed, and the copy is not written through.
     write_text(dir / "elsewhere", text + "\n");

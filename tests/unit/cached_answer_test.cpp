@@ -53,7 +53,7 @@ TEST(CachedAnswer, MissStoresAndHitComputesNothing) {
     EXPECT_FALSE(first.ignored);
     EXPECT_EQ(first.warning, "");
     EXPECT_EQ(first.entry, d / "answer-key");
-    EXPECT_EQ(read(d / "answer-key"), "answer 42\n");
+    EXPECT_EQ(read(d / "answer-key"), sealed_entry("answer 42\n"));
     CacheReport second;
     EXPECT_EQ(ask(d.path, &computed, second), 42);
     EXPECT_TRUE(second.hit);
@@ -69,16 +69,36 @@ TEST(CachedAnswer, RefusedEntryIsIgnoredAndReplaced) {
     EXPECT_FALSE(rep.hit);
     EXPECT_TRUE(rep.ignored);
     EXPECT_EQ(computed, 1);
-    EXPECT_EQ(read(d / "answer-key"), "answer 42\n");
+    EXPECT_EQ(read(d / "answer-key"), sealed_entry("answer 42\n"));
+}
+
+// The parser sees only the body of an entry whose seal holds: a body changed into another answer
+// its parser would take (42 into 41), or an entry with no seal, is a miss and is replaced.
+TEST(CachedAnswer, AnEntryWhoseSealDoesNotHoldIsAMiss) {
+    TempDir d;
+    std::string sealed = sealed_entry("answer 42\n");
+    sealed[8] = '1';
+    for (const std::string& text :
+         {sealed, std::string("answer 42\n"), sealed_entry("answer 42\n") + "x"}) {
+        std::ofstream(d / "answer-key") << text;
+        int computed = 0;
+        CacheReport rep;
+        EXPECT_EQ(ask(d.path, &computed, rep), 42) << text;
+        EXPECT_FALSE(rep.hit) << text;
+        EXPECT_TRUE(rep.ignored) << text;
+        EXPECT_EQ(computed, 1) << text;
+        EXPECT_EQ(read(d / "answer-key"), sealed_entry("answer 42\n"));
+    }
 }
 
 TEST(CachedAnswer, LinkInTheEntrysPlaceIsNotFollowed) {
     TempDir d;
-    std::ofstream(d / "elsewhere") << "answer 7\n";
+    std::ofstream(d / "elsewhere") << sealed_entry("answer 7\n");
     ASSERT_EQ(::symlink((d / "elsewhere").c_str(), (d / "answer-key").c_str()), 0);
     int computed = 0;
     CacheReport rep;
     EXPECT_EQ(ask(d.path, &computed, rep), 42);  // not the 7 behind the link
     EXPECT_TRUE(rep.ignored);
-    EXPECT_EQ(read(d / "elsewhere"), "answer 7\n");  // the link's target is left alone
+    EXPECT_EQ(read(d / "elsewhere"),
+              sealed_entry("answer 7\n"));  // the link's target is left alone
 }
