@@ -141,9 +141,19 @@ class SetupReport : public BakeSetupListener {
 
     void method_built(const MethodSpec& spec, const MethodResult& made) override {
         if (!made.warning.empty()) warning(made.warning);
+        const CacheReport& rep = made.cache;
+        if (!rep.warning.empty() && !c_.quiet)
+            std::cerr << "spectex: warning: the method's table is not kept in the cache: "
+                      << one_line(rep.warning)
+                      << " (SPECTEX_CACHE_DIR moves the cache; --no-cache does without)\n";
+        if (rep.ignored && !c_.quiet)
+            std::cerr << "spectex: warning: " << one_line(quote_path(rep.entry))
+                      << ": not a valid entry of the method's table; built again\n";
         if (c_.verbose)
-            std::cerr << "spectex: " << spec.describe() << ": built in " << made.build_seconds
-                      << " s\n";
+            std::cerr << "spectex: " << spec.describe()
+                      << (rep.hit ? ": read from the cache in " : ": built in ")
+                      << made.build_seconds << " s"
+                      << (rep.hit ? " (" + one_line(quote_path(rep.entry)) + ")" : "") << "\n";
     }
 
     void warning(const std::string& text) override {

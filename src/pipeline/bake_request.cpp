@@ -208,7 +208,7 @@ std::shared_ptr<const SpectralMethod> build_method(const BakeRequest& r, const B
         spec.fit.grid = s.grid;
         spec.fit.observer_table = std::make_shared<const Observer>(t.observer);
         spec.fit.illuminant_table = std::make_shared<const Spectrum>(t.illuminant);
-        const MethodResult made = make_method(spec);
+        const MethodResult made = make_method(spec, r.no_cache ? "" : cache_folder());
         listener.method_built(spec, made);
         return made.method;
     }

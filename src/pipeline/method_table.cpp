@@ -6,6 +6,9 @@
 
 #include "base/error.h"
 #include "base/memo.h"
+#include "io/data_dir.h"
+#include "pipeline/cache_text.h"
+#include "spectex/version.h"
 #include "spectral/colorimetry.h"
 #include "spectral/spectrum.h"
 #include "spectral/upsampling_methods.h"
@@ -87,6 +90,19 @@ MethodResult build_lattice(const MethodSpec& s) {
     return r;
 }
 
+std::vector<double> lattice_table(const SpectralMethod& m) {
+    return static_cast<const LatticeMethod&>(m).lattice().table_double();
+}
+
+MethodResult lattice_from_table(const MethodSpec& s, std::vector<double> table) {
+    MethodResult r;
+    r.method = std::make_shared<LatticeMethod>(
+        SpectralLattice::from_table(colorimetry(s.fit), s.lattice_size,
+                                    parse_vertex_prior(s.vertex_prior), std::move(table)),
+        s.fit.grid.lambda, conditions(s.fit), s.blend);
+    return r;
+}
+
 std::string jh_head(const MethodSpec& s) {
     return "jakob-hanika table " + std::to_string(s.jh_resolution);
 }
@@ -116,7 +132,9 @@ const std::vector<MethodRow>& method_table() {
          no_table,
          basis_head,
          basis_recipe,
-         build_basis},
+         build_basis,
+         nullptr,
+         nullptr},
         {MethodKind::Lattice,
          "lattice",
          "exact vertex spectra on an N^3 lattice over linear RGB, tetrahedral interpolation "
@@ -130,7 +148,9 @@ const std::vector<MethodRow>& method_table() {
          [](const MethodSpec& s) { return s.lattice_size; },
          lattice_head,
          table_recipe,
-         build_lattice},
+         build_lattice,
+         lattice_table,
+         lattice_from_table},
         {MethodKind::JakobHanika,
          "jakob-hanika",
          "pbrt-v4's sigmoid spectra (not exact: for comparison and render-time consistency)",
@@ -143,7 +163,9 @@ const std::vector<MethodRow>& method_table() {
          [](const MethodSpec& s) { return s.jh_resolution; },
          jh_head,
          table_recipe,
-         build_jh},
+         build_jh,
+         nullptr,
+         nullptr},
     };
     return rows;
 }
@@ -184,18 +206,98 @@ std::string MethodSpec::head() const { return method_row(kind).head(*this); }
 
 std::string MethodSpec::describe() const { return head() + ", " + conditions(fit); }
 
-MethodResult make_method(const MethodSpec& spec) {
+std::string method_cache_key(const MethodSpec& spec) {
+    using cache_text::KeyHash;
+    KeyHash k;
+    k.text("spectex " SPECTEX_VERSION);
+    k.text(executable_identity());
+    k.text("method");
+    k.number(kMethodCacheFormat);
+    const MethodRow& row = method_row(spec.kind);
+    k.text(row.name);
+    k.text(row.recipe(spec));
+    k.text(spec.describe());
+    k.number(spec.blend);
+    const Observer obs = fit_observer(spec.fit);
+    k.spectrum(obs.x);
+    k.spectrum(obs.y);
+    k.spectrum(obs.z);
+    k.spectrum(fit_illuminant(spec.fit));
+    k.grid(spec.fit.grid);
+    return "method-" + k.hex();
+}
+
+namespace {
+
+// An entry: the format, the key, the number of values and every value exactly ("%a").
+constexpr size_t kMethodCacheEntryLimit = size_t(64) << 20;
+
+std::string method_cache_text(const std::string& key, const std::vector<double>& t) {
+    std::string o = "spectex-method-cache " + std::to_string(kMethodCacheFormat) + "\nkey " + key +
+                    "\nvalues " + std::to_string(t.size()) + "\n";
+    o.reserve(o.size() + t.size() * 24);
+    for (size_t i = 0; i < t.size(); ++i) o += cache_text::exact(t[i]) + (i % 8 == 7 ? "\n" : " ");
+    return o + "\nend\n";
+}
+
+bool parse_method_cache_text(const std::string& text, const std::string& key,
+                             const MethodSpec& spec, MethodResult* out) {
+    cache_text::Words w(text);
+    w.expect("spectex-method-cache");
+    w.expect(std::to_string(kMethodCacheFormat));
+    w.expect("key");
+    w.expect(key);
+    w.expect("values");
+    const auto want = static_cast<long long>(method_table_samples(spec, spec.fit.grid.size()));
+    if (w.whole(0, want) != want || !w.ok()) return false;
+    std::vector<double> t(static_cast<size_t>(want));
+    for (double& x : t) x = w.number();
+    w.expect("end");
+    if (!w.ok() || !w.at_end()) return false;
+    try {
+        *out = method_row(spec.kind).from_stored_table(spec, std::move(t));
+    } catch (const Error&) {
+        return false;  // not a table the build could have made: built again
+    }
+    return true;
+}
+
+MethodResult build_timed(const MethodSpec& spec, const std::string& folder) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const MethodRow& row = method_row(spec.kind);
+    MethodResult r;
+    if (!folder.empty() && row.stored_table &&
+        method_table_samples(spec, spec.fit.grid.size()) <= kMethodCacheSamples) {
+        const std::string key = method_cache_key(spec);
+        CacheReport rep;
+        rep.folder = folder;
+        r = cached_answer<MethodResult>(
+            folder, key, kMethodCacheEntryLimit,
+            [&](const std::string& body, MethodResult* m) {
+                return parse_method_cache_text(body, key, spec, m);
+            },
+            [&] { return row.build(spec); },
+            [&](const MethodResult& m) {
+                return method_cache_text(key, row.stored_table(*m.method));
+            },
+            rep);
+        r.cache = rep;
+    } else {
+        r = row.build(spec);
+    }
+    r.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return r;
+}
+
+}  // namespace
+
+MethodResult make_method(const MethodSpec& spec, const std::string& cache_folder) {
     static Memo<std::string, MethodResult> memo;
     check_method_cost(spec, spec.fit.grid.size(), std::to_string(spec.fit.grid.size()) + " bins");
     std::string key = spec.describe() + "|" + spec.fit.describe() + "|" + spec.fit.data_dir;
     for (double l : spec.fit.grid.lambda) key += "|" + format_wavelength(l);
-    return memo.get(key, [&] {
-        const auto t0 = std::chrono::steady_clock::now();
-        MethodResult r = method_row(spec.kind).build(spec);
-        r.build_seconds =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        return r;
-    });
+    // The folder is not part of the memo's key: a method read from the cache is the build's.
+    return memo.get(key, [&] { return build_timed(spec, cache_folder); });
 }
 
 uint64_t method_table_samples(const MethodSpec& spec, uint64_t bins) {

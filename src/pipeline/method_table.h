@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "pipeline/basis_cache.h"
+#include "pipeline/cached_answer.h"
 #include "spectral/spectral_method.h"
 
 namespace spectex {
@@ -43,6 +44,9 @@ struct MethodResult {
     // Said once to the user when the method is built: a basis fitted with --allow-infeasible
     // where no exact basis exists (how far it misses the primaries). Empty when nothing is wrong.
     std::string warning;
+    // What became of the method's entry in the cache (make_method with a folder): hit, refused,
+    // the store's warning; folder "" when the method was not looked up there.
+    CacheReport cache;
 };
 
 struct MethodRow {
@@ -70,6 +74,11 @@ struct MethodRow {
     // them. Never reworded for an existing method: --update compares them with old files.
     std::string (*recipe)(const MethodSpec&);
     MethodResult (*build)(const MethodSpec&);
+    // A table worth keeping between runs (make_method with a cache folder): its numbers, and the
+    // method made from them again, which throws Error unless they are a table build could have made
+    // for the spec (a refused entry is built again). Null for a method that is quick to make.
+    std::vector<double> (*stored_table)(const SpectralMethod&);
+    MethodResult (*from_stored_table)(const MethodSpec&, std::vector<double>);
 };
 
 // Every method, in the order --help lists them (the default first).
@@ -89,7 +98,22 @@ const MethodRow* method_of_option(const std::string& option);
 // Builds (or returns the process' memo of) the method. Throws Error (with the cause: a vertex with
 // no exact bounded spectrum on this grid, an infeasible basis, ...), and LimitError when the table
 // is over kMethodTableLimit. Thread-safe; builds of different methods run at the same time.
-MethodResult make_method(const MethodSpec& spec);
+// With a cache folder (io/data_dir: cache_folder; "" = none), a method whose row keeps its table
+// (stored_table) and whose table is at most kMethodCacheSamples is read from the entry
+// method-<hash> there, or built and stored (pipeline/cached_answer.h): every process of a farm,
+// a batch of shell calls or the test suite builds the default lattice once per settings, not once
+// per run. The answer is the build's, bit for bit (its checksum and every spectrum).
+MethodResult make_method(const MethodSpec& spec, const std::string& cache_folder = "");
+
+// The cache format of a method's table; a change of what an entry holds changes it.
+constexpr int kMethodCacheFormat = 1;
+// Tables larger than this are built every time (their entries would be tens of MB of text):
+// 2^21 samples, 35 times the default lattice's 59,049 (9^3 vertices x 81 bins).
+constexpr uint64_t kMethodCacheSamples = uint64_t(1) << 21;
+// What the built table depends on, hashed: this build of spectex, the format, the method's recipe
+// and description, the blend weight, the observer's and illuminant's tables by value and the
+// grid's wavelengths and weights. "method-<32 hex digits>".
+std::string method_cache_key(const MethodSpec& spec);
 
 // What building the method costs: the spectral samples its table holds and computes, n^3 x bins
 // for the lattice (a spectrum per vertex, each a QP over the bins) and res^3 x bins for the

@@ -121,11 +121,60 @@ SpectralLattice SpectralLattice::build(const Colorimetry& c, int n, VertexPrior 
                 std::copy(s.data(), s.data() + N,
                           L.table_d_.begin() + static_cast<std::ptrdiff_t>(idx * N));
             }
-    L.table_.assign(L.table_d_.begin(), L.table_d_.end());
-    L.padded_ld_ = (static_cast<size_t>(N) + 7) & ~size_t{7};
-    L.padded_.assign(verts * L.padded_ld_, 0.0f);
-    for (size_t v = 0; v < verts; ++v)
-        std::copy_n(&L.table_[v * static_cast<size_t>(N)], N, &L.padded_[v * L.padded_ld_]);
+    L.make_float_tables();
+    L.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return L;
+}
+
+void SpectralLattice::make_float_tables() {
+    const size_t N = static_cast<size_t>(bins_);
+    const size_t verts = static_cast<size_t>(n_) * n_ * n_;
+    table_.assign(table_d_.begin(), table_d_.end());
+    padded_ld_ = (N + 7) & ~size_t{7};
+    padded_.assign(verts * padded_ld_, 0.0f);
+    for (size_t v = 0; v < verts; ++v) std::copy_n(&table_[v * N], N, &padded_[v * padded_ld_]);
+}
+
+SpectralLattice SpectralLattice::from_table(const Colorimetry& c, int n, VertexPrior prior,
+                                            std::vector<double> table) {
+    const auto t0 = std::chrono::steady_clock::now();
+    if (n < 2 || c.grid.size() < 3) throw Error("stored lattice: too small");
+    const size_t N = c.grid.size();
+    const size_t verts = static_cast<size_t>(n) * n * n;
+    if (table.size() != verts * N) throw Error("stored lattice: wrong number of values");
+    SpectralLattice L;
+    L.n_ = n;
+    L.bins_ = static_cast<int>(N);
+    L.prior_ = prior;
+    L.locator_ = AxisLocator(n);
+    const std::vector<double>& ax = L.locator_.axis();
+    const Eigen::Matrix3Xd C = c.rgb_weights();
+    L.min_value = 1, L.max_value = 0;
+    for (int ir = 0; ir < n; ++ir)
+        for (int ig = 0; ig < n; ++ig)
+            for (int ib = 0; ib < n; ++ib) {
+                const size_t idx = (static_cast<size_t>(ir) * n + ig) * n + ib;
+                const Eigen::Map<const Eigen::VectorXd> s(&table[idx * N],
+                                                          static_cast<Eigen::Index>(N));
+                for (size_t k = 0; k < N; ++k)
+                    if (!(s[static_cast<Eigen::Index>(k)] >= 0 &&
+                          s[static_cast<Eigen::Index>(k)] <= 1))
+                        throw Error("stored lattice: a value outside [0, 1]");
+                const bool black = ir == 0 && ig == 0 && ib == 0;
+                const bool white = ir == n - 1 && ig == n - 1 && ib == n - 1;
+                if ((black && s.maxCoeff() != 0) || (white && s.minCoeff() != 1))
+                    throw Error("stored lattice: black or white is not exact");
+                const Eigen::Vector3d v(ax[static_cast<size_t>(ir)], ax[static_cast<size_t>(ig)],
+                                        ax[static_cast<size_t>(ib)]);
+                const double residual = (C * s - v).cwiseAbs().maxCoeff();
+                if (!(residual <= kStoredVertexTolerance))
+                    throw Error("stored lattice: a vertex colour is not reproduced");
+                L.max_colour_residual = std::max(L.max_colour_residual, residual);
+                L.min_value = std::min(L.min_value, s.minCoeff());
+                L.max_value = std::max(L.max_value, s.maxCoeff());
+            }
+    L.table_d_ = std::move(table);
+    L.make_float_tables();
     L.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return L;
 }

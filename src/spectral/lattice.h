@@ -45,6 +45,17 @@ class SpectralLattice {
     static SpectralLattice build(const Colorimetry& c, int n, VertexPrior prior,
                                  double blend = 0.5);
 
+    // The lattice of a table built before (a cache entry of build()'s table_double()): the same
+    // lattice, checksum and spectra as that build. Throws Error unless the table is one build()
+    // could have made for this colorimetry: n^3 x bins finite values in [0, 1], black and white
+    // exact, and every vertex colour reproduced within kStoredVertexTolerance. The certificate's
+    // solver figures (iterations, fallbacks) are not known and stay 0.
+    static SpectralLattice from_table(const Colorimetry& c, int n, VertexPrior prior,
+                                      std::vector<double> table);
+    // build() demands 1e-13 of every vertex; a stored table is held to 1e-12 (the unit tests'
+    // figure), so a table from this build is always taken and one that is not exact never is.
+    static constexpr double kStoredVertexTolerance = 1e-12;
+
     int size() const { return n_; }
     int bins() const { return bins_; }
     const std::vector<double>& axis() const { return locator_.axis(); }
@@ -71,6 +82,8 @@ class SpectralLattice {
                 size_t plane_stride) const;
 
   private:
+    void make_float_tables();
+
     int n_ = 0, bins_ = 0;
     VertexPrior prior_ = VertexPrior::Smooth;
     AxisLocator locator_;

@@ -13,12 +13,14 @@
 
 #include "cli_util.h"
 #include "exr_read.h"
+#include "pipeline/cached_answer.h"
 
 using namespace spectex_test;
 
 namespace {
 
-const std::string kHit = "from the cache";
+// The bits' hit, said with -v (the lattice's table has a hit line of its own: MethodCache).
+const std::string kHit = "the precision's bits from the cache";
 
 struct Env {
     explicit Env(const std::string& cache) {
@@ -177,4 +179,61 @@ TEST(PrecisionCache, PlanAndBakeShareTheBits) {
     ASSERT_EQ(b.status, 0) << b.err;
     EXPECT_NE(b.err.find(kHit), std::string::npos) << b.err;
     EXPECT_EQ(precision_entries(d / "cache").size(), 1u);
+}
+
+// The default bake's lattice (9^3 vertices, each a QP) is built once per settings and kept in the
+// cache beside the bits: a second bake reads it (-v says so) and writes the same spectra as a
+// bake that builds it; an entry that is damaged, or sealed again around a table that is not
+// exact, is a warning and a rebuild, never a table baked.
+TEST(MethodCache, TheLatticeIsBuiltOnceAndADamagedTableIsBuiltAgain) {
+    ScratchDir d;
+    make_input(d);
+    const Env env(d / "cache");
+    auto lattice_bake = [&](const std::string& out, const std::vector<std::string>& more) {
+        std::vector<std::string> a = {"bake",           d / "in.png", "-o",
+                                      d / out,          "--method",   "lattice",
+                                      "--vertex-prior", "lhtss",      "--wavelengths",
+                                      "400:700:20",     "-v"};
+        a.insert(a.end(), more.begin(), more.end());
+        return run_spectex(a);
+    };
+    const RunResult fresh = lattice_bake("ref.exr", {"--no-cache"});
+    ASSERT_EQ(fresh.status, 0) << fresh.err;
+    EXPECT_TRUE(list_dir(d / "cache").empty()) << "--no-cache keeps nothing";
+    const RunResult first = lattice_bake("first.exr", {});
+    ASSERT_EQ(first.status, 0) << first.err;
+    EXPECT_EQ(first.err.find("read from the cache"), std::string::npos) << first.err;
+    std::vector<std::string> found;
+    for (const auto& name : list_dir(d / "cache"))
+        if (name.rfind("method-", 0) == 0) found.push_back(d / "cache" + "/" + name);
+    ASSERT_EQ(found.size(), 1u);
+    const std::string entry = found[0], text = read_file(entry);
+    const Outcome ref = outcome(d / "ref.exr");
+    EXPECT_TRUE(outcome(d / "first.exr").pixels == ref.pixels);
+
+    const RunResult hit = lattice_bake("hit.exr", {});
+    ASSERT_EQ(hit.status, 0) << hit.err;
+    EXPECT_NE(hit.err.find("read from the cache"), std::string::npos) << hit.err;
+    EXPECT_TRUE(outcome(d / "hit.exr").pixels == ref.pixels) << "the spectra differ";
+
+    int n = 0;
+    auto rebuilt = [&](const std::string& what) {
+        const std::string out = "out" + std::to_string(n++) + ".exr";
+        const RunResult r = lattice_bake(out, {});
+        EXPECT_EQ(r.status, 0) << what << ": " << r.err;
+        EXPECT_EQ(r.err.find("read from the cache"), std::string::npos) << what << " was trusted";
+        EXPECT_NE(r.err.find("not a valid entry of the method's table"), std::string::npos)
+            << what << ": " << r.err;
+        EXPECT_TRUE(outcome(d / out).pixels == ref.pixels) << what << ": the spectra differ";
+    };
+    // The values line after "values N\n": its first value is black's first bin, 0 ("0x0p+0").
+    const size_t values = text.find('\n', text.find("\nvalues ") + 1) + 1;
+    write_text(entry, text.substr(0, text.size() / 2));
+    rebuilt("a truncated entry");
+    std::string bad = text;
+    bad.replace(values, 6, "0x1p-1");  // black's first bin 0 -> 0.5, seal unchanged
+    write_text(entry, bad);
+    rebuilt("a changed value");
+    write_text(entry, spectex::sealed_entry(bad.substr(0, bad.rfind("check "))));
+    rebuilt("a resealed table whose black is not black");
 }

@@ -513,3 +513,47 @@ TEST(Lattice, LhtssVerticesConvergeAndAreTheirPriorsOptima) {
         EXPECT_LE(worst, 1e-6) << what;
     }
 }
+
+// A table stored by a cache and read back makes the same lattice (checksum, spectra); a table that
+// build() could not have made for the colorimetry (a vertex no longer exact, a value outside
+// [0, 1], black or white moved, the wrong size) is refused, so a damaged cache entry is rebuilt
+// rather than baked.
+TEST(Lattice, FromTableTakesOnlyATableTheBuildCouldHaveMade) {
+    const Colorimetry& c = d65();
+    const SpectralLattice built = SpectralLattice::build(c, 5, VertexPrior::Lhtss);
+    const SpectralLattice again =
+        SpectralLattice::from_table(c, 5, VertexPrior::Lhtss, built.table_double());
+    EXPECT_EQ(again.checksum(), built.checksum());
+    EXPECT_EQ(again.table(), built.table());
+    const double rgb[3] = {0.3, 0.7, 0.1};
+    std::vector<double> a(static_cast<size_t>(built.bins())), b(a.size());
+    built.spectrum(rgb, a.data());
+    again.spectrum(rgb, b.data());
+    EXPECT_EQ(a, b);
+    EXPECT_LE(again.max_colour_residual, SpectralLattice::kStoredVertexTolerance);
+
+    const size_t N = static_cast<size_t>(built.bins());
+    const size_t mid = (static_cast<size_t>(2) * 5 + 3) * 5 + 1;  // an inner vertex
+    auto refused = [&](std::vector<double> t, const char* what) {
+        EXPECT_THROW(SpectralLattice::from_table(c, 5, VertexPrior::Lhtss, std::move(t)), Error)
+            << what;
+    };
+    std::vector<double> t = built.table_double();
+    t[mid * N + 40] += 1e-3;  // in [0, 1] still, but the vertex's colour moves by ~1e-5
+    refused(t, "a vertex no longer exact");
+    t = built.table_double();
+    t[mid * N + 3] = 1.5;
+    refused(t, "a value above 1");
+    t = built.table_double();
+    t[mid * N + 3] = std::numeric_limits<double>::quiet_NaN();
+    refused(t, "NaN");
+    t = built.table_double();
+    t[3] = 1e-300;
+    refused(t, "black not exactly zero");
+    t = built.table_double();
+    t.pop_back();
+    refused(t, "one value short");
+    // The wrong lattice size for the same values.
+    EXPECT_THROW(SpectralLattice::from_table(c, 4, VertexPrior::Lhtss, built.table_double()),
+                 Error);
+}
