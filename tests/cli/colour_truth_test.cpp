@@ -17,6 +17,7 @@
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -237,30 +238,36 @@ TEST(ColourTruth, IccProfileTheConfigCannotNameIsAWarningUnderQuiet) {
     EXPECT_FALSE(has(given.err, "ProPhoto")) << given.err;
 }
 
-// Damaged ICC blocks (garbage, cut short, a tag table or description running past the end, a PNG
-// iCCP chunk libpng refuses): never a crash, a warning that says what is wrong, and the fallback.
+// Damaged ICC blocks (garbage, cut short, a PNG iCCP chunk libpng refuses): never a crash, a
+// warning that says what is wrong, and the fallback. A profile whose tag table or description
+// lies about where it is (past the profile's end) is damage, and the file is refused, never read
+// out of bounds (tests/cli/hostile_profiles_test.cpp has every container and command).
 TEST(ColourTruth, DamagedIccBlocksNeverCrash) {
     ScratchDir d;
     const std::vector<unsigned char> good = icc_profile("Adobe RGB (1998)");
-    std::vector<std::vector<unsigned char>> bad;
+    std::vector<std::vector<unsigned char>> bad, lying;
     bad.emplace_back(300, 0xa5);                         // garbage
     bad.emplace_back(good.begin(), good.begin() + 131);  // cut inside the header
-    bad.push_back(good);
-    bad.back()[131] = 0xff;  // tag count: millions
-    bad.push_back(good);
-    bad.back()[132 + 11] = 0xff;  // the desc tag's length: past the end
-    bad.push_back(good);
+    lying.push_back(good);
+    lying.back()[131] = 0xff;  // tag count: millions
+    lying.push_back(good);
+    lying.back()[132 + 11] = 0xff;  // the desc tag's length: past the end
+    lying.push_back(good);
     // The description's count: 0x7fffffff (the desc tag starts after the table of 8 tags).
     const size_t desc_at = 128 + 4 + 12 * 8;
-    for (int k = 0; k < 4; ++k) bad.back()[desc_at + 8 + static_cast<size_t>(k)] = k ? 0xff : 0x7f;
+    for (int k = 0; k < 4; ++k)
+        lying.back()[desc_at + 8 + static_cast<size_t>(k)] = k ? 0xff : 0x7f;
     // One batch (one start-up) for all of them: each file's record and warning.
     std::vector<std::string> args = {"bake", "--output-dir", d / "out", "--json", "-", "-q"};
     int n = 0;
-    for (const auto& b : bad)
-        for (const char* ext : {"tif", "jpg"}) {
-            args.push_back(d / ("bad" + std::to_string(n++) + "." + ext));
-            write_tagged(args.back(), b);
-        }
+    std::vector<std::string> refused;
+    for (const auto* set : {&bad, &lying})
+        for (const auto& b : *set)
+            for (const char* ext : {"tif", "jpg"}) {
+                args.push_back(d / ("bad" + std::to_string(n++) + "." + ext));
+                write_tagged(args.back(), b);
+                if (set == &lying) refused.push_back(args.back());
+            }
     // A PNG whose iCCP chunk holds no zlib stream: libpng drops it; spectex says so.
     const std::string plain = d / "plain.png";
     write_tagged(plain, {});
@@ -269,24 +276,29 @@ TEST(ColourTruth, DamagedIccBlocksNeverCrash) {
     args.push_back(d / "iccp.png");
     std::ofstream(args.back(), std::ios::binary) << png;
     RunResult r = run_spectex(args, {"OCIO="});
-    ASSERT_EQ(r.status, 0) << r.err;
+    ASSERT_EQ(r.status, 1) << r.err;  // the lying ones failed, the others baked
     size_t records = 0;
     for (size_t b = 0, e; b < r.out.size(); b = e + 1) {
         e = r.out.find('\n', b);
         if (e == std::string::npos) e = r.out.size();
         const json j = json::parse(r.out.substr(b, e - b));
         ++records;
-        SCOPED_TRACE(std::string(j["input"]));
+        const std::string input = j["input"];
+        SCOPED_TRACE(input);
+        if (std::find(refused.begin(), refused.end(), input) != refused.end()) {
+            EXPECT_EQ(j["status"], "failed");
+            EXPECT_TRUE(has(r.err, "spectex: " + input + ": ICC profile: ")) << r.err;
+            continue;
+        }
         EXPECT_EQ(j["status"], "ok");
         EXPECT_EQ(j["colorspace"], "sRGB - Texture");
         ASSERT_EQ(j["warnings"].size(), 1u) << j.dump();
         EXPECT_TRUE(has(j["warnings"][0], "ICC profile")) << j.dump();
         EXPECT_TRUE(has(j["warnings"][0], "--colorspace")) << j.dump();
-        EXPECT_TRUE(
-            has(r.err, std::string(j["input"]) + ": an embedded ICC profile spectex cannot read ("))
-            << r.err;
+        EXPECT_TRUE(has(r.err, input + ": an embedded ICC profile spectex cannot read (")) << r.err;
     }
     EXPECT_EQ(records, static_cast<size_t>(n) + 1) << r.out;
+    EXPECT_EQ(refused.size(), 6u);
 }
 
 // Each origin labelled as what it is: a tag the file carries, OpenImageIO's default for the format,

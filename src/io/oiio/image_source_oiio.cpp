@@ -15,6 +15,7 @@
 #include "base/bounded_read.h"
 #include "base/error.h"
 #include "base/text.h"
+#include "io/icc_profile.h"
 #include "io/image_source.h"
 #include "io/oiio/oiio_library.h"
 
@@ -423,6 +424,13 @@ void OiioImageSource::describe(const OIIO::ImageSpec& spec, uint64_t max_pixels,
     if (int b = spec.get_int_attribute("oiio:BitsPerSample", 0); b > 0 && !info.is_float)
         info.bits = b;
     info.colour = colour_tags(spec, info.format_name, png_colour_chunks);
+    // A profile whose tags lie about where they are is damage, as a chunk past the file's end is:
+    // refused (the decoder, io/oiio/icc_decoder_oiio.cpp, has already declined to read it).
+    if (!info.colour.icc.empty()) {
+        const IccStructure icc =
+            check_icc_structure(info.colour.icc.data(), info.colour.icc.size());
+        if (!icc.damage.empty()) throw Error(path + ": ICC profile: " + icc.damage);
+    }
     choose_channels(spec);
     tiled = spec.tile_width > 0;
 }
