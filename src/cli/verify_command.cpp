@@ -417,7 +417,11 @@ int run_verify(const std::vector<std::string>& args) {
     a.s.threads = std::min(a.s.threads, std::max(1, thread_budget() / a.jobs));
     a.s.other_lights = distinct_lights(a.s.other_lights);
     try {
-        check_verify_memory(a.s.other_lights.size(), a.s.threads, a.jobs, a.s);
+        // Each file's band by its size: many small files at once need little.
+        std::vector<uint64_t> bands;
+        bands.reserve(files.size());
+        for (const auto& f : files) bands.push_back(verify_band_bytes(f, a.s));
+        check_verify_memory(a.s.other_lights.size(), a.s.threads, a.jobs, a.s, bands);
     } catch (const LimitError& e) {
         return usage_error("verify", e.what());
     }

@@ -35,18 +35,30 @@ struct VerifySettings {
     int threads = 0;               // compute threads (0 = all cores)
 };
 
-// What verify keeps in memory grows with the other lights and the measuring threads: each thread
-// has, per light, a ΔE00 histogram (ErrorHistogram, 96 KB) and its XYZ block (6 KB), besides the
-// two bands (band_bytes each, and the source's pixels) of every job. The estimate, made before any
-// file is read, for `lights` other lights, `threads` per file (after thread_budget()) and `jobs`.
-uint64_t verify_memory_estimate(size_t lights, int threads, int jobs, const VerifySettings& s);
+// The bytes of one band of a file's spectral samples as verify reads them (float): s.band_bytes,
+// or the whole image when it is smaller (an 8x8 file needs 8 rows, not 8 MiB). 0 for a file whose
+// header cannot be read: it fails on its own before any band is allocated.
+uint64_t verify_band_bytes(const std::string& exr_path, const VerifySettings& s);
+// What verify keeps in memory: every job has two bands of its file (and the source's pixels, at
+// most the same size again), and each of its threads has, per light, a ΔE00 histogram
+// (ErrorHistogram, 96 KB) and its XYZ block (6 KB). The estimate, made before any pixel is read,
+// for `lights` other lights, `threads` per file (after thread_budget()), `jobs` at once and the
+// files' band_bytes (verify_band_bytes): the `jobs` largest bands at once.
+struct VerifyMemory {
+    uint64_t bands = 0;         // the bands and source pixels of the jobs running at once
+    uint64_t measurements = 0;  // the threads' histograms and blocks, with the lights'
+    uint64_t total() const { return bands + measurements; }
+};
+VerifyMemory verify_memory_estimate(size_t lights, int threads, int jobs, const VerifySettings& s,
+                                    const std::vector<uint64_t>& band_bytes);
 // The most verify_memory_estimate() may be: 1 GiB. A 4K, 81-bin file with all 26 shipped lights
-// on 64 threads needs about 190 MB of it; past 1 GiB the request is thousands of lights (10,000
-// on one thread), which no scene has.
+// on 64 threads needs about 190 MB of it; 32 jobs of files with full bands (8 MiB each) need 1 GiB.
 constexpr uint64_t kVerifyMemoryLimit = uint64_t(1) << 30;
-// Throws LimitError ("--illuminant: ...", naming the figure and the limit) when the estimate
-// exceeds kVerifyMemoryLimit.
-void check_verify_memory(size_t lights, int threads, int jobs, const VerifySettings& s);
+// Throws LimitError when the estimate exceeds kVerifyMemoryLimit, naming first the option that
+// costs most (--jobs when the bands do, --illuminant when the lights do) and what takes the
+// memory, with the figures and the limit.
+void check_verify_memory(size_t lights, int threads, int jobs, const VerifySettings& s,
+                         const std::vector<uint64_t>& band_bytes);
 
 // ΔE values are binned on a logarithmic scale (1000 bins per decade from 1e-8 to 1e4) so that a
 // percentile costs no per-pixel storage; its relative resolution is 0.23 %.

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
+#include <functional>
 #include <limits>
 
 #include "base/error.h"
@@ -469,26 +470,56 @@ void measure_file(SpectralReader& reader, ImageSource* src, const Linearizer& li
     report_totals(merge_stats(measure_bands(reader, src, lin, ctx, band_rows, s, r)), r);
 }
 
-uint64_t verify_memory_estimate(size_t lights, int threads, int jobs, const VerifySettings& s) {
+uint64_t verify_band_bytes(const std::string& exr_path, const VerifySettings& s) {
+    try {
+        const SpectralExrInfo info = read_spectral_exr_info(exr_path);
+        const uint64_t image = static_cast<uint64_t>(std::max(0, info.width)) *
+                               static_cast<uint64_t>(std::max(0, info.height)) *
+                               info.reflective.size() * sizeof(float);
+        return std::min<uint64_t>(s.band_bytes, image);
+    } catch (const Error&) {
+        return 0;  // the file's own error, before any band
+    }
+}
+
+VerifyMemory verify_memory_estimate(size_t lights, int threads, int jobs, const VerifySettings& s,
+                                    const std::vector<uint64_t>& band_bytes) {
     const uint64_t per_light = sizeof(LightStats) + kHistBins * sizeof(uint64_t) +
                                3 * kBlock * sizeof(double);  // histogram + XYZ block
     const uint64_t per_thread = sizeof(Stats) + kHistBins * sizeof(uint64_t) + per_light * lights;
-    // Two bands of spectral samples, and the source's pixels as read and linearised (RGBA float,
-    // at most the same size again).
-    const uint64_t per_job = 4 * static_cast<uint64_t>(s.band_bytes) +
-                             per_thread * static_cast<uint64_t>(std::max(1, threads));
-    return per_job * static_cast<uint64_t>(std::max(1, jobs));
+    const size_t running = static_cast<size_t>(std::max(1, jobs));
+    VerifyMemory m;
+    // Two bands of spectral samples per job, and the source's pixels as read and linearised (RGBA
+    // float, at most the same size again): the largest files' bands, as many as run at once.
+    std::vector<uint64_t> bands = band_bytes;
+    if (bands.empty()) bands.push_back(s.band_bytes);
+    std::sort(bands.begin(), bands.end(), std::greater<uint64_t>());
+    for (size_t k = 0; k < std::min(running, bands.size()); ++k) m.bands += 4 * bands[k];
+    m.measurements = per_thread * static_cast<uint64_t>(std::max(1, threads)) * running;
+    return m;
 }
 
-void check_verify_memory(size_t lights, int threads, int jobs, const VerifySettings& s) {
-    const uint64_t need = verify_memory_estimate(lights, threads, jobs, s);
-    if (need <= kVerifyMemoryLimit) return;
-    throw LimitError("--illuminant: " + std::to_string(lights) + " lights x " +
-                     std::to_string(threads) + " threads x " + std::to_string(jobs) +
-                     " jobs need about " + std::to_string(need >> 20) +
-                     " MiB (about 100 KB per light and thread), over the limit of " +
-                     std::to_string(kVerifyMemoryLimit >> 20) +
-                     " MiB (1 GiB); give fewer lights, --threads or --jobs");
+void check_verify_memory(size_t lights, int threads, int jobs, const VerifySettings& s,
+                         const std::vector<uint64_t>& band_bytes) {
+    const VerifyMemory m = verify_memory_estimate(lights, threads, jobs, s, band_bytes);
+    if (m.total() <= kVerifyMemoryLimit) return;
+    auto mib = [](uint64_t b) { return std::to_string((b + (1u << 20) - 1) >> 20); };
+    const std::string bands = mib(m.bands) +
+                              " MiB of bands (two bands of each file's samples and "
+                              "its source's pixels, per job)";
+    const std::string lights_text = mib(m.measurements) + " MiB of measurements (" +
+                                    std::to_string(lights) + " lights x " +
+                                    std::to_string(threads) + " threads x " + std::to_string(jobs) +
+                                    " jobs, about 100 KB per light and thread)";
+    const std::string limit =
+        ", over the limit of " + std::to_string(kVerifyMemoryLimit >> 20) + " MiB (1 GiB); ";
+    if (m.bands >= m.measurements)
+        throw LimitError("--jobs: " + std::to_string(jobs) + " files at once need about " +
+                         mib(m.total()) + " MiB: " + bands + " and " + lights_text + limit +
+                         "give fewer --jobs");
+    throw LimitError("--illuminant: " + std::to_string(lights) + " lights need about " +
+                     mib(m.total()) + " MiB: " + lights_text + " and " + bands + limit +
+                     "give fewer lights, --threads or --jobs");
 }
 
 }  // namespace spectex

@@ -18,6 +18,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <filesystem>
 #include <random>
 
 #include "cli/cli_util.h"
@@ -459,4 +460,44 @@ TEST(Verify, TheRecordedSourceIsFoundFromAnywhere) {
                                     "/moved/t6/albedo.exr: the source it records "
                                     "is not found (tried "))
         << g.err;
+}
+
+// The memory verify reserves is the bands of the files being read: a small file's band is its
+// whole image (8x8x81 floats, 20 KB), so many small files at once are well within the limit.
+TEST(Verify, ManySmallFilesAtOnceNeedOnlySmallBands) {
+    ScratchDir d;
+    make_png(d, "in.png", 8, 8);
+    ASSERT_EQ(
+        run_spectex({"bake", d / "in.png", "-o", d / "a0.exr", "--method", "basis", "-q"}).status,
+        0);
+    std::vector<std::string> args = {"verify", "-q", "--jobs", "40"};
+    for (int k = 0; k < 40; ++k) {
+        const std::string f = d / ("a" + std::to_string(k) + ".exr");
+        if (k) std::filesystem::copy_file(d / "a0.exr", f);
+        args.push_back(f);
+    }
+    const RunResult r = run_spectex(args);
+    EXPECT_EQ(r.status, 0) << r.err;
+}
+
+// Past the limit, the refusal names the option whose cost it is (--jobs: each job reads two bands
+// of its file, 8 MiB each, and its source's pixels) with what takes the memory. 33 jobs of a file
+// whose band is full (256x128x81 floats, over 8 MiB) need 33 x 32 MiB = 1056 MiB, over 1 GiB.
+TEST(Verify, TooManyLargeFilesAtOnceNameJobsAndTheirBands) {
+    ScratchDir d;
+    make_png(d, "in.png", 256, 128);
+    ASSERT_EQ(
+        run_spectex({"bake", d / "in.png", "-o", d / "big.exr", "--method", "basis", "-q"}).status,
+        0);
+    std::vector<std::string> args = {"verify", "--jobs", "33", "--threads", "1"};
+    for (int k = 0; k < 33; ++k) {
+        const std::string f = d / ("b" + std::to_string(k) + ".exr");
+        std::filesystem::create_symlink(d / "big.exr", f);
+        args.push_back(f);
+    }
+    const RunResult r = run_spectex(args);
+    EXPECT_EQ(r.status, 2) << r.err;
+    EXPECT_TRUE(has_text(r.err, "--jobs: 33 files at once need about 10")) << r.err;
+    EXPECT_TRUE(has_text(r.err, "1056 MiB of bands")) << r.err;
+    EXPECT_FALSE(has_text(r.err, "--illuminant:")) << r.err;
 }
