@@ -64,7 +64,6 @@ class KeyHash {
     }();
 };
 
-
 // Texts as hex digits ("x" first, so that an empty one is a word too): any byte survives.
 inline std::string hex_text(const std::string& s) {
     static const char* digits = "0123456789abcdef";
@@ -142,6 +141,5 @@ class Words {
     std::istringstream in_;
     bool ok_ = true;
 };
-
 
 }  // namespace spectex::cache_text

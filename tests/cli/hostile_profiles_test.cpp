@@ -61,8 +61,8 @@ Bytes desc_tag(const std::string& text) {
 }
 // multiLocalizedUnicodeType (ICC v4): one English record of (length, offset) from the tag's start.
 Bytes mluc_tag(uint32_t length, uint32_t offset) {
-    Bytes m = "mluc" + Bytes(4, '\0') + be32(1) + be32(12) + "en" + "US" + be32(length) +
-              be32(offset);
+    Bytes m =
+        "mluc" + Bytes(4, '\0') + be32(1) + be32(12) + "en" + "US" + be32(length) + be32(offset);
     for (char c : std::string("sRGB")) m += Bytes(1, '\0') + c;  // UTF-16BE
     return m;
 }
@@ -144,11 +144,11 @@ void write_png_with_profile(const std::string& path, const Bytes& icc) {
 void write_oiio_with_profile(const std::string& path, const Bytes& icc) {
     const std::vector<uint8_t> px = pixels();
     OIIO::ImageSpec spec(8, 8, 3, OIIO::TypeDesc::UINT8);
-    spec.attribute("ICCProfile", OIIO::TypeDesc(OIIO::TypeDesc::UINT8, static_cast<int>(icc.size())),
-                   icc.data());
+    spec.attribute("ICCProfile",
+                   OIIO::TypeDesc(OIIO::TypeDesc::UINT8, static_cast<int>(icc.size())), icc.data());
     auto out = OIIO::ImageOutput::create(path);
-    ASSERT_TRUE(out && out->open(path, spec) && out->write_image(OIIO::TypeDesc::UINT8, px.data()) &&
-                out->close())
+    ASSERT_TRUE(out && out->open(path, spec) &&
+                out->write_image(OIIO::TypeDesc::UINT8, px.data()) && out->close())
         << path;
 }
 
@@ -181,7 +181,8 @@ TEST(HostileProfiles, ValidProfilesInEveryContainerStillBake) {
     ScratchDir d;
     const Bytes icc = profile("desc", desc_tag("sRGB IEC61966-2.1"), 144, 91 + 18);
     for (const char* ext : kContainers) {
-        const std::string in = d / (std::string("ok.") + ext), out = d / (std::string(ext) + ".exr");
+        const std::string in = d / (std::string("ok.") + ext),
+                          out = d / (std::string(ext) + ".exr");
         write_with_profile(in, icc);
         RunResult r = run_spectex({"bake", in, "-o", out, "--method", "basis", "--json", "-"});
         EXPECT_EQ(r.status, 0) << ext << ": " << r.err;
@@ -194,8 +195,8 @@ TEST(HostileProfiles, ValidProfilesInEveryContainerStillBake) {
 TEST(HostileProfiles, LyingProfilesAreRefusedByEveryCommandThatOpensATexture) {
     ScratchDir d;
     write_png_with_profile(d / "good.png", "");
-    ASSERT_EQ(run_spectex({"bake", d / "good.png", "-o", d / "good.exr", "--method", "basis"}).status,
-              0);
+    ASSERT_EQ(
+        run_spectex({"bake", d / "good.png", "-o", d / "good.exr", "--method", "basis"}).status, 0);
     const std::vector<Hostile> hostile = hostile_profiles();
     for (const Hostile& h : hostile) {
         for (const char* ext : kContainers) {

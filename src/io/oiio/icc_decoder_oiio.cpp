@@ -65,24 +65,25 @@ __attribute__((visibility("default"))) bool decode_icc_profile(cspan<uint8_t> ic
     }
     using Strutil::fmt::format;
     static const char* const classes[][2] = {
-        {"scnr", "Input device profile"}, {"mntr", "Display device profile"},
+        {"scnr", "Input device profile"},  {"mntr", "Display device profile"},
         {"prtr", "Output device profile"}, {"link", "DeviceLink profile"},
-        {"spac", "ColorSpace profile"},   {"abst", "Abstract profile"},
+        {"spac", "ColorSpace profile"},    {"abst", "Abstract profile"},
         {"nmcl", "NamedColor profile"}};
     static const char* const spaces[][2] = {
-        {"XYZ ", "XYZ"}, {"Lab ", "CIELAB"}, {"Luv ", "CIELUV"}, {"YCbr", "YCbCr"},
-        {"Yxy ", "CIEYxy"}, {"RGB ", "RGB"}, {"GRAY", "Gray"}, {"HSV ", "HSV"},
-        {"HLS ", "HLS"}, {"CMYK", "CMYK"}, {"CMY ", "CMY"}};
+        {"XYZ ", "XYZ"},    {"Lab ", "CIELAB"}, {"Luv ", "CIELUV"}, {"YCbr", "YCbCr"},
+        {"Yxy ", "CIEYxy"}, {"RGB ", "RGB"},    {"GRAY", "Gray"},   {"HSV ", "HSV"},
+        {"HLS ", "HLS"},    {"CMYK", "CMYK"},   {"CMY ", "CMY"}};
     static const char* const platforms[][2] = {{"APPL", "Apple Computer, Inc."},
                                                {"MSFT", "Microsoft Corporation"},
                                                {"SGI ", "Silicon Graphics, Inc."},
                                                {"SUNW", "Sun Microsystems, Inc."}};
-    static const char* const intents[] = {"Perceptual", "Media-relative colorimetric",
-                                          "Saturation", "ICC-absolute colorimetric"};
+    static const char* const intents[] = {"Perceptual", "Media-relative colorimetric", "Saturation",
+                                          "ICC-absolute colorimetric"};
     auto sig = [&](size_t at) { return std::string(reinterpret_cast<const char*>(b + at), 4); };
     spec.attribute("ICCProfile:profile_size", be32(b));
     spec.attribute("ICCProfile:cmm_type", be32(b + 4));
-    spec.attribute("ICCProfile:profile_version", format("{:d}.{:d}.{}", b[8], b[9] >> 4, b[9] & 0xf));
+    spec.attribute("ICCProfile:profile_version",
+                   format("{:d}.{:d}.{}", b[8], b[9] >> 4, b[9] & 0xf));
     set_if(spec, "ICCProfile:device_class", pick(sig(12), classes, std::size(classes)));
     set_if(spec, "ICCProfile:color_space", pick(sig(16), spaces, std::size(spaces)));
     set_if(spec, "ICCProfile:profile_connection_space", pick(sig(20), spaces, std::size(spaces)));
