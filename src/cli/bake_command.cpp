@@ -33,9 +33,11 @@ class SetupFailure : public std::runtime_error {
     explicit SetupFailure(const std::string& what) : std::runtime_error(what) {}
 };
 
-// The batch's files: inputs listed, expanded and sharded, each with its output
-// (pipeline/bake_batch).
-BatchPlan plan_bake_files(BakeCli& c, const std::vector<std::string>& inputs) {
+// The batch's files: inputs listed, expanded and named, each with its output
+// (pipeline/bake_batch). `whole` is the whole list; plan.files is this shard's part of it, taken
+// by check_outputs_against_reads once every check of the whole list has passed.
+BatchPlan plan_bake_files(BakeCli& c, const std::vector<std::string>& inputs,
+                          std::vector<std::pair<std::string, std::string>>& whole) {
     BatchPlan plan;
     c.req.data_dir = find_data_dir();
     if (!c.base_dir.empty() && !is_directory(c.base_dir))
@@ -48,20 +50,27 @@ BatchPlan plan_bake_files(BakeCli& c, const std::vector<std::string>& inputs) {
     const OutputNaming naming{c.output, c.output_dir, c.base_dir};
     if (expanded.size() > 1 && !naming.per_input())
         throw UsageError("several inputs need --output-dir DIR or an -o template with {stem}");
-    if (!c.shard.empty()) expanded = select_shard(expanded, Shard::parse(c.shard));
+    // Every entry named, whichever shard it falls in: a name the template cannot make, or an input
+    // outside --base-dir, refuses every shard as it refuses the whole list.
     try {
-        plan.files = name_outputs(expanded, naming);
+        whole = name_outputs(expanded, naming);
     } catch (const Error& e) {
         throw UsageError(e.what());
     }
     return plan;
 }
 
-// No output may be a file this command reads, whatever its spelling or links.
-void check_outputs_against_reads(const BakeCli& c, const BatchPlan& plan) {
+// No output may be a file this command reads, whatever its spelling or links, nor the output of
+// another input. Checked on the whole list, whatever --shard takes of it: shards run apart (farm
+// tasks), so a clash between two entries of different shards is seen by neither shard's part,
+// and the last task to finish would win; an output that is another shard's input would be
+// overwritten while that shard reads it. Each shard is refused (exit 2) exactly when the whole
+// list is; then plan.files is the shard's part.
+void check_outputs_against_reads(const BakeCli& c, BatchPlan& plan,
+                                 const std::vector<std::pair<std::string, std::string>>& whole) {
     ReadFiles reads;
     reads.add_data_dir(c.req.data_dir);
-    for (const auto& file : plan.files) reads.add(file.first, "an input");
+    for (const auto& file : whole) reads.add(file.first, "an input");
     reads.add(c.from_list, "--from-list");
     {
         const std::string config = ocio_config_path(c.req.data_dir, c.req.options.config);
@@ -84,7 +93,7 @@ void check_outputs_against_reads(const BakeCli& c, const BatchPlan& plan) {
     // Every collision, before any work: a batch that found them as it went had already baked the
     // first of each pair (and exited 1 after a long run).
     {
-        const std::vector<std::string> clashes = output_clashes(plan.files);
+        const std::vector<std::string> clashes = output_clashes(whole);
         std::string list;
         size_t n = 0;
         for (const auto& c : clashes)
@@ -97,7 +106,7 @@ void check_outputs_against_reads(const BakeCli& c, const BatchPlan& plan) {
                 "{reldir} (or --output-dir) keeps each input's folder");
     }
     std::vector<OutputTarget> targets;
-    for (const auto& [in, out] : plan.files) {
+    for (const auto& [in, out] : whole) {
         check_output(out, "the output of " + in, reads, false, false);
         targets.push_back(output_target(out));
     }
@@ -106,9 +115,13 @@ void check_outputs_against_reads(const BakeCli& c, const BatchPlan& plan) {
         const OutputTarget report = output_target(c.json);
         for (size_t i = 0; i < targets.size(); ++i)
             if (report.same_as(targets[i]))
-                throw UsageError("--json: " + c.json + " is also the output of " +
-                                 plan.files[i].first);
+                throw UsageError("--json: " + c.json + " is also the output of " + whole[i].first);
     }
+    if (c.shard.empty()) {
+        plan.files = whole;
+        return;
+    }
+    plan.files = select_shard(whole, Shard::parse(c.shard));
 }
 
 // What bake's set-up tells (pipeline/bake_request), printed as bake prints it: on stderr, warnings
@@ -253,8 +266,9 @@ int run_bake(const std::vector<std::string>& args) {
     // Inputs and outputs first: every mistake in them is reported before any work (a basis fit).
     BatchPlan plan;
     try {
-        plan = plan_bake_files(c, inputs);
-        check_outputs_against_reads(c, plan);
+        std::vector<std::pair<std::string, std::string>> whole;
+        plan = plan_bake_files(c, inputs, whole);
+        check_outputs_against_reads(c, plan, whole);
     } catch (const SetupFailure& e) {
         print_error(e.what());  // a config that cannot be read fails every file: once
         return 2;

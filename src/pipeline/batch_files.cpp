@@ -297,14 +297,6 @@ Shard Shard::parse(const std::string& spec) {
     return Shard{static_cast<int>(k), static_cast<int>(n)};
 }
 
-std::vector<std::string> select_shard(const std::vector<std::string>& sorted_inputs, Shard s) {
-    std::vector<std::string> out;
-    for (size_t i = 0; i < sorted_inputs.size(); ++i)
-        if (static_cast<int>(i % static_cast<size_t>(s.n)) == s.k - 1)
-            out.push_back(sorted_inputs[i]);
-    return out;
-}
-
 const char* to_string(BatchStatus s) {
     switch (s) {
         case BatchStatus::Ok:

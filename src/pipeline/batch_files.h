@@ -39,7 +39,15 @@ struct Shard {
     int k = 1, n = 1;
     static Shard parse(const std::string& spec);  // throws Error
 };
-std::vector<std::string> select_shard(const std::vector<std::string>& sorted_inputs, Shard s);
+// Any list by position: the inputs, or (input, output) pairs named before the shard is taken.
+template <typename T>
+std::vector<T> select_shard(const std::vector<T>& sorted_inputs, Shard s) {
+    std::vector<T> out;
+    for (size_t i = 0; i < sorted_inputs.size(); ++i)
+        if (static_cast<int>(i % static_cast<size_t>(s.n)) == s.k - 1)
+            out.push_back(sorted_inputs[i]);
+    return out;
+}
 
 // What became of one file of a batch; to_string gives the word the report writes.
 enum class BatchStatus { Ok, Skipped, Failed };

@@ -122,6 +122,56 @@ TEST(Batch, ShardsCoverEveryInputExactlyOnce) {
               2);
 }
 
+// Checks that concern the whole list look at the whole list before the shard is taken: two inputs
+// of the same name in different folders collide under --output-dir, and an output that is another
+// entry's input would overwrite it. Without --shard the list is refused (exit 2); each shard must
+// be refused too, even when the two entries fall into different shards (where each shard alone
+// sees no clash and the last task to finish would win).
+TEST(Batch, EveryShardIsRefusedForAClashInTheWholeList) {
+    ScratchDir d;
+    ASSERT_EQ(::mkdir((d / "chair").c_str(), 0755), 0);
+    ASSERT_EQ(::mkdir((d / "table").c_str(), 0755), 0);
+    write_small_png(d / "chair/diffuse.png", 1);
+    write_small_png(d / "table/diffuse.png", 2);
+    std::ofstream(d / "list.txt") << d / "chair/diffuse.png"
+                                  << "\n"
+                                  << d / "table/diffuse.png"
+                                  << "\n";
+    const RunResult whole = run_spectex(
+        {"bake", "--from-list", d / "list.txt", "--output-dir", d / "out", "--method", "basis"});
+    EXPECT_EQ(whole.status, 2) << whole.err;
+    for (const char* shard : {"1/2", "2/2"}) {
+        for (bool dry : {false, true}) {
+            std::vector<std::string> args{"bake",         "--from-list", d / "list.txt",
+                                          "--output-dir", d / "out",     "--method",
+                                          "basis",        "--shard",     shard};
+            if (dry) args.push_back("--dry-run");
+            const RunResult r = run_spectex(args);
+            EXPECT_EQ(r.status, 2)
+                << "--shard " << shard << (dry ? " --dry-run" : "") << ": " << r.err;
+            EXPECT_TRUE(contains(r.err, "chair/diffuse.png") &&
+                        contains(r.err, "table/diffuse.png"))
+                << r.err;
+        }
+    }
+    EXPECT_FALSE(file_exists(d / "out/diffuse.exr"));
+
+    // An output that is another entry's input: with -o {dir}/{stem}_{ext}.exr, c.png (shard 1 of
+    // 2, byte order) writes c_png.exr, which is the input of shard 2's entry.
+    write_small_png(d / "c.png", 3);
+    std::ofstream(d / "c_png.exr") << "another entry's input, never overwritten";
+    const std::string before = read_file(d / "c_png.exr");
+    for (const char* shard : {"", "1/2", "2/2"}) {
+        std::vector<std::string> args{
+            "bake",     d / "c.png", d / "c_png.exr", "-o", d / "{stem}_{ext}.exr",
+            "--method", "basis"};
+        if (*shard) args.insert(args.end(), {"--shard", shard});
+        const RunResult r = run_spectex(args);
+        EXPECT_EQ(r.status, 2) << "--shard " << shard << ": " << r.err;
+    }
+    EXPECT_TRUE(read_file(d / "c_png.exr") == before) << "an input of the list was overwritten";
+}
+
 TEST(Batch, JobsGiveTheSameBytesAsOneJob) {
     ScratchDir d;
     std::vector<std::string> args1{"bake"}, args2{"bake"};

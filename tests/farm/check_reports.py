@@ -1,19 +1,20 @@
 #!/usr/bin/env python3
 """Checks the JSON Lines reports of one run of examples/farm/slurm_bake.sbatch (tests/farm/run_slurm.sh).
 
-    check_reports.py OUTDIR JOBID NTASKS LIST EXPECT [FAILING_INPUT]
+    check_reports.py OUTDIR BASEDIR JOBID NTASKS LIST EXPECT [FAILING_INPUT]
 
 Task K of the array wrote OUTDIR/spectex-JOBID-K.jsonl. Every input of LIST must appear exactly once
 over the NTASKS reports, in the report of its shard (index i in the byte-sorted list goes to task
 (i mod NTASKS) + 1), with status EXPECT (ok or skipped), except FAILING_INPUT, which must have
-failed with an error. A baked file's output must be OUTDIR/<stem>.exr.
+failed with an error. A baked file's output must be OUTDIR/<its folder below BASEDIR>/<stem>.exr:
+the asset tree mirrored.
 """
 import json
 import os
 import sys
 
-outdir, jobid, ntasks, listfile, expect = sys.argv[1:6]
-failing = sys.argv[6] if len(sys.argv) > 6 else None
+outdir, basedir, jobid, ntasks, listfile, expect = sys.argv[1:7]
+failing = sys.argv[7] if len(sys.argv) > 7 else None
 ntasks = int(ntasks)
 with open(listfile, "rb") as f:
     inputs = sorted(line.rstrip(b"\n") for line in f if line.strip())
@@ -50,8 +51,8 @@ for task in range(1, ntasks + 1):
         if want == "failed" and not rec.get("error"):
             problems.append(f"{where}: {src} failed without an error message")
         if want == "ok":
-            stem = os.path.splitext(os.path.basename(src))[0]
-            if rec.get("output") != os.path.join(outdir, stem + ".exr"):
+            rel = os.path.splitext(os.path.relpath(src, basedir))[0]
+            if rec.get("output") != os.path.join(outdir, rel + ".exr"):
                 problems.append(f"{where}: {src} written to {rec.get('output')!r}")
             if rec.get("error") is not None:
                 problems.append(f"{where}: {src}: error {rec.get('error')!r} with status ok")

@@ -234,17 +234,21 @@ wait_for 60 slurmd "idle node $node in sinfo (slurmd on port $slurmd_port)" node
 echo "ok: munged, slurmctld (port $ctld_port) and slurmd (port $slurmd_port) up, node $node idle" \
      "($cpus CPUs, $mem MB) in $(( $(date +%s) - start )) s"
 
-# --- Six small PNGs, listed out of order (the shards follow the byte-sorted list). ----------------
-stems=(a b c d e f)
+# --- Six small PNGs in an asset tree, two of one name in different folders, listed out of order ---
+# (the shards follow the byte-sorted list: a, b, c, chair/diffuse, d, table/diffuse; the two
+# diffuse.png fall into shards 1 and 3, so an example that did not mirror the tree would give them
+# one output: every task refused, exit 2).
+stems=(a b c chair/diffuse d table/diffuse)
+mkdir -p "$tmp/in/chair" "$tmp/in/table"
 for i in "${!stems[@]}"; do
   oiiotool --pattern "constant:color=0.$((i + 1)),0.$((8 - i)),0.5" 48x32 3 -d uint8 \
     -o "$tmp/in/${stems[$i]}.png" || { loud "FAILED: oiiotool could not write a texture"; exit 1; }
 done
-printf '%s\n' "$tmp"/in/{f,c,a,e,b,d}.png >"$tmp/list.txt"
+printf '%s\n' "$tmp"/in/{table/diffuse,c,a,d,chair/diffuse,b}.png >"$tmp/list.txt"
 
 # --- Submitting the example and waiting for it. ---------------------------------------------------
-submit() {  # submit LIST OUTDIR: the example as a 3-task array, from $tmp/work; sets $job
-  job=$(cd "$tmp/work" && client sbatch --parsable --array=1-3 "$sbatch_script" "$1" "$2")
+submit() {  # submit LIST OUTDIR: the example as a 3-task array over the tree $tmp/in, from $tmp/work; sets $job
+  job=$(cd "$tmp/work" && client sbatch --parsable --array=1-3 "$sbatch_script" "$1" "$2" "$tmp/in")
   [[ "$job" =~ ^[0-9]+$ ]] || { daemons_alive; loud "FAILED: sbatch refused the example: $job"; exit 1; }
   jobids+=("$job")
 }
@@ -283,7 +287,7 @@ log_says() {  # log_says JOB TASK REGEX [ANY]: a line of the task's log matches 
   [ -z "$other" ] || { echo "unexpected lines in $log:"; echo "$other"; return 1; }
 }
 reports() {  # reports JOB LIST EXPECT [FAILING]: tests/farm/check_reports.py
-  "$python" "$src/tests/farm/check_reports.py" "$tmp/out" "$1" 3 "$2" "${@:3}"
+  "$python" "$src/tests/farm/check_reports.py" "$tmp/out" "$tmp/in" "$1" 3 "$2" "${@:3}"
 }
 all_completed="$(printf '%s COMPLETED 0:0\n' 1 2 3)"
 
@@ -293,9 +297,11 @@ wait_array "$job" 180
 check "job $job: tasks 1-3 COMPLETED, exit code 0:0" test "$(task_states "$job")" = "$all_completed"
 check "each input in one task's JSON Lines report, status ok, in the report of its shard's task" \
   reports "$job" "$tmp/list.txt" ok
-check "the output folder holds the six EXRs and the three reports, nothing else" \
-  test "$(ls -A "$tmp/out" | tr '\n' ' ')" = "a.exr b.exr c.exr d.exr e.exr f.exr spectex-$job-1.jsonl spectex-$job-2.jsonl spectex-$job-3.jsonl "
-info_ok() {  # info_ok STEM: spectex info reads OUTDIR/STEM.exr as a spectral file baked from STEM.png
+outputs() { (cd "$tmp/out" && find . -mindepth 1 ! -name '*.jsonl' | sort | tr '\n' ' '); }
+tree="./a.exr ./b.exr ./c.exr ./chair ./chair/diffuse.exr ./d.exr ./table ./table/diffuse.exr "
+check "the output folder mirrors the tree: the six EXRs, their two folders and the three reports, nothing else" \
+  test "$(outputs) $(ls -A "$tmp/out" | grep '\.jsonl$' | tr '\n' ' ')" = "$tree spectex-$job-1.jsonl spectex-$job-2.jsonl spectex-$job-3.jsonl "
+info_ok() {  # info_ok STEM: spectex info reads OUTDIR/STEM.exr as a spectral file baked from IN/STEM.png
   local info; info=$("$spectex" info "$tmp/out/$1.exr") || return 1
   grep -qxE ' *layout: +spectralLayoutVersion 1\.0, reflective' <<<"$info" \
     && grep -qxE ' *size: +48 x 32' <<<"$info" && grep -qxE ' *bins: +81' <<<"$info" \
@@ -304,13 +310,14 @@ info_ok() {  # info_ok STEM: spectex info reads OUTDIR/STEM.exr as a spectral fi
 for s in "${stems[@]}"; do
   check "spectex info $s.exr: spectral layout 1.0, 48 x 32, 81 bins, source $s.png" info_ok "$s"
 done
-check "spectex verify --source-from-header on the six" "$spectex" verify "$tmp"/out/*.exr --source-from-header
+baked=(); for s in "${stems[@]}"; do baked+=("$tmp/out/$s.exr"); done
+check "spectex verify --source-from-header on the six" "$spectex" verify "${baked[@]}" --source-from-header
 for k in 1 2 3; do
   check "task $k's log: 2 baked, nothing else" log_says "$job" $k '^spectex: 2 baked, 0 up to date, 0 failed of 2 in '
 done
 
 # --- 2. The same array again: --update skips everything, rewrites nothing. -----------------------
-snapshot() { find "$tmp/out" -name '*.exr' -printf '%f %i %s %T@\n' | sort; }
+snapshot() { find "$tmp/out" -name '*.exr' -printf '%P %i %s %T@\n' | sort; }
 before=$(snapshot)
 submit "$tmp/list.txt" "$tmp/out"
 wait_array "$job" 180
@@ -322,9 +329,9 @@ for k in 1 2 3; do
 done
 
 # --- 3. A broken input fails its task, and the array's state says so. ----------------------------
-printf 'not a PNG\n' >"$tmp/in/g_broken.png"
-{ cat "$tmp/list.txt"; echo "$tmp/in/g_broken.png"; } >"$tmp/list-broken.txt"
-# Byte-sorted, g_broken.png is file 6 (from 0): shard 6 mod 3 + 1 = 1, with a.png and d.png.
+printf 'not a PNG\n' >"$tmp/in/u_broken.png"
+{ cat "$tmp/list.txt"; echo "$tmp/in/u_broken.png"; } >"$tmp/list-broken.txt"
+# Byte-sorted, u_broken.png is file 6 (from 0): shard 6 mod 3 + 1 = 1, with a.png and chair/diffuse.png.
 submit "$tmp/list-broken.txt" "$tmp/out"
 wait_array "$job" 180
 states=$(task_states "$job")
@@ -332,13 +339,13 @@ check "job $job (a broken input in shard 1): task 1 FAILED with a non-zero exit 
   grep -qE '^1 FAILED [1-9][0-9]*:0$' <<<"$states"
 check "tasks 2 and 3 COMPLETED, exit code 0:0" test "$(grep -v '^1 ' <<<"$states")" = "$(printf '%s COMPLETED 0:0\n' 2 3)"
 check "the broken input reported once, failed with an error, the others skipped, each by its shard's task" \
-  reports "$job" "$tmp/list-broken.txt" skipped "$tmp/in/g_broken.png"
+  reports "$job" "$tmp/list-broken.txt" skipped "$tmp/in/u_broken.png"
 check "task 1's log counts the failure" log_says "$job" 1 '^spectex: 0 baked, 2 up to date, 1 failed of 3 in ' ANY
-check "task 1's log names the broken file and why" log_says "$job" 1 "^spectex: $tmp/in/g_broken\\.png: ." ANY
+check "task 1's log names the broken file and why" log_says "$job" 1 "^spectex: $tmp/in/u_broken\\.png: ." ANY
 for k in 2 3; do
   check "task $k's log: 2 up to date, nothing else" log_says "$job" $k '^spectex: 0 baked, 2 up to date, 0 failed of 2 in '
 done
 check "no output for the broken input, no temporary file left" \
-  test "$(ls -A "$tmp/out" | grep -v '\.jsonl$' | tr '\n' ' ')" = "a.exr b.exr c.exr d.exr e.exr f.exr "
+  test "$(outputs)" = "$tree"
 echo "job $job's tasks (task, state, exit code):"; sed 's/^/  /' <<<"$states"
 [ $fail = 0 ] || loud "FAILED: the Slurm job array did not do what examples/farm/README.md says (above)"
