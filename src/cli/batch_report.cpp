@@ -148,12 +148,21 @@ class BatchReport : public BatchListener {
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
             std::cerr << "spectex: " << n.ok << " baked, " << n.skipped << " up to date, "
                       << n.failed << " failed";
-            if (not_attempted) std::cerr << ", " << not_attempted << " not attempted (--fail-fast)";
+            if (not_attempted)
+                std::cerr << ", " << not_attempted << " not attempted ("
+                          << (outcome.signal ? "interrupted by " + signal_name(outcome.signal)
+                                             : std::string("--fail-fast"))
+                          << ")";
             std::cerr << " of " << n.total << " in " << seconds_text(el) << "\n";
             print_colour_spaces(plan_, outcome.baked, outcome.was_baked);
         }
         // A warning about the data: printed under --quiet too.
         warn_default_rule_to_linear(plan_, settings, outcome.baked, outcome.was_baked);
+        // Stopped by SIGTERM or SIGINT: the records above are the files finished; the last one
+        // says the run was interrupted, and the report is committed like any other.
+        if (outcome.signal && !plan_.json.empty())
+            write_json(json_interrupted_record(signal_name(outcome.signal), n.total, n.done,
+                                               n.interrupted, settings.settings_hash));
         if (!commit_json()) return 1;
         return n.failed || not_attempted ? 1 : 0;
     }
@@ -320,6 +329,10 @@ std::string utc_stamp() {
 int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
     BatchReport report(plan);
     if (!report.open_json()) return 1;
+    // From the first file on, SIGTERM and SIGINT stop the batch instead of ending the process:
+    // the files finished keep their records, the report is committed, and main ends the process
+    // by the signal after its last line (io/atomic_file.h).
+    defer_termination_requests();
     const BatchOutcome outcome = bake_batch(plan, settings, report);
     return report.finish(outcome, settings);
 }

@@ -1,6 +1,7 @@
 #include "io/atomic_file.h"
 
 #include <fcntl.h>
+#include <pthread.h>
 #include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -54,6 +55,19 @@ extern "C" void cleanup_and_reraise(int sig) {
     ::raise(sig);
 }
 
+// defer_termination_requests: the first SIGTERM or SIGINT is recorded, not acted on (lock-free
+// atomics only: safe in a handler).
+std::atomic<bool> g_defer{false};
+std::atomic<int> g_requested{0};
+
+extern "C" void on_terminating_signal(int sig) {
+    if ((sig == SIGTERM || sig == SIGINT) && g_defer.load()) {
+        int none = 0;
+        if (g_requested.compare_exchange_strong(none, sig)) return;
+    }
+    cleanup_and_reraise(sig);
+}
+
 mode_t current_umask() {
     static const mode_t mask = [] {
         mode_t m = ::umask(022);
@@ -78,7 +92,8 @@ void install_signal_cleanup() {
     current_umask();
     struct sigaction sa;
     std::memset(&sa, 0, sizeof sa);
-    sa.sa_handler = cleanup_and_reraise;
+    sa.sa_handler = on_terminating_signal;
+    sa.sa_flags = SA_RESTART;  // a deferred request returns: system calls then carry on
     sigemptyset(&sa.sa_mask);
     // Termination requests, crashes, broken pipes, timers, user signals: none may leave a
     // temporary file behind. A signal the parent set to be ignored (nohup) stays ignored.
@@ -90,6 +105,35 @@ void install_signal_cleanup() {
         ::sigaction(sig, &sa, nullptr);
     }
     ::signal(SIGXFSZ, SIG_IGN);
+}
+
+void defer_termination_requests() { g_defer.store(true); }
+
+int termination_requested() { return g_requested.load(); }
+
+std::string signal_name(int sig) {
+    switch (sig) {
+        case SIGTERM:
+            return "SIGTERM";
+        case SIGINT:
+            return "SIGINT";
+        case SIGHUP:
+            return "SIGHUP";
+        case SIGQUIT:
+            return "SIGQUIT";
+        default:
+            return "signal " + std::to_string(sig);
+    }
+}
+
+void end_by_signal(int sig) {
+    g_defer.store(false);
+    sigset_t set;
+    sigemptyset(&set);
+    sigaddset(&set, sig);
+    ::pthread_sigmask(SIG_UNBLOCK, &set, nullptr);
+    cleanup_and_reraise(sig);
+    ::_exit(128 + sig);  // not reached: the signal's default action ends the process
 }
 
 namespace {

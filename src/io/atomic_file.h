@@ -5,6 +5,8 @@
 // partial file under the final name).
 #include <string>
 
+#include "base/error.h"
+
 namespace spectex {
 
 class AtomicFile {
@@ -68,6 +70,31 @@ void make_folders(const std::string& dir);
 // ends the process (SIGINT, SIGTERM, SIGPIPE, SIGUSR1, SIGALRM, SIGXCPU, crashes, ...) and ignores
 // SIGXFSZ, so that a file-size limit gives EFBIG (an error we report) instead of killing us.
 void install_signal_cleanup();
+
+// A batch stopping at a termination request. From defer_termination_requests() on, the first
+// SIGTERM or SIGINT (a farm pre-empting a task, Ctrl-C) no longer ends the process at once: it is
+// recorded, the batch starts no new file and the files being baked stop at their next strip
+// (BakeInterrupted; their temporaries are removed as ever), the report is finished, and
+// end_by_signal ends the process by that same signal. A second one, or any other terminating
+// signal, ends it at once (temporaries removed).
+void defer_termination_requests();
+// The signal recorded since defer_termination_requests (SIGTERM or SIGINT), or 0.
+int termination_requested();
+// "SIGTERM", "SIGINT", ... (else "signal N").
+std::string signal_name(int sig);
+// Removes live temporaries, restores the signal's default action and raises it, so that the
+// parent (a shell: 128 + sig, 143 for SIGTERM; Slurm) sees the process ended by the signal.
+[[noreturn]] void end_by_signal(int sig);
+// Thrown from inside a bake when termination_requested(): the file is not finished, not failed.
+class BakeInterrupted : public Error {
+  public:
+    BakeInterrupted(const std::string& input, int sig)
+        : Error(input + ": interrupted by " + signal_name(sig)), sig_(sig) {}
+    int signal() const { return sig_; }
+
+  private:
+    int sig_;
+};
 
 }  // namespace spectex
 

@@ -281,8 +281,15 @@ class PixelStages {
         int y0 = 0, y1 = 0;
     };
 
+    // A batch told to stop (SIGTERM, SIGINT: io/atomic_file.h) stops this file at its next strip;
+    // the output's temporary file is removed as the exception leaves bake_file.
+    void stop_if_requested() const {
+        if (const int sig = termination_requested()) throw BakeInterrupted(input_, sig);
+    }
+
     // Reads rows [y0, y1) and leaves linear, policed, (premultiplied) planes in r, g, b, a.
     void read_rows(int y0, int y1, float* r, float* g, float* b, float* a) {
+        stop_if_requested();
         const size_t n = w_ * static_cast<size_t>(y1 - y0);
         rgba_.resize(n * 4);
         auto t_read = Clock::now();
@@ -392,6 +399,7 @@ class PixelStages {
                 const float *r = level[0].data() + off, *g = level[1].data() + off,
                             *b = level[2].data() + off;
                 const float* a = has_alpha_ ? level[3].data() + off : nullptr;
+                stop_if_requested();
                 writer_.write_level_rows(l, y0, y1 - y0, expand(r, g, b, n, half, flt), n, a, r, g,
                                          b);
                 if (progress_) progress_->rows_done += y1 - y0;

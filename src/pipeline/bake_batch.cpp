@@ -135,7 +135,7 @@ struct BatchRun {
     void worker(size_t job) {
         JobSlot& slot = slots[job];
         for (;;) {
-            if (stop.load()) return;
+            if (stop.load() || termination_requested()) return;
             size_t i = next.fetch_add(1);
             if (i >= total) return;
             FileRecord r;
@@ -145,6 +145,12 @@ struct BatchRun {
             auto start = std::chrono::steady_clock::now();
             try {
                 bake_one(i, slot, r);
+            } catch (const BakeInterrupted&) {
+                // Neither finished nor failed: no record; its temporary file is already removed.
+                std::lock_guard<std::mutex> lock(io);
+                slot.input.clear();
+                ++outcome.counts.interrupted;
+                return;
             } catch (const Error& e) {
                 r.status = BatchStatus::Failed;
                 r.error = e.what();
@@ -322,6 +328,7 @@ BatchOutcome bake_batch(const BatchPlan& plan, const BakeSettings& settings,
         tick_cv.notify_all();
         ticker.join();
     }
+    run.outcome.signal = termination_requested();
     return std::move(run.outcome);
 }
 

@@ -68,6 +68,8 @@ struct JobSlot {
 
 struct BatchCounts {
     size_t total = 0, done = 0, ok = 0, skipped = 0, failed = 0;
+    // Files stopped inside their bake by a termination request (not done: no record, no output).
+    size_t interrupted = 0;
 };
 
 // Told of a batch as it runs, always with the batch's lock held (one call at a time).
@@ -86,6 +88,9 @@ struct BatchOutcome {
     // Per input, in input order: its bake's result (baked files only, was_baked), for a summary.
     std::vector<BakeResult> baked;
     std::vector<bool> was_baked;
+    // The termination request (io/atomic_file.h termination_requested) that stopped the batch, or
+    // 0: the files after it were not started, those being baked were stopped (counts.interrupted).
+    int signal = 0;
 };
 
 // bake --dry-run of file i of the plan: what --update finds (the output's header, and the source's
@@ -96,7 +101,10 @@ struct BatchOutcome {
 DryRunFile dry_run_file(const BatchPlan& plan, size_t i, const BakeSettings& settings);
 
 // Bakes plan.files with plan.jobs workers (skipping those --update finds up to date, failing
-// those whose output is another input's, stopping after a failure with fail_fast).
+// those whose output is another input's, stopping after a failure with fail_fast, or at a
+// termination request: no new file is started, the files being baked stop at their next strip and
+// are neither recorded nor counted as done; each finished file was handed to the listener as it
+// finished).
 BatchOutcome bake_batch(const BatchPlan& plan, const BakeSettings& settings,
                         BatchListener& listener);
 

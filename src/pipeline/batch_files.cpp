@@ -364,6 +364,20 @@ std::string json_record(const FileRecord& r) {
     return json_line(j);
 }
 
+std::string json_interrupted_record(const std::string& signal, size_t files, size_t finished,
+                                    size_t stopped, const std::string& settings_hash) {
+    Json j;
+    j["schema_version"] = kJsonSchemaVersion;
+    j["status"] = "interrupted";
+    put_text(j, "signal", signal);
+    j["files"] = files;
+    j["finished"] = finished;
+    j["stopped"] = stopped;  // inside their bake: no output, temporaries removed
+    j["not_started"] = files - finished - stopped;
+    put_text(j, "settings_hash", settings_hash);
+    return json_line(j);
+}
+
 const char* to_string(DryRunAction a) {
     switch (a) {
         case DryRunAction::Bake:

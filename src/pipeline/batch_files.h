@@ -75,6 +75,12 @@ std::vector<std::string> file_warnings(const BakeResult& r, bool default_rule = 
 
 std::string json_record(const FileRecord& r);
 
+// The last record of a batch stopped by a termination request (SIGTERM, SIGINT): no input or
+// output, "status": "interrupted", "signal": its name, and how many of the shard's files were
+// finished (recorded above it), stopped inside their bake, and not started.
+std::string json_interrupted_record(const std::string& signal, size_t files, size_t finished,
+                                    size_t stopped, const std::string& settings_hash);
+
 // bake --dry-run: what a real run would do with one file, found from headers only.
 enum class DryRunAction { Bake, Skip, Fail };
 const char* to_string(DryRunAction a);  // "would_bake", "would_skip", "would_fail"
