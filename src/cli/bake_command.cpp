@@ -155,13 +155,7 @@ class SetupReport : public BakeSetupListener {
     void method_built(const MethodSpec& spec, const MethodResult& made) override {
         if (!made.warning.empty()) warning(made.warning);
         const CacheReport& rep = made.cache;
-        if (!rep.warning.empty() && !c_.quiet)
-            std::cerr << "spectex: warning: the method's table is not kept in the cache: "
-                      << one_line(rep.warning)
-                      << " (SPECTEX_CACHE_DIR moves the cache; --no-cache does without)\n";
-        if (rep.ignored && !c_.quiet)
-            std::cerr << "spectex: warning: " << one_line(quote_path(rep.entry))
-                      << ": not a valid entry of the method's table; built again\n";
+        cache_warnings(rep, "the method's table is", "built again");
         if (c_.verbose)
             std::cerr << "spectex: " << spec.describe()
                       << (rep.hit ? ": read from the cache in " : ": built in ")
@@ -173,15 +167,23 @@ class SetupReport : public BakeSetupListener {
         if (!c_.quiet) std::cerr << "spectex: warning: " << text << "\n";
     }
 
-    void precision_chosen(const BakeSettings::Precision& rec, const PrecisionChoice& pc,
-                          const PrecisionCacheReport& rep, double seconds) override {
+    // What a cache said that the user should know (printed unless -q): an answer it could not keep,
+    // an entry it refused. `what` names the answer ("the precision's bits are"), `redo` what was
+    // done instead.
+    void cache_warnings(const CacheReport& rep, const std::string& what, const std::string& redo) {
         if (!rep.warning.empty() && !c_.quiet)
-            std::cerr << "spectex: warning: the precision's bits are not kept in the cache: "
-                      << one_line(rep.warning)
+            std::cerr << "spectex: warning: " << what
+                      << " not kept in the cache: " << one_line(rep.warning)
                       << " (SPECTEX_CACHE_DIR moves the cache; --no-cache does without)\n";
         if (rep.ignored && !c_.quiet)
             std::cerr << "spectex: warning: " << one_line(quote_path(rep.entry))
-                      << ": not a valid entry of the precision's bits; chosen again\n";
+                      << ": not a valid entry of " << what.substr(0, what.rfind(' ')) << "; "
+                      << redo << "\n";
+    }
+
+    void precision_chosen(const BakeSettings::Precision& rec, const PrecisionChoice& pc,
+                          const PrecisionCacheReport& rep, double seconds) override {
+        cache_warnings(rep, "the precision's bits are", "chosen again");
         if (rep.hit && c_.verbose)
             std::cerr << "spectex: the precision's bits from the cache: "
                       << one_line(quote_path(rep.entry)) << "\n";
