@@ -227,6 +227,11 @@ SpectralExrLayout output_layout(const BakeSettings& s, const SourceInfo& info,
 // The pixel stages of one file between the reader and the writer: read and police rows into
 // linear (premultiplied) planes, expand planes to bins, hand them to the writer; and the two
 // orders they run in (scanlines with two strips in flight, or a MIP pyramid).
+//
+// Associated alpha: a linear method (the basis) expands the premultiplied colour, which is
+// alpha times the spectrum of the straight colour. Any other method (SpectralMethod::is_linear)
+// expands the straight colour and multiplies its spectrum by alpha before rounding: a lattice's
+// spectrum of a * rgb is not a times its spectrum of rgb, and divided by alpha it left [0, 1].
 class PixelStages {
   public:
     PixelStages(const std::string& input, const BakeSettings& s, const SpectralMethod& method,
@@ -243,6 +248,7 @@ class PixelStages {
           info_(src.info()),
           has_alpha_(info_.alpha != AlphaKind::None),
           premultiply_(has_alpha_ && s.alpha == AlphaKind::Associated),
+          spectra_premultiplied_(premultiply_ && !method.is_linear()),
           policy_{info_.alpha == AlphaKind::Associated, s.nan, s.range,
                   s.type == SampleType::Half ? kHalfMax : 0.0f},
           rgb_weight_(s.half_rgb_weight),
@@ -276,6 +282,7 @@ class PixelStages {
   private:
     struct Strip {
         std::vector<float> r, g, b, a;
+        std::vector<float> sr, sg, sb;  // straight colour (spectra_premultiplied_ only)
         std::vector<uint16_t> half;
         std::vector<float> flt;
         int y0 = 0, y1 = 0;
@@ -287,8 +294,10 @@ class PixelStages {
         if (const int sig = termination_requested()) throw BakeInterrupted(input_, sig);
     }
 
-    // Reads rows [y0, y1) and leaves linear, policed, (premultiplied) planes in r, g, b, a.
-    void read_rows(int y0, int y1, float* r, float* g, float* b, float* a) {
+    // Reads rows [y0, y1) and leaves linear, policed, (premultiplied) planes in r, g, b, a, and
+    // the straight colour in sr, sg, sb when they are given.
+    void read_rows(int y0, int y1, float* r, float* g, float* b, float* a, float* sr = nullptr,
+                   float* sg = nullptr, float* sb = nullptr) {
         stop_if_requested();
         const size_t n = w_ * static_cast<size_t>(y1 - y0);
         rgba_.resize(n * 4);
@@ -307,13 +316,27 @@ class PixelStages {
             g[i] = p[1] * k;
             b[i] = p[2] * k;
             if (has_alpha_) a[i] = al;
+            if (sr) sr[i] = p[0], sg[i] = p[1], sb[i] = p[2];
         }
         res_.stages.colour += since(t_colour);
     }
 
-    // Expands n pixels into `half` or `flt` (by the output type); returns the planes.
-    const void* expand(const float* r, const float* g, const float* b, size_t n,
+    // Expands n pixels into `half` or `flt` (by the output type); returns the planes. With
+    // alpha (spectra_premultiplied_), r, g, b are the straight colour and every spectrum is
+    // multiplied by its alpha before it is rounded.
+    const void* expand(const float* r, const float* g, const float* b, const float* alpha, size_t n,
                        std::vector<uint16_t>& half, std::vector<float>& flt) const {
+        if (alpha) {
+            if (s_.type == SampleType::Half) {
+                half.resize(n * bins_);
+                (void)expand_half_premultiplied(method_, r, g, b, alpha, n, half.data(), n,
+                                                feedback_, s_.precision.bits);
+                return half.data();
+            }
+            flt.resize(n * bins_);
+            expand_float_premultiplied(method_, r, g, b, alpha, n, flt.data(), n);
+            return flt.data();
+        }
         if (s_.type == SampleType::Half) {
             half.resize(n * bins_);
             if (s_.precision.bits.empty())
@@ -350,9 +373,18 @@ class PixelStages {
         st.g.resize(n);
         st.b.resize(n);
         st.a.resize(has_alpha_ ? n : 0);
+        for (auto* p : {&st.sr, &st.sg, &st.sb}) p->resize(spectra_premultiplied_ ? n : 0);
+        if (spectra_premultiplied_) {
+            read_rows(st.y0, st.y1, st.r.data(), st.g.data(), st.b.data(), st.a.data(),
+                      st.sr.data(), st.sg.data(), st.sb.data());
+            auto t_expand = Clock::now();
+            expand(st.sr.data(), st.sg.data(), st.sb.data(), st.a.data(), n, st.half, st.flt);
+            res_.stages.expand += since(t_expand);
+            return;
+        }
         read_rows(st.y0, st.y1, st.r.data(), st.g.data(), st.b.data(), st.a.data());
         auto t_expand = Clock::now();
-        expand(st.r.data(), st.g.data(), st.b.data(), n, st.half, st.flt);
+        expand(st.r.data(), st.g.data(), st.b.data(), nullptr, n, st.half, st.flt);
         res_.stages.expand += since(t_expand);
     }
 
@@ -369,8 +401,13 @@ class PixelStages {
         if (progress_) progress_->rows_done += st.y1 - st.y0;
     }
 
-    // MIP-mapped: the expansion is linear, so every level is filtered on the linear (and
-    // premultiplied) RGBA and expanded afterwards; memory is the RGBA pyramid, not N bins.
+    // MIP-mapped: every level is filtered on the linear (and premultiplied) RGBA and expanded
+    // afterwards; memory is the RGBA pyramid, not N bins. For a linear method that is the filter
+    // of the spectra. For any other, a texel holds the method's spectrum of its filtered straight
+    // colour (filtered premultiplied colour / filtered alpha) times its filtered alpha: exact
+    // under the method's light for the filtered colour and within [0, 1] once divided by alpha,
+    // as level 0 is; under other lights it differs from the filter of level 0's spectra by the
+    // method's curvature between the texels filtered together.
     void write_mipmapped() {
         const size_t n0 = w_ * static_cast<size_t>(info_.height);
         std::array<std::vector<float>, 4> level;
@@ -400,10 +437,29 @@ class PixelStages {
                             *b = level[2].data() + off;
                 const float* a = has_alpha_ ? level[3].data() + off : nullptr;
                 stop_if_requested();
-                writer_.write_level_rows(l, y0, y1 - y0, expand(r, g, b, n, half, flt), n, a, r, g,
-                                         b);
+                const void* planes = nullptr;
+                if (spectra_premultiplied_) {
+                    straighten(r, g, b, a, n);
+                    planes = expand(straight_[0].data(), straight_[1].data(), straight_[2].data(),
+                                    a, n, half, flt);
+                } else {
+                    planes = expand(r, g, b, nullptr, n, half, flt);
+                }
+                writer_.write_level_rows(l, y0, y1 - y0, planes, n, a, r, g, b);
                 if (progress_) progress_->rows_done += y1 - y0;
             }
+        }
+    }
+
+    // straight_ = premultiplied colour / alpha (0 where alpha is 0: its spectrum is multiplied by
+    // 0). A filtered level's colour has no straight value to keep, so it is divided back.
+    void straighten(const float* r, const float* g, const float* b, const float* a, size_t n) {
+        for (auto& p : straight_) p.resize(n);
+        for (size_t i = 0; i < n; ++i) {
+            const bool seen = a[i] > 0.0f;
+            straight_[0][i] = seen ? r[i] / a[i] : 0.0f;
+            straight_[1][i] = seen ? g[i] / a[i] : 0.0f;
+            straight_[2][i] = seen ? b[i] / a[i] : 0.0f;
         }
     }
 
@@ -417,6 +473,7 @@ class PixelStages {
     BakeProgress* progress_;
     const SourceInfo& info_;
     const bool has_alpha_, premultiply_;
+    const bool spectra_premultiplied_;  // premultiply_ and a method that is not linear
     const PixelPolicy policy_;
     const std::vector<float>& rgb_weight_;  // the batch's (BakeSettings::half_rgb_weight)
     const std::vector<float>* feedback_;
@@ -425,6 +482,7 @@ class PixelStages {
     const int tile_height_;
     int strip_ = 1;
     std::vector<float> rgba_;
+    std::array<std::vector<float>, 3> straight_;
 };
 
 // After the last pixel: close the file, patch in the source's hash (known once it was decoded),

@@ -205,6 +205,20 @@ void check_source_identity(const std::string& source, const Recorded& recorded, 
     r.change = c;
 }
 
+// Per bin, how far above 1 a straight sample T/A of an associated file may be from rounding
+// alone: T's relative step (2^-bits of the bin's mantissa: the precision budget's bits, 10 for
+// half, 23 for float; the colour-aware rounding moves a value by at most one step) plus half's
+// relative rounding of A (2^-11; a float A is exact enough) and 1e-6.
+std::vector<float> straight_tolerances(const VerifyReport& r) {
+    const bool half = r.sample_type == "half" || r.sample_type == "mixed";
+    std::vector<float> tol(static_cast<size_t>(r.bins));
+    for (size_t k = 0; k < tol.size(); ++k) {
+        const int bits = !half ? 23 : k < r.precision_bits.size() ? r.precision_bits[k] : 10;
+        tol[k] = static_cast<float>(1e-6 + std::ldexp(1.0, -bits) + std::ldexp(1.0, -11));
+    }
+    return tol;
+}
+
 // The code check, when the source's codes can be checked: what the report says of it, and the
 // encoder it needs in ctx.
 void plan_code_check(const SourceInfo& si, const Linearizer& lin, VerifyReport& r,
@@ -323,6 +337,10 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
         ctx.white = col.white_xyz;
         ctx.has_alpha = info.alpha;
         ctx.associated = r.alpha == AlphaKind::Associated;
+        if (ctx.associated && info.alpha) {
+            ctx.straight_tol = straight_tolerances(r);
+            r.straight_range = true;
+        }
         measure_file(reader, src.get(), lin, ctx, band_rows, s, r);
     } catch (const Error&) {
         throw;

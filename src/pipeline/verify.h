@@ -121,7 +121,12 @@ struct VerifyReport {
     uint64_t samples = 0;
     uint64_t below_zero = 0, above_one = 0;  // strictly outside [0, 1]
     uint64_t below_tol = 0, above_tol = 0;   // < -1e-6 or > 1 + 1e-6
-    uint64_t nonfinite = 0;                  // NaN or Inf
+    // Associated alpha: the four counts above are of the straight samples T/A (pixels with A > 0),
+    // "above" tolerating each bin's rounding step instead of 1e-6 (verify.cpp,
+    // straight_tolerances). A method that is not linear expands the straight colour, so a
+    // premultiplied expansion (method(A rgb)) shows here.
+    bool straight_range = false;
+    uint64_t nonfinite = 0;  // NaN or Inf
     // Integrated linear RGB (straight colour) over the pixels with finite values.
     double rgb_min[3] = {0, 0, 0}, rgb_max[3] = {0, 0, 0};
 

@@ -39,7 +39,10 @@ std::vector<Gate> gates_of(const VerifyReport& r, const VerifyGates& g) {
                    std::to_string(r.nonfinite) + " (" + pct(r.nonfinite, r.samples) + ")"});
     if (r.out_of_range != "keep") {
         const uint64_t n = r.below_tol + r.above_tol;
-        out.push_back({"samples outside [0, 1] by more than 1e-6", "none", n == 0,
+        out.push_back({r.straight_range ? "samples divided by A outside [0, 1] by more than their "
+                                          "rounding"
+                                        : "samples outside [0, 1] by more than 1e-6",
+                       "none", n == 0,
                        std::to_string(n) + " (" + pct(n, r.samples) + "; " +
                            std::to_string(r.below_tol) + " below, " + std::to_string(r.above_tol) +
                            " above)"});

@@ -109,7 +109,10 @@ std::string verify_json(const VerifyReport& r, const VerifyGates& t,
     j["outside_unit_interval"] = count_share(r.below_zero + r.above_one, r.samples);
     j["outside_unit_interval"]["below"] = r.below_zero;
     j["outside_unit_interval"]["above"] = r.above_one;
-    Json tolerance = {{"tolerance", 1e-6}};
+    // Associated files: the counts are of T/A, and "above" tolerates each bin's rounding step.
+    j["outside_unit_interval"]["divided_by_alpha"] = r.straight_range;
+    Json tolerance = {
+        {"tolerance", r.straight_range ? Json("rounding step of each bin") : Json(1e-6)}};
     tolerance.update(count_share(r.below_tol + r.above_tol, r.samples));
     tolerance["below"] = r.below_tol;
     tolerance["above"] = r.above_tol;

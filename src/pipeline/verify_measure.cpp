@@ -126,7 +126,30 @@ void integrate_other_lights(const MeasureContext& c, const Band& b, size_t i0, s
     }
 }
 
-// Linear RGB of pixels [i0, i0 + m) into acc, and the samples outside [0, 1] or not finite.
+// The samples of pixels [i0, i0 + m) of an associated file whose straight value T/A is outside
+// [0, 1]: T > A (above 1), T > A (1 + tol) (above its bin's rounding), T < 0.
+void count_straight_range(const MeasureContext& c, const Band& b, size_t i0, size_t m, Stats& st) {
+    const float* a = b.alpha.data() + i0;
+    uint64_t below0 = 0, above1 = 0, belowt = 0, abovet = 0;
+    for (int k = 0; k < c.bins; ++k) {
+        const float* p = b.planes.data() + static_cast<size_t>(k) * c.plane + i0;
+        const float lim = 1.0f + c.straight_tol[static_cast<size_t>(k)];
+        for (size_t j = 0; j < m; ++j) {
+            const float v = p[j];
+            below0 += v < 0.0f;
+            belowt += v < -1e-6f * a[j];
+            above1 += v > a[j];
+            abovet += v > a[j] * lim;
+        }
+    }
+    st.below_zero += below0;
+    st.above_one += above1;
+    st.below_tol += belowt;
+    st.above_tol += abovet;
+}
+
+// Linear RGB of pixels [i0, i0 + m) into acc, and the samples outside [0, 1] or not finite
+// (divided by A for an associated file).
 void integrate_block(const MeasureContext& c, const Band& b, size_t i0, size_t m,
                      double (*acc)[kBlock], Stats& st) {
     for (int ch = 0; ch < 3; ++ch) std::fill(acc[ch], acc[ch] + m, 0.0);
@@ -134,6 +157,9 @@ void integrate_block(const MeasureContext& c, const Band& b, size_t i0, size_t m
     // range check below, Inf lands in it. Samples are counted one by one only when needed.
     float lo = 0.0f, hi = 1.0f;
     bool nan = false;
+    const bool straight = c.associated && !c.straight_tol.empty();
+    // Associated: the smallest margin A - T over the block (negative: some T/A above 1).
+    float margin = 0.0f;
     for (int k = 0; k < c.bins; ++k) {
         const float* p = b.planes.data() + static_cast<size_t>(k) * c.plane + i0;
         const double w0 = c.wrgb[3 * k], w1 = c.wrgb[3 * k + 1], w2 = c.wrgb[3 * k + 2];
@@ -147,6 +173,22 @@ void integrate_block(const MeasureContext& c, const Band& b, size_t i0, size_t m
             hi = v > hi ? v : hi;
             nan |= v != v;
         }
+        if (straight) {
+            const float* a = b.alpha.data() + i0;
+            for (size_t j = 0; j < m; ++j) margin = std::min(margin, a[j] - p[j]);
+        }
+    }
+    if (straight) {
+        if (lo < 0.0f || margin < 0.0f) count_straight_range(c, b, i0, m, st);
+        if (nan || hi > 1.0f) {
+            uint64_t nonfin = 0;
+            for (int k = 0; k < c.bins; ++k) {
+                const float* p = b.planes.data() + static_cast<size_t>(k) * c.plane + i0;
+                for (size_t j = 0; j < m; ++j) nonfin += !(std::fabs(p[j]) <= FLT_MAX);
+            }
+            st.nonfinite += nonfin;
+        }
+        return;
     }
     if (!(lo < 0.0f || hi > 1.0f || nan)) return;
     const float hi_tol = 1.0f + 1e-6f;

@@ -30,6 +30,9 @@ struct MeasureContext {
     Eigen::Matrix3d rgb_to_xyz, xyz_to_rgb;
     Eigen::Vector3d white;
     bool has_alpha = false, associated = false, compare = false;
+    // Associated files: the range check is on the straight samples T/A, each bin allowed its
+    // relative rounding step above 1 (straight_tol, bins values; see verify_file).
+    std::vector<float> straight_tol;
     const Linearizer* encoder =
         nullptr;  // re-encodes linear Rec.709 to the source's space (code check)
     double max_code = 255;

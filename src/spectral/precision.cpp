@@ -162,6 +162,39 @@ size_t expand_half_bits(const SpectralMethod& method, const float* r, const floa
     return widened;
 }
 
+size_t expand_half_premultiplied(const SpectralMethod& method, const float* r, const float* g,
+                                 const float* b, const float* alpha, size_t n, uint16_t* out,
+                                 size_t plane_stride, const std::vector<float>* rgb_weight,
+                                 const std::vector<int>& bits) {
+    constexpr size_t kBlock = 256;
+    const size_t bins = static_cast<size_t>(method.bins());
+    const bool full = std::all_of(bits.begin(), bits.end(), [](int k) { return k >= 10; });
+    std::vector<float> spectra(bins * kBlock);
+    size_t widened = 0;
+    for (size_t i0 = 0; i0 < n; i0 += kBlock) {
+        const size_t len = std::min(kBlock, n - i0);
+        expand_float_premultiplied(method, r + i0, g + i0, b + i0, alpha + i0, len, spectra.data(),
+                                   kBlock);
+        if (full)
+            round_spectra_to_half(spectra.data(), kBlock, len, bins, rgb_weight, out + i0,
+                                  plane_stride);
+        else
+            widened += round_spectra_to_bits(spectra.data(), kBlock, len, bins, rgb_weight, bits,
+                                             out + i0, plane_stride);
+    }
+    return widened;
+}
+
+void expand_float_premultiplied(const SpectralMethod& method, const float* r, const float* g,
+                                const float* b, const float* alpha, size_t n, float* out,
+                                size_t plane_stride) {
+    method.expand_float(r, g, b, n, out, plane_stride);
+    for (size_t k = 0; k < static_cast<size_t>(method.bins()); ++k) {
+        float* p = out + k * plane_stride;
+        for (size_t i = 0; i < n; ++i) p[i] *= alpha[i];
+    }
+}
+
 std::vector<double> bin_visibility(const Observer& observer, const std::vector<Spectrum>& lights,
                                    const std::vector<double>& lambda) {
     std::vector<double> vis(lambda.size(), 0.0);

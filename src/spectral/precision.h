@@ -46,6 +46,19 @@ size_t expand_half_bits(const SpectralMethod& method, const float* r, const floa
                         const float* b, size_t n, uint16_t* out, size_t plane_stride,
                         const std::vector<float>* rgb_weight, const std::vector<int>& bits);
 
+// Premultiplied spectra of a method that is not linear: pixel i's spectrum of its straight colour
+// (r, g, b) times alpha[i], in float, then rounded as expand_half_bits rounds (empty bits: as
+// expand_half rounds). method(a * rgb) is not a * method(rgb) for such a method (a lattice can
+// then exceed 1 once divided by alpha); a linear method may expand the premultiplied colour
+// instead, with the same result. Returns what expand_half_bits returns.
+size_t expand_half_premultiplied(const SpectralMethod& method, const float* r, const float* g,
+                                 const float* b, const float* alpha, size_t n, uint16_t* out,
+                                 size_t plane_stride, const std::vector<float>* rgb_weight,
+                                 const std::vector<int>& bits);
+void expand_float_premultiplied(const SpectralMethod& method, const float* r, const float* g,
+                                const float* b, const float* alpha, size_t n, float* out,
+                                size_t plane_stride);
+
 // Per bin: the largest weight of the bin in X, Y or Z under any of the lights, relative to the
 // largest of all bins (1 at the most visible bin). The chooser starts from 10 + log2 of it.
 std::vector<double> bin_visibility(const Observer& observer, const std::vector<Spectrum>& lights,
