@@ -62,22 +62,16 @@ void print_text(const VerifyReport& r, const VerifyGates& g,
           << (r.precision_bits.empty() ? std::string("unreadable")
                                        : format_precision_bits(r.precision_bits))
           << "\n";
-    if (r.straight_range) {
-        // Associated alpha: the straight samples T/A, above 1 by more than each bin's rounding.
-        o << "  T/A outside [0, 1]:   " << r.below_zero + r.above_one << " samples ("
-          << percent(r.below_zero + r.above_one, r.samples) << "): " << r.below_zero << " below 0, "
-          << r.above_one << " above 1\n";
-        o << "  beyond the rounding:  " << r.below_tol + r.above_tol << " samples ("
-          << percent(r.below_tol + r.above_tol, r.samples) << "): " << r.below_tol
-          << " below -1e-6, " << r.above_tol << " above 1 + the bin's step\n";
-    } else {
-        o << "  outside [0, 1]:       " << r.below_zero + r.above_one << " samples ("
-          << percent(r.below_zero + r.above_one, r.samples) << "): " << r.below_zero << " below 0, "
-          << r.above_one << " above 1\n";
-        o << "  beyond 1e-6 of it:    " << r.below_tol + r.above_tol << " samples ("
-          << percent(r.below_tol + r.above_tol, r.samples) << "): " << r.below_tol
-          << " below -1e-6, " << r.above_tol << " above 1+1e-6\n";
-    }
+    // Associated alpha: the straight samples T/A, above 1 by more than each bin's rounding.
+    const bool st = r.straight_range;
+    o << (st ? "  T/A outside [0, 1]:   " : "  outside [0, 1]:       ")
+      << r.below_zero + r.above_one << " samples ("
+      << percent(r.below_zero + r.above_one, r.samples) << "): " << r.below_zero << " below 0, "
+      << r.above_one << " above 1\n";
+    o << (st ? "  beyond the rounding:  " : "  beyond 1e-6 of it:    ") << r.below_tol + r.above_tol
+      << " samples (" << percent(r.below_tol + r.above_tol, r.samples) << "): " << r.below_tol
+      << " below -1e-6, " << r.above_tol
+      << (st ? " above 1 + the bin's step\n" : " above 1+1e-6\n");
     o << "  non-finite:           " << r.nonfinite << " samples ("
       << percent(r.nonfinite, r.samples) << ")\n";
     o << "  linear RGB range:     R " << num(r.rgb_min[0]) << " .. " << num(r.rgb_max[0]) << ", G "

@@ -374,17 +374,13 @@ class PixelStages {
         st.b.resize(n);
         st.a.resize(has_alpha_ ? n : 0);
         for (auto* p : {&st.sr, &st.sg, &st.sb}) p->resize(spectra_premultiplied_ ? n : 0);
-        if (spectra_premultiplied_) {
-            read_rows(st.y0, st.y1, st.r.data(), st.g.data(), st.b.data(), st.a.data(),
-                      st.sr.data(), st.sg.data(), st.sb.data());
-            auto t_expand = Clock::now();
-            expand(st.sr.data(), st.sg.data(), st.sb.data(), st.a.data(), n, st.half, st.flt);
-            res_.stages.expand += since(t_expand);
-            return;
-        }
-        read_rows(st.y0, st.y1, st.r.data(), st.g.data(), st.b.data(), st.a.data());
+        const bool s = spectra_premultiplied_;  // expand the straight colour, times A
+        read_rows(st.y0, st.y1, st.r.data(), st.g.data(), st.b.data(), st.a.data(),
+                  s ? st.sr.data() : nullptr, s ? st.sg.data() : nullptr,
+                  s ? st.sb.data() : nullptr);
         auto t_expand = Clock::now();
-        expand(st.r.data(), st.g.data(), st.b.data(), nullptr, n, st.half, st.flt);
+        expand(s ? st.sr.data() : st.r.data(), s ? st.sg.data() : st.g.data(),
+               s ? st.sb.data() : st.b.data(), s ? st.a.data() : nullptr, n, st.half, st.flt);
         res_.stages.expand += since(t_expand);
     }
 
