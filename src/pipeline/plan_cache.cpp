@@ -335,7 +335,7 @@ bool parse_precision_cache_text(const std::string& text, const std::string& key,
     const long long bins = w.whole(0, static_cast<long long>(kMaxGridBins));
     if (!w.ok() || bins != req.method->bins()) return false;
     for (long long k = 0; k < bins && w.ok(); ++k)
-        c.bits.push_back(static_cast<int>(w.whole(0, 10)));
+        c.bits.push_back(static_cast<int>(w.whole(kMinMantissaBits, 10)));
     w.expect("lights");
     const long long lights = w.whole(0, kMaxLights);
     if (!w.ok() || lights != static_cast<long long>(req.lights.size())) return false;

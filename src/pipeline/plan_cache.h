@@ -48,7 +48,9 @@ bool parse_plan_cache_text(const std::string& text, const std::string& key, cons
 // vectors on the cube sample (4 s for the basis, 10-26 s for the lattice on 2 busy cores), paid
 // again by every bake with the same settings. The entry holds the chosen bits and the worst ΔE00
 // per light under a key that hashes everything the choice depends on.
-constexpr int kPrecisionCacheFormat = 1;
+// Format 2: bits below kMinMantissaBits are no answer the chooser gives (format 1's entries could
+// hold 0-bit bins).
+constexpr int kPrecisionCacheFormat = 2;
 constexpr size_t kPrecisionCacheEntryLimit = size_t(1) << 20;
 
 // What choose_precision(req) depends on, hashed: this build of spectex (version and executable),

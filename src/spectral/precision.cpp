@@ -235,7 +235,7 @@ PrecisionChoice choose_precision(const PrecisionRequest& req) {
         std::vector<int> bits(bins);
         for (size_t k = 0; k < bins; ++k) {
             const double v = vis[k] > 0 ? 10 + std::log2(vis[k]) + offset : 0;
-            bits[k] = std::clamp(static_cast<int>(std::ceil(v - 1e-9)), 0, 10);
+            bits[k] = std::clamp(static_cast<int>(std::ceil(v - 1e-9)), kMinMantissaBits, 10);
         }
         return bits;
     };
@@ -283,7 +283,7 @@ PrecisionChoice choose_precision(const PrecisionRequest& req) {
         std::stable_sort(order.begin(), order.end(),
                          [&](size_t a, size_t b) { return vis[a] < vis[b]; });
         for (size_t k : order) {
-            if (best[k] == 0) continue;
+            if (best[k] <= kMinMantissaBits) continue;
             std::vector<int> bits = best;
             --bits[k];
             if (within(coarse, bits, search_de)) history.push_back(best), best = bits;

@@ -19,6 +19,15 @@ namespace spectex {
 // (33^3 = 35,937 colours).
 constexpr int kPrecisionSampleStride = 8;
 
+// The fewest mantissa bits the chooser gives a bin. Rounding with b bits moves a value by less
+// than one step of its grid, 2^-b of it (or 2^-14 · 2^-b below half's normal range, 2^-14), and
+// the colour-aware correction only ever moves a bin to the grid neighbour on the other side of
+// its unrounded value: with 4 bits every stored value is within 1/16 of the unrounded one. Fewer
+// bits saved bytes in bins the lights barely see but stored only powers of two there (0 bits:
+// 0.5 inside a plateau of 1.0), which a plot, another observer or a camera's sensitivities show;
+// coarser, fewer bins are the way to save those bytes.
+constexpr int kMinMantissaBits = 4;
+
 struct PrecisionRequest {
     const SpectralMethod* method = nullptr;
     Observer observer;
@@ -32,7 +41,7 @@ struct PrecisionRequest {
 };
 
 struct PrecisionChoice {
-    std::vector<int> bits;           // per bin, 0..10
+    std::vector<int> bits;           // per bin, kMinMantissaBits..10
     std::vector<std::string> light;  // the lights measured, in the request's order
     std::vector<double> worst_de;    // per light, of the chosen bits over the sample
     size_t colours = 0;              // colours in the sample
@@ -66,8 +75,9 @@ std::vector<double> bin_visibility(const Observer& observer, const std::vector<S
 
 // Deterministic (the same bits for the same request, whatever the threads). Searches on a sample
 // with half the codes per axis against 90 % of the budget: starts from the rule
-// bits = ceil(10 + log2(visibility) + offset), with the lowest whole offset <= 0 within it, then
-// lowers bins one bit at a time, least visible first, keeping each step that stays within it.
+// bits = ceil(10 + log2(visibility) + offset) (never below kMinMantissaBits), with the lowest
+// whole offset <= 0 within it, then lowers bins one bit at a time, least visible first, down to
+// kMinMantissaBits, keeping each step that stays within it.
 // A bit vector counts as within only when at most 0.5 % of the sample's colours are left to full
 // precision (round_spectra_to_bits). The result is measured on the request's sample, and the
 // search's steps undone, last first,

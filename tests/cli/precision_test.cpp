@@ -263,6 +263,44 @@ TEST(Precision, TheDefaultBakeKeepsABudgetWhereItCan) {
     EXPECT_TRUE(has(r.err, "--type float keeps every bit")) << r.err;
 }
 
+// The default bake's stored values are never coarser than 1/16 of the unrounded value (or, below
+// half's normal range 2^-14, than 2^-14/16): with too few mantissa bits a bin stores only powers of
+// two, and a plateau of 1.0 showed notches to 0.5 (pure blue at 385 nm, pure red at 735 nm).
+// The unrounded values are the same bake in float (the method's spectra before any rounding).
+TEST(Precision, TheDefaultBakeStoresEveryValueWithinASixteenthOfItsSpectrum) {
+    ScratchDir d;
+    // The primaries, the secondaries, white, greys and a few saturated colours (4 x 4 pixels).
+    const std::vector<uint8_t> px = {255, 0,   0,   0,   255, 0,   0,   0,   255, 255, 255, 0,
+                                     0,   255, 255, 255, 0,   255, 255, 255, 255, 128, 128, 128,
+                                     10,  10,  10,  200, 30,  10,  20,  40,  220, 30,  200, 60,
+                                     250, 120, 0,   90,  0,   160, 1,   2,   3,   240, 240, 250};
+    write_image(d / "in.png", 4, 4, 3, OIIO::TypeDesc::UINT8, px.data());
+    const std::string in = d / "in.png", half = d / "half.exr", flt = d / "float.exr";
+    const RunResult r = run_spectex({"bake", in, "-o", half, "-q"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    ASSERT_EQ(run_spectex({"bake", in, "-o", flt, "-q", "--type", "float"}).status, 0);
+    const ExrImage h = read_exr(half), f = read_exr(flt);
+    ASSERT_EQ(h.attr(key::kPrecision), "auto");
+    const std::vector<int> bits = bits_of(h.attr(key::kPrecisionBits));
+    for (int b : bits) EXPECT_GE(b, 4) << h.attr(key::kPrecisionBits);
+    const auto channels = spectral_channels(h);
+    ASSERT_EQ(channels.size(), spectral_channels(f).size());
+    double worst = 0;
+    std::string where;
+    for (const auto& ch : channels) {
+        const auto& hv = h.pixels.at(ch.second);
+        const auto& fv = f.pixels.at(ch.second);
+        ASSERT_EQ(hv.size(), fv.size());
+        for (size_t i = 0; i < hv.size(); ++i) {
+            // Relative to the grid's step: 1/16 of the value, 2^-18 below 2^-14.
+            const double step = std::max(static_cast<double>(fv[i]), std::ldexp(1.0, -14)) / 16;
+            const double rel = std::fabs(static_cast<double>(hv[i]) - fv[i]) / step;
+            if (rel > worst) worst = rel, where = ch.second + " pixel " + std::to_string(i);
+        }
+    }
+    EXPECT_LE(worst, 1.0) << "at " << where;
+}
+
 TEST(Precision, PlanPrintsBitsWithTheGrid) {
     const RunResult r =
         run_spectex({"plan", "--grids", "380:780:10", "--lights", "D65,A", "--max-de", "2",
