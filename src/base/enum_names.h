@@ -9,6 +9,8 @@
 #include <string>
 #include <utility>
 
+#include "base/text.h"
+
 namespace spectex {
 
 template <typename E, size_t N>
@@ -21,9 +23,10 @@ struct EnumNames {
             if (value == v) return word;
         return "";
     }
+    // The value of `word`, in any case (base/text.h same_word).
     std::optional<E> find(const std::string& word) const {
         for (const auto& [value, w] : rows)
-            if (word == w) return value;
+            if (same_word(word, w)) return value;
         return std::nullopt;
     }
     // The canonical words (each value's first), in order: "a, b, c", or with last_sep " or ":

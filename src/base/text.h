@@ -13,6 +13,12 @@ inline std::string lower_ascii(std::string s) {
     return s;
 }
 
+// Whether two words are the same, ASCII letters compared without case: the one rule for the words
+// every option takes (--method LATTICE is --method lattice, as light and wrap names always were).
+inline bool same_word(const std::string& a, const std::string& b) {
+    return lower_ascii(a) == lower_ascii(b);
+}
+
 // Whether `s` ends with `suffix`, ASCII letters compared without case (".EXR" is ".exr").
 bool ends_with_nocase(const std::string& s, const std::string& suffix);
 

@@ -217,6 +217,16 @@ double parse_number(const std::string& option, const std::string& value) {
     return v;
 }
 
+std::string parse_word(const std::string& option, const std::string& value,
+                       const std::vector<std::string>& words) {
+    std::string list;
+    for (const auto& w : words) {
+        if (same_word(w, value)) return w;
+        list += (list.empty() ? "" : ", ") + w;
+    }
+    throw UsageError(option + ": '" + value + "' is not one of " + list);
+}
+
 double parse_budget_de(const std::string& option, const std::string& value) {
     const double v = parse_number(option, value);
     if (!(v > 0)) throw UsageError(option + ": '" + value + "' is not a positive ΔE00");

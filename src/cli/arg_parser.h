@@ -68,6 +68,10 @@ class ArgParser {
 // Typed parsing at the edge: "--threads 4" etc. Throw UsageError naming the option.
 int parse_int(const std::string& option, const std::string& value, int min, int max);
 double parse_number(const std::string& option, const std::string& value);
+// One of `words`, in any case (same_word): the word as written in `words`; else a UsageError
+// "<option>: '<value>' is not one of a, b, c".
+std::string parse_word(const std::string& option, const std::string& value,
+                       const std::vector<std::string>& words);
 // A ΔE00 budget (--max-de, --precision-de): a finite number above 0.
 double parse_budget_de(const std::string& option, const std::string& value);
 uint64_t parse_count(const std::string& option, const std::string& value);

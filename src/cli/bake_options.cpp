@@ -22,7 +22,7 @@ T pick(const std::string& option, const std::string& value,
        std::initializer_list<std::pair<const char*, T>> choices) {
     std::string list;
     for (const auto& [name, v] : choices) {
-        if (value == name) return v;
+        if (same_word(value, name)) return v;
         list += (list.empty() ? "" : ", ") + std::string(name);
     }
     throw UsageError(option + ": '" + value + "' is not one of " + list);
@@ -159,9 +159,8 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
              "closest to the exact one (all 8-bit sRGB colours re-encode exactly); nearest: plain "
              "rounding.",
              [&](const std::string& v) {
-                 if (v != "colour" && v != "nearest")
-                     throw UsageError("--half-rounding: '" + v + "' is not one of colour, nearest");
-                 c.req.options.colour_rounding = v == "colour";
+                 c.req.options.colour_rounding =
+                     parse_word("--half-rounding", v, {"colour", "nearest"}) == "colour";
              });
     p.option("--precision", "full|auto",
              "Half's mantissa bits per bin. full: all 10 in every bin. auto (the default without "
@@ -175,9 +174,7 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
              "recorded as spectex:precision*; half only). The bits are kept in the cache for the "
              "next bake with the same settings (see --no-cache).",
              [&](const std::string& v) {
-                 if (v != "full" && v != "auto")
-                     throw UsageError("--precision: '" + v + "' is not one of full, auto");
-                 c.precision = v;
+                 c.precision = parse_word("--precision", v, {"full", "auto"});
                  c.precision_given = true;
              });
     p.option("--precision-de", "DE",
@@ -222,7 +219,7 @@ void declare_spectra_options(ArgParser& p, BakeCli& c) {
              "chosen once per batch as 'spectex plan' does (recorded\nin the header; the answer "
              "is kept in the cache for the next run and shard, see --no-cache).",
              [&](const std::string& v) {
-                 c.wavelengths = v;
+                 c.wavelengths = same_word(v, "auto") ? "auto" : v;
                  c.wavelengths_given = true;
              });
     p.option("--wavelengths-file", "FILE",
@@ -354,6 +351,11 @@ void check_method_options(BakeCli& c) {
                          {to_string(AlphaKind::Unassociated), AlphaKind::Unassociated}});
     c.req.options.range = pick_name("--out-of-range", c.range, kRangePolicyNames);
     c.req.options.nan = pick_name("--nan", c.nan, kNanPolicyNames);
+    // Taken in any case; compared below, recorded and reported as their lower-case words.
+    c.type = lower_ascii(c.type);
+    c.alpha = lower_ascii(c.alpha);
+    c.range = lower_ascii(c.range);
+    c.nan = lower_ascii(c.nan);
     try {
         c.req.options.compression = ExrCompression::parse(c.compression);
     } catch (const Error& e) {
@@ -374,8 +376,8 @@ void check_method_options(BakeCli& c) {
     const MethodRow& row = method_row(c.m.spec.kind);
     if (!row.takes_out_of_range && c.range == "keep")
         throw UsageError("--out-of-range keep needs a method defined outside [0, 1] (--method " +
-                         method_table().front().name + "): the " + row.name +
-                         " method is defined on linear RGB in [0, 1] only");
+                         method_table().front().name + "): " + method_words(c.m) +
+                         " is defined on linear RGB in [0, 1] only");
 }
 
 // --precision not given: full, but for the default bake where a budget can be kept and pays (half,
@@ -431,8 +433,8 @@ void check_grid_options(BakeCli& c) {
             throw UsageError("--wavelengths auto fits the basis on the chosen grid; --basis " +
                              c.m.basis + " has a grid of its own");
         if (c.req.plan.nonuniform && !method_row(c.m.spec.kind).linear)
-            throw UsageError("--nonuniform searches with a linear method's 3x3 maps: --method " +
-                             c.m.spec.name() + " is not linear (use --method basis)");
+            throw UsageError("--nonuniform searches with a linear method's 3x3 maps: " +
+                             method_words(c.m) + " is not linear (use --method basis)");
     } else if (((c.plan_lights || c.plan_budget) && c.precision != "auto") ||
                !c.req.plan.candidates.empty() || c.req.plan.nonuniform) {
         throw UsageError(

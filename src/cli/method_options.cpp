@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "base/text.h"
 #include "cli/arg_parser.h"
 #include "pipeline/bake_request.h"
 #include "pipeline/light_list.h"
@@ -35,7 +36,10 @@ void add_method_options(ArgParser& p, MethodOptions& o, bool with_basis_table,
                  "on any grid; mallett2019: the published table (380:780:5 only); or a CSV "
                  "wavelength,r,g,b on the output grid.",
                  [&o, note](const std::string& v) {
-                     o.basis = v;
+                     // The two words in any case, as every option's words; else a file.
+                     o.basis = same_word(v, "fit")           ? "fit"
+                               : same_word(v, "mallett2019") ? "mallett2019"
+                                                             : v;
                      note("--basis");
                  });
     p.flag("--allow-infeasible",
@@ -93,6 +97,7 @@ bool resolve_method(MethodOptions& o, bool basis_only) {
     }
     if (owner) {
         o.spec.kind = owner->kind;
+        o.chosen_by = first;
         return false;
     }
     // The method and its options' values, the conditions (observer, illuminant) as given.
@@ -100,6 +105,13 @@ bool resolve_method(MethodOptions& o, bool basis_only) {
     o.spec = basis_only ? MethodSpec{} : DefaultBake::method();
     o.spec.fit = fit;
     return !basis_only;
+}
+
+std::string method_words(const MethodOptions& o) {
+    const std::string name = o.spec.name();
+    if (o.method_given) return "--method " + name;
+    if (!o.chosen_by.empty()) return o.chosen_by + " (an option of --method " + name + ")";
+    return "the default method (" + name + ")";
 }
 
 void check_method_options(const MethodOptions& o) {

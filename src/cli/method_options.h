@@ -18,6 +18,8 @@ struct MethodOptions {
     // The options given that belong to one method, by long name, in order.
     std::vector<std::string> given;
     bool method_given = false;  // --method
+    // Without --method: the option that chose the method (resolve_method), else empty.
+    std::string chosen_by;
     bool given_any_of(const MethodRow& row) const;
 };
 
@@ -29,6 +31,10 @@ void add_method_options(ArgParser& p, MethodOptions& o, bool with_basis_table,
 // it always was), else the basis when `basis_only` (an option only the basis takes, such as
 // --nonuniform), else bake's default (DefaultBake). True when bake's default was taken.
 bool resolve_method(MethodOptions& o, bool basis_only);
+// The method as the user asked for it, for errors: "--method lattice" when given, "--jh-resolution
+// (the jakob-hanika method's option)" when an option of one method chose it, else "the default
+// method (lattice)".
+std::string method_words(const MethodOptions& o);
 // An option given that belongs to another method than --method's: a UsageError naming both
 // ("--jh-resolution belongs to --method jakob-hanika, not --method lattice").
 void check_method_options(const MethodOptions& o);

@@ -191,9 +191,7 @@ void add_measure_options(ArgParser& p, PlanOptions& o) {
     p.option("--type", "half|float",
              "Sample type of the bake (default half: its rounding is part of the error).",
              [&](const std::string& v) {
-                 if (v != "half" && v != "float")
-                     throw UsageError("--type: '" + v + "' is not one of half, float");
-                 o.type = v;
+                 o.type = parse_word("--type", v, {"half", "float"});
              });
     p.option("--precision", "full|auto",
              "auto: also choose the chosen grid's mantissa bits per bin as bake --precision auto "
@@ -201,9 +199,7 @@ void add_measure_options(ArgParser& p, PlanOptions& o) {
              "and print bins and bits together. Half only; default auto for bake's default "
              "method, else full.",
              [&](const std::string& v) {
-                 if (v != "full" && v != "auto")
-                     throw UsageError("--precision: '" + v + "' is not one of full, auto");
-                 spec.precision = v == "auto";
+                 spec.precision = parse_word("--precision", v, {"full", "auto"}) == "auto";
                  o.precision_given = true;
              });
     p.option(
@@ -223,9 +219,7 @@ void add_measure_options(ArgParser& p, PlanOptions& o) {
              "light); sample. "
              "Other methods always use the sample.",
              [&](const std::string& v) {
-                 if (v != "auto" && v != "cube" && v != "sample")
-                     throw UsageError("--colours: '" + v + "' is not one of auto, cube, sample");
-                 spec.colours = v;
+                 spec.colours = parse_word("--colours", v, {"auto", "cube", "sample"});
              });
     p.option(
         "--grid-file", "FILE",
@@ -268,8 +262,8 @@ void check_plan_options(PlanOptions& o, const std::vector<std::string>& pos) {
     check_method_options(o.m);
     spec.method = o.m.spec;
     if (spec.nonuniform && !method_row(spec.method.kind).linear)
-        throw UsageError("--nonuniform searches with a linear method's 3x3 maps: --method " +
-                         spec.method.name() + " is not linear (use --method basis)");
+        throw UsageError("--nonuniform searches with a linear method's 3x3 maps: " +
+                         method_words(o.m) + " is not linear (use --method basis)");
     spec.half = o.type == "half";
     if (spec.precision && !spec.half)
         throw UsageError("--precision auto chooses bits of half; --type float keeps every bit");

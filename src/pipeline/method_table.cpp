@@ -6,6 +6,7 @@
 
 #include "base/error.h"
 #include "base/memo.h"
+#include "base/text.h"
 #include "io/data_dir.h"
 #include "pipeline/cache_text.h"
 #include "spectex/version.h"
@@ -178,7 +179,7 @@ const MethodRow& method_row(MethodKind kind) {
 
 const MethodRow* find_method(const std::string& name) {
     for (const auto& row : method_table())
-        if (row.name == name) return &row;
+        if (same_word(row.name, name)) return &row;
     return nullptr;
 }
 
