@@ -27,6 +27,7 @@ their ``_polarized`` forms) are supported; an RGB or mono variant is refused. Th
 differentiable parameters.
 """
 import math
+import math
 import re
 
 import numpy as np
@@ -76,9 +77,16 @@ def read_spectral_exr(filename):
         raise SpectexError(f"spectex texture: {filename}: unexpected channel list {names}")
     bins = []
     for k, name in enumerate(names):
+        if not (name.startswith("T.") and name.endswith("nm")):
+            continue  # R, G, B, A and other layers
+        # A reflectance channel whose wavelength is not a positive, finite number of nanometres
+        # (T.-5nm, T.1e400nm, T.nm) is a damaged file: refused, never dropped or read as infinity.
         m = _T_CHANNEL.match(name)
-        if m:
-            bins.append((float(m.group(1).replace(",", ".")), k, name))
+        lam = float(m.group(1).replace(",", ".")) if m else float("nan")
+        if not (math.isfinite(lam) and lam > 0):
+            raise SpectexError(f"spectex texture: {filename}: channel '{name}' does not name a wavelength "
+                               "(T.<positive nanometres>nm)")
+        bins.append((lam, k, name))
     if not bins:
         shown = ", ".join(names[:8]) + (", ..." if len(names) > 8 else "")
         raise SpectexError(f"spectex texture: {filename}: no reflectance channels 'T.<wavelength>nm' (the file has "

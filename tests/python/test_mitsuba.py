@@ -192,6 +192,25 @@ def test_wrong_files_are_refused_naming_the_file(tmp):
         mi.load_dict({"type": "spectex", "filename": rgb})
 
 
+@pytest.mark.parametrize("bad", ["T.-5nm", "T.1e400nm", "T.nm", "T.0nm", "T.5x5nm"])
+def test_a_channel_that_names_no_wavelength_is_refused_naming_it(tmp, bad):
+    """Beside valid channels, a T.<...>nm channel without a positive finite wavelength is refused
+    (it was read as infinity, or silently dropped)."""
+    use(JIT)
+    path = os.path.join(tmp, "bad.exr")
+    out = oiio.ImageOutput.create(path)
+    spec = oiio.ImageSpec(4, 4, 3, oiio.HALF)
+    spec.channelnames = ("T.500nm", "T.600nm", bad)
+    spec.attribute("spectralLayoutVersion", "1.0")
+    assert out.open(path, spec)
+    out.write_image(np.full((4, 4, 3), 0.5, dtype=np.float32))
+    out.close()
+    with pytest.raises(Exception) as e:
+        mi.load_dict({"type": "spectex", "filename": path})
+    message = str(e.value)
+    assert path in message and f"channel '{bad}'" in message, message
+
+
 def test_rgb_variant_is_refused_in_one_line():
     mi.set_variant("scalar_rgb")
     with pytest.raises(spectex_mitsuba.SpectexError) as e:
