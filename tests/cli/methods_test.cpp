@@ -73,7 +73,9 @@ TEST(Methods, AnOptionOfOneMethodTakesThatMethod) {
     }
 }
 
-TEST(Methods, TheHeaderAndTheSettingsHashRecordTheMethod) {
+// In a *Slow* suite: the whole suite runs it; the sanitizer run (minutes of its time under ASan)
+// not: every method's bake is sanitized in other tests; this one compares their headers.
+TEST(MethodsSlow, TheHeaderAndTheSettingsHashRecordTheMethod) {
     ScratchDir d;
     write_png(d / "in.png");
     struct Case {

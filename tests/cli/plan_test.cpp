@@ -124,7 +124,9 @@ TEST(Plan, UsageErrors) {
     EXPECT_EQ(run_spectex({"plan", "--lattice-size", "5", "--objective", "norm"}).status, 2);
 }
 
-TEST(Plan, BakeAutoRecordsTheChoiceAndUpdateTreatsItAsSettings) {
+// In a *Slow* suite: the whole suite runs it; the sanitizer run (minutes of its time under ASan)
+// not: the plan search it runs is sanitized in the unit tests, and its bakes in others.
+TEST(PlanSlow, BakeAutoRecordsTheChoiceAndUpdateTreatsItAsSettings) {
     ScratchDir d;
     write_png(d / "in.png");
     const std::vector<std::string> bake = {

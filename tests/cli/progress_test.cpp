@@ -20,7 +20,9 @@ void write_big_png(const std::string& path, int w, int h) {
 
 }  // namespace
 
-TEST(Progress, ALogGetsTimestampedLinesWithRowsAndNoControlCodes) {
+// In a *Slow* suite: the whole suite runs it; the sanitizer run (minutes of its time under ASan)
+// not: a bake long enough to report progress, 4 times longer there.
+TEST(ProgressSlow, ALogGetsTimestampedLinesWithRowsAndNoControlCodes) {
     ScratchDir d;
     write_big_png(d / "big.png", 512, 512);
     write_big_png(d / "small.png", 16, 16);
@@ -53,7 +55,9 @@ TEST(Progress, WithoutProgressALogGetsNone) {
     EXPECT_EQ(r.err.find("spectex: ["), std::string::npos) << r.err;
 }
 
-TEST(Progress, ATerminalGetsOneRewrittenLineWithinTheFile) {
+// In a *Slow* suite: the whole suite runs it; the sanitizer run (minutes of its time under ASan)
+// not: a bake long enough to report progress, 4 times longer there.
+TEST(ProgressSlow, ATerminalGetsOneRewrittenLineWithinTheFile) {
     if (std::system("command -v script >/dev/null 2>&1") != 0)
         GTEST_FAIL() << "script(1) (util-linux) is missing";
     ScratchDir d;
