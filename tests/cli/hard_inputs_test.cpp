@@ -30,6 +30,7 @@
 
 #include "cli/cli_util.h"
 #include "cli/exr_read.h"
+#include "png_bytes.h"
 
 using namespace spectex_test;
 
@@ -143,52 +144,9 @@ ChildResult run_child(const std::vector<std::string>& args, int as_uid = -1) {
 // Hand-made PNGs (stored deflate blocks: no zlib needed), for what OIIO will not write: palette
 // images and headers that lie about their size.
 
-uint32_t crc32_of(const std::string& s) {
-    static uint32_t table[256];
-    static bool init = false;
-    if (!init) {
-        for (uint32_t i = 0; i < 256; ++i) {
-            uint32_t c = i;
-            for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xedb88320u ^ (c >> 1) : c >> 1;
-            table[i] = c;
-        }
-        init = true;
-    }
-    uint32_t c = 0xffffffffu;
-    for (unsigned char ch : s) c = table[(c ^ ch) & 0xff] ^ (c >> 8);
-    return c ^ 0xffffffffu;
-}
-
-std::string be32(uint32_t v) {
-    return {static_cast<char>(v >> 24), static_cast<char>(v >> 16), static_cast<char>(v >> 8),
-            static_cast<char>(v)};
-}
-
-std::string png_chunk(const std::string& type, const std::string& data) {
-    return be32(static_cast<uint32_t>(data.size())) + type + data + be32(crc32_of(type + data));
-}
-
-std::string zlib_stored(const std::string& raw) {
-    std::string z("\x78\x01", 2);
-    size_t pos = 0;
-    do {
-        size_t n = std::min<size_t>(65535, raw.size() - pos);
-        bool last = pos + n == raw.size();
-        z += static_cast<char>(last ? 1 : 0);
-        z += static_cast<char>(n & 0xff);
-        z += static_cast<char>(n >> 8);
-        z += static_cast<char>(~n & 0xff);
-        z += static_cast<char>((~n >> 8) & 0xff);
-        z += raw.substr(pos, n);
-        pos += n;
-    } while (pos < raw.size());
-    uint32_t a = 1, b = 0;
-    for (unsigned char ch : raw) {
-        a = (a + ch) % 65521;
-        b = (b + a) % 65521;
-    }
-    return z + be32((b << 16) | a);
-}
+using png_bytes::be32;
+using png_bytes::png_chunk;
+using png_bytes::zlib_stored;
 
 std::string png_ihdr(uint32_t w, uint32_t h, int depth, int colour_type) {
     std::string d = be32(w) + be32(h);

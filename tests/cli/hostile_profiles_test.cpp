@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "cli/cli_util.h"
+#include "png_bytes.h"
 
 using namespace spectex_test;
 
@@ -25,17 +26,8 @@ namespace {
 
 using Bytes = std::string;
 
-void put32(Bytes& b, size_t at, uint32_t v) {
-    b[at] = static_cast<char>(v >> 24);
-    b[at + 1] = static_cast<char>(v >> 16);
-    b[at + 2] = static_cast<char>(v >> 8);
-    b[at + 3] = static_cast<char>(v);
-}
-Bytes be32(uint32_t v) {
-    Bytes b(4, '\0');
-    put32(b, 0, v);
-    return b;
-}
+void put32(Bytes& b, size_t at, uint32_t v) { b.replace(at, 4, png_bytes::be32(v)); }
+using png_bytes::be32;
 
 // An ICC profile of one tag `sig` whose table entry says (offset, length) and whose data `body`
 // follows the 144-byte header and table: the header's size is the profile's true size.
@@ -87,36 +79,8 @@ std::vector<Hostile> hostile_profiles() {
     };
 }
 
-uint32_t crc32(const Bytes& s) {
-    uint32_t c = 0xffffffffu;
-    for (unsigned char ch : s) {
-        c ^= ch;
-        for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0xedb88320u & (0u - (c & 1)));
-    }
-    return ~c;
-}
-// A zlib stream of stored (uncompressed) deflate blocks.
-Bytes zlib_stored(const Bytes& data) {
-    Bytes z = "\x78\x01";
-    size_t at = 0;
-    do {
-        const size_t n = std::min<size_t>(65535, data.size() - at);
-        const bool last = at + n == data.size();
-        z += static_cast<char>(last ? 1 : 0);
-        z += static_cast<char>(n & 0xff);
-        z += static_cast<char>(n >> 8);
-        z += static_cast<char>(~n & 0xff);
-        z += static_cast<char>((~n >> 8) & 0xff);
-        z += data.substr(at, n);
-        at += n;
-    } while (at < data.size());
-    uint32_t a = 1, b = 0;
-    for (unsigned char ch : data) a = (a + ch) % 65521, b = (b + a) % 65521;
-    return z + be32((b << 16) | a);
-}
-Bytes png_chunk(const std::string& type, const Bytes& data) {
-    return be32(static_cast<uint32_t>(data.size())) + type + data + be32(crc32(type + data));
-}
+using png_bytes::png_chunk;
+using png_bytes::zlib_stored;
 
 // 8x8 RGB pixels, the same pattern in every container.
 std::vector<uint8_t> pixels() {

@@ -21,6 +21,7 @@
 #include <string>
 
 #include "io/icc_profile.h"
+#include "png_bytes.h"
 
 namespace {
 
@@ -32,42 +33,9 @@ std::string temp_path(const char* ext) {
            std::to_string(getpid()) + ext;
 }
 
-Bytes be32(uint32_t v) {
-    return {static_cast<char>(v >> 24), static_cast<char>(v >> 16), static_cast<char>(v >> 8),
-            static_cast<char>(v)};
-}
-
-uint32_t crc32(const Bytes& s) {
-    uint32_t c = 0xffffffffu;
-    for (unsigned char ch : s) {
-        c ^= ch;
-        for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0xedb88320u & (0u - (c & 1)));
-    }
-    return ~c;
-}
-
-// A zlib stream of stored (uncompressed) deflate blocks.
-Bytes zlib_stored(const Bytes& data) {
-    Bytes z = "\x78\x01";
-    size_t at = 0;
-    do {
-        const size_t n = std::min<size_t>(65535, data.size() - at);
-        z += static_cast<char>(at + n == data.size() ? 1 : 0);
-        z += static_cast<char>(n & 0xff);
-        z += static_cast<char>(n >> 8);
-        z += static_cast<char>(~n & 0xff);
-        z += static_cast<char>((~n >> 8) & 0xff);
-        z += data.substr(at, n);
-        at += n;
-    } while (at < data.size());
-    uint32_t a = 1, b = 0;
-    for (unsigned char ch : data) a = (a + ch) % 65521, b = (b + a) % 65521;
-    return z + be32((b << 16) | a);
-}
-
-Bytes png_chunk(const std::string& type, const Bytes& data) {
-    return be32(static_cast<uint32_t>(data.size())) + type + data + be32(crc32(type + data));
-}
+using png_bytes::be32;
+using png_bytes::png_chunk;
+using png_bytes::zlib_stored;
 
 const uint8_t kPixels[4 * 4 * 3] = {10,  20,  30,  40,  50,  60,  70,  80,  90,  100, 110, 120,
                                     130, 140, 150, 160, 170, 180, 190, 200, 210, 220, 230, 240,

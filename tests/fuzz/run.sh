@@ -22,7 +22,7 @@ harnesses=("$@")
 [ ${#harnesses[@]} -gt 0 ] || harnesses=(fuzz_wavelength_grid fuzz_basis_csv fuzz_exr_header fuzz_icc_containers)
 
 flags=(-std=c++17 -g -O1 -fno-omit-frame-pointer -fsanitize=fuzzer,address,undefined
-       -fno-sanitize-recover=undefined -I"$src/src" -I"$build/generated" $(pkg-config --cflags eigen3))
+       -fno-sanitize-recover=undefined -I"$src/src" -I"$src/tests" -I"$build/generated" $(pkg-config --cflags eigen3))
 exr_cflags=$(pkg-config --cflags OpenEXR)
 exr_libs=$(pkg-config --libs OpenEXR)
 oiio_libs=$(pkg-config --libs OpenImageIO)
