@@ -81,10 +81,17 @@ inline std::vector<std::string> spectex_argv(const std::vector<std::string>& arg
     return v;
 }
 
-// This process's environment plus extra "NAME=value" entries.
+// This process's environment plus extra "NAME=value" entries, which replace this process's own
+// (getenv takes the first of two entries with one name: the harness's SPECTEX_CACHE_DIR would win).
 inline std::vector<std::string> environment_with(const std::vector<std::string>& extra) {
+    auto name_of = [](const std::string& e) { return e.substr(0, e.find('=') + 1); };
     std::vector<std::string> v;
-    for (char** e = environ; *e; ++e) v.emplace_back(*e);
+    for (char** e = environ; *e; ++e) {
+        const std::string entry = *e;
+        bool replaced = false;
+        for (const auto& x : extra) replaced = replaced || name_of(x) == name_of(entry);
+        if (!replaced) v.push_back(entry);
+    }
     v.insert(v.end(), extra.begin(), extra.end());
     return v;
 }

@@ -381,7 +381,10 @@ TEST(PlanCacheSlow, BakeAutoFromTheCacheIsTheSameFile) {
 
 TEST(PlanCacheSlow, ProgressOfTheSearch) {
     ScratchDir dir;
-    const RunResult plan = run_spectex(quick_plan({"--progress"}));
+    // A cache of its own: the test run's may hold this plan already (another test's), and then
+    // there is no search to report.
+    const std::vector<std::string> own = {cache_env(dir / "cache")};
+    const RunResult plan = run_spectex(quick_plan({"--progress"}), own);
     ASSERT_EQ(plan.status, 0) << plan.err;
     EXPECT_NE(plan.err.find("spectex plan: [2/2] building the method on each grid"),
               std::string::npos)
@@ -389,12 +392,13 @@ TEST(PlanCacheSlow, ProgressOfTheSearch) {
     EXPECT_NE(plan.err.find("spectex plan: [2/2] measuring each grid"), std::string::npos)
         << plan.err;
     // Not asked for and not a terminal: nothing.
-    const RunResult quiet = run_spectex(quick_plan());
+    const RunResult quiet = run_spectex(quick_plan({"--no-cache"}), own);
     EXPECT_EQ(quiet.err.find("measuring each grid"), std::string::npos) << quiet.err;
     const std::string png = make_png(dir, "in.png", 4, 4);
     const RunResult bake =
         run_spectex({"bake", png, "-o", dir / "o.exr", "--wavelengths", "auto", "--lights", "D65",
-                     "--max-de", "3", "--grids", "380:780:20,380:780:10", "--progress"});
+                     "--max-de", "3", "--grids", "380:780:20,380:780:10", "--progress"},
+                    own);
     ASSERT_EQ(bake.status, 0) << bake.err;
     EXPECT_NE(bake.err.find("spectex: --wavelengths auto: [2/2] measuring each grid"),
               std::string::npos)
