@@ -185,20 +185,24 @@ class SetupReport : public BakeSetupListener {
                           const PrecisionCacheReport& rep, double seconds) override {
         cache_warnings(rep, "the precision's bits are", "chosen again");
         if (rep.hit && c_.verbose)
-            std::cerr << "spectex: the precision's bits from the cache: "
+            std::cerr << "spectex: the precision's bits from "
+                      << (rep.shipped ? "spectex's data" : "the cache") << ": "
                       << one_line(quote_path(rep.entry)) << "\n";
         // The bits asked for are said; the default bake's own only with -v (its bake says nothing
         // more than any other, and a failed file's error stays the first line).
         if (c_.quiet || (c_.default_bake && !c_.precision_given && !c_.verbose)) return;
         double w = 0;
         for (double d : pc.worst_de) w = std::max(w, d);
-        char num[64], worst_num[64];
+        char num[64];
         std::snprintf(num, sizeof num, "%.0f%%", 100 * kept_fraction(pc.bits));
-        std::snprintf(worst_num, sizeof worst_num, "%.3g", w);
         std::cerr << "spectex: --precision auto: " << num << " of half's mantissa bits kept (bits "
-                  << format_precision_bits(pc.bits) << "), worst " << worst_num << " ΔE00 within "
-                  << rec.max_de << " under " << rec.lights << " (" << seconds << " s"
-                  << (rep.hit ? ", from the cache" : "") << ")\n";
+                  << format_precision_bits(pc.bits) << "), worst " << format_de_up(w)
+                  << " ΔE00 within " << rec.max_de << " under " << rec.lights
+                  << " on every 8-bit colour (" << seconds << " s"
+                  << (rep.shipped ? ", shipped with spectex"
+                      : rep.hit   ? ", from the cache"
+                                  : "")
+                  << ")\n";
     }
 
   private:

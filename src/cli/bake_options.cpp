@@ -169,10 +169,10 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
              "--zip-level 1 unless given; else full): per bin, "
              "the fewest that keep the worst ΔE00 between the rounded and the unrounded spectra "
              "within --precision-de (default --max-de) under every one of --lights and the light "
-             "the method is exact for, over a dense sample of the 8-bit cube; the colour-aware "
+             "the method is exact for, on every 8-bit colour; the colour-aware "
              "rounding keeps every 8-bit colour's code under that light (smaller ZIP files; "
              "recorded as spectex:precision*; half only). The bits are kept in the cache for the "
-             "next bake with the same settings (see --no-cache).",
+             "next bake with the same settings (see --no-cache); the default's ship with spectex.",
              [&](const std::string& v) {
                  c.precision = parse_word("--precision", v, {"full", "auto"});
                  c.precision_given = true;

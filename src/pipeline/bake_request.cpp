@@ -12,6 +12,7 @@
 #include "io/linearizer.h"
 #include "pipeline/batch_files.h"
 #include "pipeline/light_list.h"
+#include "pipeline/plan_cache.h"
 #include "pipeline/plan_report.h"
 #include "spectral/basis_fit.h"
 #include "spectral/colorimetry.h"
@@ -153,12 +154,13 @@ BakeSettings::Precision precision_record(const BakeRequest& r, const BakeTables&
     rec.max_de = num;
     const std::vector<std::string> lights = precision_lights(r, illuminant);
     for (const auto& l : lights) rec.lights += (rec.lights.empty() ? "" : ",") + l;
-    const int axis = (255 + kPrecisionSampleStride - 1) / kPrecisionSampleStride + 1;
-    rec.sample = "8-bit sRGB codes 0, " + std::to_string(kPrecisionSampleStride) +
-                 ", ... 255 per axis (" + std::to_string(axis * axis * axis) + " colours)";
+    rec.sample = kPrecisionCovers;
     Fnv1a64 h;
     auto add = [&](const std::string& s) { h.add(s.data(), s.size() + 1); };
-    add("auto " + rec.max_de + " stride " + std::to_string(kPrecisionSampleStride));
+    // The chooser's version: files whose bits were chosen by an earlier chooser (on a sample
+    // only) are baked again by --update.
+    add("auto " + rec.max_de + " stride " + std::to_string(kPrecisionSampleStride) + " chooser " +
+        std::to_string(kPrecisionChooserVersion));
     for (const auto& l : lights) {
         const Spectrum& light = t.light(l);
         add("light " + l);
@@ -247,12 +249,8 @@ void choose_precision_bits(const BakeRequest& r, const BakeTables& t, BakeSettin
     const PrecisionChoice pc = choose_precision_cached(req, r.no_cache ? "" : cache_folder(), &rep);
     s.precision.bits = pc.bits;
     std::string worst;
-    for (size_t j = 0; j < pc.light.size(); ++j) {
-        char num[96];
-        std::snprintf(num, sizeof num, "%s%s %.3g", worst.empty() ? "" : ", ", pc.light[j].c_str(),
-                      pc.worst_de[j]);
-        worst += num;
-    }
+    for (size_t j = 0; j < pc.light.size(); ++j)
+        worst += (worst.empty() ? "" : ", ") + pc.light[j] + " " + format_de_up(pc.worst_de[j]);
     s.precision.worst_de = worst;
     listener.precision_chosen(
         s.precision, pc, rep,

@@ -44,6 +44,7 @@ struct CacheReport {
     std::string folder;    // "" when the cache is off
     std::string entry;     // the entry's path
     bool hit = false;      // the answer came from the entry
+    bool shipped = false;  // ... an entry shipped with spectex's data, not the cache
     bool ignored = false;  // an entry was there but not a valid answer: computed again, replaced
     std::string warning;   // the entry could not be stored (the answer is still good)
 };

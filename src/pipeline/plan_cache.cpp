@@ -271,13 +271,12 @@ PlanResult plan_grids_cached(const PlanSpec& spec, const std::string& folder,
     return r;
 }
 
-std::string precision_cache_key(const PrecisionRequest& req) {
+std::string precision_answer_key(const PrecisionRequest& req) {
     if (!req.method) throw Error("precision: no method");
     KeyHash k;
-    k.text("spectex " SPECTEX_VERSION);
-    k.text(executable_identity());
     k.text("precision");
     k.number(kPrecisionCacheFormat);
+    k.number(kPrecisionChooserVersion);
     const SpectralMethod& m = *req.method;
     k.text(m.name());
     k.text(m.checksum());
@@ -307,6 +306,16 @@ std::string precision_cache_key(const PrecisionRequest& req) {
     k.number(req.stride);
     return "precision-" + k.hex();
 }
+
+std::string precision_cache_key(const PrecisionRequest& req) {
+    KeyHash k;
+    k.text("spectex " SPECTEX_VERSION);
+    k.text(executable_identity());
+    k.text(precision_answer_key(req));
+    return "precision-" + k.hex();
+}
+
+std::string shipped_precision_folder() { return find_data_dir() + "/spectral/precision"; }
 
 std::string precision_cache_text(const std::string& key, const PrecisionChoice& c) {
     std::ostringstream o;
@@ -363,16 +372,31 @@ PrecisionChoice choose_precision_cached(const PrecisionRequest& req, const std::
     PrecisionCacheReport& rep = report ? *report : local;
     rep = PrecisionCacheReport{};
     rep.folder = folder;
-    if (folder.empty()) return choose_precision(req);
     // A request choose_precision refuses is refused the same way, cache or not.
     if (!(req.max_de > 0) || !std::isfinite(req.max_de) || req.lights.empty())
         return choose_precision(req);
-    const std::string key = precision_cache_key(req);
+    // An entry's body names the request's own key (precision_answer_key), so that the cache's
+    // entry for the default bake, copied to the data under that name, is the shipped answer
+    // (config/spectral/precision/README.md). A damaged or foreign file is no answer.
+    const std::string key = precision_answer_key(req);
+    auto parse = [&](const std::string& text, PrecisionChoice* out) {
+        return parse_precision_cache_text(text, key, req, out);
+    };
+    {
+        const std::string entry = shipped_precision_folder() + "/" + key;
+        std::string stored, body;
+        PrecisionChoice shipped;
+        if (read_small_regular_file(entry, kPrecisionCacheEntryLimit, &stored) &&
+            unseal_entry(stored, &body) && parse(body, &shipped)) {
+            rep.hit = true;
+            rep.shipped = true;
+            rep.entry = entry;
+            return shipped;
+        }
+    }
+    if (folder.empty()) return choose_precision(req);
     return cached_answer<PrecisionChoice>(
-        folder, key, kPrecisionCacheEntryLimit,
-        [&](const std::string& text, PrecisionChoice* out) {
-            return parse_precision_cache_text(text, key, req, out);
-        },
+        folder, precision_cache_key(req), kPrecisionCacheEntryLimit, parse,
         [&] { return choose_precision(req); },
         [&](const PrecisionChoice& answer) { return precision_cache_text(key, answer); }, rep);
 }

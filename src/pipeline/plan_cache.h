@@ -53,17 +53,29 @@ bool parse_plan_cache_text(const std::string& text, const std::string& key, cons
 constexpr int kPrecisionCacheFormat = 2;
 constexpr size_t kPrecisionCacheEntryLimit = size_t(1) << 20;
 
-// What choose_precision(req) depends on, hashed: this build of spectex (version and executable),
-// the cache format, the method (name, checksum of its tables, provenance, wavelengths and
+// The chooser's own version: what its answers depend on besides the request (the judge's
+// colorimetry, the whole-cube check, the search). Raised with every change to them, so that an
+// answer shipped with the data (config/spectral/precision/) is never taken for another chooser's.
+// 2: every 8-bit colour checked, colours reconstructed as a renderer does.
+constexpr int kPrecisionChooserVersion = 2;
+
+// What choose_precision(req) depends on besides the build, hashed: the cache format, the
+// chooser's version, the method (name, checksum of its tables, provenance, wavelengths and
 // weights of its bins), the observer's tables, every light's name and table (the bake's
 // illuminant among them), the colour-aware rounding's weights (or nearest rounding), the budget
 // and the sample stride. Not the threads (the choice does not depend on them).
-// "precision-<32 hex digits>".
+// "precision-<32 hex digits>": the name of an answer shipped in config/spectral/precision/.
+std::string precision_answer_key(const PrecisionRequest& req);
+// The cache's key: precision_answer_key and this build of spectex (version and executable).
 std::string precision_cache_key(const PrecisionRequest& req);
+// <data dir>/spectral/precision: the answers shipped with spectex (the default bake's bits, so
+// that no first bake pays for the whole-cube check).
+std::string shipped_precision_folder();
 
 using PrecisionCacheReport = CacheReport;
 
-// choose_precision(req) through the cache in `folder` ("" = no cache). An entry that cannot be
+// choose_precision(req): the answer shipped for this request if there is one (whatever `folder`),
+// else through the cache in `folder` ("" = no cache). An entry that cannot be
 // read or is not a whole, valid answer for this request (bits per bin 0..10, one per bin, the
 // request's lights in order, finite errors) is a miss: the bits are chosen again and the entry
 // replaced, so a corrupt or hostile entry never changes a bake.

@@ -16,6 +16,11 @@ struct Lab {
 // 24389/27).
 Lab lab_from_xyz(const Eigen::Vector3d& xyz, const Eigen::Vector3d& white);
 
+// lab_from_xyz with its cube roots by Newton's method instead of libm's cbrt (about 3x faster;
+// relative error of each cube root below 1e-11, tested against std::cbrt): for the whole-cube
+// passes of the precision budget, 100 million colours each.
+Lab lab_from_xyz_fast(const Eigen::Vector3d& xyz, const Eigen::Vector3d& white);
+
 // CIEDE2000 difference between two L*a*b* colours; kL = kC = kH = 1 by default. Symmetric.
 double ciede2000(const Lab& lab1, const Lab& lab2, double kL = 1.0, double kC = 1.0,
                  double kH = 1.0);

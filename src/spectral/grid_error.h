@@ -42,6 +42,9 @@ std::string to_string(Reconstruction r);
 Eigen::MatrixXd reconstruction_matrix(const std::vector<double>& bins,
                                       const std::vector<double>& fine, Reconstruction r);
 
+// The wavelengths a renderer samples by default (nm): the CIE observers' tables' range.
+constexpr double kRendererStart = 360, kRendererEnd = 830;
+
 // The renderer's grid: every integer wavelength from start to end (both included; integers).
 // Throws Error when start/end are not integers or end <= start.
 WavelengthGrid renderer_grid(double start, double end);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <numeric>
 
 #include "base/error.h"
@@ -26,14 +27,38 @@ Colorimetry light_on_bins(const Observer& observer, const Spectrum& light,
                              primaries_by_name("srgb"));
 }
 
+// The colour of a file's spectra as a renderer sees it (spectral/grid_error.h): the bins
+// reconstructed linearly at 1 nm, end values held, over 360-830 nm (clipped to the observer's
+// table), integrated with the observer under the light. W is 3 x bins; white is the perfect
+// reflector's XYZ (Y = 1).
+struct RendererWeights {
+    std::string name;
+    Eigen::MatrixXd W;
+    Eigen::Vector3d white;
+};
+RendererWeights renderer_weights(const Observer& observer, const Spectrum& light,
+                                 const std::vector<double>& lambda) {
+    const double lo = std::max({kRendererStart, observer.x.lambda.front(),
+                                observer.y.lambda.front(), observer.z.lambda.front()});
+    const double hi = std::min({kRendererEnd, observer.x.lambda.back(), observer.y.lambda.back(),
+                                observer.z.lambda.back()});
+    const WavelengthGrid fine = renderer_grid(std::ceil(lo - 1e-9), std::floor(hi + 1e-9));
+    const LightWeights lw = light_weights(observer, light, fine);
+    RendererWeights rw;
+    rw.name = light.name;
+    rw.W = lw.W * reconstruction_matrix(lambda, fine.lambda, Reconstruction::Linear);
+    rw.white = lw.white;
+    return rw;
+}
+
 // The sample's unrounded spectra and their L*a*b* under each light, computed once; measure()
 // rounds them to a bit vector and returns the worst ΔE00 per light.
 class PrecisionJudge {
   public:
-    PrecisionJudge(const PrecisionRequest& req, int stride) : req_(req) {
+    PrecisionJudge(const PrecisionRequest& req, const std::vector<std::array<uint8_t, 3>>& codes)
+        : req_(req) {
         if (!req.method) throw Error("precision: no method");
         bins_ = static_cast<size_t>(req.method->bins());
-        const std::vector<std::array<uint8_t, 3>> codes = code_sample(stride);
         n_ = codes.size();
         const auto& table = srgb_code_table();
         std::vector<float> r(n_), g(n_), b(n_);
@@ -47,8 +72,9 @@ class PrecisionJudge {
         W_.resize(static_cast<Eigen::Index>(3 * req.lights.size()),
                   static_cast<Eigen::Index>(bins_));
         for (size_t j = 0; j < req.lights.size(); ++j) {
-            const Colorimetry c = light_on_bins(req.observer, req.lights[j], req.method->lambda());
-            lights_.push_back({req.lights[j].name, c.white_xyz, {}});
+            const RendererWeights c =
+                renderer_weights(req.observer, req.lights[j], req.method->lambda());
+            lights_.push_back({req.lights[j].name, c.white, {}});
             W_.middleRows(static_cast<Eigen::Index>(3 * j), 3) = c.W;
         }
         // The unrounded colours' L*a*b* under each light, once.
@@ -127,6 +153,137 @@ class PrecisionJudge {
     Eigen::MatrixXd W_;  // 3·lights x bins: the XYZ weights of every light, stacked
 };
 
+// ΔE00 <= kDe00PerDe76 · ΔE76 for any two colours: with kL = kC = kH = 1, S_L, S_C and S_H are
+// at least 1 (T >= 1 - 0.17 - 0.24 - 0.32 - 0.20 > 0), |R_T| <= 2 makes the chroma-hue part at
+// most 2 (ΔC'² + ΔH'²), ΔC'² + ΔH'² is the squared distance in the (a', b') plane, and a' is a
+// scaled by the same 1 + G <= 1.5 for both colours: ΔE00² <= ΔL² + 2 (2.25 Δa² + Δb²) <=
+// 4.5 ΔE76². The cube judge computes ΔE00 only where this bound could matter.
+constexpr double kDe00PerDe76 = 2.1214;  // sqrt(4.5) = 2.12132..., rounded up
+
+// Every one of the 16,777,216 8-bit sRGB codes, expanded and rounded to a bit vector exactly as a
+// bake rounds them (expand_float, round_spectra_to_bits with the request's weights): the worst
+// ΔE00 per light against the unrounded spectra, and the colours above a threshold. Streams 256
+// colours at a time (one blue axis), so it holds no more than a few blocks of spectra per thread.
+class CubeJudge {
+  public:
+    explicit CubeJudge(const PrecisionRequest& req) : req_(req) {
+        bins_ = static_cast<size_t>(req.method->bins());
+        const size_t L = req.lights.size();
+        Wt_.resize(static_cast<Eigen::Index>(bins_), static_cast<Eigen::Index>(3 * L));
+        for (size_t j = 0; j < L; ++j) {
+            const RendererWeights c =
+                renderer_weights(req.observer, req.lights[j], req.method->lambda());
+            Wt_.middleCols(static_cast<Eigen::Index>(3 * j), 3) = c.W.transpose().cast<float>();
+            white_.push_back(c.white);
+        }
+    }
+
+    struct Result {
+        std::vector<double> worst;         // per light, over every code
+        std::vector<uint32_t> worst_code;  // per light: (r << 16) | (g << 8) | b
+        // Codes whose ΔE00 under some light exceeds the threshold (the cap's worst), by code.
+        std::vector<uint32_t> hard;
+        size_t full = 0;  // codes the grids could not hold (stored at full precision)
+    };
+
+    // `floor`: per light, a figure below the cube's worst (a sample's worst, lowered a little):
+    // colours whose bound stays under it and under hard_de are not evaluated exactly.
+    Result measure(const std::vector<int>& bits, const std::vector<double>& floor, double hard_de,
+                   size_t max_hard) const {
+        constexpr size_t kRowsPerTask = 16;  // 16 (r, g) pairs of 256 blues: 4,096 colours
+        const size_t tasks = 65536 / kRowsPerTask, L = white_.size();
+        struct Part {
+            std::vector<double> worst;
+            std::vector<uint32_t> code;
+            std::vector<std::pair<double, uint32_t>> hard;
+            size_t full = 0;
+        };
+        std::vector<Part> parts(tasks);
+        const auto& lin = srgb_code_table();
+        TaskPool::shared().parallel_for(tasks, std::max(1, req_.threads), [&](size_t t) {
+            Part& p = parts[t];
+            p.worst.assign(L, 0.0);
+            p.code.assign(L, 0);
+            std::vector<float> r(256), g(256), b(256), s(bins_ * 256), back(bins_ * 256);
+            std::vector<uint16_t> h(bins_ * 256);
+            for (size_t i = 0; i < 256; ++i) b[i] = static_cast<float>(lin[i]);
+            for (size_t row = t * kRowsPerTask; row < (t + 1) * kRowsPerTask; ++row) {
+                std::fill(r.begin(), r.end(), static_cast<float>(lin[row >> 8]));
+                std::fill(g.begin(), g.end(), static_cast<float>(lin[row & 255]));
+                req_.method->expand_float(r.data(), g.data(), b.data(), 256, s.data(), 256);
+                p.full += round_spectra_to_bits(s.data(), 256, 256, bins_, req_.rgb_weight, bits,
+                                                h.data(), 256);
+                half_to_floats(h.data(), back.data(), h.size());
+                // Rounded minus unrounded: exact in float (the two are within a factor of 2).
+                for (size_t k = 0; k < back.size(); ++k) back[k] -= s[k];
+                const Eigen::Map<const Eigen::MatrixXf> S(s.data(), 256,
+                                                          static_cast<Eigen::Index>(bins_));
+                const Eigen::Map<const Eigen::MatrixXf> D(back.data(), 256,
+                                                          static_cast<Eigen::Index>(bins_));
+                const Eigen::MatrixXf X0 = S * Wt_, dX = D * Wt_;
+                for (size_t j = 0; j < L; ++j) {
+                    const Eigen::Index c0 = static_cast<Eigen::Index>(3 * j);
+                    for (Eigen::Index i = 0; i < 256; ++i) {
+                        const Eigen::Vector3d x0(X0(i, c0), X0(i, c0 + 1), X0(i, c0 + 2));
+                        const Eigen::Vector3d dx(dX(i, c0), dX(i, c0 + 1), dX(i, c0 + 2));
+                        if (dx.isZero(0.0)) continue;
+                        const Lab a = lab_from_xyz_fast(x0, white_[j]),
+                                  c = lab_from_xyz_fast(x0 + dx, white_[j]);
+                        const double de76 =
+                            std::sqrt((a.L - c.L) * (a.L - c.L) + (a.a - c.a) * (a.a - c.a) +
+                                      (a.b - c.b) * (a.b - c.b));
+                        if (kDe00PerDe76 * de76 <=
+                            std::min(std::max(p.worst[j], floor[j]), hard_de))
+                            continue;
+                        const double de = ciede2000(a, c);
+                        const uint32_t code = static_cast<uint32_t>((row << 8) | size_t(i));
+                        if (de > p.worst[j]) p.worst[j] = de, p.code[j] = code;
+                        if (de > hard_de && max_hard > 0) {
+                            p.hard.emplace_back(de, code);
+                            if (p.hard.size() > 2 * max_hard) keep_worst(p.hard, max_hard);
+                        }
+                    }
+                }
+            }
+        });
+        Result out;
+        out.worst.assign(L, 0.0);
+        out.worst_code.assign(L, 0);
+        std::vector<std::pair<double, uint32_t>> hard;
+        for (const Part& p : parts) {
+            for (size_t j = 0; j < L; ++j)
+                if (p.worst[j] > out.worst[j])
+                    out.worst[j] = p.worst[j], out.worst_code[j] = p.code[j];
+            hard.insert(hard.end(), p.hard.begin(), p.hard.end());
+            out.full += p.full;
+        }
+        keep_worst(hard, max_hard);
+        std::sort(hard.begin(), hard.end(), [](const auto& x, const auto& y) {
+            return x.first != y.first ? x.first > y.first : x.second < y.second;
+        });
+        for (const auto& e : hard) out.hard.push_back(e.second);
+        std::sort(out.hard.begin(), out.hard.end());
+        out.hard.erase(std::unique(out.hard.begin(), out.hard.end()), out.hard.end());
+        return out;
+    }
+
+  private:
+    // The `cap` largest (ΔE00, code) pairs, in any order (ties: the lower code).
+    static void keep_worst(std::vector<std::pair<double, uint32_t>>& v, size_t cap) {
+        if (v.size() <= cap) return;
+        std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(cap), v.end(),
+                         [](const auto& x, const auto& y) {
+                             return x.first != y.first ? x.first > y.first : x.second < y.second;
+                         });
+        v.resize(cap);
+    }
+
+    const PrecisionRequest& req_;
+    size_t bins_ = 0;
+    Eigen::MatrixXf Wt_;  // bins x 3·lights: every light's renderer weights, side by side
+    std::vector<Eigen::Vector3d> white_;
+};
+
 // The share of the budget the search holds its coarser sample to (the rest is for the colours
 // between its codes).
 constexpr double kSearchShare = 0.9;
@@ -134,6 +291,18 @@ constexpr double kSearchShare = 0.9;
 // colour the coarser grids cannot hold is stored with all bits, so bits that leave many such
 // pixels save little.
 constexpr double kMaxFullShare = 0.005;
+
+// The cube judge's colours that join the sample after a pass over the budget: those above this
+// share of the budget, at most kMaxHardColours of the worst.
+constexpr double kHardShare = 0.7;
+// The cube judge evaluates exactly only the colours that could beat this share of the sample's
+// worst (which the cube holds: its figure in float is within kCubeMargin of it).
+constexpr double kFloorShare = 0.999;
+// The cube judge sums in float (its XYZ and their differences): its ΔE00 is within 1e-5 of the
+// double-precision figure relative to it (measured against PrecisionJudge on the same colours);
+// the figure it records, and the one it holds to the budget, is raised by this factor.
+constexpr double kCubeMargin = 1.0001;
+constexpr size_t kMaxHardColours = 50000;
 
 double worst_of(const std::vector<double>& v) {
     return v.empty() ? 0.0 : *std::max_element(v.begin(), v.end());
@@ -210,7 +379,7 @@ std::vector<double> bin_visibility(const Observer& observer, const std::vector<S
 }
 
 PrecisionChoice measure_precision(const PrecisionRequest& req, const std::vector<int>& bits) {
-    const PrecisionJudge judge(req, req.stride);
+    const PrecisionJudge judge(req, code_sample(req.stride));
     PrecisionChoice c;
     c.bits = bits;
     c.light = judge.names();
@@ -226,10 +395,11 @@ PrecisionChoice choose_precision(const PrecisionRequest& req) {
     // The search measures a sample with half the codes per axis (an eighth of the colours) against
     // 90 % of the budget; the bits it finds are then measured on the request's sample, and the
     // search's last steps undone while they are over the budget there.
-    const PrecisionJudge fine(req, req.stride);
-    const PrecisionJudge coarse(req, std::min(255, 2 * req.stride));
+    std::vector<std::array<uint8_t, 3>> sample = code_sample(req.stride);
+    auto fine = std::make_unique<PrecisionJudge>(req, sample);
+    const PrecisionJudge coarse(req, code_sample(std::min(255, 2 * req.stride)));
     const double search_de = kSearchShare * req.max_de;
-    const size_t bins = fine.bins();
+    const size_t bins = fine->bins();
     const std::vector<double> vis = bin_visibility(req.observer, req.lights, req.method->lambda());
     auto rule = [&](int offset) {
         std::vector<int> bits(bins);
@@ -240,8 +410,7 @@ PrecisionChoice choose_precision(const PrecisionRequest& req) {
         return bits;
     };
     PrecisionChoice c;
-    c.light = fine.names();
-    c.colours = fine.colours();
+    c.light = fine->names();
     // Within the budget, and with few colours that the grids cannot hold (those are stored at
     // full precision: bits that the file would pay for anyway).
     auto within = [&](const PrecisionJudge& j, const std::vector<int>& bits, double budget,
@@ -289,19 +458,52 @@ PrecisionChoice choose_precision(const PrecisionRequest& req) {
             if (within(coarse, bits, search_de)) history.push_back(best), best = bits;
         }
     }
-    std::vector<double> de;
-    while (!within(fine, best, req.max_de, &de)) {
-        if (history.empty()) {
-            best = full;
-            de = fine.measure(full);
-            ++c.evaluations;
-            break;
+    // Undoes the search's steps, last first, while `judge` finds the bits over the budget (all 10
+    // when none is left). False when nothing was undone.
+    auto undo_while_over = [&](const PrecisionJudge& judge) {
+        bool undone = false;
+        while (best != full && !within(judge, best, req.max_de)) {
+            best = history.empty() ? full : history.back();
+            if (!history.empty()) history.pop_back();
+            undone = true;
         }
-        best = history.back();
-        history.pop_back();
+        return undone;
+    };
+    undo_while_over(*fine);
+    // Then every 8-bit colour: while some colour between the sample's codes is over the budget,
+    // the colours above kHardShare of it join the sample and the steps are undone again on it.
+    // Each pass either ends or undoes at least one step, so this ends, at all 10 bits at worst.
+    const CubeJudge cube(req);
+    std::vector<uint32_t> added;
+    CubeJudge::Result res;
+    for (;;) {
+        std::vector<double> floor;
+        for (double w : fine->measure(best)) floor.push_back(w * kFloorShare);
+        res = cube.measure(best, floor, kHardShare * req.max_de, kMaxHardColours);
+        ++c.evaluations;
+        if (worst_of(res.worst) * kCubeMargin <= req.max_de || best == full) break;
+        size_t fresh = 0;
+        for (uint32_t code : res.hard)
+            if (!std::binary_search(added.begin(), added.end(), code)) {
+                sample.push_back({{static_cast<uint8_t>(code >> 16),
+                                   static_cast<uint8_t>(code >> 8), static_cast<uint8_t>(code)}});
+                ++fresh;
+            }
+        added.insert(added.end(), res.hard.begin(), res.hard.end());
+        std::sort(added.begin(), added.end());
+        added.erase(std::unique(added.begin(), added.end()), added.end());
+        if (fresh > 0) fine = std::make_unique<PrecisionJudge>(req, sample);
+        if (!undo_while_over(*fine)) {
+            // The sample holds the cube's worst colours and still finds the bits within (its
+            // arithmetic is double, the cube's float): one more step back.
+            best = history.empty() ? full : history.back();
+            if (!history.empty()) history.pop_back();
+        }
     }
     c.bits = best;
-    c.worst_de = de;
+    c.worst_de.clear();
+    for (double w : res.worst) c.worst_de.push_back(w * kCubeMargin);
+    c.colours = size_t(1) << 24;
     return c;
 }
 
@@ -332,6 +534,21 @@ std::vector<int> parse_precision_bits(const std::string& text, size_t bins) {
         throw Error("precision bits list " + std::to_string(bits.size()) + " bins, the file has " +
                     std::to_string(bins));
     return bits;
+}
+
+std::string format_de_up(double de) {
+    if (!(de > 0) || !std::isfinite(de)) {
+        char buf[32];
+        std::snprintf(buf, sizeof buf, "%g", de);
+        return buf;
+    }
+    const double scale = std::pow(10.0, 2 - static_cast<int>(std::floor(std::log10(de))));
+    // The smallest 3-digit figure at or above de (a product that lands on a whole number stays).
+    double up = std::ceil(de * scale * (1 - 1e-15)) / scale;
+    while (up < de) up += 1 / scale;
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.3g", up);
+    return buf;
 }
 
 double kept_fraction(const std::vector<int>& bits) {

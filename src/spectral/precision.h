@@ -1,7 +1,8 @@
 #pragma once
 // The precision budget: how many of half's 10 mantissa bits each bin keeps, chosen so that the
 // worst ΔE00 between the rounded and the unrounded spectra, under every light of the scene (and
-// D65), stays within a budget over a dense sample of the 8-bit sRGB cube (docs/precision.md).
+// D65), stays within a budget on every 8-bit sRGB code, the bins seen as a renderer sees them
+// (linear at 1 nm over 360-830 nm; docs/precision.md).
 // Fewer bits in the bins a light barely sees make the file's ZIP smaller; the colour-aware
 // correction on the coarser grids (round_spectra_to_bits) keeps every 8-bit colour's code under
 // the rounding's colorimetry (D65) exact whatever the bits.
@@ -15,8 +16,8 @@
 
 namespace spectex {
 
-// The sample bake and plan --precision auto choose on: codes 0, 8, … 248 and 255 per axis
-// (33^3 = 35,937 colours).
+// The sample bake and plan --precision auto search on before the whole cube checks their answer:
+// codes 0, 8, … 248 and 255 per axis (33^3 = 35,937 colours).
 constexpr int kPrecisionSampleStride = 8;
 
 // The fewest mantissa bits the chooser gives a bin. Rounding with b bits moves a value by less
@@ -43,8 +44,8 @@ struct PrecisionRequest {
 struct PrecisionChoice {
     std::vector<int> bits;           // per bin, kMinMantissaBits..10
     std::vector<std::string> light;  // the lights measured, in the request's order
-    std::vector<double> worst_de;    // per light, of the chosen bits over the sample
-    size_t colours = 0;              // colours in the sample
+    std::vector<double> worst_de;    // per light, of the chosen bits (choose: over every code)
+    size_t colours = 0;              // colours measured (choose: 16,777,216)
     size_t evaluations = 0;          // bit vectors measured to choose
 };
 
@@ -80,9 +81,11 @@ std::vector<double> bin_visibility(const Observer& observer, const std::vector<S
 // kMinMantissaBits, keeping each step that stays within it.
 // A bit vector counts as within only when at most 0.5 % of the sample's colours are left to full
 // precision (round_spectra_to_bits). The result is measured on the request's sample, and the
-// search's steps undone, last first,
-// while it is over the budget there (all 10 when nothing fewer holds). Throws Error on a budget
-// that is not positive.
+// search's steps undone, last first, while it is over the budget there (all 10 when nothing
+// fewer holds). Then on every 8-bit code: while a colour is over the budget, the colours above
+// 70 % of it join the sample and the undoing runs again. worst_de is the cube's worst per light
+// (raised by 1e-4 of itself for the float sums), colours 2^24. Throws Error on a budget that is
+// not positive.
 PrecisionChoice choose_precision(const PrecisionRequest& req);
 
 // Worst ΔE00 per light of rounding to `bits` over the request's sample (for reports and tests).
@@ -92,6 +95,15 @@ PrecisionChoice measure_precision(const PrecisionRequest& req, const std::vector
 // Error on anything else, naming what is wrong).
 std::string format_precision_bits(const std::vector<int>& bits);
 std::vector<int> parse_precision_bits(const std::string& text, size_t bins);
+
+// What the recorded worst covers (spectex:precisionSample).
+constexpr const char* kPrecisionCovers =
+    "every 8-bit sRGB code (16777216 colours), opaque, reconstructed linearly at 1 nm over "
+    "360-830 nm";
+
+// A ΔE00 figure rounded up to 3 significant digits ("0.49", "0.134"): a recorded worst stays an
+// upper bound of the figure it rounds.
+std::string format_de_up(double de);
 
 // Sum of the bits over the bins, against 10 per bin: a rough measure of what the file keeps.
 double kept_fraction(const std::vector<int>& bits);

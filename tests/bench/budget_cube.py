@@ -5,10 +5,13 @@ the same method's spectra in float, under each light, on all 16,777,216 colours 
     build/venv/bin/python tests/bench/budget_cube.py --spectex build/src/spectex [--options "..."]
 
 The chooser of --precision auto decides on 35,937 colours and default_decision.py checks 274,625;
-this checks them all. --options are the candidate's bake options (default: none, spectex bake's
-default, whose budget is 0.5 under D65, A, FL2, FL11, D50, LED-B3); the reference is the same
-options with --type float (and --precision full). CIE 1931 2°, 380:780:5, L*a*b* relative to each
-light's own white (both spectra under the same light: no adaptation). The files are read 256 rows at
+this checks them all, as a renderer sees them: the file's bins reconstructed linearly at 1 nm over
+360-830 nm (end values held), integrated with the CIE 1931 2° observer under each light at 1 nm
+(the tables of config/spectral/, linear between their rows, zero outside them), L*a*b* relative to
+each light's own white (both spectra under the same light: no adaptation). --options are the
+candidate's bake options (default: none, spectex bake's default, whose budget is 0.5 under D65, A,
+FL2, FL11, D50, LED-B3); the reference is the same options with --type float. The chooser of
+--precision auto checks every colour too, in its own C++ code; this is the independent check. The files are read 256 rows at
 a time, so memory stays near 1 GB. Beside each light's true worst it prints the header's
 spectex:precisionWorstDe (the chooser's figure on its sample) and their ratio. About 5 to 15
 minutes on 2 cores. A benchmark, not a test.
@@ -54,6 +57,31 @@ def rows(exr, step=256):
     inp.close()
 
 
+DATA = HERE.parent.parent / "config" / "spectral"
+FINE = np.arange(360.0, 830.0 + 1e-9, 1.0)
+
+
+def table(name):
+    """(wavelengths, values...) of a CSV of config/spectral/ (comment lines start with #)."""
+    rows = [r for r in (DATA / name).read_text().splitlines() if r and not r.startswith("#")]
+    data = np.array([[float(v) for v in r.split(",")] for r in rows if r[0].isdigit()])
+    return data[:, 0], data[:, 1:]
+
+
+def renderer_weights(light, bins):
+    """(3 × bins XYZ weights, white XYZ) of a file's bins as a renderer sees them under `light`: the
+    bins reconstructed linearly at 1 nm over 360-830 nm (ends held), the observer and the light at
+    1 nm (the light zero outside its table), the perfect reflector at Y = 1."""
+    wl, cmf = table("observer_cie1931-2.csv")
+    cmf = np.stack([np.interp(FINE, wl, cmf[:, i]) for i in range(3)], 1)
+    lw, e = table(f"illuminant_{light}.csv")
+    e = np.where((FINE >= lw[0]) & (FINE <= lw[-1]), np.interp(FINE, lw, e[:, 0]), 0.0)
+    Wf = (cmf * e[:, None]).T  # 3 × fine
+    R = np.stack([np.interp(FINE, bins, np.eye(len(bins))[k]) for k in range(len(bins))], 1)
+    norm = Wf[1].sum()
+    return (Wf @ R) / norm, Wf.sum(1) / norm
+
+
 def recorded_worst(exr):
     """{light: figure} of the header's spectex:precisionWorstDe ("D65 0.0908, A 0.148, ..."), {} without."""
     import OpenImageIO as oiio
@@ -85,8 +113,10 @@ def main():
         subprocess.run([a.spectex, "bake", cube, "-o", stored, "-q", *opts], check=True)
         subprocess.run([a.spectex, "bake", cube, "-o", ref, "-q", *opts, "--type", "float"], check=True)
         recorded = recorded_worst(stored)
-        W = {L: ma.weights(L) for L in LIGHTS}
-        whites = {L: colour.XYZ_to_xy(W[L].sum(1)) for L in LIGHTS}
+        W, whites = {}, {}
+        for L in LIGHTS:
+            W[L], white = renderer_weights(L, ma.GRID)
+            whites[L] = colour.XYZ_to_xy(white)
         worst = {L: 0.0 for L in LIGHTS}
         over = {L: 0 for L in LIGHTS}
         for (y, s), (_, f) in zip(rows(stored), rows(ref)):
@@ -102,8 +132,8 @@ def main():
     print("|---|---|---|---|---|")
     for L in LIGHTS:
         rec = recorded.get(L)
-        ratio = f"{worst[L] / rec:.2f}" if rec else "-"
-        print(f"| {L} | {worst[L]:.3f} | {over[L]:,} | {rec if rec is not None else '-'} | {ratio} |")
+        ratio = f"{worst[L] / rec:.3f}" if rec else "-"
+        print(f"| {L} | {worst[L]:.4f} | {over[L]:,} | {rec if rec is not None else '-'} | {ratio} |")
     print(f"\n{time.time() - t0:.0f} s.")
     return 0 if max(worst.values()) <= a.budget else 1
 

@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -75,16 +76,25 @@ uint64_t file_size(const std::string& p) {
 TEST(Precision, AutoBakeKeepsTheChosenBitsRecordsThemAndStaysExactUnderD65) {
     ScratchDir d;
     const std::string png = cube_png(d), full = d / "full.exr", autob = d / "auto.exr";
-    ASSERT_EQ(run_spectex({"bake", png, "-o", full, "-q", "--method", "basis"}).status, 0);
-    const RunResult r = run_spectex({"bake", png, "-o", autob, "--method", "basis", "--precision",
-                                     "auto", "--lights", "D65,A,FL11", "--max-de", "0.5"});
+    // 31 bins: the chooser's whole-cube passes cost in proportion to the bins (this test runs in
+    // the sanitizer build too).
+    ASSERT_EQ(run_spectex({"bake", png, "-o", full, "-q", "--method", "basis", "--wavelengths",
+                           "400:700:10"})
+                  .status,
+              0);
+    const RunResult r =
+        run_spectex({"bake", png, "-o", autob, "--method", "basis", "--wavelengths", "400:700:10",
+                     "--precision", "auto", "--lights", "D65,A,FL11", "--max-de", "0.5"});
+    // The bits said name what they cover.
+    EXPECT_TRUE(has(r.err, "on every 8-bit colour")) << r.err;
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_TRUE(has(r.err, "--precision auto:")) << r.err;
     const ExrImage img = read_exr(autob);
     EXPECT_EQ(img.attr(key::kPrecision), "auto");
     EXPECT_EQ(img.attr(key::kPrecisionMaxDe), "0.5");
     EXPECT_EQ(img.attr(key::kPrecisionLights), "D65,A,FL11");
-    EXPECT_TRUE(has(img.attr(key::kPrecisionSample), "35937 colours"));
+    EXPECT_TRUE(has(img.attr(key::kPrecisionSample), "every 8-bit sRGB code (16777216 colours)"))
+        << img.attr(key::kPrecisionSample);
     const std::vector<int> bits = bits_of(img.attr(key::kPrecisionBits));
     const auto channels = spectral_channels(img);
     ASSERT_EQ(bits.size(), channels.size());
@@ -232,13 +242,17 @@ TEST(Precision, TheDefaultBakeKeepsABudgetWhereItCan) {
     r = bake({"--precision", "auto"});
     EXPECT_TRUE(has(r.err, "--precision auto: ")) << r.err;
 
-    // The scene's lights and budget, and another level.
-    ASSERT_EQ(bake({"--lights", "A,FL11", "--max-de", "1", "--zip-level", "6"}).status, 0);
+    // The scene's lights and budget, and another level (on a coarse grid: each is a choice of
+    // its own, several passes over the whole cube).
+    ASSERT_EQ(bake({"--lights", "A,FL11", "--max-de", "1", "--zip-level", "6", "--wavelengths",
+                    "400:700:20"})
+                  .status,
+              0);
     img = read_exr(out);
     EXPECT_EQ(img.attr(key::kPrecisionLights), "A,FL11,D65");  // and the light it is exact for
     EXPECT_EQ(img.attr(key::kPrecisionMaxDe), "1");
     EXPECT_EQ(img.attr(key::kZipLevel), "6");
-    ASSERT_EQ(bake({"--precision-de", "0.25"}).status, 0);
+    ASSERT_EQ(bake({"--precision-de", "0.25", "--wavelengths", "400:700:20"}).status, 0);
     EXPECT_EQ(read_exr(out).attr(key::kPrecisionMaxDe), "0.25");
 
     // Where no budget can be kept, or none is wanted: full, at level 4.
@@ -301,6 +315,67 @@ TEST(Precision, TheDefaultBakeStoresEveryValueWithinASixteenthOfItsSpectrum) {
     EXPECT_LE(worst, 1.0) << "at " << where;
 }
 
+// The default bake's bits come with spectex (config/spectral/precision/): no first bake pays for
+// choosing them on every 8-bit colour (some 30 s on 2 cores). A change to the lattice, the
+// rounding or the chooser changes the request's key and fails this test until the answer is made
+// again (config/spectral/precision/make_default.sh); PrecisionSlow checks that the shipped answer
+// is the one the chooser gives.
+TEST(Precision, TheDefaultBakesBitsComeWithSpectex) {
+    ScratchDir d;
+    std::vector<uint8_t> px(12, 200);
+    write_image(d / "in.png", 2, 2, 3, OIIO::TypeDesc::UINT8, px.data());
+    const RunResult r = run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "-v"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_TRUE(has(r.err, "the precision's bits from spectex's data: ")) << r.err;
+    EXPECT_TRUE(has(r.err, "shipped with spectex")) << r.err;
+    const ExrImage img = read_exr(d / "o.exr");
+    EXPECT_TRUE(has(img.attr(key::kPrecisionSample), "every 8-bit sRGB code (16777216 colours)"))
+        << img.attr(key::kPrecisionSample);
+}
+
+// The shipped answer is what the chooser gives (made afresh with the answers left out of a copy of
+// the data, and an empty cache), byte for byte; and a damaged shipped answer (one bit lowered, its
+// seal unchanged) is no answer: the bits are chosen again, and they are the shipped ones.
+TEST(PrecisionSlow, TheShippedAnswerIsTheChoosersAndADamagedOneIsNot) {
+    ScratchDir d;
+    namespace fs = std::filesystem;
+    const fs::path shipped = fs::path(SPECTEX_TEST_DATA_DIR) / "spectral" / "precision";
+    std::string name, text;
+    for (const auto& e : fs::directory_iterator(shipped))
+        if (e.path().filename().string().rfind("precision-", 0) == 0) {
+            ASSERT_TRUE(name.empty()) << "one shipped answer, for the default bake";
+            name = e.path().filename().string();
+            text = read_file(e.path().string());
+        }
+    ASSERT_FALSE(name.empty());
+    fs::copy(SPECTEX_TEST_DATA_DIR, d / "config", fs::copy_options::recursive);
+    // One bin's bits lowered by one.
+    std::string damaged = text;
+    const size_t at = damaged.find("bits ");
+    ASSERT_NE(at, std::string::npos);
+    const size_t digit = damaged.find_first_of("56789", damaged.find(' ', at + 5) + 1);
+    ASSERT_NE(digit, std::string::npos);
+    --damaged[digit];
+    write_text(d / "config" + "/spectral/precision/" + name, damaged);
+    std::vector<uint8_t> px(12, 90);
+    write_image(d / "in.png", 2, 2, 3, OIIO::TypeDesc::UINT8, px.data());
+    const RunResult r =
+        run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "-v"},
+                    {"SPECTEX_DATA_DIR=" + (d / "config"), "SPECTEX_CACHE_DIR=" + (d / "cache")});
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_FALSE(has(r.err, "from spectex's data")) << r.err;
+    // The answer kept in the cache is the shipped one, byte for byte.
+    int entries = 0;
+    for (const auto& e : fs::directory_iterator(d / "cache"))
+        if (e.path().filename().string().rfind("precision-", 0) == 0) {
+            ++entries;
+            EXPECT_EQ(read_file(e.path().string()), text)
+                << "config/spectral/precision/" << name
+                << " is not the chooser's answer: run config/spectral/precision/make_default.sh";
+        }
+    EXPECT_EQ(entries, 1);
+}
+
 TEST(Precision, PlanPrintsBitsWithTheGrid) {
     const RunResult r =
         run_spectex({"plan", "--grids", "380:780:10", "--lights", "D65,A", "--max-de", "2",
@@ -324,8 +399,9 @@ TEST(Precision, AutoBakeIsTheSameWhateverTheThreads) {
     for (size_t i = 0; i < px.size(); ++i) px[i] = static_cast<uint8_t>((i * 2654435761u) >> 24);
     const std::string png = d / "noise.png", one = d / "one.exr", three = d / "three.exr";
     write_image(png, 96, 80, 3, OIIO::TypeDesc::UINT8, px.data());
-    const std::vector<std::string> a = {"--precision", "auto", "--lights", "D65,A",
-                                        "--max-de",    "0.5",  "-q"};
+    const std::vector<std::string> a = {"--precision",   "auto",       "--lights",
+                                        "D65,A",         "--max-de",   "0.5",
+                                        "--wavelengths", "400:700:20", "-q"};
     std::vector<std::string> c1 = {"bake", png, "-o", one, "--threads", "1"};
     std::vector<std::string> c3 = {"bake", png, "-o", three, "--threads", "3"};
     c1.insert(c1.end(), a.begin(), a.end());
