@@ -164,9 +164,9 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
              });
     p.option("--precision", "full|auto",
              "Half's mantissa bits per bin. full: all 10 in every bin. auto (the default without "
-             "--method, where the output is half, colour-rounded and compressed losslessly: under "
-             "D65,A,FL2,FL11,D50,LED-B3 within 0.5 unless --lights or --max-de are given, and "
-             "--zip-level 1 unless given; else full): per bin, "
+             "--method, where the output is half, colour-rounded and compressed losslessly, with "
+             "--zip-level 1 unless given; else full): under D65,A,FL2,FL11,D50,LED-B3 within 0.5 "
+             "unless --lights or --max-de are given, whatever the method; per bin, "
              "the fewest that keep the worst ΔE00 between the rounded and the unrounded spectra "
              "within --precision-de (default --max-de) under every one of --lights and the light "
              "the method is exact for, on every 8-bit colour; the colour-aware "
@@ -392,13 +392,15 @@ void resolve_precision(BakeCli& c) {
                            !z.lossy_for(true);
         c.precision = c.default_bake && keeps ? "auto" : "full";
     }
-    if (!c.default_bake || c.precision != "auto") return;
+    if (c.precision != "auto") return;
+    // --precision auto's lights and budget are the default bake's unless given, whatever the
+    // method: the same defaults whenever the same option is asked.
     if (!c.plan_lights) c.req.plan.lights = DefaultBake::lights();
     if (!c.plan_budget) c.req.plan.max_de = DefaultBake::max_de;
-    if (!c.zip_level_given) c.req.options.zip_level = DefaultBake::zip_level;
+    if (c.default_bake && !c.zip_level_given) c.req.options.zip_level = DefaultBake::zip_level;
 }
 
-// --precision auto: half only, and the scene's lights and a budget to choose with.
+// --precision auto: half, colour-rounded.
 void check_precision_options(const BakeCli& c) {
     if (c.precision != "auto") {
         if (c.precision_de_given) throw UsageError("--precision-de belongs to --precision auto");
@@ -411,11 +413,7 @@ void check_precision_options(const BakeCli& c) {
         throw UsageError(
             "--precision auto keeps every 8-bit code through the colour-aware rounding; "
             "--half-rounding nearest would lose them on the coarser grids");
-    if (c.default_bake) return;  // its lights and budget, unless given (resolve_precision)
-    if (!c.plan_lights)
-        throw UsageError("--precision auto needs --lights (the scene's lights it must hold)");
-    if (!c.plan_budget && !c.precision_de_given)
-        throw UsageError("--precision auto needs --max-de or --precision-de (the ΔE00 budget)");
+    // Its lights and budget: given, or the default bake's (resolve_precision).
 }
 
 // The output grid: given, read from a file, or chosen by --wavelengths auto.

@@ -76,15 +76,9 @@ uint64_t file_size(const std::string& p) {
 TEST(Precision, AutoBakeKeepsTheChosenBitsRecordsThemAndStaysExactUnderD65) {
     ScratchDir d;
     const std::string png = cube_png(d), full = d / "full.exr", autob = d / "auto.exr";
-    // 31 bins: the chooser's whole-cube passes cost in proportion to the bins (this test runs in
-    // the sanitizer build too).
-    ASSERT_EQ(run_spectex({"bake", png, "-o", full, "-q", "--method", "basis", "--wavelengths",
-                           "400:700:10"})
-                  .status,
-              0);
-    const RunResult r =
-        run_spectex({"bake", png, "-o", autob, "--method", "basis", "--wavelengths", "400:700:10",
-                     "--precision", "auto", "--lights", "D65,A,FL11", "--max-de", "0.5"});
+    ASSERT_EQ(run_spectex({"bake", png, "-o", full, "-q", "--method", "basis"}).status, 0);
+    const RunResult r = run_spectex({"bake", png, "-o", autob, "--method", "basis", "--precision",
+                                     "auto", "--lights", "D65,A,FL11", "--max-de", "0.5"});
     // The bits said name what they cover.
     EXPECT_TRUE(has(r.err, "on every 8-bit colour")) << r.err;
     ASSERT_EQ(r.status, 0) << r.err;
@@ -183,6 +177,33 @@ TEST(PrecisionSlow, TheBudgetAndBitsAreInTheSettingsHash) {
     EXPECT_EQ(read_exr(out).attr(key::kPrecisionMaxDe), "0.25");
 }
 
+// --precision auto asked of a named method takes the default bake's lights and budget unless
+// --lights or --max-de are given, as the default bake does: the same defaults whenever the same
+// option is asked (the lattice once demanded --lights). The level stays the method's own.
+TEST(Precision, AutoTakesTheDefaultsLightsAndBudgetWithAnyMethod) {
+    ScratchDir d;
+    std::vector<uint8_t> px(12, 128);
+    write_image(d / "in.png", 2, 2, 3, OIIO::TypeDesc::UINT8, px.data());
+    const std::string in = d / "in.png", out = d / "o.exr";
+    for (const char* method : {"basis", "lattice"}) {
+        // 16 bins: each is a choice of its own, several passes over the whole cube.
+        RunResult r = run_spectex({"bake", in, "-o", out, "-q", "--method", method, "--precision",
+                                   "auto", "--wavelengths", "400:700:20"});
+        ASSERT_EQ(r.status, 0) << method << ": " << r.err;
+        ExrImage img = read_exr(out);
+        EXPECT_EQ(img.attr(key::kPrecisionLights), "D65,A,FL2,FL11,D50,LED-B3") << method;
+        EXPECT_EQ(img.attr(key::kPrecisionMaxDe), "0.5") << method;
+        EXPECT_EQ(img.attr(key::kZipLevel), "4") << method;
+        // One of the two given: the other stays the default's.
+        r = run_spectex({"bake", in, "-o", out, "-q", "--method", method, "--precision", "auto",
+                         "--wavelengths", "400:700:20", "--lights", "A"});
+        ASSERT_EQ(r.status, 0) << method << ": " << r.err;
+        img = read_exr(out);
+        EXPECT_EQ(img.attr(key::kPrecisionLights), "A,D65") << method;
+        EXPECT_EQ(img.attr(key::kPrecisionMaxDe), "0.5") << method;
+    }
+}
+
 TEST(Precision, UsageErrorsAreRefusedBeforeAnyWork) {
     ScratchDir d;
     std::vector<uint8_t> px(12, 128);
@@ -194,8 +215,6 @@ TEST(Precision, UsageErrorsAreRefusedBeforeAnyWork) {
     };
     const std::vector<Case> cases = {
         {{"--precision", "half"}, "is not one of full, auto"},
-        {{"--precision", "auto", "--max-de", "0.5"}, "needs --lights"},
-        {{"--precision", "auto", "--lights", "A"}, "needs --max-de or --precision-de"},
         {{"--precision", "auto", "--lights", "A", "--max-de", "1", "--type", "float"},
          "--type float keeps every bit"},
         {{"--precision-de", "0.5"}, "--precision-de belongs to --precision auto"},
