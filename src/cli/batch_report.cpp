@@ -8,6 +8,7 @@
 #include <memory>
 
 #include "base/error.h"
+#include "base/run_clock.h"
 #include "base/text.h"
 #include "cli/commands.h"
 #include "io/atomic_file.h"
@@ -144,8 +145,9 @@ class BatchReport : public BatchListener {
         if (plan_.progress && plan_.progress_terminal) std::cerr << "\r\033[K";
         const size_t not_attempted = n.total - n.done;
         if (!plan_.quiet && (n.total > 1 || n.failed || n.skipped)) {
-            double el =
-                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+            const double el =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - process_start())
+                    .count();
             std::cerr << "spectex: " << n.ok << " baked, " << n.skipped << " up to date, "
                       << n.failed << " failed";
             if (not_attempted)
