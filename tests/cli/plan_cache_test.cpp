@@ -494,3 +494,27 @@ TEST(GridLimit, AFineGridSaysWhatItCosts) {
     const RunResult d = run_spectex({"bake", png, "-o", dir / "d.exr"});
     EXPECT_EQ(d.err.find("bytes per pixel"), std::string::npos) << d.err;
 }
+
+// examples/farm/warm_cache.sh, run once with an array's options, leaves in the cache every answer
+// the tasks' bakes need: a bake of another texture with the same options searches nothing (its
+// grid and its precision's bits come from the cache).
+TEST(PlanCacheSlow, TheFarmsWarmUpFillsWhatTheTasksRead) {
+    ScratchDir dir;
+    const std::string cache = dir / "cache";
+    const std::vector<std::string> opts = {
+        "--wavelengths", "auto", "--lights", "D65,A",
+        "--max-de",      "3",    "--grids",  "380:780:20,380:780:10"};
+    std::string line = "SPECTEX='" + spectex_binary() + "' SPECTEX_CACHE_DIR='" + cache + "' '" +
+                       SPECTEX_TEST_SOURCE_DIR + "/examples/farm/warm_cache.sh'";
+    for (const auto& o : opts) line += " '" + o + "'";
+    const RunResult warm = run_shell(line);
+    ASSERT_EQ(warm.status, 0) << warm.out;
+    const std::string png = make_png(dir, "in.png", 4, 4);
+    std::vector<std::string> args = {"bake", png, "-o", dir / "o.exr", "-v"};
+    args.insert(args.end(), opts.begin(), opts.end());
+    const RunResult task = run_spectex(args, {cache_env(cache)});
+    ASSERT_EQ(task.status, 0) << task.err;
+    EXPECT_NE(task.err.find("the plan's answer from the cache"), std::string::npos) << task.err;
+    EXPECT_NE(task.err.find("the precision's bits from the cache"), std::string::npos) << task.err;
+    EXPECT_EQ(task.err.find("measuring each grid"), std::string::npos) << task.err;
+}
