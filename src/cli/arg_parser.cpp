@@ -67,6 +67,21 @@ void ArgParser::option(const std::string& names, const std::string& metavar,
     entries_.push_back(e);
 }
 
+void ArgParser::option_or_flag(const std::string& names, const std::string& metavar,
+                               const std::string& help, std::vector<std::string> suffixes,
+                               std::string bare, std::function<void(const std::string&)> on) {
+    Entry e;
+    e.names = split_names(names);
+    e.label = names + " [" + metavar + "]";
+    e.metavar = metavar;
+    e.help = help;
+    e.on_value = std::move(on);
+    e.value_optional = true;
+    e.suffixes = std::move(suffixes);
+    e.bare = std::move(bare);
+    entries_.push_back(e);
+}
+
 const ArgParser::Entry* ArgParser::find(const std::string& name) const {
     for (const auto& e : entries_)
         for (const auto& n : e.names)
@@ -121,6 +136,16 @@ std::vector<std::string> ArgParser::parse(const std::vector<std::string>& args) 
             given_.push_back({e->names.back(), "", false});
             if (help_) return pos;
             continue;
+        }
+        if (!inline_value && e->value_optional) {
+            const std::string next = i + 1 < args.size() ? args[i + 1] : "";
+            bool takes = next == "-";
+            for (const auto& suffix : e->suffixes)
+                takes = takes ||
+                        (next.size() > suffix.size() &&
+                         next.compare(next.size() - suffix.size(), suffix.size(), suffix) == 0);
+            value = takes ? args[++i] : e->bare;
+            inline_value = true;
         }
         if (!inline_value) {
             if (i + 1 >= args.size())

@@ -28,6 +28,13 @@ class ArgParser {
     void flag(const std::string& names, const std::string& help, std::function<void()> on);
     void option(const std::string& names, const std::string& metavar, const std::string& help,
                 std::function<void(const std::string&)> on);
+    // An option whose value may be left out, for a flag that became an option (info --json, which
+    // scripts give alone, is now --json FILE as in plan, verify and bake). The value is taken from
+    // "--name=VALUE", or from the next argument when that is "-" or ends in one of `suffixes`
+    // (".json": a file the option writes, never an input); else on(bare), the flag's old meaning.
+    void option_or_flag(const std::string& names, const std::string& metavar,
+                        const std::string& help, std::vector<std::string> suffixes,
+                        std::string bare, std::function<void(const std::string&)> on);
 
     // Returns the positional arguments. Throws UsageError. Sets help_requested() on -h/--help.
     std::vector<std::string> parse(const std::vector<std::string>& args);
@@ -54,6 +61,9 @@ class ArgParser {
         std::function<void()> on_flag;
         std::function<void(const std::string&)> on_value;
         bool is_section = false;
+        bool value_optional = false;        // option_or_flag
+        std::vector<std::string> suffixes;  // ... the next arguments it takes as its value
+        std::string bare;                   // ... its value when none is given
     };
     const Entry* find(const std::string& name) const;
     void describe(std::ostringstream& o, const Entry& e) const;

@@ -1,8 +1,13 @@
 #include <iostream>
+#include <sstream>
+#include <utility>
+#include <vector>
 
 #include "base/error.h"
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
+#include "cli/output_check.h"
+#include "io/atomic_file.h"
 #include "io/provenance_keys.h"
 #include "io/spectral_exr_info.h"
 #include "io/spectral_reader.h"
@@ -111,18 +116,28 @@ int run_info(const std::vector<std::string>& args) {
         "tool).\n"
         "Tiled files also show their tile size and MIP levels (count and each level's size).\n"
         "Exits 1 when a file is not a spectral reflectance image.");
-    bool json = false;
-    p.flag("--json",
-           "Print the whole header (every attribute, as text) and the derived facts: one JSON "
-           "object per file, one per line.",
-           [&] { json = true; });
+    std::string json_out;  // "" text, "-" standard output, else a file
+    p.option_or_flag(
+        "--json", "FILE",
+        "Write the whole header (every attribute, as text) and the derived facts as JSON Lines, "
+        "one object per file, to FILE ('-' = stdout, instead of the text), as plan, verify and "
+        "bake do. --json alone is '-' (its old spelling); a FILE must end in .json or .jsonl "
+        "(or be given as --json=FILE).",
+        {".json", ".jsonl"}, "-", [&](const std::string& v) { json_out = stdout_as_dash(v); });
     std::vector<std::string> files;
     try {
         if (p.parse_or_help(args, files)) return 0;
         if (files.empty()) throw UsageError("no input file");
+        if (!json_out.empty() && json_out != "-") {
+            std::vector<std::pair<std::string, std::string>> reads;
+            for (const auto& f : files) reads.push_back({f, "input"});
+            check_output_against(json_out, "--json", reads, true);
+        }
     } catch (const UsageError& e) {
         return usage_error("info", e.what());
     }
+    const bool json = !json_out.empty();
+    std::ostringstream records_stream;  // for a --json file: written at the end, atomically
     int status = 0;
     for (const auto& f : files) {
         try {
@@ -135,7 +150,7 @@ int run_info(const std::vector<std::string>& args) {
             for (const auto& b : info.reflective) l.push_back(b.lambda);
             WavelengthGrid grid = WavelengthGrid::from_list(l);
             if (json) {
-                std::cout << info_json(info, grid);
+                (json_out == "-" ? std::cout : records_stream) << info_json(info, grid);
                 continue;
             }
             // Names and attribute values come from the file: one printable line each (a header can
@@ -178,6 +193,15 @@ int run_info(const std::vector<std::string>& args) {
         } catch (const Error& e) {
             print_error(name_file(f, e.what()));
             status = 1;
+        }
+    }
+    // The records of the files that could be read, as the text output has them.
+    if (json && json_out != "-") {
+        try {
+            write_text_atomically(json_out, records_stream.str());
+        } catch (const Error& e) {
+            print_error(std::string(e.what()) + " (--json)");
+            return 1;
         }
     }
     return status;

@@ -7,6 +7,8 @@
 #include "base/error.h"
 #include "cli/arg_parser.h"
 #include "cli/commands.h"
+#include "cli/output_check.h"
+#include "io/atomic_file.h"
 #include "io/data_dir.h"
 #include "pipeline/json_text.h"
 #include "pipeline/light_list.h"
@@ -68,7 +70,7 @@ void print_csv(const SampleReport& r) {
     std::cout << o.str();
 }
 
-void print_json(const SampleReport& r) {
+std::string sample_json(const SampleReport& r) {
     Json j;
     j["schema_version"] = 1;
     put_text(j, "file", r.file);
@@ -116,14 +118,14 @@ void print_json(const SampleReport& r) {
         pixels.push_back(std::move(pixel));
     }
     j["pixels"] = std::move(pixels);
-    std::cout << json_line(j);
+    return json_line(j);
 }
 
 }  // namespace
 
 int run_sample(const std::vector<std::string>& args) {
     SampleSettings s;
-    bool json = false;
+    std::string json;  // "" CSV, "-" standard output, else a file
     ArgParser p("sample", "spectex sample [options] FILE.exr X,Y [X,Y ...]",
                 "Prints the spectrum of each pixel X,Y of a spectral OpenEXR (data window "
                 "coordinates, as stored in\n"
@@ -153,8 +155,12 @@ int run_sample(const std::vector<std::string>& args) {
         s.illuminants);
     observer_option(p, "Observer", s.observer);
     p.section("Output");
-    p.flag("--json", "Print one JSON object (schema_version 1) instead of CSV.",
-           [&] { json = true; });
+    p.option_or_flag("--json", "FILE",
+                     "Write one JSON object (schema_version 1) to FILE instead of the CSV ('-' = "
+                     "stdout), as plan, verify and bake do. --json alone is '-' (its old "
+                     "spelling); a FILE must end in .json or .jsonl (or be given as --json=FILE).",
+                     {".json", ".jsonl"}, "-",
+                     [&](const std::string& v) { json = stdout_as_dash(v); });
     std::vector<std::string> pos;
     std::vector<std::pair<int, int>> xy;
     try {
@@ -165,14 +171,18 @@ int run_sample(const std::vector<std::string>& args) {
         s.illuminants = distinct_lights(s.illuminants);
         check_observer_setting("--observer", s.observer);
         for (const auto& l : s.illuminants) check_illuminant_setting("--illuminant", l);
+        if (!json.empty() && json != "-")
+            check_output_against(json, "--json", {{pos[0], "input"}}, true);
     } catch (const UsageError& e) {
         return usage_error("sample", e.what());
     }
     return run_reporting("sample", pos[0], [&] {
         s.data_dir = find_data_dir();
         SampleReport r = sample_pixels(pos[0], xy, s);
-        if (json)
-            print_json(r);
+        if (json == "-")
+            std::cout << sample_json(r);
+        else if (!json.empty())
+            write_text_atomically(json, sample_json(r));
         else
             print_csv(r);
     });

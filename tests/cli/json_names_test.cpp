@@ -196,3 +196,49 @@ TEST(JsonNames, BakeRecordsShowStrayBytesAsReplacementCharacters) {
         run_spectex({"bake", ok, "--output-dir", d / "out", "--json", "-", "-q", "--force"});
     EXPECT_TRUE(has_text(u.out, "caf\xc3\xa9.png")) << u.out;
 }
+
+// One convention for --json across commands: --json FILE, '-' for standard output, as plan,
+// verify and bake take it. info and sample, where --json was a flag, still take it alone (old
+// scripts) and take a FILE when it ends in .json or .jsonl or is given as --json=FILE; the file
+// holds what standard output would, is written atomically, and is never one of the inputs.
+TEST(JsonNames, EveryCommandTakesAFileOrADash) {
+    ScratchDir d;
+    write_png(d / "in.png");
+    const std::string exr = d / "in.exr";
+    ASSERT_EQ(run_spectex({"bake", d / "in.png", "-o", exr, "-q"}).status, 0);
+    struct Command {
+        std::vector<std::string> args;
+    };
+    for (const auto& c : std::vector<Command>{{{"info", exr}}, {{"sample", exr, "1,1"}}}) {
+        auto with = [&](std::vector<std::string> extra) {
+            std::vector<std::string> a = c.args;
+            a.insert(a.end(), extra.begin(), extra.end());
+            return run_spectex(a);
+        };
+        const RunResult bare = with({"--json"});
+        ASSERT_EQ(bare.status, 0) << bare.err;
+        ASSERT_EQ(parse_lines(bare.out).size(), 1u) << bare.out;
+        const RunResult dash = with({"--json", "-"});
+        EXPECT_EQ(dash.out, bare.out);
+        const std::string file = d / (c.args[0] + ".json"), other = d / (c.args[0] + ".txt");
+        const RunResult to_file = with({"--json", file});
+        ASSERT_EQ(to_file.status, 0) << to_file.err;
+        EXPECT_EQ(to_file.out.find('{'), std::string::npos) << "the JSON went to the file";
+        EXPECT_EQ(read_file(file), bare.out);
+        ASSERT_EQ(with({"--json=" + other}).status, 0);
+        EXPECT_EQ(read_file(other), bare.out);
+        // Never an input: refused before any work, the input untouched.
+        const std::string before = read_file(exr);
+        const RunResult onto = with({"--json=" + exr});
+        EXPECT_EQ(onto.status, 2) << onto.err;
+        EXPECT_EQ(read_file(exr), before);
+    }
+    // The commands that always took a value take '-' and a file alike.
+    const RunResult plan = run_spectex({"plan", "--lights", "D65", "--grids", "380:780:20",
+                                        "--colours", "sample", "--max-de", "100", "--json", "-"});
+    ASSERT_EQ(plan.status, 0) << plan.err;
+    EXPECT_FALSE(parse_lines(plan.out).empty());
+    const RunResult verify = run_spectex({"verify", exr, "--json", d / "verify.json"});
+    EXPECT_EQ(verify.status, 0) << verify.err;
+    EXPECT_EQ(parse_lines(read_file(d / "verify.json")).size(), 1u);
+}
