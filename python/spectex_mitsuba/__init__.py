@@ -27,7 +27,6 @@ their ``_polarized`` forms) are supported; an RGB or mono variant is refused. Th
 differentiable parameters.
 """
 import math
-import math
 import re
 
 import numpy as np
@@ -61,11 +60,12 @@ def _check_variant():
     return mi, variant
 
 
-def read_spectral_exr(filename):
-    """Read a reflective spectral EXR with mi.Bitmap.
+def _open_spectral_exr(filename):
+    """Read a reflective spectral EXR with mi.Bitmap, without copying its pixels.
 
-    Returns (wavelengths [N] float64 ascending, T [H, W, N] float32, alpha [H, W] float32 or None,
-    premultiplied bool, metadata dict of str)."""
+    Returns (wavelengths [N] float64 ascending, pixels [H, W, C] the bitmap's own samples (half or
+    float), the channel index of each wavelength, the channel index of A or None, premultiplied
+    bool, metadata dict of str, the bitmap that owns the pixels)."""
     mi = _mi()
     try:
         bitmap = mi.Bitmap(str(filename))
@@ -100,7 +100,6 @@ def read_spectral_exr(filename):
     pixels = np.array(bitmap, copy=False)
     if pixels.ndim == 2:
         pixels = pixels[:, :, None]
-    cube = np.ascontiguousarray(pixels[:, :, [b[1] for b in bins]], dtype=np.float32)
     metadata = {}
     md = bitmap.metadata()
     for key in md.keys():
@@ -108,14 +107,55 @@ def read_spectral_exr(filename):
             metadata[key] = str(md[key])
         except Exception:
             pass
-    alpha = None
-    premultiplied = False
-    if "A" in names:
-        alpha = np.ascontiguousarray(pixels[:, :, names.index("A")], dtype=np.float32)
-        premultiplied = metadata.get("spectex:alpha", "associated").strip() != "unassociated"
-    if not np.all(np.isfinite(cube)):
-        raise SpectexError(f"spectex texture: {filename}: the reflectance channels hold NaN or Inf")
+    alpha_index = names.index("A") if "A" in names else None
+    premultiplied = alpha_index is not None and \
+        metadata.get("spectex:alpha", "associated").strip() != "unassociated"
+    return lams, pixels, [b[1] for b in bins], alpha_index, premultiplied, metadata, bitmap
+
+
+# Rows converted at a time: a band of the file's samples in float32 is all the reading adds to the
+# bitmap and the texture's own array (2048 texels x 81 bins x 64 rows: 42 MB).
+_BAND_ROWS = 64
+
+
+def _fill_spectra(filename, pixels, index, out):
+    """Copies the reflectance channels of `pixels` ([H, W, C]) into `out` ([H, W, N] float32), a
+    band of rows at a time; refuses NaN and Inf."""
+    for y0 in range(0, pixels.shape[0], _BAND_ROWS):
+        band = out[y0:y0 + _BAND_ROWS]
+        band[...] = pixels[y0:y0 + _BAND_ROWS][:, :, index]
+        if not np.all(np.isfinite(band)):
+            raise SpectexError(f"spectex texture: {filename}: the reflectance channels hold NaN or Inf")
+
+
+def read_spectral_exr(filename):
+    """Read a reflective spectral EXR with mi.Bitmap.
+
+    Returns (wavelengths [N] float64 ascending, T [H, W, N] float32, alpha [H, W] float32 or None,
+    premultiplied bool, metadata dict of str)."""
+    lams, pixels, index, a, premultiplied, metadata, bitmap = _open_spectral_exr(filename)
+    cube = np.empty(pixels.shape[:2] + (len(index),), dtype=np.float32)
+    _fill_spectra(filename, pixels, index, cube)
+    alpha = np.ascontiguousarray(pixels[:, :, a], dtype=np.float32) if a is not None else None
     return lams, cube, alpha, premultiplied, metadata
+
+
+def _jit_float_view(mi, n):
+    """A Dr.Jit Float of n elements and a writeable NumPy view of its memory, or (None, None) where
+    the backend gives copies (a GPU): the texture's spectra are then written into its own array
+    once, without a NumPy array of them besides."""
+    import drjit as dr
+
+    data = dr.zeros(mi.Float, n)
+    dr.eval(data)
+    view = data.numpy()
+    if view.flags["OWNDATA"] or not view.flags["WRITEABLE"] or n == 0:
+        return None, None
+    view[0] = 1.0  # a write through the view must be seen by Dr.Jit
+    if float(data[0]) != 1.0:
+        return None, None
+    view[0] = 0.0
+    return data, view
 
 
 def _wrap_index(i, n, mode, dr=None, Int=None):
@@ -168,29 +208,52 @@ def _make_class(mi):
             if self.wrap_mode not in _WRAP_MODES:
                 raise SpectexError(f"spectex texture: {self.filename}: wrap_mode '{self.wrap_mode}' is not one of "
                                    f"{', '.join(_WRAP_MODES)}")
-            lams, cube, alpha, premultiplied, metadata = read_spectral_exr(self.filename)
+            lams, pixels, index, a, premultiplied, metadata, bitmap = _open_spectral_exr(self.filename)
             self.wavelengths_nm = lams
             self.metadata = metadata
-            self.height, self.width, self.bins = cube.shape
-            self.premultiplied = alpha is not None and premultiplied
-            # Straight spectra for the statistics (mean, max); premultiplied ones stay for filtering.
-            straight = cube
-            if self.premultiplied:
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    straight = np.where(alpha[:, :, None] > 0, cube / alpha[:, :, None], 0.0)
-            # mean(): the mean over texels of the mean over Mitsuba's wavelength range (ends held).
+            self.height, self.width = pixels.shape[:2]
+            self.bins = len(index)
+            self.premultiplied = a is not None and premultiplied
+            alpha = np.ascontiguousarray(pixels[:, :, a], dtype=np.float32) if self.premultiplied else None
+            # The spectra once in memory: in the JIT variants straight into the Dr.Jit array the
+            # texture evaluates (a view of its memory), a band of rows at a time, and the bitmap
+            # let go before anything else is made. Selecting the channels of the whole bitmap at
+            # once made a second copy of the file's samples before the float32 conversion: a
+            # 2048^2 file of 81 bins (1.36 GB of spectra) peaked at 2.7 GB, now 2.07 GB (the
+            # bitmap's half samples, 0.68 GB, are the rest, until they are let go).
+            data = view = None
+            if not scalar:
+                data, view = _jit_float_view(mi, self.height * self.width * self.bins)
+            cube = view.reshape(self.height, self.width, self.bins) if view is not None else \
+                np.empty((self.height, self.width, self.bins), dtype=np.float32)
+            _fill_spectra(self.filename, pixels, index, cube)
+            del pixels, bitmap
+            # mean(): the mean over texels of the mean over Mitsuba's wavelength range (ends held),
+            # and max(), both of the straight spectra, a band at a time.
+            total = np.zeros(self.bins)
+            self._max = 0.0
+            for y0 in range(0, self.height, _BAND_ROWS):
+                straight = cube[y0:y0 + _BAND_ROWS]
+                if self.premultiplied:
+                    a_band = alpha[y0:y0 + _BAND_ROWS, :, None]
+                    with np.errstate(divide="ignore", invalid="ignore"):
+                        straight = np.where(a_band > 0, straight / a_band, 0.0)
+                total += straight.reshape(-1, self.bins).sum(axis=0, dtype=np.float64)
+                self._max = max(self._max, float(straight.max()))
             lo, hi = float(mi.MI_CIE_MIN), float(mi.MI_CIE_MAX)
             fine = np.linspace(lo, hi, int(round(hi - lo)) + 1)
-            avg_spec = straight.reshape(-1, self.bins).mean(axis=0)
+            avg_spec = total / max(1, self.height * self.width)
             self._mean = float(np.interp(fine, lams, avg_spec).mean())
-            self._max = float(straight.max())
-            self._cube_np = cube
-            self._alpha_np = alpha if self.premultiplied else None
+            self._alpha_np = alpha
             self._uniform = self.bins > 1 and np.allclose(np.diff(lams), lams[1] - lams[0], rtol=1e-6, atol=1e-9)
-            if not scalar:
-                self._data = mi.Float(cube.reshape(-1))
+            if scalar:
+                self._cube_np = cube
+            else:
+                self._cube_np = None  # the JIT variants evaluate self._data only
+                self._data = data if data is not None else mi.Float(cube.reshape(-1))
+                del cube, view
                 self._grid = mi.Float(lams.astype(np.float32))
-                self._alpha = mi.Float(alpha.reshape(-1)) if self._alpha_np is not None else None
+                self._alpha = mi.Float(alpha.reshape(-1)) if alpha is not None else None
 
         # -- sampling positions ------------------------------------------------------------------
         def _corners_scalar(self, u, v):
