@@ -90,8 +90,10 @@ void print_text(const VerifyReport& r, const VerifyGates& g,
         if (r.nonfinite_pixels) o << " (" << r.nonfinite_pixels << " with a non-finite colour)";
         o << "\n";
         if (r.source_clamped || r.source_replaced)
-            o << "  source clamped:       " << r.source_clamped << " pixels outside [0, 1], "
-              << r.source_replaced << " with NaN/Inf (bake's defaults)\n";
+            o << "  source clamped:       " << r.source_clamped << " pixels outside [0, 1]"
+              << (r.source_clamped ? " (by up to " + num(r.source_clamped_excursion, "%.3g") + ")"
+                                   : std::string())
+              << ", " << r.source_replaced << " with NaN/Inf (bake's defaults)\n";
         o << "  linear RGB error:     max " << num(r.rgb_error_max) << " at (" << r.rgb_error_x
           << ", " << r.rgb_error_y << "), mean " << num(r.rgb_error_mean) << "\n";
         o << "  CIEDE2000:            max " << num(r.de_max) << " at (" << r.de_x << ", " << r.de_y

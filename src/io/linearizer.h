@@ -120,8 +120,25 @@ int name_says_linear(const std::string& name);
 }  // namespace spectex
 
 namespace spectex {
+// How far (linear RGB, per channel, for colours in [0, 1]) what a config does may be from the
+// conversion it stands for and still be that conversion: what the rounded matrices published
+// configs carry give, with a margin. Measured on them (docs/colour-spaces.md, "Config
+// arithmetic"), the worst is 2.4e-4: the 7-digit sRGB -> AP0 matrix published with ACES 1.x
+// against the OCIO 2 studio configs' AP0 -> Rec.709 (2.0e-4 against the shipped config's). Their
+// digits are not the cause: 7 significant digits are within 4e-7 of the exact matrix, 6 (ACES
+// 1.2's) within 5e-6, a product of two such (ACES 1.2's AP0 -> XYZ -> sRGB) within 1e-5. Their
+// derivations are: IEC 61966-2-1's XYZ -> sRGB matrix, given to 4 decimals and behind the shipped
+// config's matrices (through colour-science), is 1.6e-4 from the one the primaries give, which the
+// studio configs and OpenColorIO's builtins use. float32 adds 1e-6 at most (rows of the AP0 ->
+// Rec.709 matrix sum to at most 4.05 in magnitude, a few ulps each). 5e-4 is twice the worst; the
+// spaces near sRGB that are not it are further: Rec.709 at gamma 2.2 (the nearest) is 8.1e-3 from
+// the sRGB curve at the codes srgb_texture_space tries, at gamma 2.4 2.5e-2, the sRGB curve on P3
+// primaries 0.22.
+inline constexpr float kConfigArithmeticTolerance = 5e-4f;
+
 // A colour space of that config which decodes like an sRGB texture (the IEC 61966-2-1 curve on
-// Rec.709 primaries, D65), found by its transform, not its name; "" when it has none. For a
-// --colorspace suggestion: it builds a processor per colour space, so call it once, not per file.
+// Rec.709 primaries, D65) to within kConfigArithmeticTolerance, found by its transform, not its
+// name; "" when it has none. For a --colorspace suggestion: it builds a processor per colour
+// space, so call it once, not per file.
 std::string srgb_texture_space(const std::string& data_dir, const std::string& config_override);
 }  // namespace spectex

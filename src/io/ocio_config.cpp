@@ -98,6 +98,22 @@ void check_lut_files(const OCIO::ConstConfigRcPtr& cfg, const std::string& confi
                            "a LUT file (FileTransform '" + src + "' in " + config_path + ")");
 }
 
+// A config's bytes, read as every file spectex reads (a regular file of bounded size). OpenColorIO
+// 2.2 added configs built into the library, named ocio://default, ocio://cg-config-latest, ...;
+// 2.1 has none, and such a name taken for a path failed as "No such file or directory".
+std::string read_config_bytes(const std::string& path) {
+    if (path.rfind("ocio://", 0) == 0)
+        throw Error(
+            path + ": " +
+            (OCIO::GetVersionHex() < 0x02020000
+                 ? "this OpenColorIO (" + std::string(OCIO::GetVersion()) +
+                       ") has no built-in configs (ocio:// names came with 2.2)"
+                 : std::string("spectex reads OCIO configs from files, not built-in ones")) +
+            "; use a config file (--config FILE or $OCIO), or neither for the config spectex "
+            "ships, the default");
+    return read_file_bounded(path, file_limits::kOcioConfig, "an OCIO config");
+}
+
 // An OCIO config read from checked bytes (a regular file of bounded size, never a device or a
 // FIFO), with the working folder CreateFromFile would give it, and its LUT files checked too.
 OCIO::ConstConfigRcPtr parse_ocio_config(const std::string& path, const std::string& bytes) {
@@ -129,7 +145,7 @@ OCIO::ConstConfigRcPtr parse_ocio_config(const std::string& path, const std::str
 // immutable once made (Const) and safe to share between threads; reusing one also reuses its own
 // cache of processors.
 OCIO::ConstConfigRcPtr load_ocio_config(const std::string& path) {
-    std::string bytes = read_file_bounded(path, file_limits::kOcioConfig, "an OCIO config");
+    std::string bytes = read_config_bytes(path);
     // A batch uses one or two configs: at most 8 are kept.
     static Memo<std::pair<std::string, std::string>, OCIO::ConstConfigRcPtr> parsed(8);
     auto key = std::make_pair(path, std::move(bytes));
@@ -150,8 +166,7 @@ std::string ocio_config_path(const std::string& data_dir, const std::string& con
 }
 
 std::string config_checksum(const std::string& config_path) {
-    const std::string bytes =
-        read_file_bounded(config_path, file_limits::kOcioConfig, "an OCIO config");
+    const std::string bytes = read_config_bytes(config_path);
     Fnv1a64 h;
     h.add(bytes.data(), bytes.size());
     const unsigned char separator = 0xff;  // as the settings hash adds each of its texts

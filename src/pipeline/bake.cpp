@@ -308,6 +308,7 @@ class PixelStages {
         const PolicedCounts counts = police_rgba(rgba_.data(), n, lin_, policy_, input_, w_, y0);
         res_.replaced_pixels += counts.replaced;
         res_.clamped_pixels += counts.clamped;
+        res_.clamped_excursion = std::max(res_.clamped_excursion, counts.clamped_excursion);
         for (size_t i = 0; i < n; ++i) {
             const float* p = &rgba_[4 * i];
             float al = p[3];

@@ -85,6 +85,7 @@ struct BakeResult {
     int bins = 0;
     uint64_t bytes = 0;
     uint64_t clamped_pixels = 0;   // pixels with a linear component moved into [0, 1]
+    float clamped_excursion = 0;   // the farthest outside [0, 1] such a component was
     uint64_t replaced_pixels = 0;  // pixels with a NaN/Inf component replaced
     double seconds = 0;
     // Where the time went (seconds). The producer thread reads (decode), colours (linearise, NaN

@@ -22,6 +22,7 @@
 #include "base/bounded_read.h"
 #include "base/error.h"
 #include "base/text.h"
+#include "io/linearizer.h"
 #include "io/paths.h"
 #include "pipeline/json_text.h"
 
@@ -311,9 +312,17 @@ const char* to_string(BatchStatus s) {
 
 std::vector<std::string> file_warnings(const BakeResult& r, bool default_rule) {
     std::vector<std::string> w = r.notes;
-    if (r.clamped_pixels)
+    // Values outside [0, 1] by no more than a config's own arithmetic (the rounding of published
+    // matrices: an sRGB texture through an ACES 1.x config has its white's green at 1 + 8.5e-5)
+    // are clamped and counted, not warned about: a warning on nearly every texture buried the
+    // ones that mean something (a wide gamut, HDR values, the wrong colour space).
+    if (r.clamped_pixels && r.clamped_excursion > kConfigArithmeticTolerance) {
+        char by[32];
+        std::snprintf(by, sizeof by, "%.3g", static_cast<double>(r.clamped_excursion));
         w.push_back(std::to_string(r.clamped_pixels) +
-                    " pixels had linear values outside [0, 1] and were clamped");
+                    " pixels had linear values outside [0, 1] and were clamped (by up to " + by +
+                    ")");
+    }
     if (r.replaced_pixels)
         w.push_back(std::to_string(r.replaced_pixels) +
                     " pixels had NaN/Inf values replaced with 0");
@@ -338,6 +347,7 @@ std::string json_record(const FileRecord& r) {
     j["bins"] = r.result.bins;
     j["bytes"] = r.result.bytes;
     j["clamped_pixels"] = r.result.clamped_pixels;
+    j["clamped_excursion"] = json_number(r.result.clamped_excursion, "%.9g");
     j["replaced_pixels"] = r.result.replaced_pixels;
     put_text(j, "colorspace", r.result.colorspace);
     put_text(j, "colorspace_from", r.result.colorspace_how);  // how it was chosen

@@ -42,6 +42,8 @@ PolicedCounts police_rgba(float* rgba, size_t n, const Linearizer& lin, const Pi
                     throw Error(input + ": linear value " + std::to_string(p[c]) +
                                 " outside [0, 1] " + where(i) + " (--out-of-range error)");
                 if (policy.range == RangePolicy::Clamp) {
+                    counts.clamped_excursion =
+                        std::max(counts.clamped_excursion, p[c] < 0.0f ? -p[c] : p[c] - 1.0f);
                     p[c] = std::min(1.0f, std::max(0.0f, p[c]));
                     out_of_range = true;
                 }

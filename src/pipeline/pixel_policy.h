@@ -37,6 +37,9 @@ struct PixelPolicy {
 struct PolicedCounts {
     uint64_t replaced = 0;  // pixels with a non-finite channel
     uint64_t clamped = 0;   // pixels with a colour channel clamped into [0, 1]
+    // The largest distance outside [0, 1] of a clamped channel (0 when none was): a config's own
+    // arithmetic gives up to kConfigArithmeticTolerance (io/linearizer.h), a wide gamut far more.
+    float clamped_excursion = 0.0f;
 };
 
 // In place on n packed RGBA pixels, rows of `width` pixels starting at row y0 of `input` (for the

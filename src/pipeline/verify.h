@@ -158,6 +158,8 @@ struct VerifyReport {
     int rgb_error_x = 0, rgb_error_y = 0;              // where the max is (data window coordinates)
     double de_max = 0, de_mean = 0, de_p99 = 0;        // CIEDE2000
     int de_x = 0, de_y = 0;
+    // With source_clamped, as bake reports it: the farthest outside [0, 1] a clamped value was.
+    float source_clamped_excursion = 0;
     bool code_match_available = false;
     std::string code_match_note;  // why not available, or which encoding was used
     uint64_t code_checked = 0;  // compared pixels the bake's policies left unchanged (not clamped,

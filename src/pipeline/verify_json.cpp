@@ -36,6 +36,7 @@ Json source_json(const VerifyReport& r) {
     src["transparent_pixels"] = r.transparent_pixels;
     src["nonfinite_pixels"] = r.nonfinite_pixels;
     src["clamped_pixels"] = r.source_clamped;
+    src["clamped_excursion"] = json_num(r.source_clamped_excursion);
     src["replaced_pixels"] = r.source_replaced;
     src["rgb_error"] = {{"max", json_num(r.rgb_error_max)},
                         {"mean", json_num(r.rgb_error_mean)},

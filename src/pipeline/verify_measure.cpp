@@ -79,6 +79,7 @@ struct Band {
     std::vector<float> raw, lin;   // source RGBA as read, and linearised + sanitised
     std::vector<uint8_t> changed;  // the bake's policies changed this source pixel (clamp, NaN)
     uint64_t clamped = 0, replaced = 0;
+    float clamped_excursion = 0;
 };
 
 // Accumulators of one other light (OtherLightReport).
@@ -382,6 +383,7 @@ std::vector<Stats> measure_bands(SpectralReader& reader, ImageSource* src, const
             police_rgba(b.lin.data(), n, lin, policy, r.source, w, y0, b.changed.data());
         b.replaced = counts.replaced;
         b.clamped = counts.clamped;
+        b.clamped_excursion = counts.clamped_excursion;
     };
 
     const int nthreads = measuring_threads(s, ctx.plane);
@@ -404,6 +406,8 @@ std::vector<Stats> measure_bands(SpectralReader& reader, ImageSource* src, const
         [&](size_t, int slot) {
             compute_band(bands[slot]);
             r.source_clamped += bands[slot].clamped;
+            r.source_clamped_excursion =
+                std::max(r.source_clamped_excursion, bands[slot].clamped_excursion);
             r.source_replaced += bands[slot].replaced;
         });
     return stats;

@@ -400,6 +400,42 @@ TEST(CliErrors, BasisFileMissing) {
     expect_no_output(out);
 }
 
+// OpenColorIO 2.1 has no built-in configs (ocio://default and the other ocio:// names came with
+// 2.2). Such a name, from --config or $OCIO, is not reported as a missing file but answered with
+// what to use instead, as any config that cannot be read is: one line, exit 2.
+TEST(CliErrors, BuiltinConfigNamesSayWhatToUseInstead) {
+    ScratchDir d;
+    std::string in = d / "in.png", out = d / "out.exr";
+    write_png(in);
+    const RunResult runs[] = {
+        run_spectex({"bake", in, "-o", out, "--config", "ocio://default"}),
+        run_spectex({"bake", in, "-o", out}, {"OCIO=ocio://cg-config-latest"}),
+    };
+    for (const RunResult& r : runs) {
+        EXPECT_EQ(r.status, 2) << r.err;
+        EXPECT_EQ(r.err.rfind("spectex: ocio://", 0), 0u) << r.err;
+        EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "one line: " << r.err;
+        EXPECT_TRUE(contains(r.err, "no built-in configs")) << r.err;
+        EXPECT_TRUE(contains(r.err, "config file")) << r.err;
+        EXPECT_FALSE(contains(r.err, "No such file")) << r.err;
+        expect_no_output(out);
+    }
+    // verify and plan --texture fail on it as on a config file that is not there, and say why.
+    ASSERT_EQ(run_spectex({"bake", in, "-o", out, "--method", "basis", "-q"}).status, 0);
+    for (const std::vector<std::string> args :
+         {std::vector<std::string>{"verify", out, "--source", in, "--config"},
+          std::vector<std::string>{"plan", "--texture", in, "--config"}}) {
+        std::vector<std::string> missing = args, builtin = args;
+        missing.push_back(d / "none.ocio");
+        builtin.push_back("ocio://default");
+        const RunResult m = run_spectex(missing), b = run_spectex(builtin);
+        EXPECT_NE(m.status, 0) << args[0] << ": " << m.err;
+        EXPECT_EQ(b.status, m.status) << args[0] << ": " << b.err;
+        EXPECT_TRUE(contains(b.err, "ocio://default: ")) << args[0] << ": " << b.err;
+        EXPECT_TRUE(contains(b.err, "no built-in configs")) << args[0] << ": " << b.err;
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // info on files that are not spectral
 

@@ -24,6 +24,7 @@
 #include <cstring>
 #include <functional>
 #include <limits>
+#include <nlohmann/json.hpp>
 #include <random>
 #include <string>
 #include <vector>
@@ -822,6 +823,54 @@ TEST(HardInputs, OtherWideGamutSpaces) {
         EXPECT_TRUE(contains(err, "clamped")) << cs << ": " << err;
         expect_spectra_in(img, 0.0f, 1.0f);
     }
+}
+
+// A config's own arithmetic leaves [0, 1] by a few 1e-5: an sRGB texture read through a config
+// written as ACES 1.x writes its Utility spaces (tests/ocio/aces1x_style.ocio: the 7-digit
+// sRGB -> AP0 matrix, bridged back through the shipped config's AP0 -> Rec.709) gives white a green
+// of 1 + 8.5e-5. Such pixels are clamped and counted (clamped_pixels, and clamped_excursion, the
+// largest distance outside [0, 1], in the JSON record), not warned about: a warning on nearly every
+// texture buries the real ones. Beyond the config's arithmetic (5e-4) it is a warning, with the
+// largest excursion.
+TEST(HardInputs, ClampsWithinTheConfigsArithmeticAreCountedNotWarned) {
+    ScratchDir d;
+    std::vector<unsigned char> px;  // every mix of 5 levels per channel: white and the primaries
+    for (int r = 0; r < 5; ++r)
+        for (int g = 0; g < 5; ++g)
+            for (int b = 0; b < 5; ++b)
+                for (int c : {r, g, b})
+                    px.push_back(static_cast<unsigned char>(std::min(255, 64 * c)));
+    write_image(d / "tex.png", 25, 5, 3, OIIO::TypeDesc::UINT8, px.data());
+    const std::string config =
+        std::string(SPECTEX_TEST_SOURCE_DIR) + "/tests/ocio/aces1x_style.ocio";
+    RunResult r = run_spectex({"bake", d / "tex.png", "-o", d / "tex.exr", "--config", config,
+                               "--method", "basis", "--json", d / "tex.jsonl"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_FALSE(contains(r.err, "clamped")) << r.err;
+    const nlohmann::json j = nlohmann::json::parse(read_file(d / "tex.jsonl"));
+    EXPECT_EQ(j.value("colorspace", ""), "Utility - sRGB - Texture");
+    EXPECT_GT(j.value("clamped_pixels", 0), 0) << j.dump();
+    EXPECT_GT(j.value("clamped_excursion", -1.0), 0.0) << j.dump();
+    EXPECT_LE(j.value("clamped_excursion", -1.0), 5e-4) << j.dump();
+    EXPECT_TRUE(j.value("warnings", nlohmann::json::array()).empty()) << j.dump();
+    // verify re-applies the bake's policies to the source and reports the same two figures.
+    RunResult v = run_spectex(
+        {"verify", d / "tex.exr", "--source", d / "tex.png", "--report-only", "--json", "-"});
+    ASSERT_EQ(v.status, 0) << v.err;
+    const nlohmann::json src = nlohmann::json::parse(v.out).value("source", nlohmann::json());
+    EXPECT_EQ(src.value("clamped_pixels", -1), j.value("clamped_pixels", 0)) << v.out;
+    EXPECT_EQ(src.value("clamped_excursion", -1.0), j.value("clamped_excursion", 0.0)) << v.out;
+
+    // Beyond the config's arithmetic: counted, clamped and warned about, with the largest
+    // excursion (1.0004 is within it: counted, not the largest).
+    const std::vector<float> lin = {1.01f,   0.5f, 0.5f, -0.002f, 0.5f, 0.5f,
+                                    1.0004f, 0.5f, 0.5f, 0.5f,    0.5f, 0.5f};
+    write_image(d / "lin.exr", 4, 1, 3, OIIO::TypeDesc::FLOAT, lin.data());
+    std::string err;
+    bake_ok(d / "lin.exr", d / "lin_out.exr", {"--method", "basis"}, &err);
+    EXPECT_TRUE(
+        contains(err, "3 pixels had linear values outside [0, 1] and were clamped (by up to 0.01)"))
+        << err;
 }
 
 TEST(HardInputs, UnknownFileColourSpaceFallsBackToFileRules) {

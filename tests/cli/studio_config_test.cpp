@@ -286,3 +286,28 @@ TEST(StudioConfig, WarningsAboutTheDataSurviveQuietAndReachTheJsonRecord) {
     EXPECT_EQ(q.err, "");
     EXPECT_TRUE(has(read_file(s.d / "f.jsonl"), "\"warnings\":[]")) << read_file(s.d / "f.jsonl");
 }
+
+// Configs written as published configs write them (tests/ocio/): the ACES 1.x style, whose sRGB
+// texture space is the curve then a 7-digit sRGB -> AP0 matrix, and the OCIO 2 studio style, whose
+// conversions are OpenColorIO's builtins, both bridged to the shipped config through ACES2065-1.
+// Their sRGB texture spaces decode sRGB codes within 2.1e-4 of the IEC 61966-2-1 curve (the
+// rounding of the published matrices): they are suggested. The spaces near sRGB that are not it
+// (Rec.709 at gamma 2.4 or 2.2, the sRGB curve on P3 primaries, ACEScg) are not.
+TEST(StudioConfig, PublishedConfigsSrgbTextureSpaceIsSuggested) {
+    ScratchDir d;
+    write_tiff16(d / "a.tif");
+    const std::string ocio = std::string(SPECTEX_TEST_SOURCE_DIR) + "/tests/ocio/";
+    const std::pair<const char*, const char*> cases[] = {
+        {"aces1x_style.ocio", "--colorspace 'Utility - sRGB - Texture'"},
+        {"builtin_style.ocio", "--colorspace 'sRGB Encoded Rec.709 (sRGB)'"},
+        {"not_srgb.ocio", "--colorspace NAME (the config has no space that decodes as sRGB does)"},
+    };
+    for (const auto& [config, says] : cases) {
+        RunResult r = run_spectex({"bake", d / "a.tif", "-o", d / "a.exr", "--config",
+                                   ocio + config, "--method", "basis"});
+        ASSERT_EQ(r.status, 0) << config << ": " << r.err;
+        const auto warnings = lines_with(r.err, "warning: 1 integer");
+        ASSERT_EQ(warnings.size(), 1u) << config << ": " << r.err;
+        EXPECT_TRUE(has(warnings[0], says)) << config << ": " << warnings[0];
+    }
+}

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "base/error.h"
+#include "temp_dir.h"
 
 using namespace spectex;
 
@@ -212,4 +213,57 @@ TEST(Linearizer, AConfigEditedBetweenFilesIsReadAnew) {
     }
     std::remove(path.c_str());
     rmdir(dir.c_str());
+}
+
+// A config's sRGB texture space is found by what it does, within the rounding of the matrices
+// published configs use (tests/ocio/): written as ACES 1.x writes it (the curve, then the 7-digit
+// sRGB -> AP0 matrix) and as the OCIO 2 studio configs do (OpenColorIO's builtins through AP1),
+// both bridged to the shipped config through ACES2065-1, they decode within 2.1e-4 of the IEC
+// curve. Spaces near it that are not it (Rec.709 at gamma 2.4 or 2.2, the sRGB curve on P3
+// primaries, ACEScg) are never taken for it, before the real one or without it.
+TEST(Linearizer, SrgbTextureSpaceIsFoundThroughPublishedMatrices) {
+    const std::string ocio = std::string(SPECTEX_TEST_SOURCE_DIR) + "/tests/ocio/";
+    EXPECT_EQ(srgb_texture_space(kData, ""), "sRGB - Texture");
+    EXPECT_EQ(srgb_texture_space(kData, ocio + "aces1x_style.ocio"), "Utility - sRGB - Texture");
+    EXPECT_EQ(srgb_texture_space(kData, ocio + "builtin_style.ocio"),
+              "sRGB Encoded Rec.709 (sRGB)");
+    EXPECT_EQ(srgb_texture_space(kData, ocio + "not_srgb.ocio"), "");
+
+    auto read = [](const std::string& path) {
+        std::ifstream in(path);
+        return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    };
+    const std::string aces = read(ocio + "aces1x_style.ocio");
+    const size_t at = aces.find("  - !<ColorSpace>\n    name: Utility - sRGB - Texture\n");
+    ASSERT_NE(at, std::string::npos);
+    spectex_test::TempDir t;
+    std::ofstream(t / "both.ocio") << read(ocio + "not_srgb.ocio") << "\n" << aces.substr(at);
+    EXPECT_EQ(srgb_texture_space(kData, t / "both.ocio"), "Utility - sRGB - Texture");
+}
+
+// kConfigArithmeticTolerance keeps its margin on both sides: every colour of a 17^3 grid of codes
+// decodes within half of it through the published configs' matrices (tests/ocio/), and a space
+// that is not sRGB, however near (a 2.2 power on Rec.709), is more than ten times it away.
+TEST(Linearizer, ConfigArithmeticToleranceKeepsItsMargins) {
+    const std::string ocio = std::string(SPECTEX_TEST_SOURCE_DIR) + "/tests/ocio/";
+    auto worst = [](const std::string& config, const std::string& space) {
+        std::vector<float> rgba;
+        const int n = 17;
+        for (int r = 0; r < n; ++r)
+            for (int g = 0; g < n; ++g)
+                for (int b = 0; b < n; ++b)
+                    rgba.insert(rgba.end(), {r / 16.0f, g / 16.0f, b / 16.0f, 1.0f});
+        const std::vector<float> codes = rgba;
+        make(space, config).apply_rgba(rgba.data(), static_cast<long>(rgba.size() / 4));
+        double w = 0;
+        for (size_t i = 0; i < rgba.size(); ++i)
+            if (i % 4 != 3) w = std::max(w, std::fabs(rgba[i] - iec_srgb_to_linear(codes[i])));
+        return w;
+    };
+    EXPECT_LE(worst(ocio + "aces1x_style.ocio", "Utility - sRGB - Texture"),
+              kConfigArithmeticTolerance / 2);
+    EXPECT_LE(worst(ocio + "builtin_style.ocio", "sRGB Encoded Rec.709 (sRGB)"),
+              kConfigArithmeticTolerance / 2);
+    EXPECT_GE(worst(ocio + "not_srgb.ocio", "Utility - Gamma 2.2 - Rec.709 - Texture"),
+              10 * kConfigArithmeticTolerance);
 }

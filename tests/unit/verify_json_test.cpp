@@ -64,6 +64,16 @@ TEST(VerifyJson, ResultWordsAndSource) {
     EXPECT_TRUE(j["source"]["code_match"]["share"].is_null());
     EXPECT_EQ(j["source"]["code_match"]["note"], "float source: no codes to match");
     EXPECT_DOUBLE_EQ(j["thresholds"]["max_de"].get<double>(), 0.25);
+    // The pixels bake's policies would clamp, and the farthest outside [0, 1] one was, side by
+    // side.
+    r.source_clamped = 3;
+    r.source_clamped_excursion = 0.25f;
+    j = parse_line(verify_json(r, g, {}));
+    auto clamped = j["source"].find("clamped_pixels");
+    ASSERT_NE(clamped, j["source"].end());
+    EXPECT_EQ(*clamped, 3);
+    EXPECT_EQ((++clamped).key(), "clamped_excursion");
+    EXPECT_EQ(*clamped, 0.25);
 
     VerifyReport s;
     s.file = "b.exr";
