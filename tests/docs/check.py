@@ -23,8 +23,12 @@ it says bake does by default is what bake does.
     "the basis is the default", "by default ... basis", "the default basis") puts it in the past.
   Before the pages are read, the rule is run on sentences it must refuse (the text it was written
   against) and on sentences it must let through, so that a change that blunts it fails here too.
+- A page whose commands (code blocks) run build/venv/bin/python also gives tests/bench/setup.sh,
+  the set-up of that venv alone (minutes, where the test command takes an hour); the script exists,
+  is executable and makes the venv with the function .ci/bootstrap uses.
 Exit 1 with one line per problem.
 """
+import os
 import re
 import sys
 from bisect import bisect_right
@@ -294,6 +298,25 @@ problems += stale_defaults(man.relative_to(root), roff_paragraphs(man.read_text(
 for src in sorted(root.glob("src/**/*.cpp")) + sorted(root.glob("src/**/*.h")):
     problems += stale_defaults(src.relative_to(root), cpp_paragraphs(src.read_text(encoding="utf-8")))
 
+
+# --- The benchmarks' own set-up ---------------------------------------------------------------
+
+setup = root / "tests" / "bench" / "setup.sh"
+if not (setup.is_file() and os.access(setup, os.X_OK)):
+    problems.append("tests/bench/setup.sh: missing or not executable (the benchmarks' venv set-up)")
+elif "spectex_venv" not in setup.read_text() or "spectex_venv" not in (root / ".ci" / "bootstrap").read_text():
+    problems.append("tests/bench/setup.sh: does not make the venv with spectex_venv (.ci/lib.sh), as "
+                    ".ci/bootstrap does: two recipes for one venv drift apart")
+for page in pages:
+    body, fence = page.read_text(encoding="utf-8"), False
+    for line in body.splitlines():
+        if line.strip().startswith("```"):
+            fence = not fence
+        elif fence and re.match(r"\s*(?:\w+=\S+\s+)*build/venv/bin/python\b", line):
+            if "tests/bench/setup.sh" not in body:
+                problems.append(f"{page.relative_to(root)}: a command runs build/venv/bin/python, but the "
+                                "page does not give tests/bench/setup.sh, which makes that venv alone")
+            break
 
 for p in problems:
     print(p)
