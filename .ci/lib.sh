@@ -20,6 +20,22 @@ spectex_configure() {
   cmake -S . -B "$build" "${gen[@]}" "${opts[@]}" >/dev/null
 }
 
+# spectex_venv BUILD: BUILD/venv with the packages of tests/python/requirements.txt (made again
+# only when they change: a copy of the list is kept in the venv) and this tree's Mitsuba plugin
+# (installed again every run, without the network: the venv's setuptools builds it and its
+# dependencies are in the requirements). The test command's venv, and the benchmarks'.
+spectex_venv() {
+  local venv=$1/venv
+  if [ ! -x "$venv/bin/python" ] || ! cmp -s tests/python/requirements.txt "$venv/requirements.txt"; then
+    rm -rf "$venv"
+    /usr/bin/python3 -m venv "$venv"
+    "$venv/bin/pip" install -q --disable-pip-version-check -r tests/python/requirements.txt
+    cp tests/python/requirements.txt "$venv/requirements.txt"
+  fi
+  "$venv/bin/pip" install -q --disable-pip-version-check --no-deps --no-build-isolation --force-reinstall ./python
+  rm -rf python/build python/*.egg-info
+}
+
 # spectex_ctest BUILD: the whole suite; a folder with no tests is a failure, never a green run.
 spectex_ctest() {
   ctest --test-dir "$1" --output-on-failure --no-tests=error -j 2 --timeout 1800

@@ -19,8 +19,9 @@ namespace {
 const char* kUsage =
     "Usage: spectex <command> [options]\n"
     "\n"
-    "Spectral reflectance OpenEXR textures from sRGB (and other) textures, with the spectral\n"
-    "primary decomposition of Mallett & Yuksel (2019).\n"
+    "Spectral reflectance OpenEXR textures from sRGB (and other) textures. By default each pixel\n"
+    "becomes a spectrum interpolated between exact spectra on a 9^3 RGB lattice (LHTSS prior),\n"
+    "keeping the mantissa bits six common lights can see (other methods: 'spectex bake --help').\n"
     "\n"
     "Commands:\n"
     "  bake     turn a texture into a spectral OpenEXR (channels T.<wavelength>nm)\n"

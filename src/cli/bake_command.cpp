@@ -256,9 +256,9 @@ int run_bake(const std::vector<std::string>& args) {
         "bake", "spectex bake [options] INPUT... (-o OUTPUT.exr | -o TEMPLATE | --output-dir DIR)",
         "Turns textures into spectral reflectance OpenEXRs (Fichet 2021 layout, channels\n"
         "T.<wavelength>nm): read with OpenImageIO, linearise with OpenColorIO, expand each pixel\n"
-        "with the spectral primary decomposition (Mallett & Yuksel 2019). Inputs may hold <UDIM> "
-        "or\n"
-        "<UVTILE>, expanded to the existing tiles. Exit status 0 only when every file succeeded.");
+        "to a spectrum (by default the LHTSS lattice with a precision budget: see --method and\n"
+        "--precision). Inputs may hold <UDIM> or <UVTILE>, expanded to the existing tiles. Exit\n"
+        "status 0 only when every file succeeded.");
     declare_bake_options(p, c);
 
     std::vector<std::string> inputs;

@@ -8,6 +8,7 @@ plane, uniform `constant` light, orthographic camera, `direct` integrator, XYZ f
 patch by patch with the integral they estimate.
 """
 import os
+import re
 import subprocess
 import tempfile
 import time
@@ -241,10 +242,16 @@ def reference_xyz(lams_file, spectra, light):
     return (rho * e) @ CMF / CMF[:, 1].sum()
 
 
-def render(exr, light, width=256, spp=64, texture=None):
-    """`texture`: another reflectance texture (a dict) instead of the spectex one of `exr`."""
+def render(exr, light, width=256, spp=64, texture=None, emitter=None):
+    """`texture`: another reflectance texture (a dict) instead of the spectex one of `exr`;
+    `emitter`: the scene's light as a dict (an emitter, or a shape carrying one) instead of a
+    uniform `constant` light of the spectrum `light`."""
     use(JIT)
-    wl, val = light
+    if emitter is None:
+        wl, val = light
+        emitter = {"type": "constant", "radiance": {"type": "irregular",
+                                                    "wavelengths": ",".join(f"{w:g}" for w in wl),
+                                                    "values": ",".join(f"{v:.9g}" for v in val)}}
     scene = mi.load_dict({
         "type": "scene",
         "integrator": {"type": "direct"},
@@ -255,9 +262,7 @@ def render(exr, light, width=256, spp=64, texture=None):
                      "component_format": "float32", "rfilter": {"type": "box"}},
             "sampler": {"type": "independent", "sample_count": spp},
         },
-        "light": {"type": "constant", "radiance": {"type": "irregular",
-                                                   "wavelengths": ",".join(f"{w:g}" for w in wl),
-                                                   "values": ",".join(f"{v:.9g}" for v in val)}},
+        "light": emitter,
         "plane": {"type": "rectangle", "to_world": mi.ScalarTransform4f().scale([1, 0.5, 1]),
                   "bsdf": {"type": "diffuse",
                            "reflectance": texture or {"type": "spectex", "filename": exr}}},
@@ -419,3 +424,140 @@ def test_foreign_fichet_file_from_colour_science(tmp, bit_depth):
     want = np.array([np.interp(lams[k], lams_file, stored[xy[k, 1], xy[k, 0]]) for k in range(50)])
     # float32 arithmetic in the plugin against float64 here, as above.
     assert np.abs(got - want).max() < 2e-6
+
+
+# --- the documented CIE lights (docs/mitsuba.md, "Tungsten and fluorescent light") ---------------
+
+def python_blocks(page, heading=None):
+    """The ```python blocks of a page, or of `heading`'s section (a KeyError if it is gone)."""
+    text = open(os.path.join(SOURCE, page), encoding="utf-8").read()
+    if heading:
+        start = text.find("\n" + heading + "\n")
+        if start < 0:
+            raise KeyError(f"{page}: no section '{heading}'")
+        end = text.find("\n## ", start + 1)
+        text = text[start:end if end > 0 else None]
+    return re.findall(r"```python\n(.*?)```", text, re.S)
+
+
+def run_blocks(page, blocks, folder):
+    """Run a page's blocks one after the other in `folder`, as a user's script -> its names."""
+    ns = {"__name__": "documented"}
+    here = os.getcwd()
+    os.chdir(folder)
+    try:
+        t = time.time()
+        for block in blocks:
+            exec(compile(block, page, "exec"), ns)
+        print(f"{page}: {len(blocks)} block(s) ran in {time.time() - t:.2f} s")
+    finally:
+        os.chdir(here)
+    return ns
+
+
+def spectrum_of(d):
+    """An `irregular` spectrum dict -> (wavelengths, values)."""
+    assert d["type"] == "irregular", d
+    return (np.array([float(w) for w in d["wavelengths"].split(",")]),
+            np.array([float(v) for v in d["values"].split(",")]))
+
+
+@pytest.fixture(scope="module")
+def documented_lights(tmp):
+    """The page's block run as a user runs it, unchanged: in a folder holding albedo.exr (a flat
+    orange 8x4 PNG baked with bake's defaults) and the spectex tree's config/ (a link)."""
+    work = os.path.join(tmp, "documented_lights")
+    os.makedirs(work)
+    os.symlink(os.path.join(SOURCE, "config"), os.path.join(work, "config"))
+    png = os.path.join(work, "albedo.png")
+    out = oiio.ImageOutput.create(png)
+    assert out.open(png, oiio.ImageSpec(8, 4, 3, oiio.UINT8))
+    out.write_image(np.tile(np.array([230, 120, 40], dtype=np.uint8), (4, 8, 1)))
+    out.close()
+    exr = bake(png, os.path.join(work, "albedo.exr"))
+    blocks = python_blocks("docs/mitsuba.md", "## Tungsten and fluorescent light")
+    assert len(blocks) == 1, blocks
+    return work, exr, run_blocks("docs/mitsuba.md", blocks, work)
+
+
+def test_python_readme_lights_are_the_guides(documented_lights):
+    """python/README.md's blocks, run in order as one script, build the same lights as the guide's
+    (its copy of cie_light cannot drift from the tested one)."""
+    work, _, ns = documented_lights
+    readme = run_blocks("python/README.md", python_blocks("python/README.md"), work)
+    assert readme["bsdf"]["reflectance"]["type"] == "spectex"
+    assert readme["light"] == ns["scene_dict"]["light"]
+    for key in ("type", "emitter"):
+        assert readme["lamp"][key] == ns["lamp"][key], key
+    assert np.array_equal(np.array(readme["lamp"]["to_world"].matrix), np.array(ns["lamp"]["to_world"].matrix))
+
+
+def test_documented_lights_are_the_cie_tables(documented_lights):
+    """The block's lights are the tables of config/spectral/ (read here with this file's own CSV
+    reader) at every wavelength, scaled so that a white surface under them from every direction has
+    Y = scale; and its two renders were written."""
+    work, _, ns = documented_lights
+    lamp_radiance = ns["lamp"]["emitter"]["radiance"]
+    for spectrum, name, scale in ((ns["tungsten"], "A", 1.0), (lamp_radiance, "FL11", 4 * np.pi)):
+        wl, val = spectrum_of(spectrum)
+        table_wl, table_val = illuminant(name)
+        assert np.array_equal(wl, table_wl), name
+        ratio = val / table_val
+        # one factor for every wavelength: the values are written with 9 significant digits, each
+        # off by up to 5e-9 of itself, so two ratios differ by up to 1e-8
+        assert np.ptp(ratio) <= 1e-8 * ratio.mean(), name
+        # the white's Y with this file's reference integral (1 nm, the shipped CIE 1931 table)
+        white_y = reference_xyz(table_wl, np.ones(len(table_wl)), (wl, val))[0, 1]
+        assert abs(white_y - scale) <= 1e-6 * scale, (name, white_y)
+    for name in ("albedo_A.exr", "albedo_FL11.exr"):
+        img = np.array(mi.Bitmap(os.path.join(work, name)), dtype=np.float64)
+        assert img.shape == (128, 256, 3) and np.isfinite(img).all() and img.mean() > 0, name
+    # tungsten is orange: the A render's sky (its top rows, the light seen directly) has R > G > B
+    sky = np.array(mi.Bitmap(os.path.join(work, "albedo_A.exr")), dtype=np.float64)[:8].reshape(-1, 3).mean(0)
+    assert sky[0] > sky[1] > sky[2], sky
+
+
+def test_documented_tungsten_renders_the_files_spectra(documented_lights):
+    """The block's tungsten light on the test scene (orthographic, `direct`, XYZ film): the flat
+    texture renders as its spectrum integrated under the table, and a white surface at Y = 1
+    (Mitsuba's own CIE tables: the block's scaling holds in the renderer, not only here). Bounds as
+    in test_rendered_patches_are_the_files_spectra_integrated: 5 standard errors of the mean over
+    the interior pixels, plus 2e-4 of the white's Y for the quadrature and the CIE tables."""
+    _, exr, ns = documented_lights
+    light = spectrum_of(ns["tungsten"])
+    lams_file, cube, _ = read_exr(exr)
+    assert np.ptp(cube, axis=(0, 1)).max() == 0  # a flat texture: one spectrum
+    want = reference_xyz(lams_file, cube[0, 0], light)[0]
+    for texture, expected in ((None, want), ({"type": "uniform", "value": 1.0}, np.array([np.nan, 1.0, np.nan]))):
+        img = render(exr, None, width=128, texture=texture, emitter=ns["scene_dict"]["light"])
+        px = img[3:-3, 3:-3].reshape(-1, 3)
+        mean, sem = px.mean(axis=0), px.std(axis=0, ddof=1) / np.sqrt(len(px))
+        ok = ~np.isnan(expected)
+        bound = 5 * sem + 2e-4
+        print(f"tungsten, {'white' if texture else 'the file'}: |rendered - integrated| / bound = "
+              f"{np.max((np.abs(mean - expected) / bound)[ok]):.2f}")
+        assert np.all(np.abs(mean - expected)[ok] <= bound[ok]), (texture, mean, expected, sem)
+
+
+def test_documented_lamp_lights_white_below_it_as_the_comment_says(documented_lights):
+    """The block's fluorescent panel (1 x 1, 2 units up, radiance L) on the test scene: a diffuse
+    surface right below it reflects rho L F, F the form factor of the square seen from its centre
+    (4 quarters of side 0.25 h: 4/(2 pi) * 2 * x/sqrt(1+x^2) * atan(x/sqrt(1+x^2)), x = 0.25), so
+    a white one renders at Y = 4 pi F = 0.92 with the block's scale, as its comment says. Checked
+    on the pixels within 0.047 of the centre, where the irradiance falls by under 0.2 % (0.19 % at
+    the window's corners, 0.06 % on average: 2e-3 of the value is added to the bound, beside 5
+    standard errors and 2e-4 of the white's Y for the tables)."""
+    _, exr, ns = documented_lights
+    x = 0.25
+    form_factor = 4 / (2 * np.pi) * 2 * x / np.sqrt(1 + x * x) * np.arctan(x / np.sqrt(1 + x * x))
+    assert round(4 * np.pi * form_factor, 2) == 0.92  # the figure in the block's comment
+    lams_file, cube, _ = read_exr(exr)
+    light = spectrum_of(ns["lamp"]["emitter"]["radiance"])
+    want = form_factor * reference_xyz(lams_file, cube[0, 0], light)[0]
+    white_y = form_factor * reference_xyz(lams_file, np.ones(len(lams_file)), light)[0, 1]
+    img = render(exr, None, width=256, emitter=ns["lamp"])  # 128 pixels a unit
+    px = img[64 - 6:64 + 6, 128 - 6:128 + 6].reshape(-1, 3)  # within 6/128 of the centre
+    mean, sem = px.mean(axis=0), px.std(axis=0, ddof=1) / np.sqrt(len(px))
+    bound = 5 * sem + 2e-3 * want + 2e-4 * white_y
+    print(f"lamp: |rendered - integrated| / bound = {np.max(np.abs(mean - want) / bound):.2f}")
+    assert np.all(np.abs(mean - want) <= bound), (mean, want, sem)
