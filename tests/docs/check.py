@@ -26,6 +26,13 @@ it says bake does by default is what bake does.
 - A page whose commands (code blocks) run build/venv/bin/python also gives tests/bench/setup.sh,
   the set-up of that venv alone (minutes, where the test command takes an hour); the script exists,
   is executable and makes the venv with the function .ci/bootstrap uses.
+- A ratio README.md gives for size or time (a number followed by × within 60 characters of
+  "bytes", "file", "size", "time", "faster" or "slower", or in a table whose header or row has one
+  of those words) stands in a sentence or table row that
+  names the kind of texture it was measured on (photograph-like, noise, flat colours, chart): a
+  file's size, and so its time, depends on what the texture holds. Those sentences and rows,
+  together, name all three kinds: photograph-like, noise and flat colours (one texture's ratio
+  is not the method's).
 Exit 1 with one line per problem.
 """
 import os
@@ -44,6 +51,37 @@ if lines > 150:
 for cmd in (".ci/bootstrap example", ".ci/bootstrap test"):
     if cmd not in text:
         problems.append(f"README.md: the set-up command '{cmd}' is missing")
+
+
+def units(body):
+    """Table rows (each with its header) and sentences of a page's prose (code blocks left out)."""
+    body = re.sub(r"```.*?```", "", body, flags=re.DOTALL)
+    for para in re.split(r"\n\s*\n", body):
+        if para.lstrip().startswith("|"):
+            head, *rows = para.strip().splitlines()
+            yield from ((head + " " + row, True) for row in rows)  # a row, read with its column names
+        else:
+            yield from ((u, False) for u in re.split(r"(?<=[.!?])\s+(?=[A-Z*`(])", " ".join(para.split())))
+
+
+ratio = re.compile(r"\d+(?:\.\d+)?\s*×")
+about = re.compile(r"bytes|\bfiles?\b|\bsize\b|\btimes?\b|faster|slower", re.IGNORECASE)
+texture = re.compile(r"photograph-like|\bnoise|\bnoisy|flat colou?rs|\bchart\b", re.IGNORECASE)
+kinds = {"photograph-like": r"photograph-like", "noise": r"\bnois", "flat colours": r"flat colou?rs"}
+named = set()
+for unit, row in units(text):
+    for m in ratio.finditer(unit):
+        near = unit if row else unit[max(0, m.start() - 60):m.end() + 60]
+        if not about.search(near):
+            continue
+        if not texture.search(unit):
+            problems.append(f"README.md: '{m.group(0)}' gives a size or time ratio without naming the "
+                            f"texture it was measured on: {unit.strip()[:120]}")
+        named |= {k for k, rx in kinds.items() if re.search(rx, unit, re.IGNORECASE)}
+for k in kinds:
+    if k not in named:
+        problems.append(f"README.md: no size or time ratio is given for a {k} texture (give the "
+                        f"photograph-like, noise and flat colours figures)")
 
 pages = [readme] + sorted((root / "docs").glob("*.md"))
 pages += [p for p in (root / "python" / "README.md", root / "tests" / "bench" / "README.md",
