@@ -164,8 +164,10 @@ TEST(JsonNames, PlanOfALightTableWithALatin1NameParses) {
     ScratchDir d;
     const std::string light = d / "lamp\xe9.csv";
     std::ofstream(light) << "wavelength,value\n360,1\n830,1\n";
-    RunResult r = run_spectex({"plan", "--lights", light, "--grids", "380:780:20", "--colours",
-                               "sample", "--max-de", "100", "--json", "-"});
+    // The basis: the default's method would choose bits for the light (whole-cube passes).
+    RunResult r =
+        run_spectex({"plan", "--method", "basis", "--lights", light, "--grids", "380:780:20",
+                     "--colours", "sample", "--max-de", "100", "--json", "-"});
     ASSERT_EQ(r.status, 0) << r.err;
     const std::vector<json> lines = parse_lines(r.out);
     ASSERT_EQ(lines.size(), 1u) << r.out;
@@ -234,8 +236,9 @@ TEST(JsonNames, EveryCommandTakesAFileOrADash) {
         EXPECT_EQ(read_file(exr), before);
     }
     // The commands that always took a value take '-' and a file alike.
-    const RunResult plan = run_spectex({"plan", "--lights", "D65", "--grids", "380:780:20",
-                                        "--colours", "sample", "--max-de", "100", "--json", "-"});
+    const RunResult plan =
+        run_spectex({"plan", "--method", "basis", "--lights", "D65", "--grids", "380:780:20",
+                     "--colours", "sample", "--max-de", "100", "--json", "-"});
     ASSERT_EQ(plan.status, 0) << plan.err;
     EXPECT_FALSE(parse_lines(plan.out).empty());
     const RunResult verify = run_spectex({"verify", exr, "--json", d / "verify.json"});
