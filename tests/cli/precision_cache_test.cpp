@@ -1,7 +1,10 @@
 // The bits of --precision auto kept between runs (pipeline/plan_cache.h): a second bake with the
 // same settings takes them from the cache instead of measuring ~100 bit vectors again, and gives
 // the same file; an entry that is not a whole, valid answer never changes a bake. Every test points
-// the cache into its scratch folder: none touches the real ~/.cache/spectex.
+// the cache into its scratch folder: none touches the real ~/.cache/spectex. The tests that choose
+// the bits again for many entries (several passes over the whole 8-bit cube each) are Slow: the
+// whole suite runs them; the sanitizer build runs the entry parser itself
+// (tests/unit/precision_cache_text_test.cpp).
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -75,7 +78,7 @@ Outcome outcome(const std::string& path) {
 
 }  // namespace
 
-TEST(PrecisionCache, SecondBakeTakesTheBitsFromTheCacheAndGivesTheSameFile) {
+TEST(PrecisionCacheSlow, SecondBakeTakesTheBitsFromTheCacheAndGivesTheSameFile) {
     ScratchDir d;
     make_input(d);
     const Env env(d / "cache");
@@ -107,7 +110,7 @@ TEST(PrecisionCache, SecondBakeTakesTheBitsFromTheCacheAndGivesTheSameFile) {
     EXPECT_EQ(precision_entries(d / "cache").size(), 2u);
 }
 
-TEST(PrecisionCache, DamagedOrHostileEntriesNeverChangeTheOutput) {
+TEST(PrecisionCacheSlow, DamagedOrHostileEntriesNeverChangeTheOutput) {
     ScratchDir d;
     make_input(d);
     const Env env(d / "cache");
