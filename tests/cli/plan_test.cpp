@@ -56,7 +56,7 @@ TEST(Plan, BudgetPicksTheCheapestGridThatMeetsIt) {
 
 // Without a method, plan measures bake's default (the LHTSS lattice) and reports the bits its
 // bake keeps; a method named is planned at full precision unless --precision auto is asked.
-TEST(Plan, WithoutAMethodPlansBakesDefaultWithItsBits) {
+TEST(PlanSlow, WithoutAMethodPlansBakesDefaultWithItsBits) {
     const std::vector<std::string> quick = {
         "plan",   "--lights",        "D65", "--grids", "380:780:10", "--max-de", "5", "--colours",
         "sample", "--sample-stride", "51",  "--json",  "-"};

@@ -168,7 +168,7 @@ TEST(PrecisionCacheSlow, DamagedOrHostileEntriesNeverChangeTheOutput) {
     EXPECT_EQ(outcome(d / "hit.exr").bits, ref.bits);
 }
 
-TEST(PrecisionCache, PlanAndBakeShareTheBits) {
+TEST(PrecisionCacheSlow, PlanAndBakeShareTheBits) {
     // plan --precision auto on a fixed grid asks the same question as bake on that grid.
     ScratchDir d;
     make_input(d);

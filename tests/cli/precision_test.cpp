@@ -1,9 +1,10 @@
 // bake --precision auto end to end: the bits per bin recorded in the header and the settings hash,
 // every stored value on its bin's coarser grid (but for the few pixels that needed more bits to
 // hold their colour), the file smaller than full half, every 8-bit code still re-encoding under
-// D65 (verify's code gate), verify and plan reporting the precision, and the usage errors. The
-// lattice and settings-hash tests (several choosers each) are in PrecisionSlow: the whole suite
-// runs them, the sanitizer build not.
+// D65 (verify's code gate), verify and plan reporting the precision, and the usage errors. Tests
+// whose bakes choose bits of their own (each several passes over the whole 8-bit cube) are in
+// PrecisionSlow: the whole suite runs them, the sanitizer build not; it runs the chooser in the
+// default bake's overrides and the threads test.
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
@@ -73,7 +74,7 @@ uint64_t file_size(const std::string& p) {
 
 }  // namespace
 
-TEST(Precision, AutoBakeKeepsTheChosenBitsRecordsThemAndStaysExactUnderD65) {
+TEST(PrecisionSlow, AutoBakeKeepsTheChosenBitsRecordsThemAndStaysExactUnderD65) {
     ScratchDir d;
     const std::string png = cube_png(d), full = d / "full.exr", autob = d / "auto.exr";
     ASSERT_EQ(run_spectex({"bake", png, "-o", full, "-q", "--method", "basis"}).status, 0);
@@ -394,7 +395,7 @@ TEST(PrecisionSlow, TheShippedAnswerIsTheChoosersAndADamagedOneIsNot) {
     EXPECT_EQ(entries, 1);
 }
 
-TEST(Precision, PlanPrintsBitsWithTheGrid) {
+TEST(PrecisionSlow, PlanPrintsBitsWithTheGrid) {
     const RunResult r =
         run_spectex({"plan", "--grids", "380:780:10", "--lights", "D65,A", "--max-de", "2",
                      "--colours", "sample", "--sample-stride", "17", "--precision", "auto"});
