@@ -379,7 +379,8 @@ TEST(MaketxHabits, ColourTemperaturesInEveryCommandThatTakesALight) {
     EXPECT_EQ(r.status, 0) << r.err;
 
     r = run_spectex({"plan", "--lights", "3200K,5000k,3200k", "--illuminant", "6504K", "--grids",
-                     "380:780:20", "--colours", "sample", "--max-de", "100", "--json", "-"});
+                     "380:780:20", "--colours", "sample", "--max-de", "100", "--precision", "full",
+                     "--json", "-"});
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_EQ(json::parse(r.out)["lights"], json::array({"3200K", "5000K"})) << r.out;
     r = run_spectex({"bake", "--help"});

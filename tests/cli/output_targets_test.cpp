@@ -129,16 +129,18 @@ TEST(OutputTargets, TextOutputsNamingAStreamAreWrittenThroughAndTheLinkStays) {
         std::string expect;  // what must reach the stream
         bool to_stderr;
     };
+    // The plans keep every bit: bits of their own would be chosen on every 8-bit colour.
     const std::vector<Case> cases = {
         {{"verify", exr, "--json", out_link}, "\"schema_version\"", false},
         {{"verify", exr, "--json", dev_out}, "\"schema_version\"", false},
         {{"bake", png, "-o", d / "b.exr", "--json", out_link}, "\"status\":\"ok\"", false},
         {{"bake", png, "-o", d / "c.exr", "--json", dev_err}, "\"status\":\"ok\"", true},
-        {{"plan", "--lights", "D65", "--max-de", "3", "--grids", "380:780:20", "--json", out_link},
+        {{"plan", "--lights", "D65", "--max-de", "3", "--grids", "380:780:20", "--precision",
+          "full", "--json", out_link},
          "\"lights\"",
          false},
-        {{"plan", "--lights", "D65", "--max-de", "3", "--grids", "380:780:20", "--grid-file",
-          err_link},
+        {{"plan", "--lights", "D65", "--max-de", "3", "--grids", "380:780:20", "--precision",
+          "full", "--grid-file", err_link},
          "# spectex plan",
          true},
         {{"basis", "-q", "-o", out_link}, "wavelength,r,g,b", false},
