@@ -63,6 +63,32 @@ int fixed_attribute_size(const std::string& type) {
     return -1;
 }
 
+// OpenEXR 3.1 allocates what a variable-size attribute's inner fields claim before it reads them:
+// a string vector's element of length 2^31 - 1 or a preview of 65535 x 65535 pixels inside a few
+// bytes of attribute costs gigabytes (the fuzzer found the first). Such a value must lie within
+// the attribute's own size.
+template <typename Bad>
+void check_variable_attribute(const std::string& name, const std::string& type,
+                              const unsigned char* v, size_t size, const Bad& bad) {
+    if (type == "stringvector") {
+        for (size_t at = 0; at < size;) {
+            if (size - at < 4) bad("attribute '" + name + "' ends inside an element's length");
+            const int32_t len = le32(v + at);
+            at += 4;
+            if (len < 0 || static_cast<size_t>(len) > size - at)
+                bad("attribute '" + name + "' has an element of " + std::to_string(len) +
+                    " bytes in " + std::to_string(size - at) + " remaining");
+            at += static_cast<size_t>(len);
+        }
+    } else if (type == "preview") {
+        if (size < 8) bad("attribute '" + name + "' is too short for a preview");
+        const uint64_t w = static_cast<uint32_t>(le32(v)), h = static_cast<uint32_t>(le32(v + 4));
+        if (w > size || h > size || 8 + 4 * w * h != size)
+            bad("attribute '" + name + "' claims a " + std::to_string(w) + "x" + std::to_string(h) +
+                " preview in " + std::to_string(size) + " bytes");
+    }
+}
+
 }  // namespace
 
 void exr_preflight(const std::string& path, std::map<std::string, std::string>* part0_strings) {
@@ -138,6 +164,7 @@ void exr_preflight(const std::string& path, std::map<std::string, std::string>* 
                 bad("attribute '" + name + "' of type " + type + " is " + std::to_string(size) +
                     " bytes, not " + std::to_string(want));
             const unsigned char* v = buf.data() + pos;
+            check_variable_attribute(name, type, v, static_cast<size_t>(size), bad);
             if (name == "dataWindow" && type == "box2i" && size == 16) {
                 for (int i = 0; i < 4; ++i) dw[i] = le32(v + 4 * i);
                 have_dw = true;

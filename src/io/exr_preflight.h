@@ -1,7 +1,8 @@
 #pragma once
 // A bounded look at an OpenEXR header before OpenEXR opens the file: OpenEXR 3.1 sizes its chunk
 // offset tables from the header, so a hostile header (an absurd data window, 1x1 tiles on a huge
-// image, a size field larger than the file) makes it allocate gigabytes. Found by fuzzing.
+// image, a size field larger than the file, a string-vector element or a preview larger than its
+// attribute) makes it allocate gigabytes. Found by fuzzing.
 #include <map>
 #include <string>
 

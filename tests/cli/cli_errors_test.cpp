@@ -529,6 +529,45 @@ TEST(CliErrors, HostileExrHeadersAreRefusedBeforeOpenExrAllocates) {
     r = run_spectex({"verify", d / "huge.exr"});
     EXPECT_EQ(r.status, 1);
     EXPECT_TRUE(contains(r.err, "refusing")) << r.err;
+
+    // A small, well-formed image whose string vector has an element of 2^31 - 1 bytes, or whose
+    // preview claims 65535 x 65535 pixels, in a few bytes: OpenEXR sizes the value from those
+    // fields before reading it (2 GB and 17 GB). Refused by name, before OpenEXR opens the file.
+    for (const std::string which : {"stringvector", "preview"}) {
+        h.clear();
+        put32(20000630);
+        put32(2);
+        box.clear();
+        for (int32_t v : {0, 0, 3, 3}) box.append(reinterpret_cast<const char*>(&v), 4);
+        attr("channels", "chlist", std::string("T.500nm\0", 8) + std::string(16, '\0') + '\0');
+        attr("compression", "compression", std::string(1, '\0'));
+        attr("dataWindow", "box2i", box);
+        attr("displayWindow", "box2i", box);
+        attr("lineOrder", "lineOrder", std::string(1, '\0'));
+        std::string value;
+        auto put = [&](int32_t v) { value.append(reinterpret_cast<const char*>(&v), 4); };
+        if (which == "stringvector") {
+            put(2);
+            value += "ok";
+            put(0x7fffffff);
+            attr("names", "stringvector", value);
+        } else {
+            put(65535);
+            put(65535);
+            value += std::string(4, '\x7f');
+            attr("preview", "preview", value);
+        }
+        h += '\0';
+        const std::string f = d / (which + ".exr");
+        std::ofstream(f, std::ios::binary) << h << std::string(64, '\0');
+        for (const char* cmd : {"info", "verify"}) {
+            r = run_spectex({cmd, f});
+            EXPECT_EQ(r.status, 1) << cmd << " " << which << ": " << r.err;
+            EXPECT_TRUE(contains(r.err, f + ": corrupt OpenEXR header: attribute '" +
+                                            (which == "stringvector" ? "names" : "preview") + "'"))
+                << cmd << " " << which << ": " << r.err;
+        }
+    }
 }
 
 // A mistyped option names the closest one; an empty argument is a usage error, not a missing file.
