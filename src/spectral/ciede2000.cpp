@@ -55,6 +55,26 @@ Lab lab_from_xyz_fast(const Eigen::Vector3d& xyz, const Eigen::Vector3d& white) 
     return {116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)};
 }
 
+double ciede2000_upper_bound(const Lab& c1, const Lab& c2) {
+    // sqrt, not hypot (glibc's is several times slower): L*a*b* values are far from overflow.
+    const double C1 = std::sqrt(c1.a * c1.a + c1.b * c1.b),
+                 C2 = std::sqrt(c2.a * c2.a + c2.b * c2.b);
+    const double Cbar7 = pow7(0.5 * (C1 + C2));
+    const double G = 0.5 * (1.0 - std::sqrt(Cbar7 / (Cbar7 + k25pow7)));
+    const double a1p = (1.0 + G) * c1.a, a2p = (1.0 + G) * c2.a;
+    const double Cbarp =
+        0.5 * (std::sqrt(a1p * a1p + c1.b * c1.b) + std::sqrt(a2p * a2p + c2.b * c2.b));
+    const double Lm = 0.5 * (c1.L + c2.L) - 50.0;
+    const double SL = 1.0 + 0.015 * Lm * Lm / std::sqrt(20.0 + Lm * Lm);
+    const double SHmin = 1.0 + 0.015 * 0.36 * Cbarp;  // T >= 0.3621 for every hue
+    const double Cbarp7 = pow7(Cbarp);
+    const double RC = 2.0 * std::sqrt(Cbarp7 / (Cbarp7 + k25pow7));
+    const double dL = (c2.L - c1.L) / SL;
+    const double da = a2p - a1p, db = c2.b - c1.b;
+    const double bound2 = dL * dL + (1.0 + 0.5 * RC) * (da * da + db * db) / (SHmin * SHmin);
+    return std::sqrt(bound2) * (1.0 + 1e-12);
+}
+
 double ciede2000(const Lab& c1, const Lab& c2, double kL, double kC, double kH) {
     // Step 1: C'_i, h'_i
     const double C1 = std::hypot(c1.a, c1.b), C2 = std::hypot(c2.a, c2.b);

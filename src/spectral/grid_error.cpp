@@ -74,6 +74,14 @@ WavelengthGrid renderer_grid(double start, double end) {
     return WavelengthGrid::uniform_grid(start, end, 1.0);
 }
 
+WavelengthGrid observed_renderer_grid(const Observer& observer) {
+    const double lo = std::max({kRendererStart, observer.x.lambda.front(),
+                                observer.y.lambda.front(), observer.z.lambda.front()});
+    const double hi = std::min({kRendererEnd, observer.x.lambda.back(), observer.y.lambda.back(),
+                                observer.z.lambda.back()});
+    return renderer_grid(std::ceil(lo - 1e-9), std::floor(hi + 1e-9));
+}
+
 namespace {
 
 // Linear interpolation of a table at l; 0 outside it.

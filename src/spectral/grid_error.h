@@ -49,6 +49,10 @@ constexpr double kRendererStart = 360, kRendererEnd = 830;
 // Throws Error when start/end are not integers or end <= start.
 WavelengthGrid renderer_grid(double start, double end);
 
+// The renderer's grid kRendererStart..kRendererEnd clipped to the observer's tables (whole nm):
+// where the file's colour under a light is judged, and the reference method's grid.
+WavelengthGrid observed_renderer_grid(const Observer& observer);
+
 // XYZ weights of a reflectance at 1 nm under a light: XYZ = W·s for s on the fine grid, scaled
 // so that the perfect reflector has Y = 1; white = W·1. Each fine sample weighs 1 nm. The light is
 // zero where its table has no values (FL11's table stops at 780 nm); the observer must cover the

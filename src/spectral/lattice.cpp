@@ -179,6 +179,24 @@ SpectralLattice SpectralLattice::from_table(const Colorimetry& c, int n, VertexP
     return L;
 }
 
+SpectralLattice SpectralLattice::projected(const Eigen::MatrixXd& W) const {
+    if (W.cols() != bins_) throw Error("lattice projection: weights on another grid");
+    const size_t N = static_cast<size_t>(bins_), R = static_cast<size_t>(W.rows());
+    const size_t verts = static_cast<size_t>(n_) * n_ * n_;
+    SpectralLattice L;
+    L.n_ = n_;
+    L.bins_ = static_cast<int>(R);
+    L.prior_ = prior_;
+    L.locator_ = locator_;
+    L.table_d_.resize(verts * R);
+    for (size_t v = 0; v < verts; ++v) {
+        const Eigen::Map<const Eigen::VectorXd> s(&table_d_[v * N], static_cast<Eigen::Index>(N));
+        Eigen::Map<Eigen::VectorXd>(&L.table_d_[v * R], static_cast<Eigen::Index>(R)) = W * s;
+    }
+    L.make_float_tables();
+    return L;
+}
+
 std::string SpectralLattice::checksum() const {
     Fnv1a64 h;
     const int32_t n = n_;

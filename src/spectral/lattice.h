@@ -52,6 +52,11 @@ class SpectralLattice {
     // solver figures (iterations, fallbacks) are not known and stay 0.
     static SpectralLattice from_table(const Colorimetry& c, int n, VertexPrior prior,
                                       std::vector<double> table);
+    // The lattice whose vertex values are W times the vertex spectra (W: rows x bins): its
+    // expansion is W times this lattice's spectrum for every colour (the barycentric weights are
+    // the same), a colour under W.rows() / 3 lights for the price of W.rows() bins. Not a table of
+    // spectra: no certificate, never stored.
+    SpectralLattice projected(const Eigen::MatrixXd& W) const;
     // build() demands 1e-13 of every vertex; a stored table is held to 1e-12 (the unit tests'
     // figure), so a table from this build is always taken and one that is not exact never is.
     static constexpr double kStoredVertexTolerance = 1e-12;

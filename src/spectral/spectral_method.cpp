@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "base/error.h"
+
 namespace spectex {
 
 void SpectralMethod::expand_half(const float* r, const float* g, const float* b, size_t n,
@@ -29,6 +31,24 @@ std::vector<std::pair<MethodFact, std::string>> BasisMethod::provenance() const 
             {MethodFact::Basis, basis_.name},
             {MethodFact::BasisSource, source_},
             {MethodFact::BasisChecksum, checksum()}};
+}
+
+std::shared_ptr<const SpectralMethod> BasisMethod::weighted(const Eigen::MatrixXd& W) const {
+    const size_t N = basis_.size();
+    if (static_cast<size_t>(W.cols()) != N)
+        throw Error("basis projection: weights on another grid");
+    Basis p;
+    p.name = "weighted " + basis_.name;
+    for (Eigen::Index row = 0; row < W.rows(); ++row) {
+        p.lambda.push_back(static_cast<double>(row));
+        double r = 0, g = 0, b = 0;
+        for (size_t k = 0; k < N; ++k) {
+            const double w = W(row, static_cast<Eigen::Index>(k));
+            r += w * basis_.r[k], g += w * basis_.g[k], b += w * basis_.b[k];
+        }
+        p.r.push_back(r), p.g.push_back(g), p.b.push_back(b);
+    }
+    return std::make_shared<BasisMethod>(std::move(p), "weighted");
 }
 
 void BasisMethod::expand_float(const float* r, const float* g, const float* b, size_t n, float* out,

@@ -3,6 +3,7 @@
 // method implements (the three-spectrum basis of Mallett & Yuksel, the lattice, Jakob-Hanika).
 // The pipeline expands strips through it, the half rounding works on what it gives, and the
 // header and the settings hash record it.
+#include <Eigen/Dense>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -48,6 +49,15 @@ class SpectralMethod {
     // Bin k of pixel i goes to out[k * plane_stride + i]; r, g, b are planes of n linear values.
     virtual void expand_float(const float* r, const float* g, const float* b, size_t n, float* out,
                               size_t plane_stride) const = 0;
+    // A shortcut to the colours of the method's spectra under linear weights W (rows x bins): a
+    // method whose expansion on W.rows() "bins" is W times this method's spectrum for every colour
+    // (to float rounding), far cheaper than expanding every bin when W has few rows; null when
+    // the method has none (the caller expands). The basis and the lattice have one: their spectra
+    // are linear in a table.
+    virtual std::shared_ptr<const SpectralMethod> weighted(const Eigen::MatrixXd& W) const {
+        (void)W;
+        return nullptr;
+    }
     // Half. With rgb_weight (bins x 3, the linear RGB of a unit spectrum at each bin, under the
     // observer and illuminant the method is exact for), the colour-aware rounding: every bin is
     // rounded to nearest, and where the integrated colour then misses by more than 6.1e-5 the
@@ -74,6 +84,7 @@ class BasisMethod : public SpectralMethod {
                       size_t plane_stride) const override;
     void expand_half(const float* r, const float* g, const float* b, size_t n, uint16_t* out,
                      size_t plane_stride, const std::vector<float>* rgb_weight) const override;
+    std::shared_ptr<const SpectralMethod> weighted(const Eigen::MatrixXd& W) const override;
 
   private:
     Basis basis_;

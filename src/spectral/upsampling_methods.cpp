@@ -25,6 +25,13 @@ LatticeMethod::LatticeMethod(SpectralLattice lattice, std::vector<double> lambda
       conditions_(std::move(conditions)),
       blend_(blend) {}
 
+std::shared_ptr<const SpectralMethod> LatticeMethod::weighted(const Eigen::MatrixXd& W) const {
+    std::vector<double> rows(static_cast<size_t>(W.rows()));
+    for (size_t i = 0; i < rows.size(); ++i) rows[i] = static_cast<double>(i);
+    return std::make_shared<LatticeMethod>(lattice_.projected(W), std::move(rows), "weighted",
+                                           blend_);
+}
+
 std::vector<std::pair<MethodFact, std::string>> LatticeMethod::provenance() const {
     std::string prior = to_string(lattice_.prior());
     if (lattice_.prior() == VertexPrior::Blend) prior += " (weight " + number(blend_) + ")";

@@ -30,6 +30,7 @@ class LatticeMethod : public SpectralMethod {
                       size_t plane_stride) const override {
         lattice_.expand(r, g, b, n, out, plane_stride);
     }
+    std::shared_ptr<const SpectralMethod> weighted(const Eigen::MatrixXd& W) const override;
 
   private:
     SpectralLattice lattice_;

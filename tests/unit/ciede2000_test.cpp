@@ -4,6 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <random>
+
 using spectex::Lab;
 
 namespace {
@@ -89,4 +92,31 @@ TEST(Ciede2000, LabFromXyz) {
     EXPECT_NEAR(r.L, 53.24, 0.01);
     EXPECT_NEAR(r.a, 80.09, 0.02);
     EXPECT_NEAR(r.b, 67.20, 0.02);
+}
+
+// The bound the whole-cube search skips exact evaluations with must never be below the exact
+// figure: on the Sharma-Wu-Dalal pairs (chosen to exercise every branch of the formula) and on
+// random pairs, neutral to saturated, near and far apart, in every hue. Relative slack 1e-12 covers
+// the two formulas' rounding; the bound must also be useful: below sqrt(4.5)·ΔE76 on average.
+TEST(Ciede2000, UpperBoundHoldsEverywhere) {
+    for (const Pair& p : kSharma)
+        EXPECT_GE(spectex::ciede2000_upper_bound(p.c1, p.c2), spectex::ciede2000(p.c1, p.c2))
+            << p.c1.L << " " << p.c1.a << " " << p.c1.b;
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> L(0, 100), ab(-128, 128), unit(0, 1);
+    double ratio_sum = 0;
+    const int n = 1000000;
+    for (int i = 0; i < n; ++i) {
+        Lab a{L(rng), ab(rng) * unit(rng) * unit(rng), ab(rng) * unit(rng) * unit(rng)};
+        const double scale = std::pow(10.0, -4 + 6 * unit(rng));  // distances 1e-4 .. 100
+        Lab b{a.L + scale * (unit(rng) - 0.5), a.a + scale * (unit(rng) - 0.5),
+              a.b + scale * (unit(rng) - 0.5)};
+        const double exact = spectex::ciede2000(a, b), bound = spectex::ciede2000_upper_bound(a, b);
+        ASSERT_GE(bound, exact) << a.L << " " << a.a << " " << a.b << " / " << b.L << " " << b.a
+                                << " " << b.b;
+        const double de76 = std::sqrt((a.L - b.L) * (a.L - b.L) + (a.a - b.a) * (a.a - b.a) +
+                                      (a.b - b.b) * (a.b - b.b));
+        if (de76 > 0) ratio_sum += bound / (std::sqrt(4.5) * de76);
+    }
+    EXPECT_LT(ratio_sum / n, 0.8);
 }
