@@ -167,8 +167,10 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
              "--method, where the output is half, colour-rounded and compressed losslessly, with "
              "--zip-level 1 unless given; else full): under D65,A,FL2,FL11,D50,LED-B3 within 0.5 "
              "unless --lights or --max-de are given, whatever the method; per bin, "
-             "the fewest that keep the worst ΔE00 between the rounded and the unrounded spectra "
-             "within --precision-de (default --max-de) under every one of --lights and the light "
+             "the fewest that keep the worst ΔE00 between the file's spectra as a renderer sees "
+             "them and the method's own spectrum at 1 nm (the grid's error and the rounding "
+             "together) within --precision-de (default --max-de) under every one of --lights and "
+             "the light "
              "the method is exact for, on every 8-bit colour; the colour-aware "
              "rounding keeps every 8-bit colour's code under that light (smaller ZIP files; "
              "recorded as spectex:precision*; half only). The bits are kept in the cache for the "
@@ -179,7 +181,7 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
              });
     p.option("--precision-de", "DE",
              "The budget of --precision auto when it differs from --max-de (the grid's budget "
-             "with --wavelengths auto): the worst ΔE00, rounded against unrounded.",
+             "with --wavelengths auto): the worst ΔE00 of the file against the method at 1 nm.",
              [&](const std::string& v) {
                  c.precision_de = parse_budget_de("--precision-de", v);
                  c.precision_de_given = true;

@@ -204,7 +204,7 @@ void add_measure_options(ArgParser& p, PlanOptions& o) {
              });
     p.option(
         "--precision-de", "DE",
-        "The budget of --precision auto, rounded against unrounded (default --max-de).",
+        "The budget of --precision auto, the file against the method at 1 nm (default --max-de).",
         [&](const std::string& v) { spec.precision_de = parse_budget_de("--precision-de", v); });
     p.option(
         "--sample-stride", "N",

@@ -154,7 +154,7 @@ BakeSettings::Precision precision_record(const BakeRequest& r, const BakeTables&
     rec.max_de = num;
     const std::vector<std::string> lights = precision_lights(r, illuminant);
     for (const auto& l : lights) rec.lights += (rec.lights.empty() ? "" : ",") + l;
-    rec.sample = kPrecisionCovers;
+    rec.sample = given_basis(r) ? kPrecisionCoversRounding : kPrecisionCovers;
     Fnv1a64 h;
     auto add = [&](const std::string& s) { h.add(s.data(), s.size() + 1); };
     // The chooser's version: files whose bits were chosen by an earlier chooser (on a sample
@@ -239,6 +239,23 @@ void choose_precision_bits(const BakeRequest& r, const BakeTables& t, BakeSettin
     const auto t0 = std::chrono::steady_clock::now();
     PrecisionRequest req;
     req.method = s.method.get();
+    // The budget covers the file against the method's own spectrum at 1 nm (the grid and the
+    // rounding together) whenever the method can be built there; a given basis table cannot.
+    std::shared_ptr<const SpectralMethod> reference;
+    if (!t.basis) {
+        MethodSpec spec = r.method;
+        spec.fit.data_dir = r.data_dir;
+        spec.fit.grid = observed_renderer_grid(t.observer);
+        spec.fit.observer_table = std::make_shared<const Observer>(t.observer);
+        spec.fit.illuminant_table = std::make_shared<const Spectrum>(t.illuminant);
+        try {
+            reference = make_method(spec, r.no_cache ? "" : cache_folder()).method;
+        } catch (const Error& e) {
+            throw Error("--precision auto: the reference (the method on " +
+                        spec.fit.grid.describe() + ", the renderer's range at 1 nm): " + e.what());
+        }
+        req.reference = reference.get();
+    }
     req.observer = t.observer;
     for (const auto& l : precision_lights(r, s.illuminant)) req.lights.push_back(t.light(l));
     if (!s.half_rgb_weight.empty()) req.rgb_weight = &s.half_rgb_weight;
@@ -252,6 +269,14 @@ void choose_precision_bits(const BakeRequest& r, const BakeTables& t, BakeSettin
     for (size_t j = 0; j < pc.light.size(); ++j)
         worst += (worst.empty() ? "" : ", ") + pc.light[j] + " " + format_de_up(pc.worst_de[j]);
     s.precision.worst_de = worst;
+    // The grid's own error over the budget: every bit is kept, and the file is still that far from
+    // the method at 1 nm. Said, with the way out; the header records the figure.
+    if (!pc.worst_de.empty() &&
+        *std::max_element(pc.worst_de.begin(), pc.worst_de.end()) > req.max_de)
+        listener.warning("--precision auto: the grid " + s.grid.describe() +
+                         " is itself over the budget of " + format_de_up(req.max_de) +
+                         " ΔE00 against the method at 1 nm (worst " + worst +
+                         "), so every bit is kept; a finer grid meets it (spectex plan)");
     listener.precision_chosen(
         s.precision, pc, rep,
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());

@@ -422,11 +422,16 @@ namespace {
 void plan_precision(const PlanSpec& spec, const Observer& observer, const WavelengthGrid& grid,
                     int threads, const std::string& cache, PlanResult& res) {
     const std::shared_ptr<const SpectralMethod> method = build_method(spec, grid);
+    // Against the method at 1 nm over the renderer's range, as bake --precision auto judges it (the
+    // same request, the same cache entry).
+    const std::shared_ptr<const SpectralMethod> reference =
+        build_reference(spec, observed_renderer_grid(observer));
     std::vector<std::string> names = spec.lights;
     names.push_back(spec.method.fit.illuminant);
     names = distinct_lights(names);
     PrecisionRequest req;
     req.method = method.get();
+    req.reference = reference.get();
     req.observer = observer;
     for (const auto& l : names)
         req.lights.push_back(*illuminant_table(spec.method.fit.data_dir, l));

@@ -302,6 +302,13 @@ std::string precision_answer_key(const PrecisionRequest& req) {
     } else {
         k.text("nearest rounding");
     }
+    if (const SpectralMethod* ref = req.reference) {
+        k.text("against the method at 1 nm");
+        k.text(ref->checksum());
+        k.values(ref->lambda());
+    } else {
+        k.text("against the unrounded spectra");
+    }
     k.number(req.max_de);
     k.number(req.stride);
     return "precision-" + k.hex();

@@ -57,12 +57,14 @@ constexpr size_t kPrecisionCacheEntryLimit = size_t(1) << 20;
 // colorimetry, the whole-cube check, the search). Raised with every change to them, so that an
 // answer shipped with the data (config/spectral/precision/) is never taken for another chooser's.
 // 2: every 8-bit colour checked, colours reconstructed as a renderer does.
-constexpr int kPrecisionChooserVersion = 2;
+// 3: against the method's own spectrum at 1 nm (the grid's error and the rounding together).
+constexpr int kPrecisionChooserVersion = 3;
 
 // What choose_precision(req) depends on besides the build, hashed: the cache format, the
 // chooser's version, the method (name, checksum of its tables, provenance, wavelengths and
 // weights of its bins), the observer's tables, every light's name and table (the bake's
-// illuminant among them), the colour-aware rounding's weights (or nearest rounding), the budget
+// illuminant among them), the colour-aware rounding's weights (or nearest rounding), the
+// reference (its checksum and wavelengths, or none), the budget
 // and the sample stride. Not the threads (the choice does not depend on them).
 // "precision-<32 hex digits>": the name of an answer shipped in config/spectral/precision/.
 std::string precision_answer_key(const PrecisionRequest& req);

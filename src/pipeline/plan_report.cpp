@@ -79,7 +79,7 @@ std::string plan_table(const PlanSpec& spec, const PlanResult& r) {
         o << "  precision: " << r.precision_bits.size() << " bins, mantissa bits "
           << format_precision_bits(r.precision_bits) << " ("
           << fmt(100 * kept_fraction(r.precision_bits), "%.0f")
-          << "% of half's), rounded against unrounded within " << fmt(r.precision_de)
+          << "% of half's), the file against the method at 1 nm within " << fmt(r.precision_de)
           << " ΔE00 under " << names << " (worst " << worst << ")\n";
     }
     o << "  (" << fmt(r.seconds, "%.1f") << " s)\n";

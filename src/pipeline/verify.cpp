@@ -93,6 +93,7 @@ void read_recorded_settings(const Recorded& recorded, const VerifySettings& s, V
         r.precision_max_de = recorded(provenance_key::kPrecisionMaxDe);
         r.precision_lights = recorded(provenance_key::kPrecisionLights);
         r.precision_worst_de = recorded(provenance_key::kPrecisionWorstDe);
+        r.precision_covers = recorded(provenance_key::kPrecisionSample);
         try {
             r.precision_bits = parse_precision_bits(recorded(provenance_key::kPrecisionBits),
                                                     static_cast<size_t>(r.bins));

@@ -112,6 +112,9 @@ struct VerifyReport {
     // `lights`; the colour-aware rounding still holds every 8-bit code under the illuminant
     // (the code gate applies as to any half file). Empty precision: full half.
     std::string precision, precision_max_de, precision_lights, precision_worst_de;
+    // What the recorded worst covers (spectex:precisionSample): the file against the method's own
+    // spectrum at 1 nm, or (files baked before, a given basis) the rounding alone.
+    std::string precision_covers;
     std::vector<int> precision_bits;
     std::vector<std::string>
         warnings;  // settings given that differ from the file's, config not found, ...

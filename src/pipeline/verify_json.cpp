@@ -86,6 +86,7 @@ std::string verify_json(const VerifyReport& r, const VerifyGates& t,
         put_text(pj, "max_de", r.precision_max_de);
         put_text(pj, "lights", r.precision_lights);
         put_text(pj, "worst_de", r.precision_worst_de);
+        put_text(pj, "covers", r.precision_covers);
         pj["bits"] = r.precision_bits;
         j["precision"] = std::move(pj);
     }

@@ -38,11 +38,7 @@ struct RendererWeights {
 };
 RendererWeights renderer_weights(const Observer& observer, const Spectrum& light,
                                  const std::vector<double>& lambda) {
-    const double lo = std::max({kRendererStart, observer.x.lambda.front(),
-                                observer.y.lambda.front(), observer.z.lambda.front()});
-    const double hi = std::min({kRendererEnd, observer.x.lambda.back(), observer.y.lambda.back(),
-                                observer.z.lambda.back()});
-    const WavelengthGrid fine = renderer_grid(std::ceil(lo - 1e-9), std::floor(hi + 1e-9));
+    const WavelengthGrid fine = observed_renderer_grid(observer);
     const LightWeights lw = light_weights(observer, light, fine);
     RendererWeights rw;
     rw.name = light.name;
@@ -77,8 +73,22 @@ class PrecisionJudge {
             lights_.push_back({req.lights[j].name, c.white, {}});
             W_.middleRows(static_cast<Eigen::Index>(3 * j), 3) = c.W;
         }
-        // The unrounded colours' L*a*b* under each light, once.
-        const Eigen::MatrixXd xyz = W_ * plane_matrix(spectra_.data(), n_, n_);
+        // The reference colours' L*a*b* under each light, once: the method's own spectrum at 1 nm
+        // when the request has it, else the unrounded spectra on the file's grid.
+        Eigen::MatrixXd xyz;
+        if (const SpectralMethod* ref = req.reference) {
+            const size_t rb = static_cast<size_t>(ref->bins());
+            std::vector<float> rs(rb * n_);
+            ref->expand_float(r.data(), g.data(), b.data(), n_, rs.data(), n_);
+            Eigen::MatrixXd Wr(static_cast<Eigen::Index>(3 * req.lights.size()),
+                               static_cast<Eigen::Index>(rb));
+            for (size_t j = 0; j < req.lights.size(); ++j)
+                Wr.middleRows(static_cast<Eigen::Index>(3 * j), 3) =
+                    renderer_weights(req.observer, req.lights[j], ref->lambda()).W;
+            xyz = Wr * plane_matrix(rs.data(), n_, n_, rb);
+        } else {
+            xyz = W_ * plane_matrix(spectra_.data(), n_, n_, bins_);
+        }
         for (size_t j = 0; j < lights_.size(); ++j) {
             auto& l = lights_[j];
             l.ref.resize(n_);
@@ -111,7 +121,7 @@ class PrecisionJudge {
                                                req_.rgb_weight, bits, h.data(), len);
             std::vector<float> back(bins_ * len);
             half_to_floats(h.data(), back.data(), h.size());
-            const Eigen::MatrixXd xyz = W_ * plane_matrix(back.data(), len, len);
+            const Eigen::MatrixXd xyz = W_ * plane_matrix(back.data(), len, len, bins_);
             for (size_t j = 0; j < lights_.size(); ++j) {
                 const auto& l = lights_[j];
                 double& w = worst[c][j];
@@ -138,9 +148,9 @@ class PrecisionJudge {
     };
 
     // bins x n, bin k of colour i at s[k * stride + i].
-    Eigen::MatrixXd plane_matrix(const float* s, size_t stride, size_t n) const {
-        Eigen::MatrixXd m(static_cast<Eigen::Index>(bins_), static_cast<Eigen::Index>(n));
-        for (size_t k = 0; k < bins_; ++k)
+    static Eigen::MatrixXd plane_matrix(const float* s, size_t stride, size_t n, size_t bins) {
+        Eigen::MatrixXd m(static_cast<Eigen::Index>(bins), static_cast<Eigen::Index>(n));
+        for (size_t k = 0; k < bins; ++k)
             for (size_t i = 0; i < n; ++i)
                 m(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(i)) = s[k * stride + i];
         return m;
@@ -152,13 +162,6 @@ class PrecisionJudge {
     std::vector<Light> lights_;
     Eigen::MatrixXd W_;  // 3·lights x bins: the XYZ weights of every light, stacked
 };
-
-// ΔE00 <= kDe00PerDe76 · ΔE76 for any two colours: with kL = kC = kH = 1, S_L, S_C and S_H are
-// at least 1 (T >= 1 - 0.17 - 0.24 - 0.32 - 0.20 > 0), |R_T| <= 2 makes the chroma-hue part at
-// most 2 (ΔC'² + ΔH'²), ΔC'² + ΔH'² is the squared distance in the (a', b') plane, and a' is a
-// scaled by the same 1 + G <= 1.5 for both colours: ΔE00² <= ΔL² + 2 (2.25 Δa² + Δb²) <=
-// 4.5 ΔE76². The cube judge computes ΔE00 only where this bound could matter.
-constexpr double kDe00PerDe76 = 2.1214;  // sqrt(4.5) = 2.12132..., rounded up
 
 // Every one of the 16,777,216 8-bit sRGB codes, expanded and rounded to a bit vector exactly as a
 // bake rounds them (expand_float, round_spectra_to_bits with the request's weights): the worst
@@ -175,6 +178,18 @@ class CubeJudge {
                 renderer_weights(req.observer, req.lights[j], req.method->lambda());
             Wt_.middleCols(static_cast<Eigen::Index>(3 * j), 3) = c.W.transpose().cast<float>();
             white_.push_back(c.white);
+        }
+        if (const SpectralMethod* ref = req.reference) {
+            ref_bins_ = static_cast<size_t>(ref->bins());
+            Eigen::MatrixXd Wr(static_cast<Eigen::Index>(3 * L),
+                               static_cast<Eigen::Index>(ref_bins_));
+            for (size_t j = 0; j < L; ++j)
+                Wr.middleRows(static_cast<Eigen::Index>(3 * j), 3) =
+                    renderer_weights(req.observer, req.lights[j], ref->lambda()).W;
+            // The reference's colours straight from its table when it has the shortcut (3·lights
+            // values a colour instead of its 471 bins); else expanded and integrated.
+            ref_colours_ = ref->weighted(Wr);
+            if (!ref_colours_) WtRef_ = Wr.transpose().cast<float>();
         }
     }
 
@@ -203,6 +218,7 @@ class CubeJudge {
             p.worst.assign(L, 0.0);
             std::vector<float> r(256), g(256), b(256), s(bins_ * 256), back(bins_ * 256);
             std::vector<uint16_t> h(bins_ * 256);
+            std::vector<float> sr(ref_colours_ ? 3 * L * 256 : ref_bins_ * 256);
             for (size_t i = 0; i < 256; ++i) b[i] = static_cast<float>(lin[i]);
             for (size_t row = t * kRowsPerTask; row < (t + 1) * kRowsPerTask; ++row) {
                 std::fill(r.begin(), r.end(), static_cast<float>(lin[row >> 8]));
@@ -217,7 +233,23 @@ class CubeJudge {
                                                           static_cast<Eigen::Index>(bins_));
                 const Eigen::Map<const Eigen::MatrixXf> D(back.data(), 256,
                                                           static_cast<Eigen::Index>(bins_));
-                const Eigen::MatrixXf X0 = S * Wt_, dX = D * Wt_;
+                // X0: the reference; X0 + dX: the file as a renderer sees it. Without a reference
+                // the reference is the unrounded spectra on the file's grid.
+                Eigen::MatrixXf X0 = S * Wt_, dX = D * Wt_;
+                if (ref_colours_) {
+                    ref_colours_->expand_float(r.data(), g.data(), b.data(), 256, sr.data(), 256);
+                    const Eigen::Map<const Eigen::MatrixXf> XR(sr.data(), 256,
+                                                               static_cast<Eigen::Index>(3 * L));
+                    dX += X0 - XR;
+                    X0 = XR;
+                } else if (ref_bins_ > 0) {
+                    req_.reference->expand_float(r.data(), g.data(), b.data(), 256, sr.data(), 256);
+                    const Eigen::Map<const Eigen::MatrixXf> SR(
+                        sr.data(), 256, static_cast<Eigen::Index>(ref_bins_));
+                    const Eigen::MatrixXf XR = SR * WtRef_;
+                    dX += X0 - XR;
+                    X0 = XR;
+                }
                 for (size_t j = 0; j < L; ++j) {
                     const Eigen::Index c0 = static_cast<Eigen::Index>(3 * j);
                     for (Eigen::Index i = 0; i < 256; ++i) {
@@ -226,11 +258,13 @@ class CubeJudge {
                         if (dx.isZero(0.0)) continue;
                         const Lab a = lab_from_xyz_fast(x0, white_[j]),
                                   c = lab_from_xyz_fast(x0 + dx, white_[j]);
-                        const double de76 =
-                            std::sqrt((a.L - c.L) * (a.L - c.L) + (a.a - c.a) * (a.a - c.a) +
-                                      (a.b - c.b) * (a.b - c.b));
-                        if (kDe00PerDe76 * de76 <=
-                            std::min(std::max(p.worst[j], floor[j]), hard_de))
+                        // Two bounds before the exact figure: sqrt(4.5)·ΔE76 (ΔE00 never exceeds
+                        // it; a few operations), then ciede2000_upper_bound (tighter for
+                        // saturated colours, no trigonometry).
+                        const double skip = std::min(std::max(p.worst[j], floor[j]), hard_de);
+                        const double de76_2 = (a.L - c.L) * (a.L - c.L) +
+                                              (a.a - c.a) * (a.a - c.a) + (a.b - c.b) * (a.b - c.b);
+                        if (4.5 * de76_2 <= skip * skip || ciede2000_upper_bound(a, c) <= skip)
                             continue;
                         const double de = ciede2000(a, c);
                         const uint32_t code = static_cast<uint32_t>((row << 8) | size_t(i));
@@ -270,8 +304,10 @@ class CubeJudge {
     }
 
     const PrecisionRequest& req_;
-    size_t bins_ = 0;
-    Eigen::MatrixXf Wt_;  // bins x 3·lights: every light's renderer weights, side by side
+    size_t bins_ = 0, ref_bins_ = 0;
+    Eigen::MatrixXf Wt_;     // bins x 3·lights: every light's renderer weights, side by side
+    Eigen::MatrixXf WtRef_;  // the same on the reference's 1 nm grid (without the shortcut)
+    std::shared_ptr<const SpectralMethod> ref_colours_;  // the reference's weighted shortcut
     std::vector<Eigen::Vector3d> white_;
 };
 
@@ -421,7 +457,10 @@ PrecisionChoice choose_precision(const PrecisionRequest& req) {
     // Each step that lowered the bits from the rule's start: (bin, or bins.size() for a whole
     // offset step) with the bits before it, undone in reverse if the final measure is over.
     std::vector<std::vector<int>> history;
-    if (within(coarse, full, search_de)) {
+    // With the method at 1 nm as the reference, the grid alone may be over the budget: then no
+    // bits are, and all 10 are kept without a search (the recorded worst says by how much).
+    const bool reachable = within(*fine, full, req.max_de);
+    if (reachable && within(coarse, full, search_de)) {
         // The rule's offsets from 0 down while within budget (fewer bits everywhere each step);
         // if even the rule (offset 0) is over, the offsets above it, up to all 10.
         int offset = 0;
@@ -461,11 +500,12 @@ PrecisionChoice choose_precision(const PrecisionRequest& req) {
         while (best != full && !within(judge, best, req.max_de)) step_back(), undone = true;
         return undone;
     };
-    undo_while_over(*fine);
+    if (reachable) undo_while_over(*fine);
     // Then every 8-bit colour: while some colour between the sample's codes is over the budget,
     // the colours above kHardShare of it join the sample and the steps are undone again on it.
     // Each pass either ends or undoes at least one step, so this ends, at all 10 bits at worst.
     const CubeJudge cube(req);
+    bool full_checked = false;
     std::vector<uint32_t> added;
     CubeJudge::Result res;
     for (;;) {
@@ -474,6 +514,19 @@ PrecisionChoice choose_precision(const PrecisionRequest& req) {
         res = cube.measure(best, floor, kHardShare * req.max_de, kMaxHardColours);
         ++c.evaluations;
         if (worst_of(res.worst) * kCubeMargin <= req.max_de || best == full) break;
+        if (!full_checked) {
+            // Over on the cube: if even all 10 bits are (the grid's own error), stop there rather
+            // than undo the search one whole-cube pass at a time.
+            full_checked = true;
+            CubeJudge::Result at_full =
+                cube.measure(full, floor, kHardShare * req.max_de, kMaxHardColours);
+            ++c.evaluations;
+            if (worst_of(at_full.worst) * kCubeMargin > req.max_de) {
+                best = full;
+                res = std::move(at_full);
+                break;
+            }
+        }
         size_t fresh = 0;
         for (uint32_t code : res.hard)
             if (!std::binary_search(added.begin(), added.end(), code)) {

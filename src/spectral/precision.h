@@ -1,8 +1,9 @@
 #pragma once
 // The precision budget: how many of half's 10 mantissa bits each bin keeps, chosen so that the
-// worst ΔE00 between the rounded and the unrounded spectra, under every light of the scene (and
-// D65), stays within a budget on every 8-bit sRGB code, the bins seen as a renderer sees them
-// (linear at 1 nm over 360-830 nm; docs/precision.md).
+// worst ΔE00 between the file's spectra and the method's own spectrum at 1 nm (the request's
+// reference; without one, the unrounded spectra on the file's grid), under every light of the
+// scene (and D65), stays within a budget on every 8-bit sRGB code, the bins seen as a renderer
+// sees them (linear at 1 nm over 360-830 nm; docs/precision.md).
 // Fewer bits in the bins a light barely sees make the file's ZIP smaller; the colour-aware
 // correction on the coarser grids (round_spectra_to_bits) keeps every 8-bit colour's code under
 // the rounding's colorimetry (D65) exact whatever the bits.
@@ -36,7 +37,12 @@ struct PrecisionRequest {
     // The colour-aware rounding's weights (bins x 3, the bake's observer and illuminant): the
     // rounding is judged exactly as the bake will round. Null: nearest rounding.
     const std::vector<float>* rgb_weight = nullptr;
-    double max_de = 0.5;  // the budget: worst ΔE00, rounded against unrounded, under each light
+    // The same method built on the renderer's 1 nm grid (spectral/grid_error.h): when set, the
+    // budget covers what a renderer sees of the file against the method's own spectrum, the grid's
+    // error and the rounding together. Null: the rounded spectra against the unrounded ones on the
+    // file's grid (the rounding alone), for a method that cannot be built at 1 nm (a given table).
+    const SpectralMethod* reference = nullptr;
+    double max_de = 0.5;  // the budget: worst ΔE00 under each light
     int stride = 8;  // codes 0, stride, 2·stride, … and 255 on each axis (8: 35,937 colours)
     int threads = 1;
 };
@@ -96,10 +102,14 @@ PrecisionChoice measure_precision(const PrecisionRequest& req, const std::vector
 std::string format_precision_bits(const std::vector<int>& bits);
 std::vector<int> parse_precision_bits(const std::string& text, size_t bins);
 
-// What the recorded worst covers (spectex:precisionSample).
+// What the recorded worst covers (spectex:precisionSample): with a reference, the file against
+// the method's own spectrum at 1 nm; without, the rounding alone.
 constexpr const char* kPrecisionCovers =
     "every 8-bit sRGB code (16777216 colours), opaque, reconstructed linearly at 1 nm over "
-    "360-830 nm";
+    "360-830 nm, against the method's own spectrum at 1 nm (the grid and the rounding together)";
+constexpr const char* kPrecisionCoversRounding =
+    "every 8-bit sRGB code (16777216 colours), opaque, reconstructed linearly at 1 nm over "
+    "360-830 nm, rounded against unrounded on the file's grid";
 
 // A ΔE00 figure rounded up to 3 significant digits ("0.49", "0.134"): a recorded worst stays an
 // upper bound of the figure it rounds.

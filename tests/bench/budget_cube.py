@@ -14,9 +14,13 @@ candidate's bake options (default: none, spectex bake's default, whose budget is
 FL2, FL11, D50, LED-B3); the reference is the same options with --type float. This is the
 independent check of the chooser: NumPy, OpenImageIO's Python reader and colour-science's ΔE00.
 The files are read 256 rows at a time, so memory stays near 1 GB. Beside each light's true worst
-it prints the header's spectex:precisionWorstDe (the chooser's figure over every 8-bit code, an
-upper bound) and their ratio, which must not exceed 1. About 5 to 15 minutes on 2 cores. A
-benchmark, not a test.
+it prints the header's spectex:precisionWorstDe and their ratio. The chooser now records the file
+against the method's own spectrum at 1 nm (the grid's error and the rounding together), a wider
+comparison than this one (the rounding alone, against the same grid in float): the ratio is then a
+share, not a proof of the bound. A float bake of the cube at 1 nm would be 31 GB, so the whole-cube
+check of the wider figure is the chooser's own (precision.cpp), tested against double-precision
+figures on a sample (tests/unit/precision_test.cpp). Exits 1 when a colour's rounding alone is over
+the budget. About 5 to 15 minutes on 2 cores. A benchmark, not a test.
 """
 import argparse
 import re
@@ -137,9 +141,8 @@ def main():
         ratio = f"{worst[L] / rec:.3f}" if rec else "-"
         print(f"| {L} | {worst[L]:.4f} | {over[L]:,} | {rec if rec is not None else '-'} | {ratio} |")
     print(f"\n{time.time() - t0:.0f} s.")
-    # Exit 1 when a colour is over the budget, or over the figure the header records as the worst.
-    under_record = all(worst[L] <= recorded[L] for L in LIGHTS if recorded.get(L) is not None)
-    return 0 if max(worst.values()) <= a.budget and under_record else 1
+    # Exit 1 when a colour's rounding alone is over the budget.
+    return 0 if max(worst.values()) <= a.budget else 1
 
 
 if __name__ == "__main__":
