@@ -273,10 +273,10 @@ void choose_precision_bits(const BakeRequest& r, const BakeTables& t, BakeSettin
     // the method at 1 nm. Said, with the way out; the header records the figure.
     if (!pc.worst_de.empty() &&
         *std::max_element(pc.worst_de.begin(), pc.worst_de.end()) > req.max_de)
-        listener.warning("--precision auto: the grid " + s.grid.describe() +
-                         " is itself over the budget of " + format_de_up(req.max_de) +
-                         " ΔE00 against the method at 1 nm (worst " + worst +
-                         "), so every bit is kept; a finer grid meets it (spectex plan)");
+        listener.warning(
+            "--precision auto: the grid " + s.grid.describe() + " is itself over the budget of " +
+            format_de_up(req.max_de) + " ΔE00 against the method at 1 nm (worst " + worst +
+            "), so every bit is kept; --wavelengths auto plans a grid for these lights and budget");
     listener.precision_chosen(
         s.precision, pc, rep,
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());

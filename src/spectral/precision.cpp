@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <memory>
 #include <numeric>
 
@@ -331,6 +332,8 @@ constexpr double kFloorShare = 0.999;
 // million codes (precision_test.cpp) and budget_cube.py on every code.
 constexpr double kCubeMargin = 1.0001;
 constexpr size_t kMaxHardColours = 50000;
+// A pass that wants the worst alone: no colour is hard.
+constexpr double kNoHardColours = std::numeric_limits<double>::infinity();
 
 double worst_of(const std::vector<double>& v) {
     return v.empty() ? 0.0 : *std::max_element(v.begin(), v.end());
@@ -511,15 +514,18 @@ PrecisionChoice choose_precision(const PrecisionRequest& req) {
     for (;;) {
         std::vector<double> floor;
         for (double w : fine->measure(best)) floor.push_back(w * kFloorShare);
-        res = cube.measure(best, floor, kHardShare * req.max_de, kMaxHardColours);
+        // All 10 bits is the last answer there is: only its worst is wanted, not the colours over
+        // the budget (every colour would be evaluated exactly when the grid alone is over it).
+        const bool last = best == full;
+        res = cube.measure(best, floor, last ? kNoHardColours : kHardShare * req.max_de,
+                           last ? 0 : kMaxHardColours);
         ++c.evaluations;
-        if (worst_of(res.worst) * kCubeMargin <= req.max_de || best == full) break;
+        if (worst_of(res.worst) * kCubeMargin <= req.max_de || last) break;
         if (!full_checked) {
             // Over on the cube: if even all 10 bits are (the grid's own error), stop there rather
             // than undo the search one whole-cube pass at a time.
             full_checked = true;
-            CubeJudge::Result at_full =
-                cube.measure(full, floor, kHardShare * req.max_de, kMaxHardColours);
+            CubeJudge::Result at_full = cube.measure(full, floor, kNoHardColours, 0);
             ++c.evaluations;
             if (worst_of(at_full.worst) * kCubeMargin > req.max_de) {
                 best = full;

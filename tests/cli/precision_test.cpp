@@ -122,12 +122,17 @@ TEST(PrecisionSlow, AutoBakeKeepsTheChosenBitsRecordsThemAndStaysExactUnderD65) 
     const RunResult v = run_spectex({"verify", autob, "--source", png});
     EXPECT_EQ(v.status, 0) << v.out << v.err;
     EXPECT_TRUE(has(v.out, "precision:")) << v.out;
-    EXPECT_TRUE(has(v.out, "within 0.5 ΔE00 of the unrounded spectra under D65,A,FL11")) << v.out;
+    // The budget is the file against the method at 1 nm (the grid and the rounding together).
+    EXPECT_TRUE(has(v.out, "within 0.5 ΔE00 of the method's own spectrum at 1 nm under D65,A,FL11"))
+        << v.out;
     EXPECT_TRUE(has(v.out, "100% (262144 of 262144)")) << v.out;
     const RunResult vj = run_spectex({"verify", autob, "--source", png, "--json", "-"});
     ASSERT_EQ(vj.status, 0) << vj.err;
     const auto j = nlohmann::json::parse(vj.out.substr(0, vj.out.find('\n')));
     EXPECT_EQ(j["precision"]["bits"].get<std::vector<int>>(), bits);
+    EXPECT_TRUE(
+        has(j["precision"]["covers"].get<std::string>(), "against the method's own spectrum"))
+        << vj.out;
     // Full precision writes no precision attribute.
     EXPECT_FALSE(read_exr(full).has_attr(key::kPrecision));
 }

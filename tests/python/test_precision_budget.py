@@ -1,14 +1,15 @@
 """The precision budget's recorded worst, checked by code that shares nothing with the chooser.
 
 A bake with --precision auto records, per light, the worst ΔE00 over every 8-bit sRGB code between
-its stored spectra and the same method's spectra in float (spectex:precisionWorstDe). Here a million
-random 8-bit codes are baked twice (the budgeted half file and --type float), read back with
-OpenImageIO's Python bindings, seen as a renderer sees them (the bins linear at 1 nm over 360-830
-nm, ends held; the observer and the light at 1 nm from config/spectral/, NumPy's interpolation)
-and compared with colour-science's CIEDE2000. No colour may exceed the recorded figure, and the
-figure must be within the budget. The whole cube (16,777,216 colours, about 5 minutes) is
-tests/bench/budget_cube.py; a chooser that checked only its 35,937-colour sample recorded figures
-1.4-1.9x below what these colours reach.
+its stored spectra, as a renderer sees them, and the same method's own spectrum at 1 nm
+(spectex:precisionWorstDe): the grid's error and the rounding together. Here 65,536 random 8-bit
+codes are baked twice (the budgeted half file, and --type float on 360:830:1, the method at 1 nm),
+read back with OpenImageIO's Python bindings, seen as a renderer sees them (the bins linear at 1 nm
+over 360-830 nm, ends held; the observer and the light at 1 nm from config/spectral/, NumPy's
+interpolation) and compared with colour-science's CIEDE2000. No colour may exceed the recorded
+figure, and the figure must be within the budget. (65,536 colours, not a million: the 1 nm float
+file holds 471 bins a colour.) A chooser that checked only its 35,937-colour sample recorded
+figures 1.4-1.9x below what random colours reach.
 """
 import os
 import re
@@ -29,7 +30,7 @@ SOURCE = os.environ["SPECTEX_SOURCE_DIR"]
 sys.path.insert(0, os.path.join(SOURCE, "tests", "bench"))
 import budget_cube as bc  # noqa: E402
 
-SIZE = 1024  # a million random codes
+SIZE = 256  # 65,536 random codes
 
 
 @pytest.fixture(scope="module")
@@ -60,16 +61,17 @@ def spectra(exr):
 
 
 def check(d, png, name, options, method=()):
-    """options: the budgeted bake's; method: what makes the same spectra in float (--type float
-    takes no budget)."""
-    stored, ref = os.path.join(d, name + ".exr"), os.path.join(d, name + "-float.exr")
-    for out, args in ((stored, [*method, *options]), (ref, [*method, "--type", "float"])):
+    """options: the budgeted bake's; method: what makes the same method at 1 nm in float (--type
+    float takes no budget)."""
+    stored, ref = os.path.join(d, name + ".exr"), os.path.join(d, name + "-1nm.exr")
+    fine = ["--type", "float", "--wavelengths", "360:830:1"]
+    for out, args in ((stored, [*method, *options]), (ref, [*method, *fine])):
         r = subprocess.run([SPECTEX, "bake", png, "-o", out, "-q", *args],
                            capture_output=True, text=True)
         assert r.returncode == 0, r.stderr
     wl, s, attrs = spectra(stored)
     wl_f, f, _ = spectra(ref)
-    assert np.array_equal(wl, wl_f)
+    assert np.array_equal(wl_f, np.arange(360.0, 831.0))
     assert "16777216" in attrs["spectex:precisionSample"], attrs
     recorded = {}
     for item in attrs["spectex:precisionWorstDe"].split(","):
@@ -80,13 +82,14 @@ def check(d, png, name, options, method=()):
     found = {}
     for light, rec in recorded.items():
         W, white = bc.renderer_weights(light, wl)
+        Wf, _ = bc.renderer_weights(light, wl_f)
         white_xy = colour.XYZ_to_xy(white)
-        de = colour.delta_E(colour.XYZ_to_Lab(s @ W.T, white_xy), colour.XYZ_to_Lab(f @ W.T, white_xy),
+        de = colour.delta_E(colour.XYZ_to_Lab(s @ W.T, white_xy), colour.XYZ_to_Lab(f @ Wf.T, white_xy),
                             method="CIE 2000")
         found[light] = float(de.max())
-        # Tolerance: none. The recorded figure is rounded up from the chooser's, and both sides
-        # are the same float32 spectra; the two colorimetries differ in summation order only
-        # (1e-12 relative).
+        # Tolerance: none. The recorded figure is rounded up from the chooser's; the two
+        # colorimetries differ in summation order and in the 1 nm spectra's float32 storage (a
+        # relative 1e-7, against the figure's margin of 1e-4 of itself).
         assert found[light] <= rec, (name, light, found[light], rec)
         assert rec <= budget, (name, light, rec, budget)
     print(name, {k: (round(v, 4), recorded[k]) for k, v in found.items()})
@@ -97,13 +100,14 @@ def test_the_default_bakes_recorded_worst_bounds_every_colour(codes_png):
     d, png = codes_png
     found, recorded = check(d, png, "default", [])
     assert set(recorded) == {"D65", "A", "FL2", "FL11", "D50", "LED-B3"}
-    # The figure is the cube's worst, not a loose bound: a million random colours come close to it
-    # (FL11's 0.49 reached 0.444 here when this was written).
-    assert found["FL11"] >= 0.7 * recorded["FL11"], (found, recorded)
+    # The figure is the cube's worst, not a loose bound: random colours come close to it under
+    # the light where it is largest.
+    worst = max(recorded, key=recorded.get)
+    assert found[worst] >= 0.7 * recorded[worst], (found, recorded)
 
 
 def test_a_chosen_budget_bounds_every_colour_too(codes_png):
     # A question with no shipped answer: the chooser runs (three whole-cube passes at most here).
     d, png = codes_png
-    check(d, png, "basis", ["--precision", "auto", "--lights", "D65,A,FL11", "--max-de", "0.3"],
-          method=["--method", "basis", "--wavelengths", "400:700:10"])
+    check(d, png, "basis", ["--wavelengths", "400:700:5", "--precision", "auto", "--lights",
+                            "D65,A,FL11", "--max-de", "0.3"], method=["--method", "basis"])

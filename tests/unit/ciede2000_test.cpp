@@ -104,7 +104,7 @@ TEST(Ciede2000, UpperBoundHoldsEverywhere) {
             << p.c1.L << " " << p.c1.a << " " << p.c1.b;
     std::mt19937_64 rng(7);
     std::uniform_real_distribution<double> L(0, 100), ab(-128, 128), unit(0, 1);
-    double ratio_sum = 0;
+    double ratio_sum = 0, tight_sum = 0;
     const int n = 1000000;
     for (int i = 0; i < n; ++i) {
         Lab a{L(rng), ab(rng) * unit(rng) * unit(rng), ab(rng) * unit(rng) * unit(rng)};
@@ -117,6 +117,10 @@ TEST(Ciede2000, UpperBoundHoldsEverywhere) {
         const double de76 = std::sqrt((a.L - b.L) * (a.L - b.L) + (a.a - b.a) * (a.a - b.a) +
                                       (a.b - b.b) * (a.b - b.b));
         if (de76 > 0) ratio_sum += bound / (std::sqrt(4.5) * de76);
+        if (exact > 0) tight_sum += bound / exact;
     }
-    EXPECT_LT(ratio_sum / n, 0.8);
+    // Useful as well as safe: far below the sqrt(4.5)·ΔE76 bound it replaced, and near the exact
+    // figure on average (measured: 0.369 and 1.067 of them).
+    EXPECT_LT(ratio_sum / n, 0.5);
+    EXPECT_LT(tight_sum / n, 1.15);
 }
