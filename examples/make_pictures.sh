@@ -12,7 +12,7 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT INT TERM
 cd "$tmp"  # relative names, so that no temporary path ends up in the pictures
 
-# The bake every picture is made from (defaults: 81 bins 380-780 nm, half, ZIP).
+# The bake every picture is made from (defaults: 31 bins 400-700 nm, half, ZIP).
 "$SPECTEX" bake "$root/examples/textures/colour_chart.png" -o colour_chart.exr --quiet
 
 # The chart under daylight, tungsten and a narrow-band fluorescent, each white-balanced to D65.

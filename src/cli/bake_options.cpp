@@ -215,7 +215,9 @@ void declare_colour_options(ArgParser& p, BakeCli& c) {
 void declare_spectra_options(ArgParser& p, BakeCli& c) {
     p.section("Wavelength grid");
     p.option("--wavelengths", "START:END:STEP|auto",
-             "Output wavelength grid in nm (default 380:780:5; at most 4701 bins, 0.1 nm over "
+             "Output wavelength grid in nm (default 400:700:10 for the default bake, the bins its "
+             "lights need;\n380:780:5 with --method, and the way to the default's grid before; "
+             "at most 4701 bins, 0.1 nm over "
              "360:830: more is a\nusage error; a grid finer than 1 nm over 360:830 says what it "
              "costs first). auto: the cheapest grid\nwithin --max-de under every one of --lights, "
              "chosen once per batch as 'spectex plan' does (recorded\nin the header; the answer "
@@ -442,6 +444,10 @@ void check_grid_options(BakeCli& c) {
             "auto (--lights and --max-de also the bits of --precision auto)");
     }
     check_precision_options(c);
+    // The default bake's grid unless one is given (the option's own default is the full grid the
+    // other methods take).
+    if (c.default_bake && !c.wavelengths_given && c.wavelengths_file.empty())
+        c.wavelengths = DefaultBake::grid;
     if (c.wavelengths_file.empty() && !automatic) {
         try {
             c.req.grid = WavelengthGrid::parse_exact(c.wavelengths);

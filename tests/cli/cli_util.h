@@ -17,6 +17,11 @@
 
 extern char** environ;
 
+// The default bake's grid without --wavelengths (DefaultBake::grid): 400:700:10, 31 bins. Other
+// methods, and --wavelengths 380:780:5, take 81 bins. The golden bakes hold the default to it.
+constexpr size_t kDefaultBins = 31;
+constexpr const char* kDefaultGrid = "400:700:10";
+
 // The spectex under test is built with AddressSanitizer (tests/sanitize/run.sh defines
 // SPECTEX_TEST_BINARY_SANITIZED for a harness compiled without it; a harness compiled with it runs
 // the binary of the same build). Such a binary reserves terabytes of address space for its shadow

@@ -350,7 +350,7 @@ TEST(InfoLevels, ShowsTilesAndMipLevelsAndJsonHoldsTheWholeHeader) {
     auto [st, out] = run_python(
         "import json,sys\n"
         "j=json.loads(open(sys.argv[1]).read())\n"
-        "assert j['bins']==81 and len(j['wavelengths'])==81 and j['wavelengths'][0]==380, "
+        "assert j['bins']==31 and len(j['wavelengths'])==31 and j['wavelengths'][0]==400, "
         "j['wavelengths'][:3]\n"
         "assert j['tiles']=={'width':16,'height':16}, j['tiles']\n"
         "assert j['levels']['mode']=='mipmap' and j['levels']['count']==6 and "
@@ -365,7 +365,7 @@ TEST(InfoLevels, ShowsTilesAndMipLevelsAndJsonHoldsTheWholeHeader) {
         "assert a['dataWindow']['value']=='0,0 - 39,23', a['dataWindow']\n"
         "assert a['tiles']['type']=='tiledesc' and a['tiles']['value'].startswith('16x16, "
         "mipmap'), a['tiles']\n"
-        "assert 'T.380nm half' in a['channels']['value'] or 'T.380,000000nm half' in "
+        "assert 'T.400nm half' in a['channels']['value'] or 'T.400,000000nm half' in "
         "a['channels']['value'], a['channels']['value'][:80]\n"
         "print('ok')\n",
         {d / "info.json"});

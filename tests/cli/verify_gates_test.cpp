@@ -228,7 +228,8 @@ TEST(VerifyGates, DefaultGatesFailWrongFilesAndNameTheGate) {
         });
     RunResult n = run_spectex({"verify", nan, "--source", png});
     EXPECT_EQ(n.status, 1);
-    EXPECT_TRUE(has(n.err, "non-finite samples: " + std::to_string(40 * 30 * 81) + " (100%)"))
+    EXPECT_TRUE(
+        has(n.err, "non-finite samples: " + std::to_string(40 * 30 * kDefaultBins) + " (100%)"))
         << n.err;
     RunResult r = run_spectex({"verify", nan, "--source", png, "--report-only"});
     EXPECT_EQ(r.status, 0) << r.err;
@@ -281,8 +282,9 @@ TEST(VerifyGates, ManyFilesListsAndJsonLines) {
 
     RunResult ok = run_spectex({"verify", a, b, "--source-from-header"});
     EXPECT_EQ(ok.status, 0) << ok.out << ok.err;
-    EXPECT_TRUE(has(ok.out, a + ": ok (81 bins, half, CIEDE2000 max ")) << ok.out;
-    EXPECT_TRUE(has(ok.out, b + ": ok (81 bins, float, ")) << ok.out;
+    const std::string bins = std::to_string(kDefaultBins) + " bins";
+    EXPECT_TRUE(has(ok.out, a + ": ok (" + bins + ", half, CIEDE2000 max ")) << ok.out;
+    EXPECT_TRUE(has(ok.out, b + ": ok (" + bins + ", float, ")) << ok.out;
     EXPECT_TRUE(has(ok.out, "2 files: 2 passed, 0 failed, 0 unreadable")) << ok.out;
 
     const std::string report = d / "report.jsonl";

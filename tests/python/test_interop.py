@@ -58,8 +58,8 @@ def test_colour_science_reads_the_layout_and_integrates_back(tmp):
     assert set(components) == {"T"}
     assert not spec.is_emissive
     wavelengths, cube = components["T"]
-    np.testing.assert_allclose(wavelengths, np.arange(380, 781, 5))
-    assert cube.shape == (256, 512, 81)
+    np.testing.assert_allclose(wavelengths, np.arange(400, 701, 10))  # the default's grid
+    assert cube.shape == (256, 512, 31)
 
     src = oiio.ImageBuf(CHART).get_pixels(oiio.FLOAT)[..., :3]
     # The IEC 61966-2-1 decoding, by colour-science.
@@ -76,7 +76,7 @@ def test_alpha_and_preview_through_oiio(tmp):
     spec = buf.spec()
     names = list(spec.channelnames)
     assert "A" in names and {"R", "G", "B"} <= set(names)
-    assert sum(n.startswith("T.") and n.endswith("nm") for n in names) == 81
+    assert sum(n.startswith("T.") and n.endswith("nm") for n in names) == 31  # 400:700:10
     assert spec.get_string_attribute("spectralLayoutVersion") == "1.0"
     # The default: the LHTSS lattice with its precision budget, as OIIO reads the header.
     assert spec.get_string_attribute("spectex:method") == "lattice"
@@ -92,8 +92,8 @@ def test_iinfo_reads_it(tmp):
     out = bake(CHART, os.path.join(tmp, "chart2.exr"))
     r = subprocess.run([IINFO, "-v", out], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
-    assert "81 channel" in r.stdout
-    assert "T.555nm" in r.stdout
+    assert "31 channel" in r.stdout  # the default's 400:700:10
+    assert "T.550nm" in r.stdout
     assert 'spectralLayoutVersion: "1.0"' in r.stdout
 
 
