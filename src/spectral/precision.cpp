@@ -166,7 +166,8 @@ class PrecisionJudge {
 
 // Every one of the 16,777,216 8-bit sRGB codes, expanded and rounded to a bit vector exactly as a
 // bake rounds them (expand_float, round_spectra_to_bits with the request's weights): the worst
-// ΔE00 per light against the unrounded spectra, and the colours above a threshold. Streams 256
+// ΔE00 per light against the reference (the method at 1 nm; without one, the unrounded spectra),
+// and the colours above a threshold. Streams 256
 // colours at a time (one blue axis), so it holds no more than a few blocks of spectra per thread.
 class CubeJudge {
   public:

@@ -59,6 +59,18 @@ int srgb_code(double linear) {
     return static_cast<int>(std::lround(std::clamp(v, 0.0, 1.0) * 255.0));
 }
 
+// A request for a fitted basis under the named lights (CIE 1931 2°, D65's colour-aware rounding,
+// 2 threads); the budget and the sample are the caller's.
+PrecisionRequest request_for(const Fitted& f, const std::vector<const char*>& lights) {
+    PrecisionRequest req;
+    req.method = f.method.get();
+    req.observer = load_observer(kDir, "cie1931-2");
+    for (const char* l : lights) req.lights.push_back(load_illuminant(kDir, l));
+    req.rgb_weight = &f.weight;
+    req.threads = 2;
+    return req;
+}
+
 // Bits that fall steeply away from the middle of the visible range: 10 at 550 nm, down to 2.
 std::vector<int> steep_bits(const std::vector<double>& lambda) {
     std::vector<int> bits;
@@ -228,14 +240,9 @@ double de_of(const RendererView& view, const float* a, const float* b, size_t n,
 // Several whole-cube passes per choice: Slow.
 TEST(PrecisionSlow, ChooserHoldsTheBudgetOnEveryCodeUnderEachLight) {
     Fitted f = fitted("380:780:5");
-    PrecisionRequest req;
-    req.method = f.method.get();
-    req.observer = load_observer(kDir, "cie1931-2");
-    for (const char* l : {"D65", "A", "FL11"}) req.lights.push_back(load_illuminant(kDir, l));
-    req.rgb_weight = &f.weight;
+    PrecisionRequest req = request_for(f, {"D65", "A", "FL11"});
     req.max_de = 0.5;
     req.stride = kPrecisionSampleStride;  // bake's sample
-    req.threads = 2;
     const PrecisionChoice c = choose_precision(req);
     ASSERT_EQ(c.bits.size(), static_cast<size_t>(f.method->bins()));
     ASSERT_EQ(c.worst_de.size(), 3u);
@@ -599,13 +606,8 @@ TEST(Precision, AWeightedMethodGivesTheColoursOfItsSpectra) {
 // hundredths. Measured on bake's sample; the bounds are an order of magnitude from the figures.
 TEST(Precision, TheReferenceBringsTheGridsErrorIntoTheBudget) {
     Fitted coarse = fitted("400:700:20"), fine = fitted("360:830:1");
-    PrecisionRequest req;
-    req.method = coarse.method.get();
-    req.observer = load_observer(kDir, "cie1931-2");
-    for (const char* l : {"D65", "A", "FL11"}) req.lights.push_back(load_illuminant(kDir, l));
-    req.rgb_weight = &coarse.weight;
+    PrecisionRequest req = request_for(coarse, {"D65", "A", "FL11"});
     req.stride = 32;
-    req.threads = 2;
     const std::vector<int> full(static_cast<size_t>(coarse.method->bins()), 10);
     const PrecisionChoice alone = measure_precision(req, full);
     req.reference = fine.method.get();
@@ -621,14 +623,9 @@ TEST(Precision, TheReferenceBringsTheGridsErrorIntoTheBudget) {
 // cube's, over the budget.
 TEST(PrecisionSlow, AGridOverTheBudgetKeepsEveryBitAtOnce) {
     Fitted coarse = fitted("400:700:20"), fine = fitted("360:830:1");
-    PrecisionRequest req;
-    req.method = coarse.method.get();
+    PrecisionRequest req = request_for(coarse, {"D65", "FL11"});
     req.reference = fine.method.get();
-    req.observer = load_observer(kDir, "cie1931-2");
-    for (const char* l : {"D65", "FL11"}) req.lights.push_back(load_illuminant(kDir, l));
-    req.rgb_weight = &coarse.weight;
     req.max_de = 0.25;
-    req.threads = 2;
     const PrecisionChoice c = choose_precision(req);
     EXPECT_EQ(c.bits, std::vector<int>(static_cast<size_t>(coarse.method->bins()), 10));
     EXPECT_GT(*std::max_element(c.worst_de.begin(), c.worst_de.end()), 0.25);
