@@ -80,6 +80,27 @@ void check_variable_attribute(const std::string& name, const std::string& type,
                     " bytes in " + std::to_string(size - at) + " remaining");
             at += static_cast<size_t>(len);
         }
+    } else if (type == "chlist") {
+        // OpenEXR reads a channel list by its content, not by the size field: each channel a name
+        // (a NUL-terminated string) and 16 bytes, then an empty name. A list that ends before or
+        // after its size would leave OpenEXR reading the rest of the header from elsewhere than
+        // this walk, where a size field can claim gigabytes (found by fuzzing).
+        size_t at = 0;
+        for (;;) {
+            size_t end = at;
+            while (end < size && v[end] != 0 && end - at < 256) ++end;
+            if (end >= size || v[end] != 0)
+                bad("attribute '" + name + "' has a channel name that does not end in it");
+            if (end == at) {
+                if (end + 1 != size)
+                    bad("attribute '" + name + "' ends its channel list " +
+                        std::to_string(size - end - 1) + " bytes before its size");
+                break;
+            }
+            at = end + 1;
+            if (size - at < 16) bad("attribute '" + name + "' ends inside a channel");
+            at += 16;
+        }
     } else if (type == "preview") {
         if (size < 8) bad("attribute '" + name + "' is too short for a preview");
         const uint64_t w = static_cast<uint32_t>(le32(v)), h = static_cast<uint32_t>(le32(v + 4));

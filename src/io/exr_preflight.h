@@ -2,7 +2,8 @@
 // A bounded look at an OpenEXR header before OpenEXR opens the file: OpenEXR 3.1 sizes its chunk
 // offset tables from the header, so a hostile header (an absurd data window, 1x1 tiles on a huge
 // image, a size field larger than the file, a string-vector element or a preview larger than its
-// attribute) makes it allocate gigabytes. Found by fuzzing.
+// attribute, a channel list longer or shorter than its size, after which OpenEXR reads the rest of
+// the header out of step) makes it allocate gigabytes. Found by fuzzing.
 #include <map>
 #include <string>
 

@@ -532,21 +532,27 @@ TEST(CliErrors, HostileExrHeadersAreRefusedBeforeOpenExrAllocates) {
 
     // A small, well-formed image whose string vector has an element of 2^31 - 1 bytes, or whose
     // preview claims 65535 x 65535 pixels, in a few bytes: OpenEXR sizes the value from those
-    // fields before reading it (2 GB and 17 GB). Refused by name, before OpenEXR opens the file.
-    for (const std::string which : {"stringvector", "preview"}) {
+    // fields before reading it (2 GB and 17 GB). Or whose channel list ends before its size:
+    // OpenEXR reads a list by its content, so it would read the next attribute from inside this
+    // one, out of step with the check. Refused by name, before OpenEXR opens the file.
+    for (const std::string which : {"stringvector", "preview", "chlist"}) {
         h.clear();
         put32(20000630);
         put32(2);
         box.clear();
         for (int32_t v : {0, 0, 3, 3}) box.append(reinterpret_cast<const char*>(&v), 4);
-        attr("channels", "chlist", std::string("T.500nm\0", 8) + std::string(16, '\0') + '\0');
+        attr("channels", "chlist",
+             std::string("T.500nm\0", 8) + std::string(16, '\0') + '\0' +
+                 (which == "chlist" ? std::string("\x07\x00\x00\x70", 4) : std::string()));
         attr("compression", "compression", std::string(1, '\0'));
         attr("dataWindow", "box2i", box);
         attr("displayWindow", "box2i", box);
         attr("lineOrder", "lineOrder", std::string(1, '\0'));
         std::string value;
         auto put = [&](int32_t v) { value.append(reinterpret_cast<const char*>(&v), 4); };
-        if (which == "stringvector") {
+        if (which == "chlist") {
+            // (the channel list above carries the extra bytes)
+        } else if (which == "stringvector") {
             put(2);
             value += "ok";
             put(0x7fffffff);
@@ -563,8 +569,11 @@ TEST(CliErrors, HostileExrHeadersAreRefusedBeforeOpenExrAllocates) {
         for (const char* cmd : {"info", "verify"}) {
             r = run_spectex({cmd, f});
             EXPECT_EQ(r.status, 1) << cmd << " " << which << ": " << r.err;
-            EXPECT_TRUE(contains(r.err, f + ": corrupt OpenEXR header: attribute '" +
-                                            (which == "stringvector" ? "names" : "preview") + "'"))
+            const std::string attribute = which == "stringvector" ? "names"
+                                          : which == "preview"    ? "preview"
+                                                                  : "channels";
+            EXPECT_TRUE(
+                contains(r.err, f + ": corrupt OpenEXR header: attribute '" + attribute + "'"))
                 << cmd << " " << which << ": " << r.err;
         }
     }
