@@ -57,9 +57,8 @@ void print_text(const VerifyReport& r, const VerifyGates& g,
     if (!r.precision.empty())
         o << "  precision:            " << r.precision << ": within " << r.precision_max_de
           << " ΔE00 of "
-          << (r.precision_covers.find("method's own spectrum") != std::string::npos
-                  ? "the method's own spectrum at 1 nm"
-                  : "the unrounded spectra")
+          << (r.precision_covers == kPrecisionCovers ? "the method's own spectrum at 1 nm"
+                                                     : "the unrounded spectra")
           << " under " << r.precision_lights << " (recorded; worst " << r.precision_worst_de
           << "), codes exact under " << r.illuminant << "; mantissa bits per bin "
           << (r.precision_bits.empty() ? std::string("unreadable")

@@ -198,6 +198,16 @@ std::pair<WavelengthGrid, std::string> plan_grid(const BakeRequest& r,
     return {row.grid, num};
 }
 
+// The request's method on `grid`, with the tables read once.
+MethodSpec method_spec_on(const BakeRequest& r, const BakeTables& t, const WavelengthGrid& grid) {
+    MethodSpec spec = r.method;
+    spec.fit.data_dir = r.data_dir;
+    spec.fit.grid = grid;
+    spec.fit.observer_table = std::make_shared<const Observer>(t.observer);
+    spec.fit.illuminant_table = std::make_shared<const Spectrum>(t.illuminant);
+    return spec;
+}
+
 // The spectral method every file is baked with: built through the method table on the output
 // grid with the tables read once, or the given basis, checked against the colorimetry it is used
 // with.
@@ -205,11 +215,7 @@ std::shared_ptr<const SpectralMethod> build_method(const BakeRequest& r, const B
                                                    const BakeSettings& s,
                                                    BakeSetupListener& listener) {
     if (!t.basis) {
-        MethodSpec spec = r.method;
-        spec.fit.data_dir = r.data_dir;
-        spec.fit.grid = s.grid;
-        spec.fit.observer_table = std::make_shared<const Observer>(t.observer);
-        spec.fit.illuminant_table = std::make_shared<const Spectrum>(t.illuminant);
+        const MethodSpec spec = method_spec_on(r, t, s.grid);
         const MethodResult made = make_method(spec, r.no_cache ? "" : cache_folder());
         listener.method_built(spec, made);
         return made.method;
@@ -243,11 +249,7 @@ void choose_precision_bits(const BakeRequest& r, const BakeTables& t, BakeSettin
     // rounding together) whenever the method can be built there; a given basis table cannot.
     std::shared_ptr<const SpectralMethod> reference;
     if (!t.basis) {
-        MethodSpec spec = r.method;
-        spec.fit.data_dir = r.data_dir;
-        spec.fit.grid = observed_renderer_grid(t.observer);
-        spec.fit.observer_table = std::make_shared<const Observer>(t.observer);
-        spec.fit.illuminant_table = std::make_shared<const Spectrum>(t.illuminant);
+        const MethodSpec spec = method_spec_on(r, t, observed_renderer_grid(t.observer));
         try {
             reference = make_method(spec, r.no_cache ? "" : cache_folder()).method;
         } catch (const Error& e) {
