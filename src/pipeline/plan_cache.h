@@ -58,7 +58,8 @@ constexpr size_t kPrecisionCacheEntryLimit = size_t(1) << 20;
 // answer shipped with the data (config/spectral/precision/) is never taken for another chooser's.
 // 2: every 8-bit colour checked, colours reconstructed as a renderer does.
 // 3: against the method's own spectrum at 1 nm (the grid's error and the rounding together).
-constexpr int kPrecisionChooserVersion = 3;
+// 4: the coarser grids hold a colour to 2^-10 of its value where that is more than 6.1e-5.
+constexpr int kPrecisionChooserVersion = 4;
 
 // What choose_precision(req) depends on besides the build, hashed: the cache format, the
 // chooser's version, the method (name, checksum of its tables, provenance, wavelengths and

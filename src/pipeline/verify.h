@@ -159,7 +159,10 @@ struct VerifyReport {
     uint64_t source_clamped = 0, source_replaced = 0;  // as bake's default policies would report
     double rgb_error_max = 0, rgb_error_mean = 0;      // absolute, linear RGB, over pixels x 3
     int rgb_error_x = 0, rgb_error_y = 0;              // where the max is (data window coordinates)
-    double de_max = 0, de_mean = 0, de_p99 = 0;        // CIEDE2000
+    // The largest linear RGB error beyond 2^-10 of the source's value (kCoarseRelativeTolerance):
+    // what the precision budget's coarser grids hold besides their share of each channel.
+    double rgb_error_beyond_relative_max = 0;
+    double de_max = 0, de_mean = 0, de_p99 = 0;  // CIEDE2000
     int de_x = 0, de_y = 0;
     // With source_clamped, as bake reports it: the farthest outside [0, 1] a clamped value was.
     float source_clamped_excursion = 0;

@@ -1,5 +1,6 @@
 // verify's gates: which a file meets (from what it records and the thresholds given), the text of
 // each, and the figures' wording. The measuring is verify.cpp's.
+#include <algorithm>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -85,10 +86,20 @@ std::vector<Gate> gates_of(const VerifyReport& r, const VerifyGates& g) {
         // Half's step (up to 6e-5 in linear RGB once integrated) is coarser than 16-bit codes (down
         // to 1.2e-6 near black): the colour error is gated instead of the codes.
         const double lim = plain_half ? 5e-4 : 1e-4;
-        out.push_back({"linear RGB error max (half cannot keep 16-bit codes)", "<= " + fmt(lim),
-                       r.rgb_error_max <= lim,
-                       fmt(r.rgb_error_max) + " at (" + std::to_string(r.rgb_error_x) + ", " +
-                           std::to_string(r.rgb_error_y) + ")"});
+        const bool coarse = std::any_of(r.precision_bits.begin(), r.precision_bits.end(),
+                                        [](int b) { return b < 10; });
+        if (coarse) {
+            // The precision budget's coarser grids hold each channel to 2^-10 of its value where
+            // that is more than 6.1e-5 (spectral/half_bits.h): the error beyond that share.
+            out.push_back({"linear RGB error beyond 2^-10 of the value, max (coarser grids)",
+                           "<= " + fmt(lim), r.rgb_error_beyond_relative_max <= lim,
+                           fmt(r.rgb_error_beyond_relative_max)});
+        } else {
+            out.push_back({"linear RGB error max (half cannot keep 16-bit codes)", "<= " + fmt(lim),
+                           r.rgb_error_max <= lim,
+                           fmt(r.rgb_error_max) + " at (" + std::to_string(r.rgb_error_x) + ", " +
+                               std::to_string(r.rgb_error_y) + ")"});
+        }
     }
     return out;
 }

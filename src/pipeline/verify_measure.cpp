@@ -19,6 +19,7 @@
 #include "pipeline/pixel_policy.h"
 #include "spectral/ciede2000.h"
 #include "spectral/colorimetry.h"
+#include "spectral/half_bits.h"
 
 namespace spectex {
 
@@ -99,6 +100,7 @@ struct Stats {
              code_matched = 0;
     double rgb_err_max = -1, rgb_err_sum = 0;
     int rgb_err_x = 0, rgb_err_y = 0;
+    double rgb_excess_max = 0;  // the error beyond kCoarseRelativeTolerance of the source's value
     double de_max = -1, de_sum = 0;
     int de_x = 0, de_y = 0;
     ErrorHistogram hist;
@@ -245,6 +247,7 @@ void compare_with_source(const Band& b, const MeasureContext& c, size_t idx, con
         ++st.nonfinite_pixels;
         const double inf = std::numeric_limits<double>::infinity();
         if (st.rgb_err_max < inf) st.rgb_err_max = inf, st.rgb_err_x = px, st.rgb_err_y = py;
+        st.rgb_excess_max = inf;
         if (st.de_max < inf) st.de_max = inf, st.de_x = px, st.de_y = py;
         st.rgb_err_sum = inf;
         st.de_sum = inf;
@@ -256,6 +259,9 @@ void compare_with_source(const Band& b, const MeasureContext& c, size_t idx, con
         const double e = std::fabs(rgb[ch] - static_cast<double>(src[ch]));
         st.rgb_err_sum += e;
         emax = std::max(emax, e);
+        st.rgb_excess_max =
+            std::max(st.rgb_excess_max,
+                     e - kCoarseRelativeTolerance * std::fabs(static_cast<double>(src[ch])));
     }
     if (emax > st.rgb_err_max) st.rgb_err_max = emax, st.rgb_err_x = px, st.rgb_err_y = py;
     const Eigen::Vector3d v1(rgb[0], rgb[1], rgb[2]);
@@ -447,6 +453,7 @@ Stats merge_stats(const std::vector<Stats>& stats) {
             T.hist.merge(L.hist);
         }
         total.rgb_err_sum += st.rgb_err_sum;
+        total.rgb_excess_max = std::max(total.rgb_excess_max, st.rgb_excess_max);
         total.de_sum += st.de_sum;
         // Each thread keeps its first maximum; across threads, ties go to the first pixel in
         // reading order, so the reported location does not depend on the thread count.
@@ -486,6 +493,7 @@ void report_totals(const Stats& total, VerifyReport& r) {
         r.rgb_error_x = total.rgb_err_x;
         r.rgb_error_y = total.rgb_err_y;
         r.rgb_error_mean = total.compared ? total.rgb_err_sum / (3.0 * n) : 0.0;
+        r.rgb_error_beyond_relative_max = total.rgb_excess_max;
         r.de_max = std::max(0.0, total.de_max);
         r.de_x = total.de_x;
         r.de_y = total.de_y;

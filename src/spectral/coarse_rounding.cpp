@@ -312,13 +312,24 @@ bool best_pair(const GridScratch& g, const float* e, bool avx, size_t* ba, size_
     return found;
 }
 
+// The coarse grids' tolerance of a pixel whose exact colour is c, per channel: kColourTolerance
+// or kCoarseRelativeTolerance of the channel's value, whichever is larger.
+void coarse_tolerance(const float* c, float* tau) {
+    for (size_t j = 0; j < 3; ++j)
+        tau[j] = std::max(kColourTolerance, kCoarseRelativeTolerance * std::fabs(c[j]));
+}
+
+bool within_coarse(const float* e, const float* tau) {
+    return std::fabs(e[0]) <= tau[0] && std::fabs(e[1]) <= tau[1] && std::fabs(e[2]) <= tau[2];
+}
+
 // The greedy moves of one pixel (bin k at s[k * spectra_stride], out at px[k * plane_stride])
 // already rounded to nearest on the grids of steps[k] with colour error e: the single moves of
 // round_spectra_to_half (in its order and with its float sums), then, past kMaxFlips, pair moves;
-// true when the colour ends within kColourTolerance.
+// true when the colour ends within tau (coarse_tolerance).
 bool settle_on_grid(const float* s, size_t spectra_stride, const std::vector<uint16_t>& steps,
-                    int max_flips, const float* delta0, float* e, uint16_t* px, size_t plane_stride,
-                    GridScratch& g, bool avx) {
+                    int max_flips, const float* delta0, float* e, const float* tau, uint16_t* px,
+                    size_t plane_stride, GridScratch& g, bool avx) {
     const size_t bins = g.bins;
     const std::vector<float>* w = g.w;
     float* delta = g.delta.data();
@@ -338,7 +349,7 @@ bool settle_on_grid(const float* s, size_t spectra_stride, const std::vector<uin
         const size_t best = best_flip_grid(g, e, avx);
         if (best == bins) break;
         move(best);
-        if (within_tolerance(e)) return true;
+        if (within_coarse(e, tau)) return true;
     }
     if (max_flips <= kMaxFlips) return false;
     // Coarse steps: single moves overshoot, but two bins moved in opposite directions can change
@@ -351,7 +362,7 @@ bool settle_on_grid(const float* s, size_t spectra_stride, const std::vector<uin
         if (!best_pair(g, e, avx, &ba, &bb)) return false;
         move(ba);
         move(bb);
-        if (within_tolerance(e)) return true;
+        if (within_coarse(e, tau)) return true;
     }
     return false;
 }
@@ -374,7 +385,7 @@ size_t round_spectra_to_bits(const float* spectra, size_t spectra_stride, size_t
     }
     const bool f16c = have_f16c();
     auto round_bin = f16c ? round_bin_on_grid_f16c : round_bin_on_grid_scalar;
-    float er[kBlock], eg[kBlock], eb[kBlock];
+    float er[kBlock], eg[kBlock], eb[kBlock], cr[kBlock], cg[kBlock], cb[kBlock];
     // A coarse grid moves the colour by more per flip, so it is given more flips than full half.
     constexpr int kMaxCoarseFlips = 32;
     // Without colour weights, every bin to nearest on its grid and nothing else: the same loop
@@ -404,13 +415,29 @@ size_t round_spectra_to_bits(const float* spectra, size_t spectra_stride, size_t
             for (size_t k = 0; k < bins; ++k)
                 grid_deltas(spectra + k * spectra_stride + i0, local.data() + k * len, len,
                             steps[k], deltas.data() + k * len);
+            // Each pixel's exact colour (its tolerance), summed over the bins in increasing order.
+            std::fill(cr, cr + len, 0.0f);
+            std::fill(cg, cg + len, 0.0f);
+            std::fill(cb, cb + len, 0.0f);
+            for (size_t k = 0; k < bins; ++k) {
+                const float* s = spectra + k * spectra_stride + i0;
+                const float wr = g.w[0][k], wg = g.w[1][k], wb = g.w[2][k];
+                for (size_t i = 0; i < len; ++i) {
+                    cr[i] += wr * s[i];
+                    cg[i] += wg * s[i];
+                    cb[i] += wb * s[i];
+                }
+            }
             for (size_t i = 0; i < len; ++i) {
                 float e[3] = {er[i], eg[i], eb[i]};
-                if (within_tolerance(e)) continue;
+                const float c[3] = {cr[i], cg[i], cb[i]};
+                float tau[3];
+                coarse_tolerance(c, tau);
+                if (within_coarse(e, tau)) continue;
                 const float* s = spectra + i0 + i;
                 uint16_t* px = local.data() + i;
                 if (settle_on_grid(s, spectra_stride, steps, kMaxCoarseFlips, deltas.data() + i, e,
-                                   px, len, g, f16c))
+                                   tau, px, len, g, f16c))
                     continue;
                 // Full half, exactly as round_spectra_to_half rounds this pixel.
                 ++widened;

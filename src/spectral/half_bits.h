@@ -7,14 +7,23 @@
 
 namespace spectex {
 
+// The precision budget's coarser grids (round_spectra_to_bits) hold a pixel's colour to 6.1e-5
+// (as full half does) or to this share of each channel's own value, whichever is larger: 2^-10, at
+// most half the distance from an 8-bit code to the next code's (sRGB 0.45 % of the value at code
+// 255, linear 0.2 %, more below), so every 8-bit code of sRGB or of a linear encoding still
+// re-encodes, while a grid of a few bits holds most colours with a move or two instead of many
+// (each move is entropy the compressor pays for) or none (then the pixel is stored at full
+// precision).
+constexpr float kCoarseRelativeTolerance = 1.0f / 1024.0f;
+
 // Reduced precision: bin k keeps bits[k] (0..10) of the half's 10 mantissa bits, i.e. its half
 // code is a multiple of 2^(10 - bits[k]) (the coarser grid of values; 1.0 and 0 are on every grid,
 // so values in [0, 1] stay there). Every bin is rounded to nearest on its grid (ties to the even
-// grid point); with rgb_weight, a pixel whose integrated colour then misses by more than 6.1e-5 has
-// its fewest bins moved to their other neighbour on the same grid (up to 32 moves). A pixel that
-// its grids cannot bring within 6.1e-5 is rounded at full precision instead, exactly as
-// round_spectra_to_half rounds it: every pixel's colour under the rounding's colorimetry is then
-// held as at full precision. All bits 10 is round_spectra_to_half, bit for bit. Returns the
+// grid point); with rgb_weight, a pixel whose integrated colour then misses by more than 6.1e-5 or
+// kCoarseRelativeTolerance of its own value in some channel (the larger) has its fewest bins moved
+// to their other neighbour on the same grid (up to 32 moves). A pixel that its grids cannot bring
+// within that is rounded at full precision instead, exactly as round_spectra_to_half rounds it
+// (within 6.1e-5). All bits 10 is round_spectra_to_half, bit for bit. Returns the
 // number of pixels rounded at full precision.
 size_t round_spectra_to_bits(const float* spectra, size_t spectra_stride, size_t n, size_t bins,
                              const std::vector<float>* rgb_weight, const std::vector<int>& bits,

@@ -456,3 +456,36 @@ TEST(Precision, AutoBakeIsTheSameWhateverTheThreads) {
     for (const auto& ch : spectral_channels(x))
         EXPECT_TRUE(x.pixels.at(ch.second) == y.pixels.at(ch.second)) << ch.second;
 }
+
+TEST(Precision, ASixteenBitSourceKeepsEachChannelWithinItsShare) {
+    // The coarser grids hold a colour to 2^-10 of each channel's value (or 6.1e-5): finer than an
+    // 8-bit code's step, coarser than a 16-bit one's. verify's gate for a 16-bit source in half
+    // is then the error beyond that share (at most 1e-4, as full half's absolute error is); a
+    // file at full precision keeps the absolute gate. Both must pass on a correct bake.
+    ScratchDir d;
+    const int w = 96, h = 64;
+    std::vector<uint16_t> px(static_cast<size_t>(w * h * 3));
+    uint32_t x = 12345;
+    for (size_t i = 0; i < px.size(); ++i) {
+        x = x * 1664525u + 1013904223u;
+        // Half the pixels smooth ramps, half random 16-bit codes.
+        px[i] =
+            (i / 3) % 2 ? static_cast<uint16_t>(x >> 16) : static_cast<uint16_t>((i * 977) % 65536);
+    }
+    const std::string in = d / "in16.png";
+    write_image(in, w, h, 3, OIIO::TypeDesc::UINT16, px.data());
+    for (const char* precision : {"auto", "full"}) {
+        SCOPED_TRACE(precision);
+        const std::string out = d / (std::string(precision) + ".exr");
+        const RunResult b = run_spectex({"bake", in, "-o", out, "-q", "--precision", precision});
+        ASSERT_EQ(b.status, 0) << b.err;
+        const RunResult v = run_spectex({"verify", out, "--source", in});
+        EXPECT_EQ(v.status, 0) << v.out << v.err;
+        const bool coarse = std::string(precision) == "auto";
+        EXPECT_EQ(has(v.out, "linear RGB error beyond 2^-10 of the value, max (coarser grids)"),
+                  coarse)
+            << v.out;
+        EXPECT_EQ(has(v.out, "linear RGB error max (half cannot keep 16-bit codes)"), !coarse)
+            << v.out;
+    }
+}
