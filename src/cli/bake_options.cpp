@@ -102,10 +102,11 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
            [&] { c.allow_lossy = true; });
     p.option(
         "--zip-level", "L",
-        "Deflate level of zip and zips, 1 (fastest) to 12 (smallest); default 4, or 1 with "
-        "--precision auto taken by default. Level 1 took 0.6x the CPU time of 4 for files about "
-        "5 % larger (10 % with --precision auto, whose zeroed low bits slow level 4 down); 6 took "
-        "1.7x for 0.5 % smaller (docs/performance.md).",
+        "Deflate level of zip and zips, 1 (fastest) to 12 (smallest); default 4, or for the "
+        "default bake by size: 6 for a file of at most 512x512 pixels (start-up, not deflate, "
+        "is most of its time), else 1 (deflate is most of a large file's). Level 1 took 0.6x the "
+        "CPU time of 4 for files about 5 % larger (10 % with --precision auto, whose zeroed low "
+        "bits slow level 4 down); 6 took 1.7x for 0.5 % smaller (docs/performance.md).",
         [&](const std::string& v) {
             long long l = 0;
             if (!parse_whole(v, 1, 12, &l))
@@ -164,8 +165,9 @@ void declare_output_options(ArgParser& p, BakeCli& c) {
              });
     p.option("--precision", "full|auto",
              "Half's mantissa bits per bin. full: all 10 in every bin. auto (the default without "
-             "--method, where the output is half, colour-rounded and compressed losslessly, with "
-             "--zip-level 1 unless given; else full): under D65,A,FL2,FL11,D50,LED-B3 within 0.5 "
+             "--method, where the output is half, colour-rounded and compressed losslessly, "
+             "deflated by size unless --zip-level is given; else full): under "
+             "D65,A,FL2,FL11,D50,LED-B3 within 0.5 "
              "unless --lights or --max-de are given, whatever the method; per bin, "
              "the fewest that keep the worst ΔE00 between the file's spectra as a renderer sees "
              "them and the method's own spectrum at 1 nm (the grid's error and the rounding "

@@ -23,6 +23,7 @@
 #include "io/ocio_config.h"
 #include "io/provenance_keys.h"
 #include "io/source_identity.h"
+#include "pipeline/bake_request.h"
 #include "pipeline/pixel_policy.h"
 #include "spectex/version.h"
 #include "spectral/expand.h"
@@ -132,7 +133,7 @@ void record_colour(const SourceInfo& info, const Linearizer& lin, BakeResult& re
 std::vector<std::pair<std::string, std::string>> header_attributes(
     const BakeSettings& s, const std::string& input, const std::string& output,
     const Linearizer& lin, const std::string& colour_tags, bool has_alpha,
-    const SpectralMethod& method, const SourceIdentity& identity) {
+    const SpectralMethod& method, const SourceIdentity& identity, int zip_level) {
     namespace fs = std::filesystem;
     std::error_code ec;
     const fs::path source = fs::absolute(input, ec).lexically_normal();
@@ -166,7 +167,7 @@ std::vector<std::pair<std::string, std::string>> header_attributes(
                  {provenance_key::kAlpha, to_string(has_alpha ? s.alpha : AlphaKind::None)},
                  {provenance_key::kOutOfRange, to_string(s.range)},
                  {provenance_key::kNan, to_string(s.nan)},
-                 {provenance_key::kZipLevel, std::to_string(s.zip_level)},
+                 {provenance_key::kZipLevel, std::to_string(zip_level)},
                  {provenance_key::kHalfRounding,
                   s.type == SampleType::Half ? (s.colour_rounding ? "colour" : "nearest") : "n/a"},
                  {provenance_key::kSettingsHash, s.settings_hash},
@@ -198,6 +199,15 @@ std::vector<std::pair<std::string, std::string>> header_attributes(
     return a;
 }
 
+// The deflate level of a file: the one asked, or by its size (DefaultBake).
+int zip_level_for(const BakeSettings& s, const SourceInfo& info) {
+    if (s.zip_level > 0) return s.zip_level;
+    const uint64_t pixels = static_cast<uint64_t>(std::max(info.width, 0)) *
+                            static_cast<uint64_t>(std::max(info.height, 0));
+    return pixels <= DefaultBake::small_pixels ? DefaultBake::small_zip_level
+                                               : DefaultBake::large_zip_level;
+}
+
 // The output file's layout: the source's windows, the grid, types, tiles and header.
 SpectralExrLayout output_layout(const BakeSettings& s, const SourceInfo& info,
                                 std::vector<std::pair<std::string, std::string>> attributes) {
@@ -214,7 +224,7 @@ SpectralExrLayout output_layout(const BakeSettings& s, const SourceInfo& info,
             : SampleType::Float;
     layout.preview = s.preview;
     layout.compression = s.compression;
-    layout.zip_level = s.zip_level;
+    layout.zip_level = zip_level_for(s, info);
     layout.attributes = std::move(attributes);
     layout.threads = s.threads;
     layout.tile_width = s.mipmap && s.tile_width <= 0 ? 64 : s.tile_width;
@@ -534,7 +544,8 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     const SpectralExrLayout layout =
         output_layout(s, info,
                       header_attributes(s, input, output, lin, colour_tags_record(info.colour),
-                                        info.alpha != AlphaKind::None, method, src->identity()));
+                                        info.alpha != AlphaKind::None, method, src->identity(),
+                                        zip_level_for(s, info)));
     AtomicFile out(output);
     SpectralExrWriter writer(out, layout);
     PixelStages(input, s, method, *src, lin, writer, layout, res, progress).run();

@@ -22,7 +22,9 @@ struct BakeOptions {
     std::string config;      // --config ("" = $OCIO, then the shipped config)
     SampleType type = SampleType::Half;
     ExrCompression compression = ExrCompression::parse(ExrCompression::kDefault);
-    int zip_level = 4;  // deflate level of zip/zips (1 fastest .. 12 smallest)
+    // Deflate level of zip/zips (1 fastest .. 12 smallest); 0: by the file's size, as the default
+    // bake chooses it (zip_level_for).
+    int zip_level = 4;
     bool preview = false;
     AlphaKind alpha = AlphaKind::Associated;  // --alpha: what a source's A means (never None)
     RangePolicy range = RangePolicy::Clamp;

@@ -38,7 +38,9 @@ void hash_settings(Fnv1a64& h, const BakeSettings& s) {
         fnv(h, format_wavelength(l));  // none yet with --wavelengths auto
     fnv(h, s.type == SampleType::Half ? "half" : "float");
     fnv(h, s.compression.name);
-    if (s.zip_level != 4)
+    if (s.zip_level == 0)
+        fnv(h, "zip-level by size");  // the default bake's (DefaultBake::zip_level)
+    else if (s.zip_level != 4)
         fnv(h, "zip-level " + std::to_string(s.zip_level));  // 4: hashes as before
     fnv(h, s.preview ? "preview" : "");
     fnv(h, to_string(s.alpha));

@@ -270,13 +270,23 @@ TEST(Batch, ZipLevelChangesTheStreamNotThePixels) {
     std::vector<uint8_t> px(64 * 64 * 3);
     for (size_t i = 0; i < px.size(); ++i) px[i] = static_cast<uint8_t>((i * i / 7 + i / 64) & 255);
     write_image(d / "a.png", 64, 64, 3, OIIO::TypeDesc::UINT8, px.data());
-    // The default bake deflates at level 1 (its budget's planes): level 4 asked for.
+    // The default bake deflates by size: at level 6 up to 512 x 512 pixels, 1 above (a 513 x 512
+    // texture); level 4 asked for.
     ASSERT_EQ(
         run_spectex({"bake", d / "a.png", "-o", d / "l4.exr", "-q", "--zip-level", "4"}).status, 0);
     ASSERT_EQ(run_spectex({"bake", d / "a.png", "-o", d / "l1.exr", "-q"}).status, 0);
     ExrImage a = read_exr(d / "l4.exr"), b = read_exr(d / "l1.exr");
     EXPECT_EQ(a.attr("spectex:zipLevel"), "4");
-    EXPECT_EQ(b.attr("spectex:zipLevel"), "1");
+    EXPECT_EQ(b.attr("spectex:zipLevel"), "6");
+    for (const auto& [w, level] : {std::pair<int, const char*>{512, "6"}, {513, "1"}}) {
+        std::vector<uint8_t> big(static_cast<size_t>(w) * 512 * 3, 128);
+        write_image(d / "big.png", w, 512, 3, OIIO::TypeDesc::UINT8, big.data());
+        ASSERT_EQ(run_spectex({"bake", d / "big.png", "-o", d / "big.exr", "-q"}).status, 0);
+        EXPECT_EQ(read_exr(d / "big.exr").attr("spectex:zipLevel"), level) << w << " x 512";
+        // The same settings hash either way: the rule is the setting, not the level it gives.
+        EXPECT_EQ(read_exr(d / "big.exr").attr("spectex:settingsHash"),
+                  b.attr("spectex:settingsHash"));
+    }
     EXPECT_NE(a.attr("spectex:settingsHash"), b.attr("spectex:settingsHash"));
     EXPECT_NE(read_file(d / "l4.exr").size(), read_file(d / "l1.exr").size());
     ASSERT_EQ(a.pixels.size(), b.pixels.size());
