@@ -218,12 +218,13 @@ void declare_spectra_options(ArgParser& p, BakeCli& c) {
     p.section("Wavelength grid");
     p.option("--wavelengths", "START:END:STEP|auto",
              "Output wavelength grid in nm (default 400:700:10 for the default bake, the bins its "
-             "lights need;\n380:780:5 with --method, and the way to the default's grid before; "
-             "at most 4701 bins, 0.1 nm over "
-             "360:830: more is a\nusage error; a grid finer than 1 nm over 360:830 says what it "
-             "costs first). auto: the cheapest grid\nwithin --max-de under every one of --lights, "
-             "chosen once per batch as 'spectex plan' does (recorded\nin the header; the answer "
-             "is kept in the cache for the next run and shard, see --no-cache).",
+             "lights need,\nand auto when --lights or --max-de make it a scene's; 380:780:5 with "
+             "--method, and the way to\nthe default's grid before; at most 4701 bins, 0.1 nm "
+             "over 360:830: more is a usage error; a grid\nfiner than 1 nm over 360:830 says what "
+             "it costs first). auto: the cheapest grid within --max-de\nunder every one of "
+             "--lights (the default's for the one not given), chosen once per batch as\n'spectex "
+             "plan' does, with --precision auto's bits (recorded in the header; the answer is kept "
+             "in\nthe cache for the next run and shard, see --no-cache).",
              [&](const std::string& v) {
                  c.wavelengths = same_word(v, "auto") ? "auto" : v;
                  c.wavelengths_given = true;
@@ -424,12 +425,23 @@ void check_precision_options(const BakeCli& c) {
 
 // The output grid: given, read from a file, or chosen by --wavelengths auto.
 void check_grid_options(BakeCli& c) {
-    const bool automatic = c.wavelengths == "auto";
     resolve_precision(c);
+    // The default bake for the user's scene (--lights or --max-de, no grid given): its grid is
+    // the cheapest within the budget under those lights, planned as --wavelengths auto plans it
+    // (cached, and the same for every task of a farm), as 400:700:10 is the default's for its own
+    // lights. The one not given is the default's.
+    const bool scene_default = c.default_bake && !c.wavelengths_given &&
+                               c.wavelengths_file.empty() && (c.plan_lights || c.plan_budget);
+    if (scene_default) {
+        c.wavelengths = "auto";
+        if (!c.plan_lights) c.req.plan.lights = DefaultBake::lights();
+        if (!c.plan_budget) c.req.plan.max_de = DefaultBake::max_de;
+    }
+    const bool automatic = c.wavelengths == "auto";
     if (automatic) {
         if (!c.wavelengths_file.empty())
             throw UsageError("--wavelengths auto and --wavelengths-file are two grids; give one");
-        if (!c.plan_lights || !c.plan_budget)
+        if (!scene_default && (!c.plan_lights || !c.plan_budget))
             throw UsageError(
                 "--wavelengths auto needs --lights and --max-de (the scene's lights and the "
                 "error budget)");
@@ -448,7 +460,7 @@ void check_grid_options(BakeCli& c) {
     check_precision_options(c);
     // The default bake's grid unless one is given (the option's own default is the full grid the
     // other methods take).
-    if (c.default_bake && !c.wavelengths_given && c.wavelengths_file.empty())
+    if (c.default_bake && !c.wavelengths_given && c.wavelengths_file.empty() && !automatic)
         c.wavelengths = DefaultBake::grid;
     if (c.wavelengths_file.empty() && !automatic) {
         try {

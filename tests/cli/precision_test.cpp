@@ -245,7 +245,7 @@ TEST(Precision, UsageErrorsAreRefusedBeforeAnyWork) {
 }
 
 // The default bake (no method option) keeps a budget where one can be kept: under six lights within
-// 0.5, deflated at level 1, unless --lights, --max-de, --zip-level or --precision say otherwise;
+// 0.5, deflated by size, unless --lights, --max-de, --zip-level or --precision say otherwise;
 // full where a budget cannot be kept (float, nearest rounding, a lossy compression). Its bits are
 // said only with -v, and a bake that asked for them says them.
 TEST(Precision, TheDefaultBakeKeepsABudgetWhereItCan) {
@@ -265,7 +265,7 @@ TEST(Precision, TheDefaultBakeKeepsABudgetWhereItCan) {
     EXPECT_EQ(img.attr(key::kPrecision), "auto");
     EXPECT_EQ(img.attr(key::kPrecisionLights), "D65,A,FL2,FL11,D50,LED-B3");
     EXPECT_EQ(img.attr(key::kPrecisionMaxDe), "0.5");
-    EXPECT_EQ(img.attr(key::kZipLevel), "1");
+    EXPECT_EQ(img.attr(key::kZipLevel), "6");  // by size: 2 x 2 pixels (batch_test.cpp)
     r = bake({"-v"});
     EXPECT_TRUE(has(r.err, "--precision auto: ")) << r.err;
     r = bake({"--precision", "auto"});
@@ -488,4 +488,50 @@ TEST(Precision, ASixteenBitSourceKeepsEachChannelWithinItsShare) {
         EXPECT_EQ(has(v.out, "linear RGB error max (half cannot keep 16-bit codes)"), !coarse)
             << v.out;
     }
+}
+
+TEST(PrecisionSlow, TheScenesLightsPlanTheDefaultsGridToo) {
+    // --lights or --max-de without a grid make the default bake plan its grid for the scene, as
+    // --wavelengths auto does (the bits with it, on every 8-bit colour), once: a second task
+    // with the same settings (another shard, another machine sharing the cache) takes both
+    // answers from the cache. Candidates 400:700:20 and 400:700:10 keep the search short.
+    ScratchDir d;
+    std::vector<uint8_t> px(8 * 8 * 3);
+    for (size_t i = 0; i < px.size(); ++i) px[i] = static_cast<uint8_t>(i * 37 % 256);
+    write_image(d / "in.png", 8, 8, 3, OIIO::TypeDesc::UINT8, px.data());
+    const std::vector<std::string> env = {"SPECTEX_CACHE_DIR=" + (d / "cache")};
+    auto bake = [&](const std::string& out, std::vector<std::string> extra) {
+        std::vector<std::string> a = {"bake", d / "in.png", "-o", d / out, "-v"};
+        a.insert(a.end(), extra.begin(), extra.end());
+        return run_spectex(a, env);
+    };
+    // A budget the 20 nm grid holds under A (1.4 on the plan's sample): 16 bins.
+    const std::vector<std::string> scene = {"--lights", "A",       "--max-de",
+                                            "2",        "--grids", "400:700:20,400:700:10"};
+    RunResult r = bake("a.exr", scene);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_TRUE(has(r.err, "--wavelengths auto: 400:700:20 (16 bins)")) << r.err;
+    ExrImage a = read_exr(d / "a.exr");
+    EXPECT_EQ(a.attr(key::kWavelengths), "400:700:20");
+    EXPECT_EQ(a.attr(key::kPlanLights), "A");
+    EXPECT_EQ(a.attr(key::kPrecisionLights), "A,D65");
+    EXPECT_EQ(a.attr(key::kPrecisionMaxDe), "2");
+    EXPECT_EQ(spectral_channels(a).size(), 16u);
+    r = bake("b.exr", scene);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_TRUE(has(r.err, "the plan's answer from the cache")) << r.err;
+    EXPECT_TRUE(has(r.err, "the precision's bits from the cache")) << r.err;
+    const ExrImage b = read_exr(d / "b.exr");
+    EXPECT_EQ(b.attr(key::kPrecisionBits), a.attr(key::kPrecisionBits));
+    // verify knows the file is within its recorded budget under its recorded lights.
+    const RunResult v = run_spectex({"verify", d / "b.exr", "--source", d / "in.png"});
+    EXPECT_EQ(v.status, 0) << v.out << v.err;
+    // A budget alone keeps the default's lights; the lights alone its budget.
+    r = bake("c.exr", {"--max-de", "2", "--grids", "400:700:20,400:700:10"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(read_exr(d / "c.exr").attr(key::kPlanLights), "D65,A,FL2,FL11,D50,LED-B3");
+    // Naming a grid keeps it: no plan.
+    r = bake("e.exr", {"--lights", "A", "--max-de", "2", "--wavelengths", "400:700:20"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_FALSE(read_exr(d / "e.exr").has_attr(key::kPlanLights));
 }
