@@ -334,32 +334,45 @@ class PixelStages {
 
     // Expands n pixels into `half` or `flt` (by the output type); returns the planes. With
     // alpha (spectra_premultiplied_), r, g, b are the straight colour and every spectrum is
-    // multiplied by its alpha before it is rounded.
+    // multiplied by its alpha before it is rounded. Runs on --threads threads, in runs of
+    // kExpandRun pixels: every pixel's spectrum and rounding are its own, so the bytes are the
+    // same whatever the threads; the producer (one task) would otherwise leave the cores the
+    // writer does not fill idle while it expands the next strip.
     const void* expand(const float* r, const float* g, const float* b, const float* alpha, size_t n,
                        std::vector<uint16_t>& half, std::vector<float>& flt) const {
-        if (alpha) {
-            if (s_.type == SampleType::Half) {
-                half.resize(n * bins_);
-                (void)expand_half_premultiplied(method_, r, g, b, alpha, n, half.data(), n,
-                                                feedback_, s_.precision.bits);
-                return half.data();
-            }
-            flt.resize(n * bins_);
-            expand_float_premultiplied(method_, r, g, b, alpha, n, flt.data(), n);
-            return flt.data();
-        }
-        if (s_.type == SampleType::Half) {
+        constexpr size_t kExpandRun = 16384;
+        const bool as_half = s_.type == SampleType::Half;
+        if (as_half)
             half.resize(n * bins_);
-            if (s_.precision.bits.empty())
-                method_.expand_half(r, g, b, n, half.data(), n, feedback_);
+        else
+            flt.resize(n * bins_);
+        const size_t runs = (n + kExpandRun - 1) / kExpandRun;
+        TaskPool::shared().parallel_for(runs, std::max(1, s_.threads), [&](size_t k) {
+            const size_t i0 = k * kExpandRun, len = std::min(kExpandRun, n - i0);
+            expand_run(r + i0, g + i0, b + i0, alpha ? alpha + i0 : nullptr, len,
+                       as_half ? half.data() + i0 : nullptr, as_half ? nullptr : flt.data() + i0,
+                       n);
+        });
+        return as_half ? static_cast<const void*>(half.data())
+                       : static_cast<const void*>(flt.data());
+    }
+
+    // One run of expand(): n pixels into planes `stride` apart at h (half) or f (float).
+    void expand_run(const float* r, const float* g, const float* b, const float* alpha, size_t n,
+                    uint16_t* h, float* f, size_t stride) const {
+        if (alpha) {
+            if (h)
+                (void)expand_half_premultiplied(method_, r, g, b, alpha, n, h, stride, feedback_,
+                                                s_.precision.bits);
             else
-                (void)expand_half_bits(method_, r, g, b, n, half.data(), n, feedback_,
-                                       s_.precision.bits);
-            return half.data();
+                expand_float_premultiplied(method_, r, g, b, alpha, n, f, stride);
+        } else if (!h) {
+            method_.expand_float(r, g, b, n, f, stride);
+        } else if (s_.precision.bits.empty()) {
+            method_.expand_half(r, g, b, n, h, stride, feedback_);
+        } else {
+            (void)expand_half_bits(method_, r, g, b, n, h, stride, feedback_, s_.precision.bits);
         }
-        flt.resize(n * bins_);
-        method_.expand_float(r, g, b, n, flt.data(), n);
-        return flt.data();
     }
 
     // Two strips in flight: while strip k is packed and handed to the writer's compression tasks,
