@@ -32,10 +32,10 @@ struct DefaultBake {
     static MethodSpec method();  // the lattice, vertex prior lhtss
     // The default's grid, without --wavelengths: the bins its lights need and no more. `spectex
     // plan --lights D65,A,FL2,FL11,D50,LED-B3 --max-de 0.5` chooses it (0.379 under FL2 from the
-    // grid on its sample); with the bits, 0.383 on every 8-bit code against the lattice at 1 nm.
-    // Against 380:780:5, the default before (`--wavelengths 380:780:5` restores it): 0.67-0.75x
-    // the basis' bytes instead of 1.13-1.42x, and the held-out charts' mean ΔE00 under A, FL2,
-    // FL11, D50 and LED-B3 +0.008 (docs/methods.md, "The default").
+    // grid on its sample); with the bits, 0.428 (FL11) on every 8-bit code against the lattice at
+    // 1 nm. Against 380:780:5, the default before (`--wavelengths 380:780:5` restores it):
+    // 0.54-0.59x the basis' bytes instead of 1.13-1.42x, and the held-out charts' mean ΔE00
+    // under A, FL2, FL11, D50 and LED-B3 +0.011 (docs/methods.md, "The default").
     static constexpr const char* grid = "400:700:10";
     static const std::vector<std::string>& lights();  // D65, A, FL2, FL11, D50, LED-B3
     static constexpr double max_de = 0.5;
