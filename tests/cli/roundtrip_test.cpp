@@ -2,6 +2,7 @@
 // CIE 1931 2° on the file's bins -> linear sRGB, compared with the IEC formula's decoding of the
 // codes.
 #include <ImfOutputFile.h>
+#include <ImfStringAttribute.h>
 #include <OpenColorIO/OpenColorIO.h>
 #include <gtest/gtest.h>
 
@@ -306,6 +307,32 @@ TEST(RoundTripSlow, EveryEightBitColourHalfLattice) {
         static_cast<unsigned long long>(st.code_match), static_cast<unsigned long long>(st.pixels));
     EXPECT_EQ(st.over_bound, 0u);
     EXPECT_EQ(st.code_match, st.pixels);  // the colour-aware rounding works on any method's spectra
+}
+
+TEST(RoundTripSlow, EveryEightBitColourTheDefaultAsItShips) {
+    // The default bake with nothing asked: 31 bins, its shipped bits (coarser grids in most bins,
+    // each colour held to 2^-10 of its value or 6.1e-5), zip. Every 8-bit code must re-encode; the
+    // tests above bake with --compression none, where the default keeps every bit.
+    ScratchDir dir;
+    write_codes_png(dir / "all.png", 4096, 4096, all_colours);
+    auto r = run_spectex({"bake", dir / "all.png", "-o", dir / "all.exr", "-q"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    Imf::InputFile probe((dir / "all.exr").c_str());
+    const auto* bits_attr =
+        probe.header().findTypedAttribute<Imf::StringAttribute>("spectex:precisionBits");
+    ASSERT_NE(bits_attr, nullptr);
+    const std::string bits = bits_attr->value();
+    ASSERT_NE(bits.find_first_of("456789"), std::string::npos) << "no coarse bin: " << bits;
+    Stats st = check(dir / "all.exr", all_colours);
+    std::printf(
+        "round trip, 16777216 colours, the default (bits %s): max |err| %.3g, mean %.3g, "
+        "codes exact: %llu of %llu\n",
+        bits.c_str(), st.max_err, st.sum_err / (3.0 * st.pixels),
+        static_cast<unsigned long long>(st.code_match), static_cast<unsigned long long>(st.pixels));
+    EXPECT_EQ(st.pixels, 16777216u);
+    EXPECT_EQ(st.code_match, st.pixels);
+    // 2^-10 of the brightest channel (1.0), with float's margin.
+    EXPECT_LE(st.max_err, std::ldexp(1.0, -10) * 1.001);
 }
 
 TEST(RoundTripSlow, EveryEightBitColourFloatLattice) {
