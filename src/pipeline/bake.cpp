@@ -209,7 +209,7 @@ int zip_level_for(const BakeSettings& s, const SourceInfo& info) {
 }
 
 // The output file's layout: the source's windows, the grid, types, tiles and header.
-SpectralExrLayout output_layout(const BakeSettings& s, const SourceInfo& info,
+SpectralExrLayout output_layout(const BakeSettings& s, const SourceInfo& info, int zip_level,
                                 std::vector<std::pair<std::string, std::string>> attributes) {
     SpectralExrLayout layout;
     static_cast<PixelWindows&>(layout) = info;
@@ -224,7 +224,7 @@ SpectralExrLayout output_layout(const BakeSettings& s, const SourceInfo& info,
             : SampleType::Float;
     layout.preview = s.preview;
     layout.compression = s.compression;
-    layout.zip_level = zip_level_for(s, info);
+    layout.zip_level = zip_level;
     layout.attributes = std::move(attributes);
     layout.threads = s.threads;
     layout.tile_width = s.mipmap && s.tile_width <= 0 ? 64 : s.tile_width;
@@ -554,11 +554,11 @@ BakeResult bake_file(const std::string& input, const std::string& output, const 
     if (!info.is_float) lin.use_code_table(info.bits);
     record_colour(info, lin, res);
 
-    const SpectralExrLayout layout =
-        output_layout(s, info,
-                      header_attributes(s, input, output, lin, colour_tags_record(info.colour),
-                                        info.alpha != AlphaKind::None, method, src->identity(),
-                                        zip_level_for(s, info)));
+    const int zip_level = zip_level_for(s, info);
+    const SpectralExrLayout layout = output_layout(
+        s, info, zip_level,
+        header_attributes(s, input, output, lin, colour_tags_record(info.colour),
+                          info.alpha != AlphaKind::None, method, src->identity(), zip_level));
     AtomicFile out(output);
     SpectralExrWriter writer(out, layout);
     PixelStages(input, s, method, *src, lin, writer, layout, res, progress).run();
