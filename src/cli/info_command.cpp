@@ -188,6 +188,12 @@ int run_info(const std::vector<std::string>& args) {
             for (const auto& [k, v] : info.attributes) {
                 if (k.rfind(provenance_key::kPrefix, 0) != 0) continue;
                 if (k == provenance_key::kWavelengthList) continue;
+                if (k == provenance_key::kRebuildTable || k == provenance_key::kRebuildToRgb ||
+                    k == provenance_key::kRebuildAxis) {
+                    // Thousands of numbers: their size, not their text (--json has it whole).
+                    std::cout << "  " << k << " (" << v.size() << " characters)\n";
+                    continue;
+                }
                 std::cout << "  " << one_line(k) << " " << one_line(v) << "\n";
             }
         } catch (const Error& e) {

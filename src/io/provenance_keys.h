@@ -75,6 +75,13 @@ constexpr const char* kVertexPrior = "spectex:vertexPrior";
 constexpr const char* kJhTableResolution = "spectex:jhTableResolution";
 constexpr const char* kMethodSource = "spectex:methodSource";
 constexpr const char* kMethodChecksum = "spectex:methodChecksum";
+// What rebuilds the spectra from RGB (io/rebuild_record.h): rule, lattice breakpoints, weights of
+// a spectrum's linear RGB, table (base64 float32) and its checksum.
+constexpr const char* kRebuild = "spectex:rebuild";
+constexpr const char* kRebuildAxis = "spectex:rebuildAxis";
+constexpr const char* kRebuildToRgb = "spectex:rebuildToRgb";
+constexpr const char* kRebuildTable = "spectex:rebuildTable";
+constexpr const char* kRebuildChecksum = "spectex:rebuildChecksum";
 
 // Every key above, for checks that a file records nothing else.
 constexpr const char* kAll[] = {
@@ -126,6 +133,11 @@ constexpr const char* kAll[] = {
     kJhTableResolution,
     kMethodSource,
     kMethodChecksum,
+    kRebuild,
+    kRebuildAxis,
+    kRebuildToRgb,
+    kRebuildTable,
+    kRebuildChecksum,
 };
 
 }  // namespace provenance_key

@@ -22,6 +22,7 @@
 #include "io/linearizer.h"
 #include "io/ocio_config.h"
 #include "io/provenance_keys.h"
+#include "io/rebuild_record.h"
 #include "io/source_identity.h"
 #include "pipeline/bake_request.h"
 #include "pipeline/pixel_policy.h"
@@ -196,6 +197,11 @@ std::vector<std::pair<std::string, std::string>> header_attributes(
         a.push_back({provenance_key::kPrecisionWorstDe, s.precision.worst_de});
         a.push_back({provenance_key::kPrecisionSample, s.precision.sample});
     }
+    // Last: the largest (the default's table is 120 KB of text), after everything a person reads.
+    if (s.bin_rgb.size() == 3 * s.grid.size())
+        for (auto& kv :
+             rebuild_attributes(method.rebuild_table(), s.bin_rgb, join_lambda(s.grid.lambda)))
+            a.push_back(std::move(kv));
     return a;
 }
 

@@ -54,6 +54,10 @@ struct BakeSettings : BakeOptions {
     // Half's colour-aware rounding: the sRGB weights of each bin (bins x 3) under the observer and
     // illuminant, computed once for the batch; empty for float or nearest rounding.
     std::vector<float> half_rgb_weight;
+    // The linear sRGB of a unit spectrum at each bin under the observer and illuminant (3 x bins,
+    // row-major): what a renderer integrates the file's spectra with to rebuild them from RGB
+    // (spectex:rebuildToRgb).
+    std::vector<double> bin_rgb;
     std::string settings_hash;         // recorded as spectex:settingsHash (for --update)
     std::string legacy_settings_hash;  // --update of outputs that record no colour transform
     // What builds `method` (options and the tables' values), hashed into settings_hash instead of

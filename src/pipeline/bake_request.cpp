@@ -171,15 +171,25 @@ BakeSettings::Precision precision_record(const BakeRequest& r, const BakeTables&
     return rec;
 }
 
-// Half's colour-aware rounding weights on `grid` (bins x 3): empty for float or nearest rounding.
-std::vector<float> half_rgb_weight(const BakeSettings& s, const BakeTables& t) {
-    std::vector<float> w;
-    if (s.type != SampleType::Half || !s.colour_rounding) return w;
+// The linear sRGB of a unit spectrum at each bin of the output grid (3 x bins, row-major).
+std::vector<double> bin_rgb(const BakeSettings& s, const BakeTables& t) {
     const Colorimetry cm =
         Colorimetry::make(t.observer, t.illuminant, s.grid, primaries_by_name("srgb"));
     const Eigen::Matrix3Xd R = cm.rgb_weights();
-    for (Eigen::Index k = 0; k < R.cols(); ++k)
-        for (int ch = 0; ch < 3; ++ch) w.push_back(static_cast<float>(R(ch, k)));
+    std::vector<double> w;
+    for (int ch = 0; ch < 3; ++ch)
+        for (Eigen::Index k = 0; k < R.cols(); ++k) w.push_back(R(ch, k));
+    return w;
+}
+
+// Half's colour-aware rounding weights (bins x 3) from bin_rgb: empty for float or nearest
+// rounding.
+std::vector<float> half_rgb_weight(const BakeSettings& s) {
+    std::vector<float> w;
+    if (s.type != SampleType::Half || !s.colour_rounding) return w;
+    const size_t bins = s.bin_rgb.size() / 3;
+    for (size_t k = 0; k < bins; ++k)
+        for (size_t ch = 0; ch < 3; ++ch) w.push_back(static_cast<float>(s.bin_rgb[ch * bins + k]));
     return w;
 }
 
@@ -356,7 +366,8 @@ BakeSettings BakeSetup::finish(BakeSetupListener& listener) const {
     listener.grid_known(s.grid);
     check_colour_space();
     s.method = build_method(request_, tables_, s, listener);
-    s.half_rgb_weight = half_rgb_weight(s, tables_);
+    s.bin_rgb = bin_rgb(s, tables_);
+    s.half_rgb_weight = half_rgb_weight(s);
     if (request_.precision_auto) choose_precision_bits(request_, tables_, s, listener);
     return s;
 }

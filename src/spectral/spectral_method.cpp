@@ -33,6 +33,14 @@ std::vector<std::pair<MethodFact, std::string>> BasisMethod::provenance() const 
             {MethodFact::BasisChecksum, checksum()}};
 }
 
+RebuildTable BasisMethod::rebuild_table() const {
+    RebuildTable t;
+    t.rule = "basis";
+    for (const auto* row : {&basis_.r, &basis_.g, &basis_.b})
+        for (double v : *row) t.table.push_back(static_cast<float>(v));
+    return t;
+}
+
 std::shared_ptr<const SpectralMethod> BasisMethod::weighted(const Eigen::MatrixXd& W) const {
     const size_t N = basis_.size();
     if (static_cast<size_t>(W.cols()) != N)

@@ -31,6 +31,20 @@ enum class MethodFact {
     MethodChecksum,     // of the lattice or table
 };
 
+// What a renderer needs to rebuild a method's spectra from the linear RGB they reproduce under the
+// illuminant the method is exact for (docs/file-format.md, "Rebuilding spectra from RGB"): the
+// rule, its breakpoints and its table, as the method itself evaluates them. An empty rule: the
+// method cannot be rebuilt from RGB (Jakob-Hanika is not exact, so a file's colour does not give
+// back the RGB its spectra were made from).
+struct RebuildTable {
+    // "basis": spectrum = r·S_r + g·S_g + b·S_b, RGB taken as it is; table S_r, S_g, S_b (3 x
+    // bins). "lattice": RGB clamped to [0, 1] (NaN to 0), Kuhn-tetrahedral interpolation between
+    // the breakpoints `axis` on each axis; table ((ir·n + ig)·n + ib)·bins + k.
+    std::string rule;
+    std::vector<double> axis;
+    std::vector<float> table;
+};
+
 class SpectralMethod {
   public:
     virtual ~SpectralMethod() = default;
@@ -45,6 +59,8 @@ class SpectralMethod {
     // spectrum(a·x + b·y) = a·spectrum(x) + b·spectrum(y): filtering linear RGB before expanding is
     // then the same as filtering spectra (MIP levels).
     virtual bool is_linear() const = 0;
+    // The rule and table a renderer rebuilds the method's spectra with (empty rule: none).
+    virtual RebuildTable rebuild_table() const { return {}; }
 
     // Bin k of pixel i goes to out[k * plane_stride + i]; r, g, b are planes of n linear values.
     virtual void expand_float(const float* r, const float* g, const float* b, size_t n, float* out,
@@ -80,6 +96,7 @@ class BasisMethod : public SpectralMethod {
     std::string checksum() const override { return basis_.checksum(); }
     std::vector<std::pair<MethodFact, std::string>> provenance() const override;
     bool is_linear() const override { return true; }
+    RebuildTable rebuild_table() const override;
     void expand_float(const float* r, const float* g, const float* b, size_t n, float* out,
                       size_t plane_stride) const override;
     void expand_half(const float* r, const float* g, const float* b, size_t n, uint16_t* out,

@@ -26,6 +26,9 @@ class LatticeMethod : public SpectralMethod {
     std::string checksum() const override { return lattice_.checksum(); }
     std::vector<std::pair<MethodFact, std::string>> provenance() const override;
     bool is_linear() const override { return false; }
+    RebuildTable rebuild_table() const override {
+        return {"lattice", lattice_.axis(), lattice_.table()};
+    }
     void expand_float(const float* r, const float* g, const float* b, size_t n, float* out,
                       size_t plane_stride) const override {
         lattice_.expand(r, g, b, n, out, plane_stride);
