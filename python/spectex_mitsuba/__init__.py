@@ -9,11 +9,22 @@
 The file is any reflective spectral EXR in the layout of Fichet, Pacanowski & Wilkie (JCGT 2021):
 channels ``T.<λ>nm`` (comma or point as the decimal separator), half or float, scanline, tiled or
 MIP-mapped (only level 0 is read: Mitsuba filters it like its own ``bitmap`` texture, without
-MIP-mapping). It is read with Mitsuba's own ``mi.Bitmap``.
+MIP-mapping).
 
-``eval`` returns the reflectance at ``si.wavelengths``: linear in wavelength between the file's
-bins (any grid, uniform or not), the end bins' values held outside the grid; bilinear or nearest
-in uv with Mitsuba's ``bitmap`` conventions (``uv = (0, 0)`` is the first pixel of the first row,
+``mode`` says what the texture holds:
+
+- ``"rgb"``: for a bake that records how its spectra are rebuilt from RGB (the basis and the
+  lattice: ``spectex:rebuild*``, rebuild.py), each texel's linear RGB and alpha (16 bytes, float32)
+  and the record's table; the method is evaluated at the sampled wavelengths at lookup (rgb_mode.py).
+  The file is read a strip at a time (exr_strips.py; tiled and other compressions through
+  ``mi.Bitmap``). A file without a record, or whose record fails its checks, is refused.
+- ``"spectra"``: every bin as float32, read with ``mi.Bitmap`` (any file).
+- ``"auto"`` (default): ``"rgb"`` when the file has a record, ``"spectra"`` otherwise; a record that
+  fails its checks is set aside with a warning, never used.
+
+``eval`` returns the reflectance at ``si.wavelengths`` (in mode "rgb", of the rebuilt bins, which
+are the file's to within its own rounding): linear in wavelength between the file's bins (any
+grid, uniform or not), the end bins' values held outside the grid; bilinear or nearest in uv with Mitsuba's ``bitmap`` conventions (``uv = (0, 0)`` is the first pixel of the first row,
 texel centres at ``(x + 0.5) / width``; ``repeat``, ``mirror``, ``clamp``).
 
 Alpha: an ``A`` channel means premultiplied (associated) spectra, OpenEXR's convention and what
@@ -28,14 +39,20 @@ differentiable parameters.
 """
 import math
 import re
+import warnings
 
 import numpy as np
 
-__all__ = ["register", "SpectexTexture", "read_spectral_exr", "SpectexError"]
+from .rebuild import RebuildError
+from . import rebuild as _rebuild
+from . import rgb_mode as _rgb_mode
+
+__all__ = ["register", "SpectexTexture", "read_spectral_exr", "SpectexError", "RebuildError"]
 __version__ = "0.1.0"
 
 _T_CHANNEL = re.compile(r"^T\.([0-9]+(?:[.,][0-9]*)?(?:[eE][+-]?[0-9]+)?)nm$")
 _WRAP_MODES = ("repeat", "mirror", "clamp")
+_MODES = ("auto", "rgb", "spectra")
 _FILTERS = ("bilinear", "nearest")
 
 
@@ -60,21 +77,9 @@ def _check_variant():
     return mi, variant
 
 
-def _open_spectral_exr(filename):
-    """Read a reflective spectral EXR with mi.Bitmap, without copying its pixels.
-
-    Returns (wavelengths [N] float64 ascending, pixels [H, W, C] the bitmap's own samples (half or
-    float), the channel index of each wavelength, the channel index of A or None, premultiplied
-    bool, metadata dict of str, the bitmap that owns the pixels)."""
-    mi = _mi()
-    try:
-        bitmap = mi.Bitmap(str(filename))
-    except Exception as e:  # Mitsuba's message names the cause; ours names the file as given
-        first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
-        raise SpectexError(f"spectex texture: {filename}: cannot read: {first}") from None
-    names = [field.name for field in bitmap.struct_()]
-    if len(names) != bitmap.channel_count():
-        raise SpectexError(f"spectex texture: {filename}: unexpected channel list {names}")
+def _spectral_channels(filename, names):
+    """The reflectance channels among `names`: (wavelengths [N] float64 ascending, the index in
+    `names` of each), refusing channels that name no wavelength and files without any."""
     bins = []
     for k, name in enumerate(names):
         if not (name.startswith("T.") and name.endswith("nm")):
@@ -97,6 +102,29 @@ def _open_spectral_exr(filename):
     if np.any(np.diff(lams) <= 0):
         dup = lams[1:][np.diff(lams) <= 0][0]
         raise SpectexError(f"spectex texture: {filename}: two channels name the wavelength {dup:g} nm")
+    return lams, [b[1] for b in bins]
+
+
+def _is_premultiplied(names, metadata):
+    return "A" in names and metadata.get("spectex:alpha", "associated").strip() != "unassociated"
+
+
+def _open_spectral_exr(filename):
+    """Read a reflective spectral EXR with mi.Bitmap, without copying its pixels.
+
+    Returns (wavelengths [N] float64 ascending, pixels [H, W, C] the bitmap's own samples (half or
+    float), the channel index of each wavelength, the channel index of A or None, premultiplied
+    bool, metadata dict of str, the bitmap that owns the pixels)."""
+    mi = _mi()
+    try:
+        bitmap = mi.Bitmap(str(filename))
+    except Exception as e:  # Mitsuba's message names the cause; ours names the file as given
+        first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        raise SpectexError(f"spectex texture: {filename}: cannot read: {first}") from None
+    names = [field.name for field in bitmap.struct_()]
+    if len(names) != bitmap.channel_count():
+        raise SpectexError(f"spectex texture: {filename}: unexpected channel list {names}")
+    lams, index = _spectral_channels(filename, names)
     pixels = np.array(bitmap, copy=False)
     if pixels.ndim == 2:
         pixels = pixels[:, :, None]
@@ -108,9 +136,7 @@ def _open_spectral_exr(filename):
         except Exception:
             pass
     alpha_index = names.index("A") if "A" in names else None
-    premultiplied = alpha_index is not None and \
-        metadata.get("spectex:alpha", "associated").strip() != "unassociated"
-    return lams, pixels, [b[1] for b in bins], alpha_index, premultiplied, metadata, bitmap
+    return lams, pixels, index, alpha_index, _is_premultiplied(names, metadata), metadata, bitmap
 
 
 # Rows converted at a time: a band of the file's samples in float32 is all the reading adds to the
@@ -208,6 +234,25 @@ def _make_class(mi):
             if self.wrap_mode not in _WRAP_MODES:
                 raise SpectexError(f"spectex texture: {self.filename}: wrap_mode '{self.wrap_mode}' is not one of "
                                    f"{', '.join(_WRAP_MODES)}")
+            self.mode = str(props["mode"]) if "mode" in props else "auto"
+            if self.mode not in _MODES:
+                raise SpectexError(f"spectex texture: {self.filename}: mode '{self.mode}' is not one of "
+                                   f"{', '.join(_MODES)}")
+            self._rgb = None
+            if self.mode != "spectra":
+                try:
+                    self._load_rgb()
+                    return
+                except RebuildError as e:
+                    if self.mode == "rgb":
+                        raise SpectexError(f"spectex texture: {self.filename}: cannot hold it as RGB: {e}") from None
+                    if "records no table" not in str(e):  # a record that is there but wrong is worth a word
+                        warnings.warn(f"spectex texture: {self.filename}: {e}; holding every bin instead",
+                                      stacklevel=2)
+            self._load_spectra()
+
+        def _load_spectra(self):
+            self.holds = "spectra"
             lams, pixels, index, a, premultiplied, metadata, bitmap = _open_spectral_exr(self.filename)
             self.wavelengths_nm = lams
             self.metadata = metadata
@@ -254,6 +299,50 @@ def _make_class(mi):
                 del cube, view
                 self._grid = mi.Float(lams.astype(np.float32))
                 self._alpha = mi.Float(alpha.reshape(-1)) if alpha is not None else None
+
+
+        def _load_rgb(self):
+            def alloc(n):
+                data = view = None
+                if not scalar:
+                    data, view = _jit_float_view(mi, n)
+                if view is None:
+                    view = np.empty(n, dtype=np.float32)
+                return data, view
+
+            t = _rgb_mode.load(self.filename, alloc)
+            self.holds = "rgb"
+            self._rgb = t
+            self.wavelengths_nm = t.lams
+            self.metadata = t.attrs
+            self.height, self.width, self.bins = t.height, t.width, len(t.lams)
+            self.premultiplied = t.premultiplied
+            self._max = t.max
+            lo, hi = float(mi.MI_CIE_MIN), float(mi.MI_CIE_MAX)
+            fine = np.linspace(lo, hi, int(round(hi - lo)) + 1)
+            self._mean = float(np.interp(fine, t.lams, t.mean_spectrum).mean())
+            lams = t.lams
+            self._uniform = self.bins > 1 and np.allclose(np.diff(lams), lams[1] - lams[0], rtol=1e-6, atol=1e-9)
+            rec = t.record
+            if scalar:
+                return
+            self._texels = t.data if t.data is not None else mi.Float(t.texels.reshape(-1))
+            t.texels = None  # the Dr.Jit array is what is evaluated
+            self._grid = mi.Float(lams.astype(np.float32))
+            # The table as pairs of neighbouring bins (k, k + 1), so that one packet gather reads
+            # both values a wavelength between them needs.
+            rows = rec.table.reshape(-1, self.bins).astype(np.float32)
+            nxt = rows[:, np.minimum(np.arange(self.bins) + 1, self.bins - 1)]
+            cols = max(1, self.bins - 1)
+            self._pair_cols = cols
+            self._pairs = mi.Float(np.stack([rows[:, :cols], nxt[:, :cols]], axis=-1).reshape(-1))
+            if rec.rule == "lattice":
+                loc = _rgb_mode.AxisLocator(rec.axis)
+                self._loc_m = loc.m
+                self._loc_lut = mi.UInt32(loc.lut)
+                self._loc_lower = mi.Float(loc.lower)
+                self._loc_upper = mi.Float(loc.upper)
+                self._loc_inv_gap = mi.Float(loc.inv_gap)
 
         # -- sampling positions ------------------------------------------------------------------
         def _corners_scalar(self, u, v):
@@ -315,6 +404,8 @@ def _make_class(mi):
 
         # -- Texture interface -------------------------------------------------------------------
         def eval(self, si, active=True):
+            if self._rgb is not None:
+                return self._eval_rgb_scalar(si) if scalar else self._eval_rgb_jit(si, active)
             if scalar:
                 return self._eval_scalar(si)
             corners = self._corners_jit(si.uv)
@@ -336,6 +427,97 @@ def _make_class(mi):
                     alpha += wgt * dr.gather(mi.Float, self._alpha, texel, active)
                 spec = dr.select(alpha > 0, spec / dr.select(alpha > 0, alpha, 1.0), 0.0)
             return spec
+
+        # -- the RGB mode: the method evaluated at the sampled wavelengths -------------------------
+        def _locate_jit(self, rgb):
+            """Each colour's Kuhn simplex in the lattice (rebuild.py): its cell's low vertex v0, the
+            axes of its first two steps (a, b: 0 red, 1 green, 2 blue) and the local coordinates
+            sorted, ta >= tb >= tc."""
+            cell, frac = [], []
+            for x in rgb:
+                x = dr.clip(x, 0.0, 1.0)  # RGB integrated from finite spectra: never NaN
+                i = dr.gather(mi.UInt32, self._loc_lut, mi.UInt32(dr.minimum(x * self._loc_m, self._loc_m - 1)))
+                i = dr.select(x >= dr.gather(mi.Float, self._loc_upper, i), i + 1, i)
+                t = (x - dr.gather(mi.Float, self._loc_lower, i)) * dr.gather(mi.Float, self._loc_inv_gap, i)
+                cell.append(i)
+                frac.append(dr.clip(t, 0.0, 1.0))
+            ta, tb, tc = frac
+            a, b, c = mi.UInt32(0), mi.UInt32(1), mi.UInt32(2)
+
+            def order(hi, lo, ahi, alo):  # (larger, smaller) with their axes; ties keep r, g, b
+                swap = hi < lo
+                return (dr.select(swap, lo, hi), dr.select(swap, hi, lo),
+                        dr.select(swap, alo, ahi), dr.select(swap, ahi, alo))
+
+            ta, tb, a, b = order(ta, tb, a, b)
+            tb, tc, b, c = order(tb, tc, b, c)
+            ta, tb, a, b = order(ta, tb, a, b)
+            n = self._rgb.record.size
+            v0 = (cell[0] * n + cell[1]) * n + cell[2]
+            return v0, a, b, ta, tb, tc
+
+        def _step_jit(self, axis):
+            n = self._rgb.record.size
+            return dr.select(axis == 0, mi.UInt32(n * n), dr.select(axis == 1, mi.UInt32(n), mi.UInt32(1)))
+
+        def _simplex_of(self, texel_value):
+            """Vertices and barycentric weights of a texel's colour (its Kuhn simplex)."""
+            v0, a, b, ta, tb, tc = self._locate_jit([texel_value.x, texel_value.y, texel_value.z])
+            v1 = v0 + self._step_jit(a)
+            v2 = v1 + self._step_jit(b)
+            n = self._rgb.record.size
+            v3 = v0 + mi.UInt32(n * n + n + 1)
+            return (v0, v1, v2, v3), (1.0 - ta, ta - tb, tb - tc, tc)
+
+        def _eval_rgb_jit(self, si, active):
+            rec = self._rgb.record
+            corners = self._corners_jit(si.uv)
+            at = [self._bin_jit(si.wavelengths[j]) for j in range(len(si.wavelengths))]
+
+            def table(k, i, t):  # row k of the table at the sampled wavelength
+                pair = dr.gather(mi.Point2f, self._pairs, k * self._pair_cols + i, active)
+                return dr.lerp(pair.x, pair.y, t)
+
+            weights, texels = [], []
+            alpha = mi.Float(0.0)
+            for texel, wgt in corners:
+                texels.append(dr.gather(mi.Vector4f, self._texels, texel, active))  # r, g, b, alpha
+                if self.premultiplied:
+                    wgt = wgt * texels[-1].w
+                    alpha += wgt
+                weights.append(wgt)
+            values = [mi.Float(0.0) for _ in at]
+            if rec.rule == "basis":
+                r = sum(w * tv.x for w, tv in zip(weights, texels))
+                g = sum(w * tv.y for w, tv in zip(weights, texels))
+                b = sum(w * tv.z for w, tv in zip(weights, texels))
+                values = [r * table(mi.UInt32(0), i, t) + g * table(mi.UInt32(1), i, t) + b * table(mi.UInt32(2), i, t)
+                          for i, t, step in at]
+            else:
+                for wgt, tv in zip(weights, texels):
+                    verts, ws = self._simplex_of(tv)
+                    for j, (i, t, step) in enumerate(at):
+                        values[j] += wgt * sum(w * table(v, i, t) for v, w in zip(verts, ws))
+            spec = mi.UnpolarizedSpectrum(*values)
+            if self.premultiplied:
+                spec = dr.select(alpha > 0, spec / dr.select(alpha > 0, alpha, 1.0), 0.0)
+            return spec
+
+        def _eval_rgb_scalar(self, si):
+            t = self._rgb
+            spec = np.zeros(self.bins)
+            alpha = 0.0
+            for x, y, wgt in self._corners_scalar(float(si.uv[0]), float(si.uv[1])):
+                texel = t.texels[y, x]
+                if self.premultiplied:
+                    wgt *= float(texel[3])
+                    alpha += wgt
+                spec += wgt * _rebuild.rebuild(t.record, texel[:3])
+            lams = [float(si.wavelengths[j]) for j in range(len(si.wavelengths))]
+            out = np.interp(lams, self.wavelengths_nm, spec) if self.bins > 1 else np.full(len(lams), spec[0])
+            if self.premultiplied:
+                out = out / alpha if alpha > 0 else np.zeros_like(out)
+            return mi.UnpolarizedSpectrum(*[float(o) for o in out])
 
         def _eval_scalar(self, si):
             spec = np.zeros(self.bins)
@@ -370,7 +552,8 @@ def _make_class(mi):
             return float(np.min(np.diff(self.wavelengths_nm))) if self.bins > 1 else 0.0
 
         def to_string(self):
-            return (f"SpectexTexture[filename='{self.filename}', {self.width}x{self.height}, {self.bins} bins "
+            return (f"SpectexTexture[filename='{self.filename}', holds {self.holds}, {self.width}x{self.height}, "
+                    f"{self.bins} bins "
                     f"{self.wavelengths_nm[0]:g}-{self.wavelengths_nm[-1]:g} nm, filter_type={self.filter_type}, "
                     f"wrap_mode={self.wrap_mode}, alpha={'premultiplied' if self.premultiplied else 'none/straight'}]")
 

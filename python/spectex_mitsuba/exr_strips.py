@@ -370,7 +370,9 @@ def _convert(buf, rows, width, channels, plan, dst, planar=False):
     if not plan:
         return
     types = {t for _, t in channels}
-    if planar:
+    if planar or len(types) > 1:
+        # One channel at a time, a [rows, width] strided view of each (planar: the file's own
+        # layout, so each copy is contiguous rows).
         offsets, offset = [], 0
         for _, pixel_type in channels:
             offsets.append(offset)
@@ -379,34 +381,23 @@ def _convert(buf, rows, width, channels, plan, dst, planar=False):
         for k, c in enumerate(plan):
             pixel_type = channels[c][1]
             part = lines[:, offsets[c]:offsets[c] + width * SAMPLE_BYTES[pixel_type]]
-            np.copyto(dst[k], part.view(SAMPLE_DTYPE[pixel_type]), casting="unsafe")
+            np.copyto(dst[k] if planar else dst[:, :, k], part.view(SAMPLE_DTYPE[pixel_type]),
+                      casting="unsafe")
         return
-    if len(types) == 1:
-        # One sample type: the lines are a [rows, channels, width] array, and the conversion
-        # is one transposing copy, whatever the number of channels.
-        (pixel_type,) = types
-        lines = buf.view(SAMPLE_DTYPE[pixel_type]).reshape(rows, len(channels), width)
-        if plan != list(range(len(channels))):
-            lines = lines[:, plan, :]
-        if pixel_type == HALF:
-            # Transposing 16-bit words and then widening contiguous ones is faster than a
-            # casting strided copy.
-            t = _scratch_array("transposed", dst.size, np.uint16).reshape(dst.shape)
-            np.copyto(t, lines.view(np.uint16).transpose(0, 2, 1))
-            np.copyto(dst, t.view("<f2"))
-        else:
-            np.copyto(dst, lines.transpose(0, 2, 1), casting="unsafe")
-        return
-    # Mixed types: one channel at a time, a [rows, width] strided view of each.
-    offsets, offset = [], 0
-    for _, pixel_type in channels:
-        offsets.append(offset)
-        offset += width * SAMPLE_BYTES[pixel_type]
-    lines = buf.reshape(rows, offset)
-    for k, c in enumerate(plan):
-        pixel_type = channels[c][1]
-        part = lines[:, offsets[c]:offsets[c] + width * SAMPLE_BYTES[pixel_type]]
-        np.copyto(dst[:, :, k], part.view(SAMPLE_DTYPE[pixel_type]), casting="unsafe")
+    # One sample type: the lines are a [rows, channels, width] array, and the conversion is one
+    # transposing copy, whatever the number of channels.
+    (pixel_type,) = types
+    lines = buf.view(SAMPLE_DTYPE[pixel_type]).reshape(rows, len(channels), width)
+    if plan != list(range(len(channels))):
+        lines = lines[:, plan, :]
+    if pixel_type == HALF:
+        # Transposing 16-bit words and then widening contiguous ones is faster than a casting
+        # strided copy.
+        t = _scratch_array("transposed", dst.size, np.uint16).reshape(dst.shape)
+        np.copyto(t, lines.view(np.uint16).transpose(0, 2, 1))
+        np.copyto(dst, t.view("<f2"))
+    else:
+        np.copyto(dst, lines.transpose(0, 2, 1), casting="unsafe")
 
 
 class ExrStrips:

@@ -99,9 +99,30 @@ def eval_texture(tex, uv, lams):
 
 # --- the texture itself -------------------------------------------------------------------------
 
+def file_record(exr):
+    """The file's spectex:rebuild* record (python/spectex_mitsuba/rebuild.py), read with OIIO."""
+    spec = oiio.ImageInput.open(exr).spec()
+    return spectex_mitsuba.rebuild.parse_record(
+        {a.name: a.value for a in spec.extra_attribs if isinstance(a.value, str)})
+
+
+def rebuilt_cube(exr, cube, alpha=None):
+    """What the RGB mode holds a texel as, rebuilt by the NumPy reference: the method's spectrum
+    of the linear RGB the file's spectrum integrates to (straight, when alpha is premultiplied)."""
+    record = file_record(exr)
+    rgb = spectex_mitsuba.rebuild.file_rgb(record, cube)
+    if alpha is not None:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rgb = np.where(alpha[..., None] > 0, rgb / alpha[..., None], 0.0)
+    return spectex_mitsuba.rebuild.rebuild(record, rgb)
+
+
+@pytest.mark.parametrize("mode", ["spectra", "rgb"])
 @pytest.mark.parametrize("variant", ["scalar_spectral", JIT])
 @pytest.mark.parametrize("kind", ["half", "float_10nm", "tiled", "mipmap", "nonuniform"])
-def test_eval_is_the_files_spectra_linear_in_wavelength(tmp, variant, kind):
+def test_eval_is_the_files_spectra_linear_in_wavelength(tmp, variant, kind, mode):
+    """mode spectra: the file's bins; mode rgb: the bins the file's record rebuilds from the RGB
+    of each texel (the tiled and MIP-mapped files are read by mi.Bitmap, the others in strips)."""
     args = {"half": [], "float_10nm": ["--type", "float", "--wavelengths", "380:780:10"],
             "tiled": ["--tile", "64"], "mipmap": ["--mipmap"]}.get(kind)
     if kind == "nonuniform":
@@ -110,10 +131,14 @@ def test_eval_is_the_files_spectra_linear_in_wavelength(tmp, variant, kind):
             f.write("\n".join(f"{w:g}" for w in [380, 383.7, 400, 430, 450, 470, 500, 520, 545, 580, 600,
                                                  610, 640, 680, 700, 730, 780]) + "\n")
         args = ["--wavelengths-file", grid]
-    exr = bake(CHART, os.path.join(tmp, f"eval_{kind}.exr"), *args)
+    exr = os.path.join(tmp, f"eval_{kind}.exr")
+    if not os.path.exists(exr):
+        bake(CHART, exr, *args)
     lams_file, cube, _ = read_exr(exr)
+    if mode == "rgb":
+        cube = rebuilt_cube(exr, cube)
     use(variant)
-    tex = mi.load_dict({"type": "spectex", "filename": exr, "filter_type": "nearest"})
+    tex = mi.load_dict({"type": "spectex", "filename": exr, "filter_type": "nearest", "mode": mode})
     rng = np.random.default_rng(7)
     n = 300 if variant == JIT else 60
     xy = np.stack([rng.integers(0, 512, n), rng.integers(0, 256, n)], axis=1)
@@ -125,9 +150,11 @@ def test_eval_is_the_files_spectra_linear_in_wavelength(tmp, variant, kind):
     # float32 arithmetic in the plugin against float64 here: the result's own rounding (2e-6), and
     # the wavelength's (a float32 of about 800 nm is off by up to 3e-5 nm, 6e-6 of a 5 nm bin),
     # which moves the value by that share of the step between the two bins around it. The
-    # precision budget's coarse bins have steps up to about 0.5, so the bound is per sample.
+    # precision budget's coarse bins have steps up to about 0.5, so the bound is per sample. The
+    # RGB mode recovers the texel's RGB in float32 (a relative 1e-6 of 31 products summed), which
+    # moves the rebuilt spectrum by up to that share of the lattice's slope: 2e-5 more.
     step = np.array([np.abs(np.diff(cube[xy[k, 1], xy[k, 0]])).max() for k in range(n)])
-    tol = 2e-6 + 1e-5 * step[:, None]
+    tol = 2e-6 + 1e-5 * step[:, None] + (2e-5 if mode == "rgb" else 0.0)
     assert (np.abs(got - want) < tol).all(), np.abs(got - want).max()
 
 
@@ -144,7 +171,8 @@ def test_spatial_filtering_is_mitsubas_bitmap(tmp, chart):
         lams = np.full((len(uv), 4), lams_file[k])
         for filt in ("bilinear", "nearest"):
             for wrap in ("repeat", "mirror", "clamp"):
-                ours = mi.load_dict({"type": "spectex", "filename": chart, "filter_type": filt, "wrap_mode": wrap})
+                ours = mi.load_dict({"type": "spectex", "filename": chart, "filter_type": filt, "wrap_mode": wrap,
+                                     "mode": "spectra"})
                 theirs = mi.load_dict({"type": "bitmap", "filename": mono, "raw": True, "filter_type": filt,
                                        "wrap_mode": wrap})
                 got = eval_texture(ours, uv, lams)[:, 0]
@@ -152,11 +180,16 @@ def test_spatial_filtering_is_mitsubas_bitmap(tmp, chart):
                 assert np.abs(got - want).max() < 1e-5, (k, filt, wrap)
 
 
-def test_premultiplied_alpha_is_divided_out(tmp):
-    exr = bake(LEAF, os.path.join(tmp, "leaf.exr"))
+@pytest.mark.parametrize("mode", ["spectra", "rgb"])
+def test_premultiplied_alpha_is_divided_out(tmp, mode):
+    exr = os.path.join(tmp, "leaf.exr")
+    if not os.path.exists(exr):
+        bake(LEAF, exr)
     lams_file, cube, alpha = read_exr(exr)
+    if mode == "rgb":  # the straight spectra rebuilt, times alpha: what the file holds
+        cube = rebuilt_cube(exr, cube, alpha) * alpha[..., None]
     use(JIT)
-    tex = mi.load_dict({"type": "spectex", "filename": exr, "filter_type": "nearest"})
+    tex = mi.load_dict({"type": "spectex", "filename": exr, "filter_type": "nearest", "mode": mode})
     ys, xs = np.nonzero((alpha > 0.05) & (alpha < 0.95))
     assert len(xs) > 50
     xy = np.stack([xs, ys], axis=1)[:200]
@@ -165,7 +198,8 @@ def test_premultiplied_alpha_is_divided_out(tmp):
     got = eval_texture(tex, uv, lams)
     straight = cube[xy[:, 1], xy[:, 0]] / alpha[xy[:, 1], xy[:, 0], None]
     want = np.array([np.interp(lams[k], lams_file, straight[k]) for k in range(len(xy))])
-    assert np.abs(got - want).max() < 1e-5
+    # float32 against float64; the RGB mode also divides the recovered RGB by alpha (half) in float32.
+    assert np.abs(got - want).max() < (1e-5 if mode == "spectra" else 5e-5)
     # Fully transparent texels: 0, not NaN.
     ys0, xs0 = np.nonzero(alpha == 0)
     got0 = eval_texture(tex, (np.stack([xs0[:20], ys0[:20]], axis=1) + 0.5) / 256.0, lams[:20])
@@ -293,15 +327,19 @@ def patch_spectra(exr):
 @pytest.fixture(scope="module")
 def renders(chart):
     out = {}
-    for name in ("D65", "A", "FL11"):
-        t = time.time()
-        out[name] = render(chart, illuminant(name))
-        print(f"{name}: rendered 256x128 at 64 spp in {time.time() - t:.2f} s")
+    for mode in ("rgb", "spectra"):
+        for name in ("D65", "A", "FL11"):
+            t = time.time()
+            out[name if mode == "rgb" else (name, mode)] = render(
+                chart, illuminant(name), texture={"type": "spectex", "filename": chart, "mode": mode})
+            print(f"{name}, mode {mode}: rendered 256x128 at 64 spp in {time.time() - t:.2f} s")
     return out
 
 
+@pytest.mark.parametrize("mode", ["rgb", "spectra"])
 @pytest.mark.parametrize("light", ["D65", "A", "FL11"])
-def test_rendered_patches_are_the_files_spectra_integrated(chart, renders, light):
+def test_rendered_patches_are_the_files_spectra_integrated(chart, renders, light, mode):
+    """Both modes: the spectra held (spectra), and those rebuilt from RGB (rgb, the default)."""
     # 256x128 pixels at 64 spp: a patch interior is about 36 x 10 pixels. Bound: 5 standard
     # errors of the patch mean, from the per-pixel variance measured in that patch (pixels are
     # independent: independent sampler, 1-pixel box filter), plus 2e-4 of the white's Y for the
@@ -310,7 +348,7 @@ def test_rendered_patches_are_the_files_spectra_integrated(chart, renders, light
     want = reference_xyz(lams_file, spectra, illuminant(light))
     white_y = reference_xyz(lams_file, np.ones(len(lams_file)), illuminant(light))[0, 1]
     worst = 0.0
-    for k, ((r, c), px) in enumerate(patches(renders[light])):
+    for k, ((r, c), px) in enumerate(patches(renders[light if mode == "rgb" else (light, mode)])):
         mean = px.mean(axis=0)
         sem = px.std(axis=0, ddof=1) / np.sqrt(len(px))
         bound = 5 * sem + 2e-4 * white_y

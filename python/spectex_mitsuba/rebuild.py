@@ -1,0 +1,117 @@
+"""Rebuilding a spectex file's spectra from RGB: the reference evaluation, in plain NumPy.
+
+A spectex bake of the basis or the lattice records in its header what its spectra are a function
+of (docs/file-format.md, "Rebuilding spectra from RGB"): the rule, the lattice's breakpoints, the
+weights that integrate a spectrum to the linear RGB it was made from, and the table of spectra
+(base64 float32), with a CRC-32 over them. A renderer can then hold three numbers a texel instead
+of every bin::
+
+    record = parse_record(header)              # the header's string attributes; None: no record
+    rgb = file_rgb(record, spectra)            # [..., bins] -> [..., 3] linear RGB
+    again = rebuild(record, rgb)               # [..., 3] -> [..., bins], the method's spectra
+
+`again` is the file's spectra to within the file's own rounding (its half bits): the file holds
+the method's spectrum of each texel's colour, rounded; this gives it unrounded. Needs NumPy only
+(no Mitsuba), so that another renderer's pipeline can test its own implementation against it.
+"""
+import base64
+import zlib
+
+import numpy as np
+
+RULES = ("basis", "lattice")
+# A table larger than the writer ever records (2^17 float32, src/io/rebuild_record.h) is refused
+# before it is decoded: a header is not a place for hostile megabytes.
+TABLE_LIMIT = 1 << 17
+
+
+class RebuildError(ValueError):
+    """The header's record is damaged, tampered with or of a rule this reader does not know."""
+
+
+class RebuildRecord:
+    def __init__(self, rule, lams, to_rgb, table, axis):
+        self.rule, self.lams, self.to_rgb, self.table, self.axis = rule, lams, to_rgb, table, axis
+        self.bins = len(lams)
+
+    @property
+    def size(self):
+        """Breakpoints per axis of the lattice (0 for the basis)."""
+        return len(self.axis)
+
+
+def _numbers(text, what):
+    try:
+        v = np.array(text.split(), dtype=np.float64)
+    except ValueError:
+        raise RebuildError(f"{what} holds something that is not a number") from None
+    if not np.all(np.isfinite(v)):
+        raise RebuildError(f"{what} holds NaN or infinity")
+    return v
+
+
+def parse_record(attrs):
+    """The record of a header (a mapping of attribute name to string), or None when the file has
+    none (Jakob-Hanika, a bake by an older spectex, another tool's file). Raises RebuildError when
+    the record is there but cannot be trusted: a checksum that does not match, a rule this reader
+    does not know, sizes that disagree."""
+    rule = attrs.get("spectex:rebuild")
+    if rule is None:
+        return None
+    texts = [str(rule)] + [str(attrs.get(k, "")) for k in (
+        "spectex:rebuildAxis", "spectex:rebuildToRgb", "spectex:rebuildTable", "spectex:wavelengthList")]
+    if len(texts[3]) > (TABLE_LIMIT * 4 + 2) // 3 * 4:
+        raise RebuildError("spectex:rebuildTable is larger than any spectex writes")
+    crc = zlib.crc32("".join(t + "\n" for t in texts).encode("utf-8"))
+    if str(attrs.get("spectex:rebuildChecksum", "")) != f"crc32:{crc:08x}":
+        raise RebuildError("spectex:rebuildChecksum does not match the record (damaged or edited)")
+    if rule not in RULES:
+        raise RebuildError(f"spectex:rebuild names the rule '{rule}', which this reader does not know")
+    lams = _numbers(texts[4], "spectex:wavelengthList")
+    to_rgb = _numbers(texts[2], "spectex:rebuildToRgb")
+    axis = _numbers(texts[1], "spectex:rebuildAxis")
+    try:
+        table = np.frombuffer(base64.b64decode(texts[3], validate=True), dtype="<f4").astype(np.float32)
+    except ValueError:
+        raise RebuildError("spectex:rebuildTable is not base64 of float32 values") from None
+    bins = len(lams)
+    if bins == 0 or to_rgb.size != 3 * bins or not np.all(np.isfinite(table)):
+        raise RebuildError("spectex:rebuildToRgb or spectex:rebuildTable does not fit the file's bins")
+    if rule == "basis":
+        if axis.size or table.size != 3 * bins:
+            raise RebuildError("the basis' table is not 3 spectra of the file's bins")
+    else:
+        n = axis.size
+        if n < 2 or axis[0] != 0 or axis[-1] != 1 or np.any(np.diff(axis) <= 0) or table.size != n ** 3 * bins:
+            raise RebuildError("the lattice's breakpoints or table do not fit (0 = first < ... < last = 1, "
+                               "n^3 x bins values)")
+    return RebuildRecord(rule, lams, to_rgb.reshape(3, bins), table, axis)
+
+
+def file_rgb(record, spectra):
+    """Linear RGB of spectra [..., bins] under the conditions the method is exact for."""
+    return np.asarray(spectra, dtype=np.float64) @ record.to_rgb.T
+
+
+def rebuild(record, rgb):
+    """The method's spectra [..., bins] of linear RGB [..., 3], in float64."""
+    rgb = np.asarray(rgb, dtype=np.float64)
+    bins = record.bins
+    if record.rule == "basis":  # linear: RGB as it is, out of [0, 1] too
+        return rgb @ record.table.reshape(3, bins).astype(np.float64)
+    axis, n = record.axis, record.size
+    x = np.clip(np.nan_to_num(rgb, nan=0.0), 0.0, 1.0)
+    i = np.clip(np.searchsorted(axis, x, side="right") - 1, 0, n - 2)  # axis[i] <= x < axis[i + 1]
+    t = np.clip((x - axis[i]) / (axis[i + 1] - axis[i]), 0.0, 1.0)
+    # Kuhn simplex: from the cell's low corner, one step along each axis in order of decreasing t
+    # (ties keep the order r, g, b); weights 1 - t_a, t_a - t_b, t_b - t_c, t_c.
+    order = np.argsort(-t, axis=-1, kind="stable")
+    ts = np.take_along_axis(t, order, axis=-1)
+    step = np.array([n * n, n, 1])[order]
+    v0 = (i[..., 0] * n + i[..., 1]) * n + i[..., 2]
+    v1 = v0 + step[..., 0]
+    v2 = v1 + step[..., 1]
+    v3 = v2 + step[..., 2]
+    w = (1.0 - ts[..., 0], ts[..., 0] - ts[..., 1], ts[..., 1] - ts[..., 2], ts[..., 2])
+    T = record.table.reshape(n ** 3, bins).astype(np.float64)
+    return sum(wk[..., None] * T[vk] for wk, vk in zip(w, (v0, v1, v2, v3)))

@@ -1,0 +1,256 @@
+"""The record a bake carries to rebuild its spectra from RGB, and the plugin's RGB mode.
+
+A bake of the basis or the lattice records its table (spectex:rebuild*); the NumPy reference
+(python/spectex_mitsuba/rebuild.py) rebuilds the file's spectra from it, and the plugin holds RGB
+and evaluates the table at lookup. A record that cannot be trusted (damaged, edited, moved to other
+pixels) is refused in mode "rgb" and set aside, with a warning, in mode "auto": never silently
+wrong.
+"""
+import os
+import subprocess
+import tempfile
+import warnings
+
+import numpy as np
+import pytest
+
+warnings.filterwarnings("ignore", category=DeprecationWarning)
+import drjit as dr  # noqa: E402
+import mitsuba as mi  # noqa: E402
+import OpenImageIO as oiio  # noqa: E402
+
+import spectex_mitsuba  # noqa: E402
+from spectex_mitsuba import rebuild  # noqa: E402
+
+SPECTEX = os.environ["SPECTEX_BINARY"]
+SOURCE = os.environ["SPECTEX_SOURCE_DIR"]
+CHART = os.path.join(SOURCE, "examples", "textures", "colour_chart.png")
+LEAF = os.path.join(SOURCE, "examples", "textures", "leaf_rgba.png")
+JIT = "llvm_ad_spectral"
+
+
+@pytest.fixture(scope="module")
+def tmp():
+    with tempfile.TemporaryDirectory() as d:
+        yield d
+
+
+def bake(src, dst, *args):
+    r = subprocess.run([SPECTEX, "bake", src, "-o", dst, "-q", *args], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    return dst
+
+
+def header(path):
+    spec = oiio.ImageInput.open(path).spec()
+    return {a.name: a.value for a in spec.extra_attribs if isinstance(a.value, str)}
+
+
+def read(path):
+    """(wavelengths, spectra [H, W, N] float64, alpha or None) by OpenImageIO."""
+    buf = oiio.ImageBuf(path)
+    names = list(buf.spec().channelnames)
+    px = buf.get_pixels(oiio.FLOAT).astype(np.float64)
+    ts = sorted((float(n[2:-2]), k) for k, n in enumerate(names) if n.startswith("T."))
+    alpha = px[:, :, names.index("A")] if "A" in names else None
+    return np.array([t[0] for t in ts]), px[:, :, [t[1] for t in ts]], alpha
+
+
+def source_linear(png):
+    """The source's linear sRGB (8-bit codes through the sRGB decode), and its alpha."""
+    px = oiio.ImageBuf(png).get_pixels(oiio.FLOAT).astype(np.float64)
+    c = px[:, :, :3]
+    lin = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    return lin, (px[:, :, 3] if px.shape[2] == 4 else None)
+
+
+def kept_step(values, attrs, bins):
+    """One step of each bin's kept mantissa bits at each value (half: 10 bits unless the
+    precision budget kept fewer)."""
+    text = attrs.get("spectex:precisionBits", "").split()
+    bits = np.array([int(b) for b in text], dtype=np.float64) if len(text) == bins else np.full(bins, 10.0)
+    return 2.0 ** (np.floor(np.log2(np.maximum(np.abs(values), 2.0 ** -14))) - bits)
+
+
+# --- the record -----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("args", [[], ["--method", "basis"], ["--type", "float"], ["--wavelengths", "380:780:5"]])
+def test_the_record_rebuilds_the_method_at_the_source_colours(tmp, args):
+    """The file holds the method's spectrum of each source colour, rounded to its kept bits; the
+    record evaluated at that colour gives it unrounded. Bound: one step of the bin's kept bits
+    (rounding to nearest is half a step; the colour-aware rounding moves a bin to its other
+    neighbour, one step) plus float32 against float64: 2e-6 of the value, and for a float file
+    2e-5 (the source linearised in float32, 1e-7 of the colour, times the lattice's slope in its
+    darkest cells, up to about 100 per unit of RGB)."""
+    exr = bake(CHART, os.path.join(tmp, f"chart{len(args)}{''.join(args)}.exr".replace(":", "_")), *args)
+    attrs = header(exr)
+    record = rebuild.parse_record(attrs)
+    assert record is not None and record.rule == ("basis" if "basis" in args else "lattice")
+    lams, spectra, _ = read(exr)
+    assert np.array_equal(record.lams, lams)
+    lin, _ = source_linear(CHART)
+    want = rebuild.rebuild(record, lin)
+    step = kept_step(np.maximum(np.abs(want), np.abs(spectra)), attrs, len(lams))
+    slack = 2e-6
+    if "--type" in args:
+        step, slack = np.abs(want) * 2.0 ** -23, 2e-5
+    err = np.abs(spectra - want)
+    assert np.all(err <= 2 * step + slack), float(np.max(err / (2 * step + slack)))
+    # And the file's spectra integrate back to the source colour: what lets a renderer recover it.
+    rgb = rebuild.file_rgb(record, spectra)
+    assert np.max(np.abs(rgb - lin)) < 2.0 ** -10 * 1.001 + 6.2e-5
+
+
+def test_methods_that_cannot_be_rebuilt_record_nothing(tmp):
+    jh = bake(CHART, os.path.join(tmp, "jh.exr"), "--method", "jakob-hanika")
+    assert not any(k.startswith("spectex:rebuild") for k in header(jh))
+    # 17^3 vertices x 31 bins = 152,303 values: over the 2^17 a header carries.
+    big = bake(CHART, os.path.join(tmp, "big.exr"), "--lattice-size", "17")
+    assert not any(k.startswith("spectex:rebuild") for k in header(big))
+    assert rebuild.parse_record(header(big)) is None
+
+
+# --- the plugin's RGB mode ------------------------------------------------------------------------
+
+def load(exr, mode="auto", **props):
+    mi.set_variant(JIT)
+    spectex_mitsuba.register()
+    return mi.load_dict({"type": "spectex", "filename": exr, "mode": mode, **props})
+
+
+def eval_at(tex, uv, lams):
+    si = dr.zeros(mi.SurfaceInteraction3f)
+    si.uv = mi.Point2f(uv[:, 0], uv[:, 1])
+    si.wavelengths = mi.Spectrum(*[mi.Float(lams[:, j]) for j in range(4)])
+    return np.array(tex.eval(si)).reshape(4, -1).T
+
+
+def write_spectra(path, lams, cube, alpha=None):
+    """A float Fichet-layout file of exactly these spectra (no record): the RGB mode's spectra
+    held by the spectra mode."""
+    names = [f"T.{lam:g}nm" for lam in lams] + (["A"] if alpha is not None else [])
+    data = cube if alpha is None else np.concatenate([cube, alpha[..., None]], axis=2)
+    spec = oiio.ImageSpec(cube.shape[1], cube.shape[0], len(names), oiio.FLOAT)
+    spec.channelnames = tuple(names)
+    spec.attribute("spectralLayoutVersion", "1.0")
+    out = oiio.ImageOutput.create(path)
+    out.open(path, spec)
+    out.write_image(np.ascontiguousarray(data, dtype=np.float32))
+    out.close()
+
+
+@pytest.mark.parametrize("png", [CHART, LEAF])
+def test_the_rgb_mode_blends_the_rebuilt_spectra_as_the_spectra_mode_blends_bins(tmp, png):
+    """Bilinear and nearest, every wrap mode, uv outside [0, 1]: the RGB mode equals the spectra
+    mode of a file holding exactly the spectra the record rebuilds (alpha premultiplied on the
+    leaf). Bound 5e-5: float32 evaluation, RGB recovered in float32 and divided by alpha."""
+    exr = bake(png, os.path.join(tmp, os.path.basename(png) + ".exr"))
+    record = rebuild.parse_record(header(exr))
+    lams, spectra, alpha = read(exr)
+    rgb = rebuild.file_rgb(record, spectra)
+    if alpha is not None:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rgb = np.where(alpha[..., None] > 0, rgb / alpha[..., None], 0.0)
+    again = rebuild.rebuild(record, rgb)
+    if alpha is not None:
+        again *= alpha[..., None]
+    twin = os.path.join(tmp, "twin_" + os.path.basename(exr))
+    write_spectra(twin, lams, again, alpha)
+    rng = np.random.default_rng(11)
+    uv = rng.uniform(-1.3, 2.2, (4000, 2))
+    wl = rng.uniform(360, 830, (4000, 4))
+    for filt in ("bilinear", "nearest"):
+        for wrap in ("repeat", "mirror", "clamp"):
+            ours = load(exr, "rgb", filter_type=filt, wrap_mode=wrap)
+            assert ours.holds == "rgb"
+            theirs = load(twin, "spectra", filter_type=filt, wrap_mode=wrap)
+            d = np.abs(eval_at(ours, uv, wl) - eval_at(theirs, uv, wl))
+            assert d.max() < 5e-5, (filt, wrap, d.max())
+
+
+def test_auto_holds_rgb_for_a_bake_and_the_bins_for_other_files(tmp):
+    exr = bake(CHART, os.path.join(tmp, "auto.exr"))
+    assert load(exr).holds == "rgb"
+    jh = bake(CHART, os.path.join(tmp, "auto_jh.exr"), "--method", "jakob-hanika")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no record is no news: nothing to warn about
+        assert load(jh).holds == "spectra"
+    # Mitsuba reports a plugin's exception inside its own (RuntimeError), with the message.
+    with pytest.raises((RuntimeError, spectex_mitsuba.SpectexError), match=r"auto_jh\.exr.*records no table"):
+        load(jh, "rgb")
+    with pytest.raises((RuntimeError, spectex_mitsuba.SpectexError), match="mode 'fast' is not one of"):
+        load(exr, "fast")
+
+
+@pytest.mark.parametrize("compression", ["piz"])
+def test_files_the_strip_reader_does_not_take_are_read_by_mitsuba(tmp, compression):
+    """PIZ goes to mi.Bitmap (the whole file), ZIP to the strip reader: the same samples (both keep
+    the budget's bits), so the same texels."""
+    exr = bake(CHART, os.path.join(tmp, f"c_{compression}.exr"), "--compression", compression)
+    ref = bake(CHART, os.path.join(tmp, "c_zip.exr"))
+    rng = np.random.default_rng(2)
+    uv, wl = rng.random((2000, 2)), rng.uniform(380, 780, (2000, 4))
+    a, b = load(exr, "rgb"), load(ref, "rgb")
+    assert np.array_equal(eval_at(a, uv, wl), eval_at(b, uv, wl))
+
+
+def rewrite(src, dst, change):
+    """A copy of src through OpenImageIO with change(spec, pixels) applied (the samples unchanged
+    otherwise: half read as float and written as half is exact)."""
+    buf = oiio.ImageBuf(src)
+    spec = buf.spec()
+    px = buf.get_pixels(oiio.FLOAT)
+    spec, px = change(spec, px)
+    out = oiio.ImageOutput.create(dst)
+    out.open(dst, spec)
+    out.write_image(np.ascontiguousarray(px))
+    out.close()
+    return dst
+
+
+def test_a_damaged_or_moved_record_is_refused_or_set_aside(tmp):
+    exr = bake(CHART, os.path.join(tmp, "t.exr"))
+    other = bake(CHART, os.path.join(tmp, "t_jh_prior.exr"), "--vertex-prior", "jakob-hanika")
+    attrs, attrs_other = header(exr), header(other)
+
+    def edited(name, change_attrs=None, change_pixels=None):
+        def change(spec, px):
+            if change_attrs:
+                for k, v in change_attrs(dict(attrs)).items():
+                    spec.attribute(k, v)
+            return spec, (change_pixels(spec, px) if change_pixels else px)
+        return rewrite(exr, os.path.join(tmp, name), change)
+
+    table = attrs["spectex:rebuildTable"]
+    flipped = table[:100] + ("B" if table[100] != "B" else "C") + table[101:]
+    cases = {
+        # A changed character of the table: the checksum.
+        "checksum": edited("t_flip.exr", lambda a: {"spectex:rebuildTable": flipped}),
+        # Another prior's table with its own checksum (a whole record moved): the pixels.
+        "other table": edited("t_moved.exr", lambda a: {k: attrs_other[k] for k in attrs_other
+                                                         if k.startswith("spectex:rebuild")}),
+        # Pixels scaled by a tool that kept the header: the lattice is not linear, the pixels say so.
+        "scaled": edited("t_scaled.exr", None, lambda spec, px: px * 0.5),
+    }
+
+    def drop_channel(spec, px):
+        names = list(spec.channelnames)
+        keep = [k for k, n in enumerate(names) if n != "T.550nm"]
+        spec.nchannels = len(keep)
+        spec.channelnames = tuple(names[k] for k in keep)
+        spec.channelformats = ()
+        return px[:, :, keep]
+
+    cases["channel removed"] = edited("t_fewer.exr", None, drop_channel)
+    for what, path in cases.items():
+        name = os.path.basename(path).replace(".", r"\.")
+        with pytest.raises((RuntimeError, spectex_mitsuba.SpectexError), match=name + ".*cannot hold it as RGB"):
+            load(path, "rgb")
+        with pytest.warns(UserWarning, match="holding every bin instead"):
+            tex = load(path)
+        assert tex.holds == "spectra", what
+    # The same edits of a basis file: a scaled basis file is still the basis' spectra (it is
+    # linear), so its record is still right and is used.
+    basis = bake(CHART, os.path.join(tmp, "tb.exr"), "--method", "basis")
+    scaled = rewrite(basis, os.path.join(tmp, "tb_scaled.exr"), lambda spec, px: (spec, px * 0.5))
+    assert load(scaled, "rgb").holds == "rgb"
