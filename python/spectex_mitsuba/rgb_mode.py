@@ -2,17 +2,19 @@
 
 A bake of the basis or the lattice records how its spectra are rebuilt from RGB (rebuild.py). The
 texture then streams the file's spectral channels a strip at a time, integrates each texel back to
-the linear RGB its spectrum was made from, keeps that RGB (float32: the same 12 bytes a texel as
-Mitsuba's own spectral ``bitmap``, which keeps three float32 coefficients, and exact enough that
-the rebuilt spectrum is the file's to within the file's own rounding; float16 would add an error
-of 2^-11 of the value on top of it) and the record's table, and evaluates the method at the
-path's wavelengths when it is looked up. Peak memory while loading is one strip of the file's
-samples, never the whole file.
+the linear RGB its spectrum was made from, and keeps 16 bytes a texel (float32) and the record's
+table: the basis keeps RGB and alpha; the lattice keeps the RGB located in the lattice once, at
+load (its three sorted local coordinates and its simplex: a lookup then reads no breakpoints,
+about a quarter faster) and alpha beside it. Mitsuba's own spectral ``bitmap`` keeps three float32
+coefficients. float16 colours would add 2^-11 of the colour, which the lattice's slope in its
+darkest cells multiplies beyond the file's own rounding; float32 keeps the rebuilt spectrum within
+it. Peak memory while loading is one strip of the file's samples, never the whole file.
 
 Before it is trusted, the record must match its CRC-32 and the file's channels, and the spectra
-it rebuilds must be the file's on every 4th texel of one row in 64 (within four steps of each bin's kept bits and
-0.001; the largest difference measured on bakes is two steps): a table taken from another file, a
-file whose pixels were scaled or colour-corrected by a tool that kept the header, is refused.
+it rebuilds must be the file's on every 4th texel of one row in 64 (within four steps of each
+bin's kept bits and 0.001; the largest difference measured on bakes is two steps): a table taken
+from another file, a file whose pixels were scaled or colour-corrected by a tool that kept the
+header, is refused.
 """
 import math
 
@@ -42,6 +44,7 @@ class RgbTexels:
         self.mean_spectrum = None
         self.max = 0.0
         self.reader = ""
+        self.half = False  # the file's spectral samples are half
         self.attrs = {}
 
 
@@ -132,6 +135,11 @@ def load(filename, alloc):
         else:
             strips = bitmap_strips(channels)
         bits = _kept_bits(attrs, record.bins, sample_bits)
+        t.half = sample_bits == 10
+        if t.half and record.rule == "lattice":
+            # Held in half (within a half file's own rounding): the table rows are then packed two
+            # bins to a 32-bit word, and the JIT and scalar variants and the check all use these.
+            record.table = record.table.astype(np.float16).astype(np.float32)
         t.attrs = dict(attrs)
         t.width, t.height, t.lams, t.record, t.premultiplied = width, height, lams, record, premultiplied
         t.data, view = alloc(width * height * t.stride)

@@ -12,8 +12,8 @@ namespace spectex {
 
 namespace {
 
-// Shortest text that reads back as the same float32 (9 significant digits); the weights and the
-// breakpoints are single precision in every renderer, and 9 digits keep them to the float.
+// 9 significant digits: every float32 reads back from them exactly, and renderers hold the weights
+// and the breakpoints in single precision.
 std::string numbers(const std::vector<double>& v) {
     std::string out;
     char buf[32];

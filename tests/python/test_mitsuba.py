@@ -108,8 +108,11 @@ def file_record(exr):
 
 def rebuilt_cube(exr, cube, alpha=None):
     """What the RGB mode holds a texel as, rebuilt by the NumPy reference: the method's spectrum
-    of the linear RGB the file's spectrum integrates to (straight, when alpha is premultiplied)."""
+    of the linear RGB the file's spectrum integrates to (straight, when alpha is premultiplied).
+    The plugin holds a half file's lattice in half (within the file's own rounding): so does this."""
     record = file_record(exr)
+    if record.rule == "lattice" and oiio.ImageInput.open(exr).spec().format == oiio.HALF:
+        record.table = record.table.astype(np.float16).astype(np.float32)
     rgb = spectex_mitsuba.rebuild.file_rgb(record, cube)
     if alpha is not None:
         with np.errstate(divide="ignore", invalid="ignore"):
