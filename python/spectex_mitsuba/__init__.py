@@ -245,6 +245,7 @@ def _make_class(mi):
                     self._load_rgb()
                     return
                 except RebuildError as e:
+                    self._rgb = None  # whatever was set up is not used
                     if self.mode == "rgb":
                         raise SpectexError(f"spectex texture: {self.filename}: cannot hold it as RGB: {e}") from None
                     if "records no table" not in str(e):  # a record that is there but wrong is worth a word
@@ -328,9 +329,7 @@ def _make_class(mi):
             if scalar:
                 return
             self._texels = t.data if t.data is not None else mi.Float(t.texels.reshape(-1))
-            # The Dr.Jit array is what is evaluated, and the only reference to it: a scatter into an
-            # array referenced elsewhere copies it first.
-            t.texels = t.data = None
+            t.texels = t.data = None  # the Dr.Jit array is what is evaluated, and held once
             self._grid = mi.Float(lams.astype(np.float32))
             # The table as pairs of neighbouring bins (k, k + 1), so that one packet gather reads
             # both values a wavelength between them needs.
@@ -349,7 +348,7 @@ def _make_class(mi):
                 h = pairs.astype(np.float16).view(np.uint16).astype(np.uint32)
                 self._pairs16 = mi.UInt32((h[..., 0] | (h[..., 1] << 16)).reshape(-1))
             if rec.rule == "lattice":
-                loc = _rgb_mode.AxisLocator(rec.axis)
+                loc = t.locator
                 self._loc_m = loc.m
                 self._loc_lut = mi.UInt32(loc.lut)
                 self._loc_lower = mi.Float(loc.lower)

@@ -46,6 +46,7 @@ class RgbTexels:
         self.reader = ""
         self.half = False  # the file's spectral samples are half
         self.attrs = {}
+        self.locator = None  # the lattice's AxisLocator
 
 
 def _kept_bits(attrs, bins, sample_bits):
@@ -121,6 +122,8 @@ def load(filename, alloc):
         if record is None:
             raise _rebuild.RebuildError("the file records no table to rebuild its spectra from (a Jakob-Hanika "
                                         "bake, an older spectex, another tool's file)")
+        if record.rule == "lattice":  # before any pixel is read: breakpoints no table needs are refused
+            t.locator = AxisLocator(record.axis)
         lams, index = _spectral_channels(filename, names)
         if len(lams) != record.bins or np.max(np.abs(lams - record.lams)) > 1e-6:
             raise _rebuild.RebuildError("the record's wavelengths are not the file's channels (channels were "

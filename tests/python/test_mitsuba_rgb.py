@@ -10,6 +10,7 @@ import os
 import subprocess
 import tempfile
 import warnings
+import zlib
 
 import numpy as np
 import pytest
@@ -245,6 +246,18 @@ def test_a_damaged_or_moved_record_is_refused_or_set_aside(tmp):
         return px[:, :, keep]
 
     cases["channel removed"] = edited("t_fewer.exr", None, drop_channel)
+
+    # A record whose own checksum holds but whose breakpoints crowd together (1e-7 apart: no
+    # lookup table of the texture can tell them apart) is refused before any pixel is read.
+    def crowded(a):
+        n = len(a["spectex:rebuildAxis"].split())
+        axis = " ".join(["0"] + [f"{k * 1e-7:.9g}" for k in range(1, n - 1)] + ["1"])
+        texts = [a["spectex:rebuild"], axis, a["spectex:rebuildToRgb"], a["spectex:rebuildTable"],
+                 a["spectex:wavelengthList"]]
+        crc = zlib.crc32("".join(t + "\n" for t in texts).encode())
+        return {"spectex:rebuildAxis": axis, "spectex:rebuildChecksum": f"crc32:{crc:08x}"}
+
+    cases["crowded breakpoints"] = edited("t_crowded.exr", crowded)
     for what, path in cases.items():
         name = os.path.basename(path).replace(".", r"\.")
         with pytest.raises((RuntimeError, spectex_mitsuba.SpectexError), match=name + ".*cannot hold it as RGB"):
