@@ -338,15 +338,16 @@ def _make_class(mi):
             cols = max(1, self.bins - 1)
             self._pair_cols = cols
             pairs = np.stack([rows[:, :cols], nxt[:, :cols]], axis=-1)
-            self._pairs = mi.Float(pairs.reshape(-1))
             # A half file's lattice as pairs of halves in one 32-bit word: one gather of half the
             # bytes (a render 10-15 % faster). Rounding the vertex spectra to half moves them by at
             # most 2^-11 of their value, within the file's own rounding (at most 10 bits kept); a
-            # float file keeps float pairs.
-            self._pairs16 = None
+            # float file, and the basis, keep float pairs. Only one of the two is made.
+            self._pairs = self._pairs16 = None
             if rec.rule == "lattice" and t.half:
                 h = pairs.astype(np.float16).view(np.uint16).astype(np.uint32)
                 self._pairs16 = mi.UInt32((h[..., 0] | (h[..., 1] << 16)).reshape(-1))
+            else:
+                self._pairs = mi.Float(pairs.reshape(-1))
             if rec.rule == "lattice":
                 loc = t.locator
                 self._loc_m = loc.m
