@@ -268,8 +268,8 @@ std::string vertex_prior_option(const std::string& value) {
     try {
         return to_string(parse_vertex_prior(value));
     } catch (const Error&) {
-        throw UsageError("--vertex-prior: '" + value +
-                         "' is not one of jakob-hanika, smooth, blend, lhtss");
+        throw UsageError("--vertex-prior: '" + value + "' is not one of " +
+                         kVertexPriorNames.list(", ", " or "));
     }
 }
 

@@ -63,11 +63,13 @@ void add_method_options(ArgParser& p, MethodOptions& o, bool with_basis_table,
                  o.spec.lattice_size = parse_int("--lattice-size", v, 2, 65);
                  note("--lattice-size");
              });
-    p.option("--vertex-prior", "jakob-hanika|smooth|blend|lhtss",
+    p.option("--vertex-prior", "jakob-hanika|smooth|blend|lhtss|measured",
              "What the lattice's vertex spectra are closest to while exact: jakob-hanika (default: "
              "the sigmoid spectrum, projected), smooth (least first differences), blend (both, "
              "smoothness weight 100), lhtss (the smoothest spectrum in tanh space, Burns 2020: "
-             "bounded by construction).",
+             "bounded by construction), measured (the most probable spectrum under a Gaussian "
+             "model of 301 measured reflectances in that tanh space: "
+             "config/spectral/vertex_prior_measured.csv).",
              [&o, note](const std::string& v) {
                  o.spec.vertex_prior = vertex_prior_option(v);
                  note("--vertex-prior");

@@ -9,6 +9,7 @@
 #include "base/text.h"
 #include "io/data_dir.h"
 #include "pipeline/cache_text.h"
+#include "pipeline/table_memo.h"
 #include "spectex/version.h"
 #include "spectral/colorimetry.h"
 #include "spectral/spectrum.h"
@@ -31,6 +32,12 @@ Colorimetry colorimetry(const FitSpec& f) {
 
 int no_table(const MethodSpec&) { return 0; }
 
+// The learned prior's table, from the spec's data folder (a spec whose observer and illuminant
+// came as tables may not name one: the shipped folder's).
+std::shared_ptr<const MeasuredPrior> measured_prior_of(const MethodSpec& s) {
+    return measured_prior_table(s.fit.data_dir.empty() ? find_data_dir() : s.fit.data_dir);
+}
+
 std::string basis_head(const MethodSpec& s) {
     return "basis (fitted, " + to_string(s.fit.objective) + ")";
 }
@@ -42,9 +49,10 @@ std::string basis_recipe(const MethodSpec& s) {
 
 // The lattice and Jakob-Hanika tables have been identified by one sentence naming both kinds'
 // options since their first bake.
+// A learned prior adds its table's checksum: a retrained table is another method.
 std::string table_recipe(const MethodSpec& s) {
     return s.name() + " lattice " + std::to_string(s.lattice_size) + " prior " + s.vertex_prior +
-           " jh " + std::to_string(s.jh_resolution);
+           " jh " + std::to_string(s.jh_resolution) + vertex_prior_data(s);
 }
 
 MethodResult build_basis(const MethodSpec& s) {
@@ -75,8 +83,11 @@ MethodResult build_lattice(const MethodSpec& s) {
     // to the basis, so without --method it chooses it).
     auto lattice = [&] {
         try {
-            return SpectralLattice::build(colorimetry(s.fit), s.lattice_size,
-                                          parse_vertex_prior(s.vertex_prior), s.blend);
+            const VertexPrior prior = parse_vertex_prior(s.vertex_prior);
+            std::shared_ptr<const MeasuredPrior> data;
+            if (prior == VertexPrior::Measured) data = measured_prior_of(s);
+            return SpectralLattice::build(colorimetry(s.fit), s.lattice_size, prior, s.blend,
+                                          data.get());
         } catch (const LimitError&) {
             throw;
         } catch (const Error& e) {
@@ -117,6 +128,11 @@ MethodResult build_jh(const MethodSpec& s) {
 }
 
 }  // namespace
+
+std::string vertex_prior_data(const MethodSpec& s) {
+    if (s.kind != MethodKind::Lattice || s.vertex_prior != "measured") return "";
+    return " data " + measured_prior_of(s)->checksum;
+}
 
 const std::vector<MethodRow>& method_table() {
     static const std::vector<MethodRow> rows = {

@@ -83,6 +83,9 @@ struct MethodRow {
 
 // Every method, in the order --help lists them (the default first).
 const std::vector<MethodRow>& method_table();
+// " data <checksum>" of the measured vertex prior's table for a lattice that uses it, else "":
+// part of the method's recipe and of every cache key that names the prior.
+std::string vertex_prior_data(const MethodSpec& spec);
 const MethodRow& method_row(MethodKind kind);
 // The row called `name`, or null (a file recorded by a later spectex may name a method this one
 // does not know).

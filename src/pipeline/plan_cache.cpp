@@ -35,7 +35,7 @@ std::string plan_cache_key(const PlanSpec& spec) {
     const std::string& dir = m.fit.data_dir;
     k.text(m.name());
     k.number(m.lattice_size);
-    k.text(m.vertex_prior);
+    k.text(m.vertex_prior + vertex_prior_data(m));
     k.number(m.blend);
     k.number(m.jh_resolution);
     k.text(m.fit.observer);

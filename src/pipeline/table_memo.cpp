@@ -29,4 +29,12 @@ std::shared_ptr<const Spectrum> illuminant_table(const std::string& data_dir,
     });
 }
 
+std::shared_ptr<const MeasuredPrior> measured_prior_table(const std::string& data_dir) {
+    static Memo<std::string, std::shared_ptr<const MeasuredPrior>> memo(kTables);
+    return memo.get(data_dir, [&] {
+        return std::make_shared<const MeasuredPrior>(
+            read_measured_prior_csv(measured_prior_path(data_dir)));
+    });
+}
+
 }  // namespace spectex

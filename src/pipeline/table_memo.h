@@ -7,6 +7,7 @@
 #include <memory>
 #include <string>
 
+#include "spectral/measured_prior.h"
 #include "spectral/spectrum.h"
 
 namespace spectex {
@@ -15,5 +16,7 @@ std::shared_ptr<const Observer> observer_table(const std::string& data_dir,
                                                const std::string& name);
 std::shared_ptr<const Spectrum> illuminant_table(const std::string& data_dir,
                                                  const std::string& name_or_file);
+// <data_dir>/spectral/vertex_prior_measured.csv, read once per process.
+std::shared_ptr<const MeasuredPrior> measured_prior_table(const std::string& data_dir);
 
 }  // namespace spectex

@@ -41,8 +41,8 @@ std::vector<double> roughness(const WavelengthGrid& g, double scale) {
 
 }  // namespace
 
-SpectralLattice SpectralLattice::build(const Colorimetry& c, int n, VertexPrior prior,
-                                       double blend) {
+SpectralLattice SpectralLattice::build(const Colorimetry& c, int n, VertexPrior prior, double blend,
+                                       const MeasuredPrior* measured) {
     const auto t0 = std::chrono::steady_clock::now();
     if (n < 2)
         throw Error("spectral lattice needs at least 2 breakpoints per axis, got " +
@@ -51,6 +51,8 @@ SpectralLattice SpectralLattice::build(const Colorimetry& c, int n, VertexPrior 
         throw Error("spectral lattice needs at least 3 wavelengths, got " + c.grid.describe());
     if (prior == VertexPrior::Blend && !(blend >= 0 && std::isfinite(blend)))
         throw Error("blend weight must be finite and >= 0");
+    if (prior == VertexPrior::Measured && !measured)
+        throw Error("the measured vertex prior needs its table (vertex_prior_measured.csv)");
     SpectralLattice L;
     L.n_ = n;
     L.bins_ = static_cast<int>(c.grid.size());
@@ -63,6 +65,9 @@ SpectralLattice SpectralLattice::build(const Colorimetry& c, int n, VertexPrior 
     std::vector<JHCoefficients> jh;
     if (prior == VertexPrior::JakobHanika || prior == VertexPrior::Blend)
         jh = fit_jakob_hanika_nodes(c, ax);
+
+    TanhPrior learned;
+    if (prior == VertexPrior::Measured) learned = measured_prior_on_grid(*measured, c.grid);
 
     TridiagonalHessian H;
     H.size = N;
@@ -94,8 +99,10 @@ SpectralLattice SpectralLattice::build(const Colorimetry& c, int n, VertexPrior 
                 } else {
                     if (prior == VertexPrior::Smooth) {
                         q.setConstant(-0.5 * H.alpha);
-                    } else if (prior == VertexPrior::Lhtss) {
-                        const LhtssResult lh = lhtss_spectrum(C, c.grid, v, kVertexTolerance);
+                    } else if (prior == VertexPrior::Lhtss || prior == VertexPrior::Measured) {
+                        const LhtssResult lh = tanh_prior_spectrum(
+                            C, c.grid, v, prior == VertexPrior::Measured ? &learned : nullptr,
+                            kVertexTolerance);
                         L.prior_unconverged += !lh.converged;
                         L.solver_iterations += lh.iterations;
                         q = -lh.s;

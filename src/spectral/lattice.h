@@ -11,6 +11,7 @@
 
 #include "base/enum_names.h"
 #include "spectral/colorimetry.h"
+#include "spectral/measured_prior.h"
 #include "spectral/srgb_axis.h"
 
 namespace spectex {
@@ -26,24 +27,29 @@ namespace spectex {
 // Lhtss: the smoothest spectrum in log-hyperbolic-tangent space (spectral/lhtss.h, Burns 2020),
 //   bounded in (0, 1) by construction, then projected like the sigmoid (a no-op to rounding when
 //   its Newton solve converged, and the guarantee of exactness when it did not).
-enum class VertexPrior { JakobHanika, Smooth, Blend, Lhtss };
+// Measured: the most probable spectrum with the vertex colour under a Gaussian model of measured
+//   reflectances in LHTSS's tanh space (spectral/measured_prior.h: a learned mean and covariance),
+//   bounded in (0, 1) by construction, then projected like LHTSS.
+enum class VertexPrior { JakobHanika, Smooth, Blend, Lhtss, Measured };
 // Canonical words first; "jh" and "jakob_hanika" are read too.
-inline constexpr EnumNames<VertexPrior, 6> kVertexPriorNames{
+inline constexpr EnumNames<VertexPrior, 7> kVertexPriorNames{
     {{{VertexPrior::JakobHanika, "jakob-hanika"},
       {VertexPrior::Smooth, "smooth"},
       {VertexPrior::Blend, "blend"},
       {VertexPrior::Lhtss, "lhtss"},
+      {VertexPrior::Measured, "measured"},
       {VertexPrior::JakobHanika, "jh"},
       {VertexPrior::JakobHanika, "jakob_hanika"}}}};
-std::string to_string(VertexPrior p);  // "jakob-hanika" | "smooth" | "blend" | "lhtss"
+std::string to_string(VertexPrior p);  // "jakob-hanika" | "smooth" | "blend" | "lhtss" | "measured"
 VertexPrior parse_vertex_prior(const std::string&);  // the same names (and "jh"); throws Error
 
 class SpectralLattice {
   public:
     // n >= 2 breakpoints per axis: v_i = sRGB_decode(i / (n - 1)). Throws Error naming the vertex
     // and the grid when a vertex colour has no spectrum in [0, 1] (never returns a wrong table).
-    static SpectralLattice build(const Colorimetry& c, int n, VertexPrior prior,
-                                 double blend = 0.5);
+    // The measured prior needs its table (`measured`); the others ignore it.
+    static SpectralLattice build(const Colorimetry& c, int n, VertexPrior prior, double blend = 0.5,
+                                 const MeasuredPrior* measured = nullptr);
 
     // The lattice of a table built before (a cache entry of build()'s table_double()): the same
     // lattice, checksum and spectra as that build. Throws Error unless the table is one build()

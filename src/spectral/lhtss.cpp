@@ -57,16 +57,24 @@ bool solve_tridiagonal(std::vector<double> lower, std::vector<double> diag,
 
 LhtssResult lhtss_spectrum(const Eigen::Matrix3Xd& C, const WavelengthGrid& grid,
                            const Eigen::Vector3d& v, double tolerance) {
+    return tanh_prior_spectrum(C, grid, v, nullptr, tolerance);
+}
+
+LhtssResult tanh_prior_spectrum(const Eigen::Matrix3Xd& C, const WavelengthGrid& grid,
+                                const Eigen::Vector3d& v, const TanhPrior* prior,
+                                double tolerance) {
     const Eigen::Index N = C.cols();
     const size_t n = static_cast<size_t>(N);
-    // K = D'WD: (w_k (z[k+1] - z[k]))² summed, w_k = 10 nm / Δλ_k. A tiny multiple of the
+    // LHTSS: K = D'WD, (w_k (z[k+1] - z[k]))² summed, w_k = 10 nm / Δλ_k. A tiny multiple of the
     // identity (1e-9 of the largest weight) makes the tridiagonal block invertible at the start,
     // where s'' = 0 and K alone is singular along constant z; it moves the optimum by ~1e-9.
+    // A learned prior: the roughness of Brownian motion along λ, (z[k+1] - z[k])² · 5 nm / Δλ_k
+    // (the grid-independent form its covariance was fitted with), minus V V' (below).
     std::vector<double> kd(n, 0.0), ko(n > 0 ? n - 1 : 0, 0.0);
     double wmax = 0;
     for (size_t k = 0; k + 1 < n; ++k) {
-        const double w = 10.0 / (grid.lambda[k + 1] - grid.lambda[k]);
-        const double w2 = w * w;
+        const double step = grid.lambda[k + 1] - grid.lambda[k];
+        const double w2 = prior ? 5.0 / step : (10.0 / step) * (10.0 / step);
         wmax = std::max(wmax, w2);
         kd[k] += w2;
         kd[k + 1] += w2;
@@ -84,7 +92,29 @@ LhtssResult lhtss_spectrum(const Eigen::Matrix3Xd& C, const WavelengthGrid& grid
         }
         return out;
     };
-    Eigen::VectorXd z = Eigen::VectorXd::Zero(N), t, s, sp, g;
+    // The learned prior's precision (G + F F')⁻¹ = K - K F (I + F'KF)⁻¹ F'K = K - V V', with
+    // V = K F L⁻ᵀ and L L' = I + F'KF (Woodbury): the Newton block stays tridiagonal plus rank m.
+    Eigen::VectorXd mean = Eigen::VectorXd::Zero(N);
+    Eigen::MatrixXd V(N, 0);
+    if (prior) {
+        mean = prior->mean;
+        const Eigen::Index m = prior->factors.cols();
+        if (m > 0) {
+            Eigen::MatrixXd KF(N, m);
+            for (Eigen::Index j = 0; j < m; ++j) KF.col(j) = times_k(prior->factors.col(j));
+            const Eigen::MatrixXd A =
+                Eigen::MatrixXd::Identity(m, m) + prior->factors.transpose() * KF;
+            const Eigen::LLT<Eigen::MatrixXd> llt(A);
+            V = llt.matrixU().solve<Eigen::OnTheRight>(KF);  // K F U⁻¹, U = L'
+        }
+    }
+    const Eigen::Index m = V.cols();
+    auto times_p = [&](const Eigen::VectorXd& x) {
+        Eigen::VectorXd out = times_k(x);
+        if (m > 0) out.noalias() -= V * (V.transpose() * x);
+        return out;
+    };
+    Eigen::VectorXd z = mean, t, s, sp, g;
     Eigen::Vector3d lam = Eigen::Vector3d::Zero();
     Eigen::VectorXd r1;
     Eigen::Vector3d r2;
@@ -93,7 +123,7 @@ LhtssResult lhtss_spectrum(const Eigen::Matrix3Xd& C, const WavelengthGrid& grid
         s = (0.5 * (t.array() + 1.0)).matrix();
         sp = (0.5 * (1.0 - t.array().square())).matrix();
         g = C.transpose() * ll;
-        r1 = times_k(zz) - sp.cwiseProduct(g);
+        r1 = times_p(zz - mean) - sp.cwiseProduct(g);
         r2 = C * s - v;
         return r1.squaredNorm() + r2.squaredNorm();
     };
@@ -107,19 +137,28 @@ LhtssResult lhtss_spectrum(const Eigen::Matrix3Xd& C, const WavelengthGrid& grid
     double merit = evaluate(z, lam);
     for (int it = 0; it < kMaxIterations && !done(); ++it) {
         ++out.iterations;
-        // Newton on [K z - s'∘(C'λ); C s - v] = 0: the z block is tridiagonal (K plus the diagonal
-        // -s''∘(C'λ), s'' = -2 t s'), bordered by -diag(s') C' and C diag(s').
+        // Newton on [P (z - mean) - s'∘(C'λ); C s - v] = 0: the z block is tridiagonal (K plus
+        // the diagonal -s''∘(C'λ), s'' = -2 t s') minus V V', bordered by -diag(s') C' and
+        // C diag(s').
         std::vector<double> lower(ko.begin(), ko.end()), upper(ko.begin(), ko.end()), diag(n);
         for (size_t k = 0; k < n; ++k) {
             const Eigen::Index i = static_cast<Eigen::Index>(k);
             diag[k] = kd[k] + eps + 2.0 * t[i] * sp[i] * g[i];
         }
-        Eigen::MatrixXd X(N, 4);
+        Eigen::MatrixXd X(N, 4 + m);
         X.col(0) = -r1;
         for (int j = 0; j < 3; ++j) X.col(j + 1) = -sp.cwiseProduct(C.row(j).transpose());
+        if (m > 0) X.rightCols(m) = V;
         if (!solve_tridiagonal(lower, diag, upper, X)) break;
+        if (m > 0) {
+            // (T - V V')⁻¹ B = T⁻¹B + T⁻¹V (I - V'T⁻¹V)⁻¹ V'T⁻¹B
+            const Eigen::MatrixXd TV = X.rightCols(m);
+            const Eigen::MatrixXd S = Eigen::MatrixXd::Identity(m, m) - V.transpose() * TV;
+            const Eigen::MatrixXd corr = S.fullPivLu().solve(V.transpose() * X.leftCols(4));
+            X.leftCols(4) += TV * corr;
+        }
         const Eigen::VectorXd x0 = X.col(0);
-        const Eigen::MatrixXd Y = X.rightCols(3);  // J11^-1 J12
+        const Eigen::MatrixXd Y = X.middleCols(1, 3);  // J11^-1 J12
         const Eigen::Matrix3Xd J21 = C * sp.asDiagonal();
         const Eigen::Matrix3d S = J21 * Y;
         const Eigen::Vector3d dlam = S.fullPivLu().solve(J21 * x0 + r2);

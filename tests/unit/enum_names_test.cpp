@@ -39,10 +39,10 @@ TEST(EnumNames, EveryTableRoundTripsItsValues) {
     expect_round_trip(kReconstructionNames,
                       {Reconstruction::Linear, Reconstruction::Nearest, Reconstruction::Box},
                       "linear, nearest, box");
-    expect_round_trip(
-        kVertexPriorNames,
-        {VertexPrior::JakobHanika, VertexPrior::Smooth, VertexPrior::Blend, VertexPrior::Lhtss},
-        "jakob-hanika, smooth, blend, lhtss");
+    expect_round_trip(kVertexPriorNames,
+                      {VertexPrior::JakobHanika, VertexPrior::Smooth, VertexPrior::Blend,
+                       VertexPrior::Lhtss, VertexPrior::Measured},
+                      "jakob-hanika, smooth, blend, lhtss, measured");
     expect_round_trip(kAlphaKindNames,
                       {AlphaKind::None, AlphaKind::Associated, AlphaKind::Unassociated},
                       "none, associated, unassociated");
@@ -56,7 +56,8 @@ TEST(EnumNames, EveryTableRoundTripsItsValues) {
 TEST(EnumNames, OtherSpellingsAreReadNotWritten) {
     EXPECT_TRUE(kVertexPriorNames.find("jh") == VertexPrior::JakobHanika);
     EXPECT_STREQ(kVertexPriorNames.name(VertexPrior::JakobHanika), "jakob-hanika");
-    EXPECT_EQ(kVertexPriorNames.list(", ", " or "), "jakob-hanika, smooth, blend or lhtss");
+    EXPECT_EQ(kVertexPriorNames.list(", ", " or "),
+              "jakob-hanika, smooth, blend, lhtss or measured");
     EXPECT_EQ(parse_vertex_prior("JH"), VertexPrior::JakobHanika);  // any case, as before
     EXPECT_THROW(parse_vertex_prior("sigmoid"), Error);
 }

@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <set>
 #include <string>
 #include <vector>
@@ -13,6 +15,7 @@
 #include "spectral/colorimetry.h"
 #include "spectral/spectrum.h"
 #include "spectral/srgb_axis.h"
+#include "temp_dir.h"
 
 namespace spectex {
 namespace {
@@ -139,6 +142,45 @@ TEST(MethodTable, TableCostNamesTheRowsOption) {
             EXPECT_EQ(std::string(e.what()).rfind(row.table_option + ": ", 0), 0u) << e.what();
         }
     }
+}
+
+// The measured prior's table is part of the method: another table (a retrained prior, a data
+// folder of the user's) gives another recipe and cache key, so --update rebakes and no cache
+// serves the old lattice; the other priors' recipes carry nothing of it.
+TEST(MethodTable, TheMeasuredPriorsTableIsInItsRecipe) {
+    spectex_test::TempDir dir;
+    std::filesystem::create_directories(dir / "spectral");
+    for (const char* f : {"observer_cie1931-2.csv", "illuminant_D65.csv"})
+        std::filesystem::copy_file(kData + "/spectral/" + f, dir / ("spectral/" + std::string(f)));
+    {
+        std::ifstream in(kData + "/spectral/vertex_prior_measured.csv");
+        std::ofstream out(dir / "spectral/vertex_prior_measured.csv");
+        std::string line;
+        bool changed = false;
+        while (std::getline(in, line)) {
+            if (!changed && line.rfind("400,", 0) == 0) {  // one value moved by 0.01
+                const size_t comma = line.find(',');
+                line = "400," + std::to_string(std::stod(line.substr(comma + 1)) + 0.01);
+                changed = true;
+            }
+            out << line << "\n";
+        }
+        ASSERT_TRUE(changed);
+    }
+    MethodSpec a = spec_for(*find_method("lattice"));
+    a.vertex_prior = "measured";
+    MethodSpec b = a;
+    b.fit.data_dir = dir.path;
+    EXPECT_NE(vertex_prior_data(a), "");
+    EXPECT_NE(vertex_prior_data(a), vertex_prior_data(b));
+    EXPECT_NE(method_row(a.kind).recipe(a), method_row(b.kind).recipe(b));
+    EXPECT_NE(method_cache_key(a), method_cache_key(b));
+    MethodSpec c = a;
+    c.vertex_prior = "lhtss";
+    EXPECT_EQ(vertex_prior_data(c), "");
+    MethodSpec d = c;
+    d.fit.data_dir = dir.path;
+    EXPECT_EQ(method_cache_key(c), method_cache_key(d));
 }
 
 }  // namespace
