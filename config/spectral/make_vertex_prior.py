@@ -198,8 +198,9 @@ class Lattice9:
         return out
 
 
-def cross_validate(R, V, group, ev, m, sigma2, beta, lhtss=False):
-    """Leave-one-set-out: per set, the average over the lights of the mean ΔE00; pooled maxima."""
+def cross_validate(R, V, group, ev, m, sigma2, beta, lhtss=False, clipped=None):
+    """Leave-one-set-out: per set, the average over the lights of the mean ΔE00; pooled maxima
+    (and apart for the colours inside sRGB and those clipped to it, given `clipped`)."""
     S = np.zeros_like(R)
     for f in np.unique(group):
         tr, te = group != f, group == f
@@ -211,9 +212,34 @@ def cross_validate(R, V, group, ev, m, sigma2, beta, lhtss=False):
         S[te] = Lattice9(P, mu).spectra(V[te])
     de = {L: ev.delta_e(L, R, S) for L in M.LIGHTS}
     per_set = [float(np.mean([de[L][group == f].mean() for L in M.LIGHTS])) for f in np.unique(group)]
-    return dict(avg=float(np.mean([de[L].mean() for L in M.LIGHTS])), per_set=per_set,
-                mean={L: float(de[L].mean()) for L in M.LIGHTS},
-                max={L: float(de[L].max()) for L in M.LIGHTS})
+    out = dict(avg=float(np.mean([de[L].mean() for L in M.LIGHTS])), per_set=per_set,
+               mean={L: float(de[L].mean()) for L in M.LIGHTS},
+               max={L: float(de[L].max()) for L in M.LIGHTS})
+    if clipped is not None:
+        out["max_in"] = {L: float(de[L][~clipped].max()) for L in M.LIGHTS}
+        out["max_clipped"] = {L: float(de[L][clipped].max()) for L in M.LIGHTS}
+    return out
+
+
+def regression_floor(R, V, group, ev):
+    """Per set, the average over the lights of the mean ΔE00 of a least-squares regression from
+    the 8-bit colour (linear RGB, quadratic features) straight to the colour under each light,
+    fitted on the other sets: a predictor no spectrum constrains, for scale."""
+    def feats(X):
+        r, g, b = X.T
+        t = X.sum(1) + 1e-9
+        return np.stack([r, g, b, r * g / t, g * b / t, b * r / t, r * r / t, g * g / t, b * b / t], 1)
+    de = {}
+    for L in M.LIGHTS:
+        T = R @ ev.W[L].T @ ev.cat[L].T
+        pred = np.zeros_like(T)
+        for f in np.unique(group):
+            tr, te = group != f, group == f
+            B, *_ = np.linalg.lstsq(feats(V[tr]), T[tr], rcond=None)
+            pred[te] = feats(V[te]) @ B
+        de[L] = colour.delta_E(colour.XYZ_to_Lab(T, ev.white_xy), colour.XYZ_to_Lab(pred, ev.white_xy),
+                               method="CIE 2000")
+    return [float(np.mean([de[L][group == f].mean() for L in M.LIGHTS])) for f in np.unique(group)]
 
 
 def row(label, r, base=None):
@@ -257,6 +283,27 @@ def main():
     print("\n".join(table))
     print(f"\nchosen: m = {m}, sigma2 = {s2:g}, beta = {beta:g} (worst set {chosen['ratio']:.3f} of lhtss's; "
           f"best {best:.3f})")
+    # The trade-off along beta (the chosen m and sigma2): per-set scores, worst inside sRGB and of
+    # the colours clipped to it, per light. docs/methods.md shows this table.
+    def worst(r, key):
+        return " / ".join(f"{r[key][L]:.2f}" for L in M.LIGHTS)
+    jh_full = dict(per_set=[float(np.mean([de[L][group == f].mean() for L in M.LIGHTS])) for f in np.unique(group)],
+                   max_in={L: float(de[L][~clipped].max()) for L in M.LIGHTS},
+                   max_clipped={L: float(de[L][clipped].max()) for L in M.LIGHTS})
+    trade = [("Jakob-Hanika (no lattice)", jh_full),
+             ("lhtss", cross_validate(R, V, group, ev, 0, 1.0, 0.0, lhtss=True, clipped=clipped))]
+    trade += [(f"measured, beta = {b:g}", cross_validate(R, V, group, ev, m, s2, b, clipped=clipped)) for b in BETAS]
+    print(f"\nTrade-off along beta (m = {m}, sigma2 = {s2:g}); sets {', '.join(sets)}; "
+          f"{int((~clipped).sum())} colours inside sRGB, {int(clipped.sum())} clipped:\n")
+    print("| prior | " + " | ".join(sets) + " | in-sRGB worst " + " / ".join(M.LIGHTS)
+          + " | clipped worst " + " / ".join(M.LIGHTS) + " |")
+    print("|---|" + "---|" * len(sets) + "---|---|")
+    for label, r in trade:
+        print(f"| {label} | " + " | ".join(f"{x:.3f}" for x in r["per_set"])
+              + f" | {worst(r, 'max_in')} | {worst(r, 'max_clipped')} |")
+    floor = regression_floor(R, V, group, ev)
+    print("\nRegression from the 8-bit colour to each light's colour (quadratic, same split), per set: "
+          + ", ".join(f"{x:.3f}" for x in floor))
     mu, F = fit(R, m, s2, beta)
     out = Path(a.output)
     names = list(sets)

@@ -612,7 +612,9 @@ def main():
     ap.add_argument("--priors", default="jh,smooth,smooth2,blend1,blend10,blend30,blend100,blend300,blend1000,"
                     "gauss0.01,jhgauss1,jhgauss10")
     ap.add_argument("--spectex", help="evaluate spectra baked by this spectex binary instead")
-    ap.add_argument("--methods", nargs="+", default=["basis", "jakob-hanika", "lattice:9", "lattice:17"],
+    ap.add_argument("--methods", nargs="+",
+                    default=["basis", "jakob-hanika", "lattice:9", "--method lattice --vertex-prior lhtss",
+                             "--method lattice --vertex-prior measured", "default"],
                     help="with --spectex: M or M:N (--method M --lattice-size N), or raw options "
                          "starting with '--' (e.g. '--basis mallett2019')")
     ap.add_argument("--extra", default="", help="with --spectex: options added to every bake")
@@ -682,6 +684,11 @@ def main():
     for g, rows in held_rows.items():
         out.append(f"\n## HELD-OUT: {g}\n")
         out.append(md_table(rows))
+    learned = [name for name in per if "measured" in name or name == "default"]
+    if learned:
+        out.append("\n- " + ", ".join(learned) + ": the measured vertex prior learned from all of TUNING "
+                   "(and RAW to ACES): its TUNING rows are in-sample; its cross-validated figures (leaving "
+                   "one training set out) are printed by config/spectral/make_vertex_prior.py.")
     for s, msg in notes.items():
         out.append(f"\n- {s}: {msg}")
     out.append(f"\nRuntime {time.time() - t_start:.0f} s.")

@@ -127,7 +127,7 @@ TEST(MethodOptions, EveryOptionsWordsAreTakenInAnyCase) {
              {"--method", "latice", "basis, lattice, jakob-hanika"},
              {"--type", "HALFS", "half, float"},
              {"--precision", "Autos", "full, auto"},
-             {"--vertex-prior", "LHTS", "jakob-hanika, smooth, blend, lhtss"}}) {
+             {"--vertex-prior", "LHTS", "jakob-hanika, smooth, blend, lhtss or measured"}}) {
         r = run_spectex({"bake", d / "in.png", "-o", d / "no.exr", option, word});
         EXPECT_EQ(r.status, 2) << option << " " << r.err;
         EXPECT_NE(r.err.find(option + ": '" + word + "' is not one of " + list), std::string::npos)
