@@ -237,7 +237,7 @@ void declare_spectra_options(ArgParser& p, BakeCli& c) {
     p.section("Method");
     add_method_options(
         p, c.m, true,
-        "Default: the lattice with --vertex-prior measured, in half with --precision auto (see "
+        "Default: the lattice with --vertex-prior lhtss, in half with --precision auto (see "
         "there); an option of one method without --method (--basis, --lattice-size...) takes "
         "that method, at full precision.");
     observer_option(p, "Observer of the fitted basis", c.m.spec.fit.observer);

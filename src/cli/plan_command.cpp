@@ -174,7 +174,7 @@ struct PlanOptions {
 // --method and what builds it (method_options.h), --observer and --illuminant.
 void add_method_and_conditions(ArgParser& p, PlanOptions& o) {
     add_method_options(p, o.m, false,
-                       "Default: bake's, the lattice with --vertex-prior measured, and its bits "
+                       "Default: bake's, the lattice with --vertex-prior lhtss, and its bits "
                        "(--precision auto) with the grid; an option of one method without "
                        "--method takes that method, and --nonuniform the basis.");
     observer_option(p, "Observer of the method and of the error", o.m.spec.fit.observer);

@@ -299,7 +299,7 @@ void choose_precision_bits(const BakeRequest& r, const BakeTables& t, BakeSettin
 MethodSpec DefaultBake::method() {
     MethodSpec m;
     m.kind = MethodKind::Lattice;
-    m.vertex_prior = "measured";
+    m.vertex_prior = "lhtss";
     return m;
 }
 

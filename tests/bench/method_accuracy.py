@@ -684,7 +684,7 @@ def main():
     for g, rows in held_rows.items():
         out.append(f"\n## HELD-OUT: {g}\n")
         out.append(md_table(rows))
-    learned = [name for name in per if "measured" in name or name == "default"]
+    learned = [name for name in per if "measured" in name]
     if learned:
         out.append("\n- " + ", ".join(learned) + ": the measured vertex prior learned from all of TUNING "
                    "(and RAW to ACES): its TUNING rows are in-sample; its cross-validated figures (leaving "

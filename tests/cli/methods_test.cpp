@@ -69,7 +69,7 @@ TEST(Methods, AnOptionOfOneMethodTakesThatMethod) {
         // Only the default bake keeps fewer bits; a method taken from its options keeps all.
         EXPECT_EQ(img.has_attr("spectex:precision"), extra.empty()) << method;
         if (method == "lattice")
-            EXPECT_EQ(img.attr("spectex:vertexPrior"), extra.empty() ? "measured" : "jakob-hanika");
+            EXPECT_EQ(img.attr("spectex:vertexPrior"), extra.empty() ? "lhtss" : "jakob-hanika");
     }
 }
 
@@ -84,7 +84,7 @@ TEST(MethodsSlow, TheHeaderAndTheSettingsHashRecordTheMethod) {
     };
     const std::vector<Case> cases = {
         {{"--method", "basis"}, "basis", "", ""},
-        {{}, "lattice", "9", "measured"},  // the default bake
+        {{}, "lattice", "9", "lhtss"},  // the default bake
         {{"--method", "lattice"}, "lattice", "9", "jakob-hanika"},
         {{"--method", "lattice", "--lattice-size", "5"}, "lattice", "5", "jakob-hanika"},
         {{"--method", "lattice", "--vertex-prior", "smooth"}, "lattice", "9", "smooth"},
@@ -130,10 +130,10 @@ TEST(MethodsSlow, TheHeaderAndTheSettingsHashRecordTheMethod) {
         {"bake", d / "in.png", "-o", d / "u.exr", "--method", "basis", "--update", "-v"});
     EXPECT_FALSE(contains(other.err, "up to date")) << other.err;
     EXPECT_EQ(read_exr(d / "u.exr").attr("spectex:method"), "basis");
-    // The default bake's lattice (the measured prior, budgeted) is not the JH-prior lattice either.
+    // The default bake's lattice (the LHTSS prior, budgeted) is not the JH-prior lattice either.
     RunResult dflt = run_spectex({"bake", d / "in.png", "-o", d / "u.exr", "--update", "-v"});
     EXPECT_FALSE(contains(dflt.err, "up to date")) << dflt.err;
-    EXPECT_EQ(read_exr(d / "u.exr").attr("spectex:vertexPrior"), "measured");
+    EXPECT_EQ(read_exr(d / "u.exr").attr("spectex:vertexPrior"), "lhtss");
 }
 
 TEST(Methods, ALatticeVertexWithoutAnExactSpectrumIsAClearFailure) {

@@ -63,8 +63,7 @@ TEST(PlanSlow, WithoutAMethodPlansBakesDefaultWithItsBits) {
     RunResult r = run_spectex(quick);
     ASSERT_EQ(r.status, 0) << r.err;
     auto j = nlohmann::json::parse(r.out.substr(0, r.out.find('\n')));
-    EXPECT_EQ(j["method"].get<std::string>().rfind("lattice 9, measured prior", 0), 0u)
-        << j["method"];
+    EXPECT_EQ(j["method"].get<std::string>().rfind("lattice 9, lhtss prior", 0), 0u) << j["method"];
     ASSERT_TRUE(j.contains("precision")) << r.out;
     EXPECT_EQ(j["precision"]["bits"].size(), 41u);
     r = run_spectex(with(quick, {"--method", "basis"}));

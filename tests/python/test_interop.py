@@ -78,10 +78,9 @@ def test_alpha_and_preview_through_oiio(tmp):
     assert "A" in names and {"R", "G", "B"} <= set(names)
     assert sum(n.startswith("T.") and n.endswith("nm") for n in names) == 31  # 400:700:10
     assert spec.get_string_attribute("spectralLayoutVersion") == "1.0"
-    # The default: the lattice with the measured prior and its precision budget, as OIIO reads
-    # the header.
+    # The default: the LHTSS lattice with its precision budget, as OIIO reads the header.
     assert spec.get_string_attribute("spectex:method") == "lattice"
-    assert spec.get_string_attribute("spectex:vertexPrior") == "measured"
+    assert spec.get_string_attribute("spectex:vertexPrior") == "lhtss"
     assert spec.get_string_attribute("spectex:precision") == "auto"
     alpha = buf.get_pixels(oiio.FLOAT)[..., names.index("A")]
     src_alpha = oiio.ImageBuf(LEAF).get_pixels(oiio.UINT8)[..., 3]
