@@ -181,20 +181,10 @@ class Lattice9:
         return self.cache[t]
 
     def spectra(self, V):
-        n, xb = self.n, self.xb
         out = np.zeros((len(V), N))
         for k, v in enumerate(V):
-            base = np.clip(np.searchsorted(xb, v, side="right") - 1, 0, n - 2)
-            f = (v - xb[base]) / (xb[base + 1] - xb[base])
-            order = np.argsort(-f, kind="stable")
-            fs = f[order]
-            w = np.array([1 - fs[0], fs[0] - fs[1], fs[1] - fs[2], fs[2]])
-            corners = [base.copy()]
-            for ax in order:
-                nxt = corners[-1].copy()
-                nxt[ax] += 1
-                corners.append(nxt)
-            out[k] = w @ np.stack([self.vertex(tuple(int(i) for i in c)) for c in corners])
+            w, corners = M.kuhn_simplex(self.xb, v)
+            out[k] = w @ np.stack([self.vertex(c) for c in corners])
         return out
 
 

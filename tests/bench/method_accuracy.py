@@ -353,6 +353,23 @@ D2 = np.diff(np.eye(N), n=2, axis=0)  # second differences
 D2TD2 = D2.T @ D2
 
 
+def kuhn_simplex(xb, v):
+    """The Kuhn simplex of linear-RGB colour v in the lattice with breakpoints xb: its barycentric
+    weights (4) and its vertices' index triples (4), from the cell's low corner up."""
+    n = len(xb)
+    base = np.clip(np.searchsorted(xb, v, side="right") - 1, 0, n - 2)
+    f = (v - xb[base]) / (xb[base + 1] - xb[base])
+    order = np.argsort(-f, kind="stable")
+    fs = f[order]
+    w = np.array([1 - fs[0], fs[0] - fs[1], fs[1] - fs[2], fs[2]])
+    corners = [base.copy()]
+    for ax in order:
+        nxt = corners[-1].copy()
+        nxt[ax] += 1
+        corners.append(nxt)
+    return w, [tuple(int(i) for i in c) for c in corners]
+
+
 class Lattice:
     """Lazily evaluated lattice: vertex spectra cached per (prior, fold, n, i, j, k)."""
 
@@ -415,18 +432,9 @@ class Lattice:
         xb = self.breakpoints(n)
         out = np.zeros((len(V), N))
         for k, v in enumerate(V):
-            base = np.clip(np.searchsorted(xb, v, side="right") - 1, 0, n - 2)
-            f = (v - xb[base]) / (xb[base + 1] - xb[base])
-            order = np.argsort(-f, kind="stable")
-            fs = f[order]
-            w = np.array([1 - fs[0], fs[0] - fs[1], fs[1] - fs[2], fs[2]])
-            corners = [base.copy()]
-            for ax in order:
-                nxt = corners[-1].copy()
-                nxt[ax] += 1
-                corners.append(nxt)
+            w, corners = kuhn_simplex(xb, v)
             fold = None if folds is None else folds[k]
-            S = self.vertices(prior, fold, n, [tuple(int(i) for i in c) for c in corners])
+            S = self.vertices(prior, fold, n, corners)
             out[k] = w @ S
         return out
 
