@@ -232,6 +232,57 @@ def regression_floor(R, V, group, ev):
     return [float(np.mean([de[L][group == f].mean() for L in M.LIGHTS])) for f in np.unique(group)]
 
 
+def tradeoff_svg(path, jh, lhtss, curve, chosen):
+    """One panel per light: the mean ΔE00 over all samples (x) against the worst inside sRGB (y),
+    for LHTSS (beta = 0) and each beta, the chosen one ringed, Jakob-Hanika as a cross. Plain SVG,
+    no plotting library."""
+    W, H, pad = 190, 190, 34
+    panels = []
+    for p, L in enumerate(M.LIGHTS):
+        pts = [(lhtss["mean"][L], lhtss["max_in"][L], 0.0)] + [(r["mean"][L], r["max_in"][L], b) for b, r in curve]
+        xs = [x for x, _, _ in pts] + [jh["mean"][L]]
+        ys = [y for _, y, _ in pts] + [jh["max_in"][L]]
+        x0, x1 = min(xs) * 0.97, max(xs) * 1.03
+        y0, y1 = min(ys) * 0.97, max(ys) * 1.03
+        ox = p * (W + 10)
+
+        def X(v):
+            return ox + pad + (v - x0) / (x1 - x0) * (W - pad - 6)
+
+        def Y(v):
+            return H - pad + 6 - (v - y0) / (y1 - y0) * (H - pad - 6)
+        g = [f'<rect x="{ox + pad}" y="6" width="{W - pad - 6}" height="{H - pad}" fill="none" stroke="#999"/>',
+             f'<text x="{ox + pad + 4}" y="20" font-size="12" font-weight="bold">{L}</text>',
+             f'<text x="{ox + pad}" y="{H - pad + 20}" font-size="10">{x0:.2f}</text>',
+             f'<text x="{ox + W - 6}" y="{H - pad + 20}" font-size="10" text-anchor="end">{x1:.2f}</text>',
+             f'<text x="{ox + pad - 3}" y="{H - pad + 6}" font-size="10" text-anchor="end">{y0:.1f}</text>',
+             f'<text x="{ox + pad - 3}" y="16" font-size="10" text-anchor="end">{y1:.1f}</text>',
+             '<polyline fill="none" stroke="#1f77b4" stroke-width="1.5" points="'
+             + " ".join(f"{X(x):.1f},{Y(y):.1f}" for x, y, _ in pts) + '"/>']
+        for x, y, b in pts:
+            g.append(f'<circle cx="{X(x):.1f}" cy="{Y(y):.1f}" r="{4.5 if b == chosen else 2.5}" '
+                     f'fill="{"#d62728" if b == chosen else "#1f77b4"}"/>')
+            if b in (0.0, chosen, 1.0):
+                g.append(f'<text x="{X(x) + 5:.1f}" y="{Y(y) - 4:.1f}" font-size="9">'
+                         f'{"lhtss" if b == 0 else "β " + format(b, "g")}</text>')
+        jx, jy = X(jh["mean"][L]), Y(jh["max_in"][L])
+        g.append(f'<path d="M{jx - 4:.1f},{jy - 4:.1f}L{jx + 4:.1f},{jy + 4:.1f}M{jx - 4:.1f},{jy + 4:.1f}'
+                 f'L{jx + 4:.1f},{jy - 4:.1f}" stroke="#333" stroke-width="1.5"/>')
+        g.append(f'<text x="{jx + 5:.1f}" y="{jy + 10:.1f}" font-size="9">JH</text>')
+        panels.append("\n".join(g))
+    width = len(M.LIGHTS) * (W + 10)
+    text = (f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{H + 38}" '
+            f'font-family="sans-serif">\n<rect width="100%" height="100%" fill="white"/>\n'
+            + "\n".join(panels)
+            + f'\n<text x="6" y="{H + 16}" font-size="11">x: mean ΔE00 over the 301 training colours; '
+              f'y: the worst of the 260 inside sRGB; each set scored by a prior learned without it.</text>'
+              f'\n<text x="6" y="{H + 30}" font-size="11">The line runs from lhtss (β 0) to β 1 in steps '
+              f'of the table in docs/methods.md; the shipped β is ringed; JH: Jakob-Hanika.</text>\n</svg>\n')
+    tmp = Path(str(path) + ".tmp")
+    tmp.write_text(text)
+    tmp.replace(path)
+
+
 def row(label, r, base=None):
     ratio = f"{max(np.array(r['per_set']) / np.array(base['per_set'])):.3f}" if base and "per_set" in r else "-"
     return (f"| {label} | {ratio} | {r['avg']:.3f} | "
@@ -241,6 +292,7 @@ def row(label, r, base=None):
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("-o", "--output", default=str(Path(__file__).resolve().parent / "vertex_prior_measured.csv"))
+    ap.add_argument("--svg", help="also draw the trade-off along beta here (docs/images/measured_prior_tradeoff.svg)")
     a = ap.parse_args()
     sets = training_sets()
     R, group, report = screen(sets)
@@ -278,6 +330,7 @@ def main():
     def worst(r, key):
         return " / ".join(f"{r[key][L]:.2f}" for L in M.LIGHTS)
     jh_full = dict(per_set=[float(np.mean([de[L][group == f].mean() for L in M.LIGHTS])) for f in np.unique(group)],
+                   mean={L: float(de[L].mean()) for L in M.LIGHTS},
                    max_in={L: float(de[L][~clipped].max()) for L in M.LIGHTS},
                    max_clipped={L: float(de[L][clipped].max()) for L in M.LIGHTS})
     trade = [("Jakob-Hanika (no lattice)", jh_full),
@@ -291,6 +344,9 @@ def main():
     for label, r in trade:
         print(f"| {label} | " + " | ".join(f"{x:.3f}" for x in r["per_set"])
               + f" | {worst(r, 'max_in')} | {worst(r, 'max_clipped')} |")
+    if a.svg:
+        tradeoff_svg(a.svg, jh_full, trade[1][1], [(b, r) for b, (_, r) in zip(BETAS, trade[2:])], beta)
+        log(f"wrote {a.svg}")
     floor = regression_floor(R, V, group, ev)
     print("\nRegression from the 8-bit colour to each light's colour (quadratic, same split), per set: "
           + ", ".join(f"{x:.3f}" for x in floor))
