@@ -188,9 +188,20 @@ class Lattice9:
         return out
 
 
-def cross_validate(R, V, group, ev, m, sigma2, beta, lhtss=False, clipped=None):
-    """Leave-one-set-out: per set, the average over the lights of the mean ΔE00; pooled maxima
-    (and apart for the colours inside sRGB and those clipped to it, given `clipped`)."""
+def scores(de, group, clipped):
+    """ΔE00 per light (de) summed up: per set, the average over the lights of the mean; pooled
+    mean and maximum per light, and the maximum apart for the colours inside sRGB and those
+    clipped to it."""
+    return dict(avg=float(np.mean([de[L].mean() for L in M.LIGHTS])),
+                per_set=[float(np.mean([de[L][group == f].mean() for L in M.LIGHTS])) for f in np.unique(group)],
+                mean={L: float(de[L].mean()) for L in M.LIGHTS},
+                max={L: float(de[L].max()) for L in M.LIGHTS},
+                max_in={L: float(de[L][~clipped].max()) for L in M.LIGHTS},
+                max_clipped={L: float(de[L][clipped].max()) for L in M.LIGHTS})
+
+
+def cross_validate(R, V, group, clipped, ev, m, sigma2, beta, lhtss=False):
+    """Leave-one-set-out scores (scores()) of the prior (m, sigma2, beta), or of LHTSS."""
     S = np.zeros_like(R)
     for f in np.unique(group):
         tr, te = group != f, group == f
@@ -200,15 +211,7 @@ def cross_validate(R, V, group, ev, m, sigma2, beta, lhtss=False, clipped=None):
             mu, F = fit(R[tr], m, sigma2, beta)
             P = precision(F)
         S[te] = Lattice9(P, mu).spectra(V[te])
-    de = {L: ev.delta_e(L, R, S) for L in M.LIGHTS}
-    per_set = [float(np.mean([de[L][group == f].mean() for L in M.LIGHTS])) for f in np.unique(group)]
-    out = dict(avg=float(np.mean([de[L].mean() for L in M.LIGHTS])), per_set=per_set,
-               mean={L: float(de[L].mean()) for L in M.LIGHTS},
-               max={L: float(de[L].max()) for L in M.LIGHTS})
-    if clipped is not None:
-        out["max_in"] = {L: float(de[L][~clipped].max()) for L in M.LIGHTS}
-        out["max_clipped"] = {L: float(de[L][clipped].max()) for L in M.LIGHTS}
-    return out
+    return scores({L: ev.delta_e(L, R, S) for L in M.LIGHTS}, group, clipped)
 
 
 def regression_floor(R, V, group, ev):
@@ -304,17 +307,15 @@ def main():
              + " | ".join(f"{L} mean / max" for L in M.LIGHTS) + " |",
              "|---|---|---|" + "---|" * len(M.LIGHTS)]
     c, _ = M.jh_fit(V)
-    de = {L: ev.delta_e(L, R, M.jh_spectrum(c)) for L in M.LIGHTS}
-    jh = dict(avg=float(np.mean([de[L].mean() for L in M.LIGHTS])), mean={L: float(de[L].mean()) for L in M.LIGHTS},
-              max={L: float(de[L].max()) for L in M.LIGHTS})
-    base = cross_validate(R, V, group, ev, 0, 1.0, 0.0, lhtss=True)
+    jh = scores({L: ev.delta_e(L, R, M.jh_spectrum(c)) for L in M.LIGHTS}, group, clipped)
+    base = cross_validate(R, V, group, clipped, ev, 0, 1.0, 0.0, lhtss=True)
     table.append(row("Jakob-Hanika (no lattice)", jh))
     table.append(row("lhtss (m = 0, mu = 0)", base, base))
     results = {}
     for m in MS:
         for s2 in (SIGMA2S if m else [1.0]):
             for beta in BETAS:
-                r = results[(m, s2, beta)] = cross_validate(R, V, group, ev, m, s2, beta)
+                r = results[(m, s2, beta)] = cross_validate(R, V, group, clipped, ev, m, s2, beta)
                 r["ratio"] = float(max(np.array(r["per_set"]) / np.array(base["per_set"])))
                 table.append(row(f"m = {m}, sigma2 = {s2:g}, beta = {beta:g}", r, base))
                 log(table[-1])
@@ -329,13 +330,8 @@ def main():
     # the colours clipped to it, per light. docs/methods.md shows this table.
     def worst(r, key):
         return " / ".join(f"{r[key][L]:.2f}" for L in M.LIGHTS)
-    jh_full = dict(per_set=[float(np.mean([de[L][group == f].mean() for L in M.LIGHTS])) for f in np.unique(group)],
-                   mean={L: float(de[L].mean()) for L in M.LIGHTS},
-                   max_in={L: float(de[L][~clipped].max()) for L in M.LIGHTS},
-                   max_clipped={L: float(de[L][clipped].max()) for L in M.LIGHTS})
-    trade = [("Jakob-Hanika (no lattice)", jh_full),
-             ("lhtss", cross_validate(R, V, group, ev, 0, 1.0, 0.0, lhtss=True, clipped=clipped))]
-    trade += [(f"measured, beta = {b:g}", cross_validate(R, V, group, ev, m, s2, b, clipped=clipped)) for b in BETAS]
+    trade = [("Jakob-Hanika (no lattice)", jh), ("lhtss", base)]
+    trade += [(f"measured, beta = {b:g}", results[(m, s2, b)]) for b in BETAS]
     print(f"\nTrade-off along beta (m = {m}, sigma2 = {s2:g}); sets {', '.join(sets)}; "
           f"{int((~clipped).sum())} colours inside sRGB, {int(clipped.sum())} clipped:\n")
     print("| prior | " + " | ".join(sets) + " | in-sRGB worst " + " / ".join(M.LIGHTS)
@@ -345,7 +341,7 @@ def main():
         print(f"| {label} | " + " | ".join(f"{x:.3f}" for x in r["per_set"])
               + f" | {worst(r, 'max_in')} | {worst(r, 'max_clipped')} |")
     if a.svg:
-        tradeoff_svg(a.svg, jh_full, trade[1][1], [(b, r) for b, (_, r) in zip(BETAS, trade[2:])], beta)
+        tradeoff_svg(a.svg, jh, base, [(b, results[(m, s2, b)]) for b in BETAS], beta)
         log(f"wrote {a.svg}")
     floor = regression_floor(R, V, group, ev)
     print("\nRegression from the 8-bit colour to each light's colour (quadratic, same split), per set: "
