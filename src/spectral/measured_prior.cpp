@@ -42,15 +42,16 @@ MeasuredPrior read_measured_prior_csv(const std::string& path) {
     p.lambda = t.data[0];
     p.mean = t.data[1];
     p.factors.assign(t.data.begin() + 2, t.data.end());
+    // Largest |value| per column: the wavelengths any (the table checked them); a mean past
+    // |z| = 20 is a reflectance within 1e-17 of 0 or 1, no measured one; a direction past 1e3
+    // would make the covariance of z dwarf the roughness's ~1 by 1e6: no data-driven model, and
+    // a Newton system that loses its digits.
+    auto limit = [](size_t column) { return column == 0 ? HUGE_VAL : column == 1 ? 20.0 : 1e3; };
     Fnv1a64 h;
-    for (const auto& col : t.data)
-        for (size_t k = 0; k < col.size(); ++k) {
-            const double v = col[k];
-            // A mean past |z| = 20 is a reflectance within 1e-17 of 0 or 1: no measured one.
-            // A direction past 1e3 would make the covariance of z dwarf the roughness's ~1 by
-            // 1e6: no data-driven model, and a Newton system that loses its digits.
-            const bool bad = !std::isfinite(v) || (&col == &t.data[1] && std::fabs(v) > 20) ||
-                             (&col >= &t.data[2] && std::fabs(v) > 1e3);
+    for (size_t j = 0; j < t.data.size(); ++j)
+        for (size_t k = 0; k < t.data[j].size(); ++k) {
+            const double v = t.data[j][k];
+            const bool bad = !std::isfinite(v) || std::fabs(v) > limit(j);
             if (bad)
                 throw Error(what + ": value " + std::to_string(v) + " at " +
                             std::to_string(t.data[0][k]) + " nm is not a usable number");
