@@ -531,39 +531,45 @@ def _make_class(mi):
                                  dr.gather(mi.Float, self._alpha, texel, active))
                     alpha += wgt
                 weights.append(wgt)
-            values = [mi.Float(0.0) for _ in at]
             if rec.rule == "basis":
                 r = sum(w * tv.x for w, tv in zip(weights, texels))
                 g = sum(w * tv.y for w, tv in zip(weights, texels))
                 b = sum(w * tv.z for w, tv in zip(weights, texels))
                 values = [r * table(mi.UInt32(0), i, t) + g * table(mi.UInt32(1), i, t) + b * table(mi.UInt32(2), i, t)
                           for i, t, step in at]
-            elif self._pairs16 is not None:
+            else:
                 # Lerp last: sum_v w_v lerp(lo_v, hi_v, t) = lerp(sum_v w_v lo_v, sum_v w_v hi_v, t),
                 # two FMAs a vertex (5-6 % faster a render than a lerp per vertex, alternating runs
-                # of tests/bench/mitsuba_speed.py). A half's bits moved to a float's place are its
-                # value times 2^-112 (no sign: the lattice's spectra are in [0, 1]); the weight
-                # carries the 2^112 instead (one product per texel and vertex, not per
-                # wavelength), so each product is of the value's own size and never flushed to
-                # zero as a product below 2^-126 would be.
+                # of tests/bench/mitsuba_speed.py).
+                if self._pairs16 is not None:
+                    # A half's bits moved to a float's place are its value times 2^-112 (no sign:
+                    # the lattice's spectra are in [0, 1]); the weight carries the 2^112 instead
+                    # (one product per texel and vertex, not per wavelength), so each product is
+                    # of the value's own size and never flushed to zero as one below 2^-126 would be.
+                    unit = 5.192296858534828e33
+
+                    def pair(k, i):
+                        u = dr.gather(mi.UInt32, self._pairs16, k * self._pair_cols + i, active)
+                        return (dr.reinterpret_array(mi.Float, (u & 0x7FFF) << 13),
+                                dr.reinterpret_array(mi.Float, (u >> 3) & (0x7FFF << 13)))
+                else:
+                    unit = 1.0
+
+                    def pair(k, i):
+                        p = dr.gather(mi.Point2f, self._pairs, k * self._pair_cols + i, active)
+                        return p.x, p.y
                 lo_sum = [mi.Float(0.0) for _ in at]
                 hi_sum = [mi.Float(0.0) for _ in at]
                 for wgt, tv in zip(weights, texels):
                     verts, ws = self._simplex_of(tv)
-                    scale = wgt * 5.192296858534828e33
+                    scale = wgt * unit
                     for v, w in zip(verts, ws):
                         ws_v = scale * w
                         for j, (i, t, step) in enumerate(at):
-                            u = dr.gather(mi.UInt32, self._pairs16, v * self._pair_cols + i, active)
-                            lo_sum[j] = dr.fma(ws_v, dr.reinterpret_array(mi.Float, (u & 0x7FFF) << 13), lo_sum[j])
-                            hi_sum[j] = dr.fma(ws_v, dr.reinterpret_array(mi.Float, (u >> 3) & (0x7FFF << 13)),
-                                               hi_sum[j])
+                            lo, hi = pair(v, i)
+                            lo_sum[j] = dr.fma(ws_v, lo, lo_sum[j])
+                            hi_sum[j] = dr.fma(ws_v, hi, hi_sum[j])
                 values = [dr.lerp(lo, hi, t) for lo, hi, (i, t, step) in zip(lo_sum, hi_sum, at)]
-            else:
-                for wgt, tv in zip(weights, texels):
-                    verts, ws = self._simplex_of(tv)
-                    for j, (i, t, step) in enumerate(at):
-                        values[j] += wgt * sum(w * table(v, i, t) for v, w in zip(verts, ws))
             spec = mi.UnpolarizedSpectrum(*values)
             if self.premultiplied:
                 spec = dr.select(alpha > 0, spec / dr.select(alpha > 0, alpha, 1.0), 0.0)
