@@ -497,7 +497,10 @@ def run_spectex(args, groups):
     work = Path(tempfile.mkdtemp(prefix="spectex-acc-"))
     try:
         for spec in args.methods:
-            if spec == "default":  # spectex bake's default: no method option at all
+            # "default" is the bake as it ships (no option at all: its method, bins, half and its
+            # bits); every other row is baked in float, so that methods differ by method alone.
+            typ = [] if spec == "default" else ["--type", "float"]
+            if spec == "default":
                 extra = []
             elif spec.startswith("--"):
                 extra = spec.split()
@@ -513,7 +516,7 @@ def run_spectex(args, groups):
                 out.open(str(png), oiio.ImageSpec(len(codes), 1, 3, oiio.UINT8))
                 out.write_image(np.ascontiguousarray(codes.reshape(1, -1, 3)))
                 out.close()
-                cmd = [args.spectex, "bake", str(png), "-o", str(exr), "--type", "float", "-q", *extra]
+                cmd = [args.spectex, "bake", str(png), "-o", str(exr), *typ, "-q", *extra]
                 p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
                 if p.returncode != 0:
                     err = " / ".join(p.stderr.strip().splitlines()[:2])
@@ -623,8 +626,9 @@ def main():
     ap.add_argument("--methods", nargs="+",
                     default=["basis", "jakob-hanika", "lattice:9", "--method lattice --vertex-prior lhtss",
                              "--method lattice --vertex-prior measured", "default"],
-                    help="with --spectex: M or M:N (--method M --lattice-size N), or raw options "
-                         "starting with '--' (e.g. '--basis mallett2019')")
+                    help="with --spectex: M or M:N (--method M --lattice-size N), raw options "
+                         "starting with '--' (e.g. '--basis mallett2019'), each baked in float, or "
+                         "'default': the bake with no option, as it ships")
     ap.add_argument("--extra", default="", help="with --spectex: options added to every bake")
     ap.add_argument("--tol", type=float, default=0.03, help="the rule's tolerance on means against plain JH")
     ap.add_argument("--max-rel", type=float, default=0.10, help="the rule's relative tolerance on maxima")
