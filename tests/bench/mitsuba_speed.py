@@ -15,7 +15,9 @@ the texture's load is nearly all of it), renders once untimed (tracing and compi
 reported), then --runs times, each synchronised and timed as wall time. The process's peak
 resident memory (VmHWM) covers loading and rendering. Prints each mode's figures and the
 ratios to `bitmap`; exits 1 if the rgb mode misses a limit: peak memory 1.5x, load 3x, median
-render 1.5x the bitmap's (--max-memory, --max-load, --max-render).
+render 1.5x the bitmap's (--max-memory, --max-load, --max-render). With --lookups, each mode's
+texture is also timed alone, in a process of its own: eval() at the render's lookups, outside any
+scene (in the render the BSDF evaluates it twice a sample, and the rest of the kernel is shared).
 
     DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1 \\
     build/venv/bin/python tests/bench/mitsuba_speed.py --spectex build/src/spectex [--size 4096]
@@ -87,9 +89,44 @@ print(json.dumps({"load": load, "first": first, "walls": walls,
                   "base_mib": base / 1024, "mean": mean}))
 """
 
+# The texture alone: eval() at the render's lookups (res^2 * spp positions, pixel by pixel, each
+# pixel's spp in a row as the render orders them; 4 wavelengths a lookup, spread over 360-830 nm),
+# outside any scene, so that its cost is seen apart from the rest of the render's kernel.
+LOOKUPS = r"""
+import json, sys, time, warnings
+warnings.filterwarnings("ignore")
+sys.path.insert(0, sys.argv[1])
+import drjit as dr
+import mitsuba as mi
+mode, filename, res, spp, runs, variant = sys.argv[2], sys.argv[3], int(sys.argv[4]), int(sys.argv[5]), \
+    int(sys.argv[6]), sys.argv[7]
+mi.set_variant(variant)
+import spectex_mitsuba
+spectex_mitsuba.register()
+texture = mi.load_dict({"type": "bitmap", "filename": filename} if mode == "bitmap" else
+                       {"type": "spectex", "filename": filename, "mode": mode})
+n = res * res * spp
+pixel = dr.arange(mi.UInt32, n) // spp
+sampler = mi.load_dict({"type": "independent"})
+sampler.seed(1, n)
+si = dr.zeros(mi.SurfaceInteraction3f, n)
+si.uv = mi.Point2f((mi.Float(pixel % res) + sampler.next_1d()) / res,
+                   (mi.Float(pixel // res) + sampler.next_1d()) / res)
+u = sampler.next_1d()
+si.wavelengths = mi.Spectrum(*[360.0 + 470.0 * ((u + k / 4) - dr.floor(u + k / 4)) for k in range(4)])
+dr.eval(si.uv, si.wavelengths)
+def once():
+    t = time.perf_counter()
+    dr.eval(texture.eval(si))
+    dr.sync_thread()
+    return time.perf_counter() - t
+first = once()
+print(json.dumps({"first": first, "walls": [once() for _ in range(runs)]}))
+"""
 
-def run_mode(mode, filename, a):
-    r = subprocess.run([sys.executable, "-c", CHILD, str(ROOT / "python"), mode, str(filename), str(a.res),
+
+def run_mode(mode, filename, a, child=CHILD):
+    r = subprocess.run([sys.executable, "-c", child, str(ROOT / "python"), mode, str(filename), str(a.res),
                         str(a.spp), str(a.runs), a.variant], capture_output=True, text=True)
     if r.returncode:
         sys.exit(f"{mode}: failed: {r.stderr.strip()[-2000:]}")
@@ -109,6 +146,8 @@ def main():
     ap.add_argument("--max-render", type=float, default=1.5)
     ap.add_argument("--variant", default="llvm_ad_spectral")
     ap.add_argument("--keep", help="keep the PNG and EXR in this folder instead of a temporary one")
+    ap.add_argument("--lookups", action="store_true",
+                    help="also time each mode's texture alone: eval() at the render's lookups, outside the scene")
     a = ap.parse_args()
     sys.path.insert(0, str(HERE))
     from speed_vs_error import photographic_png
@@ -136,6 +175,11 @@ def main():
                   f"load {res['load']:6.2f} s, first render {res['first']:6.2f} s, "
                   f"render median {res['median']:.3f} s (runs {', '.join(f'{w:.3f}' for w in res['walls'])}), "
                   f"image mean {', '.join(f'{x:.4f}' for x in res['mean'][:3])}")
+            if a.lookups:
+                lk = run_mode(mode, png if mode == "bitmap" else exr, a, LOOKUPS)
+                res["lookups"] = statistics.median(lk["walls"])
+                print(f"  {mode:8s} texture alone: {a.res * a.res * a.spp:,} lookups, median {res['lookups']:.3f} s "
+                      f"(runs {', '.join(f'{w:.3f}' for w in lk['walls'])})")
     if "bitmap" not in results:
         return 0
     b = results["bitmap"]
@@ -146,7 +190,8 @@ def main():
             continue
         m = results[mode]
         ratios = (m["peak_mib"] / b["peak_mib"], m["load"] / b["load"], m["median"] / b["median"])
-        print(f"  {mode:8s} memory {ratios[0]:.2f}x, load {ratios[1]:.2f}x, render {ratios[2]:.2f}x")
+        print(f"  {mode:8s} memory {ratios[0]:.2f}x, load {ratios[1]:.2f}x, render {ratios[2]:.2f}x"
+              + (f"; texture alone {m['lookups'] / b['lookups']:.2f}x" if "lookups" in m and "lookups" in b else ""))
         if mode == "rgb":
             for what, r, limit in zip(("memory", "load", "render"), ratios, (a.max_memory, a.max_load, a.max_render)):
                 if r > limit:
