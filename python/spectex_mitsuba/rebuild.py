@@ -3,16 +3,17 @@
 A spectex bake of the basis or the lattice records in its header what its spectra are a function
 of (docs/file-format.md, "Rebuilding spectra from RGB"): the rule, the lattice's breakpoints, the
 weights that integrate a spectrum to the linear RGB it was made from, and the table of spectra
-(base64 float32), with a CRC-32 over them. A renderer can then hold three numbers a texel instead
-of every bin::
+(in the file's sample type, differenced along each spectrum, in byte planes, deflated, base64),
+with a CRC-32 over them. A renderer can then hold three numbers a texel instead of every bin::
 
     record = parse_record(header)              # the header's string attributes; None: no record
     rgb = file_rgb(record, spectra)            # [..., bins] -> [..., 3] linear RGB
     again = rebuild(record, rgb)               # [..., 3] -> [..., bins], the method's spectra
 
-`again` is the file's spectra to within the file's own rounding (its half bits): the file holds
-the method's spectrum of each texel's colour, rounded; this gives it unrounded. Needs NumPy only
-(no Mitsuba), so that another renderer's pipeline can test its own implementation against it.
+`again` is the file's spectra to within the file's own rounding (its half bits) and the table's
+(a half file's table is in half: 2^-11 of each vertex value): the file holds the method's spectrum
+of each texel's colour, rounded. Needs NumPy and zlib only (no Mitsuba), so that another
+renderer's pipeline can test its own implementation against it.
 """
 import base64
 import zlib
@@ -20,9 +21,12 @@ import zlib
 import numpy as np
 
 RULES = ("basis", "lattice")
-# A table larger than the writer ever records (2^17 float32, src/io/rebuild_record.h) is refused
+# A table larger than the writer ever records (2^17 values, src/io/rebuild_record.h) is refused
 # before it is decoded: a header is not a place for hostile megabytes.
 TABLE_LIMIT = 1 << 17
+# spectex:rebuildTableEncoding: bytes a value, the bit patterns' type, the values' type. A record
+# without one is an earlier spectex's: base64 of little-endian float32, as they are.
+ENCODINGS = {"half-delta-zlib": (2, np.uint16, np.float16), "float-delta-zlib": (4, np.uint32, np.float32)}
 
 
 class RebuildError(ValueError):
@@ -60,32 +64,64 @@ def parse_record(attrs):
         return None
     texts = [str(rule)] + [str(attrs.get(k, "")) for k in (
         "spectex:rebuildAxis", "spectex:rebuildToRgb", "spectex:rebuildTable", "spectex:wavelengthList")]
-    if len(texts[3]) > (TABLE_LIMIT * 4 + 2) // 3 * 4:
+    encoding = attrs.get("spectex:rebuildTableEncoding")
+    if encoding is not None:
+        texts.append(str(encoding))
+    # Deflate never grows data by more than 5 bytes a 16 KiB block and 6 a stream.
+    if len(texts[3]) > (TABLE_LIMIT * 4 * 1.001 + 64) // 3 * 4 + 4:
         raise RebuildError("spectex:rebuildTable is larger than any spectex writes")
     crc = zlib.crc32("".join(t + "\n" for t in texts).encode("utf-8"))
     if str(attrs.get("spectex:rebuildChecksum", "")) != f"crc32:{crc:08x}":
         raise RebuildError("spectex:rebuildChecksum does not match the record (damaged or edited)")
     if rule not in RULES:
         raise RebuildError(f"spectex:rebuild names the rule '{rule}', which this reader does not know")
+    if encoding is not None and encoding not in ENCODINGS:
+        raise RebuildError(f"spectex:rebuildTableEncoding names '{encoding}', which this reader does not know")
     lams = _numbers(texts[4], "spectex:wavelengthList")
     to_rgb = _numbers(texts[2], "spectex:rebuildToRgb")
     axis = _numbers(texts[1], "spectex:rebuildAxis")
-    try:
-        table = np.frombuffer(base64.b64decode(texts[3], validate=True), dtype="<f4").astype(np.float32)
-    except ValueError:
-        raise RebuildError("spectex:rebuildTable is not base64 of float32 values") from None
     bins = len(lams)
-    if bins == 0 or to_rgb.size != 3 * bins or not np.all(np.isfinite(table)):
-        raise RebuildError("spectex:rebuildToRgb or spectex:rebuildTable does not fit the file's bins")
+    if bins == 0 or to_rgb.size != 3 * bins:
+        raise RebuildError("spectex:rebuildToRgb does not fit the file's bins")
     if rule == "basis":
-        if axis.size or table.size != 3 * bins:
-            raise RebuildError("the basis' table is not 3 spectra of the file's bins")
+        if axis.size:
+            raise RebuildError("the basis has no breakpoints")
+        count = 3 * bins
     else:
         n = axis.size
-        if n < 2 or axis[0] != 0 or axis[-1] != 1 or np.any(np.diff(axis) <= 0) or table.size != n ** 3 * bins:
-            raise RebuildError("the lattice's breakpoints or table do not fit (0 = first < ... < last = 1, "
-                               "n^3 x bins values)")
+        if n < 2 or axis[0] != 0 or axis[-1] != 1 or np.any(np.diff(axis) <= 0):
+            raise RebuildError("the lattice's breakpoints do not fit (0 = first < ... < last = 1)")
+        count = n ** 3 * bins
+    if count > TABLE_LIMIT:
+        raise RebuildError("spectex:rebuildTable is larger than any spectex writes")
+    table = _table(texts[3], encoding, count, bins)
+    if not np.all(np.isfinite(table)):
+        raise RebuildError("spectex:rebuildTable holds NaN or infinity")
     return RebuildRecord(rule, lams, to_rgb.reshape(3, bins), table, axis)
+
+
+def _table(text, encoding, count, row):
+    """The table's count values (float32) from the attribute's text; row: values a spectrum."""
+    try:
+        data = base64.b64decode(text, validate=True)
+    except ValueError:
+        raise RebuildError("spectex:rebuildTable is not base64") from None
+    if encoding is None:
+        if len(data) != 4 * count:
+            raise RebuildError("spectex:rebuildTable does not hold the float32 values its record needs")
+        return np.frombuffer(data, dtype="<f4").astype(np.float32)
+    size, bits, values = ENCODINGS[encoding]
+    z = zlib.decompressobj()
+    try:
+        raw = z.decompress(data, size * count + 1)  # never more than a whole table: no inflate bomb
+    except zlib.error:
+        raise RebuildError("spectex:rebuildTable is not a zlib stream") from None
+    if len(raw) != size * count or not z.eof or z.unused_data:
+        raise RebuildError("spectex:rebuildTable does not hold the values its record needs")
+    planes = np.frombuffer(raw, dtype=np.uint8).reshape(size, count).astype(np.uint64)
+    diffs = sum(planes[b] << np.uint64(8 * b) for b in range(size)).reshape(-1, row)
+    mask = np.uint64((1 << (8 * size)) - 1)
+    return (np.cumsum(diffs, axis=1) & mask).astype(bits).view(values).astype(np.float32).reshape(-1)
 
 
 def file_rgb(record, spectra):

@@ -76,11 +76,12 @@ constexpr const char* kJhTableResolution = "spectex:jhTableResolution";
 constexpr const char* kMethodSource = "spectex:methodSource";
 constexpr const char* kMethodChecksum = "spectex:methodChecksum";
 // What rebuilds the spectra from RGB (io/rebuild_record.h): rule, lattice breakpoints, weights of
-// a spectrum's linear RGB, table (base64 float32) and its checksum.
+// a spectrum's linear RGB, table (base64 of its encoding), the table's encoding and the checksum.
 constexpr const char* kRebuild = "spectex:rebuild";
 constexpr const char* kRebuildAxis = "spectex:rebuildAxis";
 constexpr const char* kRebuildToRgb = "spectex:rebuildToRgb";
 constexpr const char* kRebuildTable = "spectex:rebuildTable";
+constexpr const char* kRebuildTableEncoding = "spectex:rebuildTableEncoding";
 constexpr const char* kRebuildChecksum = "spectex:rebuildChecksum";
 
 // Every key above, for checks that a file records nothing else.
@@ -137,6 +138,7 @@ constexpr const char* kAll[] = {
     kRebuildAxis,
     kRebuildToRgb,
     kRebuildTable,
+    kRebuildTableEncoding,
     kRebuildChecksum,
 };
 

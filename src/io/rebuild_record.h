@@ -18,19 +18,37 @@ namespace spectex {
 // holds the bins) rather than making every reader of the header parse megabytes.
 constexpr size_t kRebuildTableLimit = size_t(1) << 17;
 
-// The attributes, in their order in the header: rule, axis (lattice), weights to RGB, table,
-// checksum; none when the method has no rule or its table is over the limit. to_rgb: 3 x bins,
-// row-major (R, G, B rows), the linear RGB of a unit spectrum at each bin under the conditions the
-// method is exact for. wavelength_list: the spectex:wavelengthList the file records (the checksum
-// covers it, so a table cannot be moved to a file of other bins unnoticed).
+// How the table is written (spectex:rebuildTableEncoding): the values in the file's sample type,
+// half or float, as little-endian bit patterns; in each row (a vertex's or basis spectrum's bins)
+// every value after the first replaced by its difference from the one before, modulo 2^16 or 2^32;
+// the bytes in planes (every value's byte 0, then every byte 1, ...); a zlib stream (RFC 1950);
+// base64. Smooth spectra make small differences and planes of like bytes: the default's table
+// takes 32 KB of header instead of the 121 KB of its float32 base64, which on a 512 x 256 texture
+// is the difference between 0.59x and 0.65x the basis' bytes. A half file's table in half is
+// what a renderer holding it in half evaluates (2^-11 of each value, within the file's rounding).
+constexpr const char* kRebuildTableHalf = "half-delta-zlib";
+constexpr const char* kRebuildTableFloat = "float-delta-zlib";
+
+// The table's bytes as kRebuildTableHalf (half) or kRebuildTableFloat describes them, before
+// base64; row: the values of one row (the file's bins).
+std::string encode_rebuild_table(const std::vector<float>& table, size_t row, bool half);
+
+// The attributes, in their order in the header: rule, axis (lattice), weights to RGB, table, its
+// encoding, checksum; none when the method has no rule or its table is over the limit. to_rgb:
+// 3 x bins, row-major (R, G, B rows), the linear RGB of a unit spectrum at each bin under the
+// conditions the method is exact for. wavelength_list: the spectex:wavelengthList the file records
+// (the checksum covers it, so a table cannot be moved to a file of other bins unnoticed). half:
+// the file's samples are half (the table is written in half), else float.
 std::vector<std::pair<std::string, std::string>> rebuild_attributes(
-    const RebuildTable& t, const std::vector<double>& to_rgb, const std::string& wavelength_list);
+    const RebuildTable& t, const std::vector<double>& to_rgb, const std::string& wavelength_list,
+    bool half);
 
 // The checksum the attributes carry: "crc32:<8 hex digits>", CRC-32 (as zlib's crc32) of the rule,
-// axis, weights, table and wavelength list attributes' texts, each followed by a line feed.
+// axis, weights, table, wavelength list and table encoding attributes' texts, each followed by a
+// line feed. (A record of an earlier spectex has no encoding, a float32 table, and five texts.)
 std::string rebuild_checksum(const std::string& rule, const std::string& axis,
                              const std::string& to_rgb, const std::string& table,
-                             const std::string& wavelength_list);
+                             const std::string& wavelength_list, const std::string& encoding);
 
 // RFC 4648 base64 (with padding) of n bytes.
 std::string base64_encode(const void* data, size_t n);

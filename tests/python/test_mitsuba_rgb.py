@@ -6,6 +6,7 @@ and evaluates the table at lookup. A record that cannot be trusted (damaged, edi
 pixels) is refused in mode "rgb" and set aside, with a warning, in mode "auto": never silently
 wrong.
 """
+import base64
 import os
 import subprocess
 import tempfile
@@ -78,28 +79,98 @@ def kept_step(values, attrs, bins):
 @pytest.mark.parametrize("args", [[], ["--method", "basis"], ["--type", "float"], ["--wavelengths", "380:780:5"]])
 def test_the_record_rebuilds_the_method_at_the_source_colours(tmp, args):
     """The file holds the method's spectrum of each source colour, rounded to its kept bits; the
-    record evaluated at that colour gives it unrounded. Bound: one step of the bin's kept bits
-    (rounding to nearest is half a step; the colour-aware rounding moves a bin to its other
-    neighbour, one step) plus float32 against float64: 2e-6 of the value, and for a float file
-    2e-5 (the source linearised in float32, 1e-7 of the colour, times the lattice's slope in its
-    darkest cells, up to about 100 per unit of RGB)."""
+    record evaluated at that colour gives it to within that rounding and the table's own. Bound:
+    one step of the bin's kept bits (rounding to nearest is half a step; the colour-aware rounding
+    moves a bin to its other neighbour, one step), plus the table's rounding, in a half file to
+    half (2^-11 of each value, so at most 2^-11 of the weighted sum of the values' magnitudes),
+    plus float32 against float64: 2e-6 of the value, and for a float file 2e-5 (the source
+    linearised in float32, 1e-7 of the colour, times the lattice's slope in its darkest cells, up
+    to about 100 per unit of RGB)."""
     exr = bake(CHART, os.path.join(tmp, f"chart{len(args)}{''.join(args)}.exr".replace(":", "_")), *args)
     attrs = header(exr)
     record = rebuild.parse_record(attrs)
     assert record is not None and record.rule == ("basis" if "basis" in args else "lattice")
+    half = "--type" not in args
+    assert attrs["spectex:rebuildTableEncoding"] == ("half-delta-zlib" if half else "float-delta-zlib")
     lams, spectra, _ = read(exr)
     assert np.array_equal(record.lams, lams)
     lin, _ = source_linear(CHART)
     want = rebuild.rebuild(record, lin)
     step = kept_step(np.maximum(np.abs(want), np.abs(spectra)), attrs, len(lams))
     slack = 2e-6
-    if "--type" in args:
+    if not half:
         step, slack = np.abs(want) * 2.0 ** -23, 2e-5
+    magnitude = rebuild.RebuildRecord(record.rule, record.lams, record.to_rgb, np.abs(record.table), record.axis)
+    table_rounding = (2.0 ** -11 if half else 2.0 ** -24) * rebuild.rebuild(magnitude, np.abs(lin))
     err = np.abs(spectra - want)
-    assert np.all(err <= 2 * step + slack), float(np.max(err / (2 * step + slack)))
+    bound = 2 * step + table_rounding + slack
+    assert np.all(err <= bound), float(np.max(err / bound))
     # And the file's spectra integrate back to the source colour: what lets a renderer recover it.
     rgb = rebuild.file_rgb(record, spectra)
     assert np.max(np.abs(rgb - lin)) < 2.0 ** -10 * 1.001 + 6.2e-5
+
+
+def signed(attrs):
+    """The record with a checksum that matches it, over five texts when it names no encoding (an
+    earlier spectex's) and six when it does: what an attacker who read docs/file-format.md writes."""
+    a = dict(attrs)
+    texts = [a["spectex:rebuild"], a.get("spectex:rebuildAxis", ""), a["spectex:rebuildToRgb"],
+             a["spectex:rebuildTable"], a["spectex:wavelengthList"]]
+    texts += [a["spectex:rebuildTableEncoding"]] if "spectex:rebuildTableEncoding" in a else []
+    a["spectex:rebuildChecksum"] = f"crc32:{zlib.crc32(''.join(t + chr(10) for t in texts).encode()):08x}"
+    return a
+
+
+def legacy(attrs, table_bytes):
+    """The record as an earlier spectex wrote it: the table as base64 of float32, no encoding."""
+    a = {k: v for k, v in attrs.items() if k != "spectex:rebuildTableEncoding"}
+    a["spectex:rebuildTable"] = base64.b64encode(table_bytes).decode()
+    return signed(a)
+
+
+def test_the_table_is_compact_an_earlier_record_still_reads_and_a_hostile_one_is_refused(tmp):
+    """The default's table in the header: under a third of its float32 base64 (on a 512 x 256
+    texture that is 0.59x the basis' bytes rather than 0.65x). A record an earlier spectex wrote
+    (float32, no encoding) reads to the same numbers. Well-signed records whose table is not what
+    the rest of the record says (short, long, not zlib, an inflate bomb, an unknown encoding) raise
+    RebuildError and nothing else."""
+    exr = bake(CHART, os.path.join(tmp, "compact.exr"))
+    attrs = header(exr)
+    record = rebuild.parse_record(attrs)
+    values = record.table.size
+    assert len(attrs["spectex:rebuildTable"]) < (values * 4 + 2) // 3 * 4 / 3
+    floats = record.table.astype("<f4").tobytes()
+    again = rebuild.parse_record(legacy(attrs, floats))
+    assert again.rule == record.rule and np.array_equal(again.table, record.table)
+    assert np.array_equal(again.axis, record.axis) and np.array_equal(again.to_rgb, record.to_rgb)
+    raw = zlib.decompress(base64.b64decode(attrs["spectex:rebuildTable"]))
+    assert len(raw) == 2 * values
+
+    def table(text):
+        return signed(dict(attrs, **{"spectex:rebuildTable": text}))
+
+    def b64z(data):
+        return base64.b64encode(zlib.compress(data)).decode()
+    # Every value infinite: each row starts at 0x7c00 (half's infinity) and never changes.
+    diffs = np.zeros((values // record.bins, record.bins), dtype="<u2")
+    diffs[:, 0] = 0x7C00
+    hostile = {
+        "short": table(b64z(raw[:-2])),
+        "long": table(b64z(raw + b"\0\0")),
+        "bomb": table(b64z(bytes(1 << 26))),
+        "not zlib": table(base64.b64encode(raw).decode()),
+        "not base64": table("@@@@"),
+        "trailing bytes": table(base64.b64encode(zlib.compress(raw) + b"x").decode()),
+        "infinite": table(b64z(diffs.reshape(-1).view(np.uint8).reshape(-1, 2).T.tobytes())),
+        "encoding": signed(dict(attrs, **{"spectex:rebuildTableEncoding": "bfloat16-zstd"})),
+        "earlier, short": legacy(attrs, floats[:-4]),
+    }
+    for what, a in hostile.items():
+        try:
+            rebuild.parse_record(a)
+        except rebuild.RebuildError:
+            continue
+        pytest.fail(f"{what}: accepted")
 
 
 def test_methods_that_cannot_be_rebuilt_record_nothing(tmp):
@@ -252,10 +323,8 @@ def test_a_damaged_or_moved_record_is_refused_or_set_aside(tmp):
     def crowded(a):
         n = len(a["spectex:rebuildAxis"].split())
         axis = " ".join(["0"] + [f"{k * 1e-7:.9g}" for k in range(1, n - 1)] + ["1"])
-        texts = [a["spectex:rebuild"], axis, a["spectex:rebuildToRgb"], a["spectex:rebuildTable"],
-                 a["spectex:wavelengthList"]]
-        crc = zlib.crc32("".join(t + "\n" for t in texts).encode())
-        return {"spectex:rebuildAxis": axis, "spectex:rebuildChecksum": f"crc32:{crc:08x}"}
+        r = signed(dict(a, **{"spectex:rebuildAxis": axis}))
+        return {k: r[k] for k in ("spectex:rebuildAxis", "spectex:rebuildChecksum")}
 
     cases["crowded breakpoints"] = edited("t_crowded.exr", crowded)
     for what, path in cases.items():
