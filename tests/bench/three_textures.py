@@ -29,7 +29,9 @@ Wall time and peak RSS are the bake process's own, measured by a minimal spawner
 forked from this process would count the pages it shares with it in its peak RSS. SPECTEX_CACHE_DIR
 is a temporary directory; the default's bits ship with spectex, and the 81-bin bits are chosen once
 on a 16² texture before any bake is timed (a warm cache, as after a user's first bake). A
-benchmark, not a test: nothing is asserted. About 10-15 minutes on 2 cores.
+benchmark, not a test: nothing is asserted. About 10-15 minutes on 2 cores. --candidate "OPTIONS"
+measures a candidate default the same way: OPTIONS are added to every bake of the default, with
+the default's deflate level by size unless they name one.
 """
 import argparse
 import os
@@ -82,6 +84,19 @@ def make_textures(work, size, photo_size=None):
     return tex
 
 
+def candidate_opts(candidate, src):
+    """The candidate's options for this texture: a bake with any method option is not the default
+    bake and deflates at level 4, so unless it names a level it gets the default's by size (1, or
+    6 for at most 512 x 512 pixels: DefaultBake in src/pipeline/bake_request.h)."""
+    opts = candidate.split()
+    if opts and "--zip-level" not in opts:
+        import OpenImageIO as oiio
+
+        spec = oiio.ImageInput.open(str(src)).spec()
+        opts += ["--zip-level", "6" if spec.width * spec.height <= 512 * 512 else "1"]
+    return opts
+
+
 def pairs(spectex, src, work, a_opts, b_opts, repeat):
     """Alternating bakes of a and b; per-bake (wall, rss) lists and the bytes of each."""
     res = {"a": [], "b": []}
@@ -112,6 +127,9 @@ def main():
     ap.add_argument("--photo-size", type=int, default=4096, help="side of the photograph-like PNG (default 4096)")
     ap.add_argument("--repeat", type=int, default=3, help="alternating pairs per texture (default 3)")
     ap.add_argument("--bins-repeat", type=int, default=2, help="alternating pairs of 31 and 81 bins (default 2)")
+    ap.add_argument("--candidate", default="",
+                    help="options added to the default's bakes: a candidate default measured the same way "
+                         "(e.g. '--vertex-prior measured --precision auto --wavelengths 400:700:10')")
     a = ap.parse_args()
     t0 = time.time()
     work = Path(tempfile.mkdtemp(prefix="spectex-three-"))
@@ -119,26 +137,30 @@ def main():
     try:
         log("making the textures")
         tex = make_textures(work, a.size, a.photo_size)
+        tiny = work / "tiny.png"
+        sve.photographic_png(tiny, 16)
+        if a.candidate:  # its bits chosen once before any bake is timed, as the default's ship
+            log(f"  warming the cache: the candidate's bits ({a.candidate})")
+            dd.run([a.spectex, "bake", tiny, "-o", work / "tiny.exr", "-q", *a.candidate.split()])
         rows = {}
         for name, src in tex.items():
             log(f"  {name}: default against --method basis")
-            rows[name] = pairs(a.spectex, src, work, [], ["--method", "basis"], a.repeat)
+            rows[name] = pairs(a.spectex, src, work, candidate_opts(a.candidate, src), ["--method", "basis"],
+                               a.repeat)
 
         photo = next(iter(tex.values()))
         fine = ["--wavelengths", "380:780:5"]
         log("  warming the cache: the default's bits at 81 bins")
-        tiny = work / "tiny.png"
-        sve.photographic_png(tiny, 16)
         dd.run([a.spectex, "bake", tiny, "-o", work / "tiny.exr", "-q", *fine])
         log("  photograph-like: the default (31 bins) against 81 bins")
-        bins = pairs(a.spectex, photo, work, [], fine, a.bins_repeat)
+        bins = pairs(a.spectex, photo, work, candidate_opts(a.candidate, photo), fine, a.bins_repeat)
     finally:
         shutil.rmtree(work, ignore_errors=True)
 
     out = [f"`{a.spectex}`; nproc {os.cpu_count()} (os.sched_getaffinity: {len(os.sched_getaffinity(0))}); "
            f"load average at the end {os.getloadavg()[0]:.2f}. The machine was shared with other builds and "
            f"tests while this ran: read the ratios (each the median of {a.repeat} alternating pairs), not the "
-           f"seconds.\n",
+           f"seconds." + (f" The default's bakes with `{a.candidate}`." if a.candidate else "") + "\n",
            "| texture | bytes: default / basis (×) | time: default / basis (× per-pair median) | "
            "peak RSS: default / basis | within 0.6× |",
            "|---|---|---|---|---|"]
