@@ -173,6 +173,13 @@ def load_sets():
     return tuning, held
 
 
+def held_names():
+    """The held-out charts' patch names, in load_sets()'s order."""
+    names, _ = read_colorchecker_csv()
+    return {"ColorChecker (Ohta, 24)": names,
+            "ColorChecker (BabelColor Average, 24)": list(colour.SDS_COLOURCHECKERS["BabelColor Average"])}
+
+
 def to_codes(R):
     """Measured reflectances (K×N) -> linear RGB, clipped count, 8-bit codes, decoded linear RGB."""
     lin = R @ C.T
@@ -555,9 +562,11 @@ def score(ev, groups, results):
         for gname, S in per.items():
             g = groups[gname]
             row = {}
+            inside = ~g["clipped_mask"]
             for L in LIGHTS:
                 de = ev.delta_e(L, g["R"], S)
-                row[L] = dict(mean=float(de.mean()), max=float(de.max()))
+                row[L] = dict(mean=float(de.mean()), max=float(de.max()), argmax=int(de.argmax()),
+                              max_inside=float(de[inside].max()) if inside.any() else None)
             row["avg_mean"] = float(np.mean([row[L]["mean"] for L in LIGHTS]))
             row["d65_resid_max"] = float(np.abs(S @ C.T - g["V"]).max())
             row["range"] = [float(S.min()), float(S.max())]
@@ -595,6 +604,22 @@ def md_table(rows, order=None):
         L_.append(f"| {name} | " + " | ".join(f"{r[L]['mean']:.2f} / {r[L]['max']:.2f}" for L in LIGHTS)
                   + f" | {r['avg_mean']:.3f} | {r['d65_resid_max']:.1e} |")
     return "\n".join(L_)
+
+
+def md_worst(rows, clipped_mask, names):
+    """Each light's worst sample (its name, * when sRGB cannot hold it and the 8-bit code is the
+    clipped colour) and the worst of those sRGB holds: a clipped sample's error is mostly the
+    clip's, the same for every exact method."""
+    hdr = "| method | " + " | ".join(f"{L} worst (patch) / inside sRGB" for L in LIGHTS) + " |"
+    out = [hdr, "|---|" + "---|" * len(LIGHTS)]
+    for name, r in rows.items():
+        cells = []
+        for L in LIGHTS:
+            k = r[L]["argmax"]
+            inside = "—" if r[L]["max_inside"] is None else f"{r[L]['max_inside']:.2f}"
+            cells.append(f"{r[L]['max']:.2f} ({names[k]}{'*' if clipped_mask[k] else ''}) / {inside}")
+        out.append(f"| {name} | " + " | ".join(cells) + " |")
+    return "\n".join(out)
 
 
 def choose(pool, tol=0.03, max_rel=0.10):
@@ -642,7 +667,8 @@ def main():
     for tset, sets in (("tuning", tuning), ("held", held)):
         for gname, R in sets.items():
             codes, V, clipped = to_codes(R)
-            groups[gname] = dict(R=R, codes=codes, V=V, clipped=int(clipped.sum()), tuning=tset == "tuning")
+            groups[gname] = dict(R=R, codes=codes, V=V, clipped=int(clipped.sum()), clipped_mask=clipped,
+                                 tuning=tset == "tuning")
     tuning_all = np.concatenate([groups[g]["R"] for g in tuning])
     off = 0
     for g in tuning:
@@ -696,6 +722,16 @@ def main():
     for g, rows in held_rows.items():
         out.append(f"\n## HELD-OUT: {g}\n")
         out.append(md_table(rows))
+        if groups[g]["clipped"]:
+            grp = groups[g]
+            white = colour.XYZ_to_xy(WHITE65)
+            clip = colour.delta_E(colour.XYZ_to_Lab(grp["R"] @ W65.T, white),
+                                  colour.XYZ_to_Lab(grp["V"] @ NPM.T, white), method="CIE 2000")
+            out.append("\nWorst patch per light (* clipped to sRGB: its 8-bit code is the clipped colour, for "
+                       "every method; the code alone is ΔE00 "
+                       + ", ".join(f"{d:.2f}" for d in clip[grp["clipped_mask"]])
+                       + " from the measured colour under D65) and the worst of the patches sRGB holds:\n")
+            out.append(md_worst(rows, groups[g]["clipped_mask"], held_names()[g]))
     learned = [name for name in per if "measured" in name]
     if learned:
         out.append("\n- " + ", ".join(learned) + ": the measured vertex prior learned from all of TUNING "
