@@ -140,9 +140,20 @@ def test_the_table_is_compact_an_earlier_record_still_reads_and_a_hostile_one_is
     values = record.table.size
     assert len(attrs["spectex:rebuildTable"]) < (values * 4 + 2) // 3 * 4 / 3
     floats = record.table.astype("<f4").tobytes()
-    again = rebuild.parse_record(legacy(attrs, floats))
+    earlier = legacy(attrs, floats)
+    again = rebuild.parse_record(earlier)
     assert again.rule == record.rule and np.array_equal(again.table, record.table)
     assert np.array_equal(again.axis, record.axis) and np.array_equal(again.to_rgb, record.to_rgb)
+
+    def to_earlier(spec, px):
+        spec.erase_attribute("spectex:rebuildTableEncoding")
+        for k in ("spectex:rebuildTable", "spectex:rebuildChecksum"):
+            spec.attribute(k, earlier[k])
+        return spec, px
+    # And the plugin holds such a file as RGB, as it did when that spectex wrote it.
+    earlier_exr = rewrite(exr, os.path.join(tmp, "earlier.exr"), to_earlier)
+    assert "spectex:rebuildTableEncoding" not in header(earlier_exr)
+    assert load(earlier_exr, "rgb").holds == "rgb"
     raw = zlib.decompress(base64.b64decode(attrs["spectex:rebuildTable"]))
     assert len(raw) == 2 * values
 
