@@ -47,8 +47,9 @@ std::string encode_rebuild_table(const std::vector<float>& table, size_t row, bo
         for (size_t b = 0; b < size; ++b)
             planes[b * n + i] = static_cast<char>((d >> (8 * b)) & 0xff);
     }
-    // Level 12: the table is a few tens of KB, deflated once a bake in about a millisecond.
-    libdeflate_compressor* z = libdeflate_alloc_compressor(12);
+    // Level 6: the default's table in 0.6 ms, against 9.4 ms at level 12 for 3 % fewer bytes (once
+    // a file: in a batch of small textures, a cost a file).
+    libdeflate_compressor* z = libdeflate_alloc_compressor(6);
     if (!z) throw std::bad_alloc();
     std::string out(libdeflate_zlib_compress_bound(z, planes.size()), '\0');
     const size_t len =

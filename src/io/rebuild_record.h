@@ -23,7 +23,7 @@ constexpr size_t kRebuildTableLimit = size_t(1) << 17;
 // every value after the first replaced by its difference from the one before, modulo 2^16 or 2^32;
 // the bytes in planes (every value's byte 0, then every byte 1, ...); a zlib stream (RFC 1950);
 // base64. Smooth spectra make small differences and planes of like bytes: the default's table
-// takes 32 KB of header instead of the 121 KB of its float32 base64, which on a 512 x 256 texture
+// takes 33 KB of header instead of the 121 KB of its float32 base64, which on a 512 x 256 texture
 // is the difference between 0.59x and 0.65x the basis' bytes. A half file's table in half is
 // what a renderer holding it in half evaluates (2^-11 of each value, within the file's rounding).
 constexpr const char* kRebuildTableHalf = "half-delta-zlib";

@@ -197,7 +197,7 @@ std::vector<std::pair<std::string, std::string>> header_attributes(
         a.push_back({provenance_key::kPrecisionWorstDe, s.precision.worst_de});
         a.push_back({provenance_key::kPrecisionSample, s.precision.sample});
     }
-    // Last: the largest (the default's table is 32 KB of text), after everything a person reads.
+    // Last: the largest (the default's table is 33 KB of text), after everything a person reads.
     if (s.bin_rgb.size() == 3 * s.grid.size())
         for (auto& kv : rebuild_attributes(method.rebuild_table(), s.bin_rgb,
                                            join_lambda(s.grid.lambda), s.type == SampleType::Half))
