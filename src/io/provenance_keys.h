@@ -64,6 +64,8 @@ constexpr const char* kPrecisionMaxDe = "spectex:precisionMaxDe";
 constexpr const char* kPrecisionLights = "spectex:precisionLights";
 constexpr const char* kPrecisionBits = "spectex:precisionBits";  // "10 10 9 …", one per bin
 constexpr const char* kPrecisionWorstDe = "spectex:precisionWorstDe";
+// Per light, the 8-bit sRGB code whose figure that is: "D65 #rrggbb, A #rrggbb, ...".
+constexpr const char* kPrecisionWorstCode = "spectex:precisionWorstCode";
 constexpr const char* kPrecisionSample = "spectex:precisionSample";
 // The spectral method (SpectralMethod::provenance()).
 constexpr const char* kMethod = "spectex:method";
@@ -124,6 +126,7 @@ constexpr const char* kAll[] = {
     kPrecisionLights,
     kPrecisionBits,
     kPrecisionWorstDe,
+    kPrecisionWorstCode,
     kPrecisionSample,
     kMethod,
     kBasis,

@@ -195,6 +195,8 @@ std::vector<std::pair<std::string, std::string>> header_attributes(
         a.push_back({provenance_key::kPrecisionLights, s.precision.lights});
         a.push_back({provenance_key::kPrecisionBits, format_precision_bits(s.precision.bits)});
         a.push_back({provenance_key::kPrecisionWorstDe, s.precision.worst_de});
+        if (!s.precision.worst_code.empty())
+            a.push_back({provenance_key::kPrecisionWorstCode, s.precision.worst_code});
         a.push_back({provenance_key::kPrecisionSample, s.precision.sample});
     }
     // Last: the largest (the default's table is 33 KB of text), after everything a person reads.

@@ -74,7 +74,8 @@ struct BakeSettings : BakeOptions {
     struct Precision {
         std::string recipe;  // what chooses the bits (budget, lights and their tables), hashed
         std::vector<int> bits;
-        std::string max_de, lights, worst_de, sample;
+        // worst_code: per light, the 8-bit sRGB code of worst_de ("D65 #rrggbb, A #rrggbb").
+        std::string max_de, lights, worst_de, worst_code, sample;
     } precision;
 };
 

@@ -333,7 +333,8 @@ std::string precision_cache_text(const std::string& key, const PrecisionChoice& 
     o << "\nlights " << c.light.size() << "\n";
     for (size_t j = 0; j < c.light.size(); ++j)
         o << "light " << hex_text(c.light[j]) << ' '
-          << exact(j < c.worst_de.size() ? c.worst_de[j] : 0.0) << "\n";
+          << exact(j < c.worst_de.size() ? c.worst_de[j] : 0.0) << ' '
+          << (j < c.worst_code.size() ? c.worst_code[j] : 0u) << "\n";
     o << "colours " << c.colours << " evaluations " << c.evaluations << "\n";
     return o.str();
 }
@@ -359,10 +360,12 @@ bool parse_precision_cache_text(const std::string& text, const std::string& key,
         w.expect("light");
         const std::string name = w.text();
         const double worst = w.number();
+        const long long code = w.whole(0, 0xffffff);
         if (!w.ok() || name != req.lights[static_cast<size_t>(j)].name || !(worst >= 0))
             return false;
         c.light.push_back(name);
         c.worst_de.push_back(worst);
+        c.worst_code.push_back(static_cast<uint32_t>(code));
     }
     w.expect("colours");
     c.colours = static_cast<size_t>(w.whole(0, 1LL << 40));

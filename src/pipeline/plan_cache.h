@@ -47,10 +47,10 @@ bool parse_plan_cache_text(const std::string& text, const std::string& key, cons
 // The bits of --precision auto kept between runs: choose_precision measures about a hundred bit
 // vectors on the cube sample (4 s for the basis, 10-26 s for the lattice on 2 busy cores), paid
 // again by every bake with the same settings. The entry holds the chosen bits and the worst ΔE00
-// per light under a key that hashes everything the choice depends on.
+// per light, with its code, under a key that hashes everything the choice depends on.
 // Format 2: bits below kMinMantissaBits are no answer the chooser gives (format 1's entries could
-// hold 0-bit bins).
-constexpr int kPrecisionCacheFormat = 2;
+// hold 0-bit bins). Format 3: each light's worst 8-bit code beside its worst ΔE00.
+constexpr int kPrecisionCacheFormat = 3;
 constexpr size_t kPrecisionCacheEntryLimit = size_t(1) << 20;
 
 // The chooser's own version: what its answers depend on besides the request (the judge's

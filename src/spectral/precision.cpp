@@ -197,6 +197,8 @@ class CubeJudge {
 
     struct Result {
         std::vector<double> worst;  // per light, over every code
+        // Per light, the code of that worst (0xRRGGBB; the lowest of equal ones).
+        std::vector<uint32_t> worst_code;
         // Codes whose ΔE00 under some light exceeds the threshold (the cap's worst), by code.
         std::vector<uint32_t> hard;
         size_t full = 0;  // codes the grids could not hold (stored at full precision)
@@ -210,6 +212,7 @@ class CubeJudge {
         const size_t tasks = 65536 / kRowsPerTask, L = white_.size();
         struct Part {
             std::vector<double> worst;
+            std::vector<uint32_t> worst_code;
             std::vector<std::pair<double, uint32_t>> hard;
             size_t full = 0;
         };
@@ -218,6 +221,7 @@ class CubeJudge {
         TaskPool::shared().parallel_for(tasks, std::max(1, req_.threads), [&](size_t t) {
             Part& p = parts[t];
             p.worst.assign(L, 0.0);
+            p.worst_code.assign(L, 0);
             std::vector<float> r(256), g(256), b(256), s(bins_ * 256), back(bins_ * 256);
             std::vector<uint16_t> h(bins_ * 256);
             std::vector<float> sr(ref_colours_ ? 3 * L * 256 : ref_bins_ * 256);
@@ -270,7 +274,10 @@ class CubeJudge {
                             continue;
                         const double de = ciede2000(a, c);
                         const uint32_t code = static_cast<uint32_t>((row << 8) | size_t(i));
-                        p.worst[j] = std::max(p.worst[j], de);
+                        if (de > p.worst[j]) {
+                            p.worst[j] = de;
+                            p.worst_code[j] = code;
+                        }
                         if (de > hard_de && max_hard > 0) {
                             p.hard.emplace_back(de, code);
                             if (p.hard.size() > 2 * max_hard) keep_worst(p.hard, max_hard);
@@ -281,9 +288,14 @@ class CubeJudge {
         });
         Result out;
         out.worst.assign(L, 0.0);
+        out.worst_code.assign(L, 0);
         std::vector<std::pair<double, uint32_t>> hard;
-        for (const Part& p : parts) {
-            for (size_t j = 0; j < L; ++j) out.worst[j] = std::max(out.worst[j], p.worst[j]);
+        for (const Part& p : parts) {  // in code order: a tie keeps the lower code
+            for (size_t j = 0; j < L; ++j)
+                if (p.worst[j] > out.worst[j]) {
+                    out.worst[j] = p.worst[j];
+                    out.worst_code[j] = p.worst_code[j];
+                }
             hard.insert(hard.end(), p.hard.begin(), p.hard.end());
             out.full += p.full;
         }
@@ -554,6 +566,7 @@ PrecisionChoice choose_precision(const PrecisionRequest& req) {
     c.bits = best;
     c.worst_de.clear();
     for (double w : res.worst) c.worst_de.push_back(w * kCubeMargin);
+    c.worst_code = res.worst_code;
     c.colours = size_t(1) << 24;
     return c;
 }

@@ -51,8 +51,11 @@ struct PrecisionChoice {
     std::vector<int> bits;           // per bin, kMinMantissaBits..10
     std::vector<std::string> light;  // the lights measured, in the request's order
     std::vector<double> worst_de;    // per light, of the chosen bits (choose: over every code)
-    size_t colours = 0;              // colours measured (choose: 16,777,216)
-    size_t evaluations = 0;          // bit vectors measured to choose
+    // choose: per light, the 8-bit sRGB code (0xRRGGBB) whose ΔE00 worst_de is (the lowest of
+    // equal ones), so that anyone can bake that one colour and check the figure; else empty.
+    std::vector<uint32_t> worst_code;
+    size_t colours = 0;      // colours measured (choose: 16,777,216)
+    size_t evaluations = 0;  // bit vectors measured to choose
 };
 
 // Half with bin k keeping bits[k] mantissa bits: expand_float, then round_spectra_to_bits (nearest

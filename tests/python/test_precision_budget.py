@@ -54,15 +54,15 @@ def spectra(exr):
                    if (m := re.fullmatch(r"T\.(\d+(?:[.,]\d+)?)nm", n)))
     px = inp.read_image(0, 0, 0, spec.nchannels, oiio.FLOAT).reshape(-1, spec.nchannels)
     attrs = {a: spec.get_string_attribute(a) for a in
-             ("spectex:precisionWorstDe", "spectex:precisionSample", "spectex:precisionLights",
-              "spectex:precisionMaxDe")}
+             ("spectex:precisionWorstDe", "spectex:precisionWorstCode", "spectex:precisionSample",
+              "spectex:precisionLights", "spectex:precisionMaxDe")}
     inp.close()
     return np.array([w for w, _ in chans]), px[:, [i for _, i in chans]].astype(np.float64), attrs
 
 
-def check(d, png, name, options, method=()):
-    """options: the budgeted bake's; method: what makes the same method at 1 nm in float (--type
-    float takes no budget)."""
+def bake_twice(d, png, name, options, method):
+    """The budgeted bake and the same method at 1 nm in float: (wl, spectra, header) of the first,
+    (wl, spectra) of the second."""
     stored, ref = os.path.join(d, name + ".exr"), os.path.join(d, name + "-1nm.exr")
     fine = ["--type", "float", "--wavelengths", "360:830:1"]
     for out, args in ((stored, [*method, *options]), (ref, [*method, *fine])):
@@ -72,27 +72,63 @@ def check(d, png, name, options, method=()):
     wl, s, attrs = spectra(stored)
     wl_f, f, _ = spectra(ref)
     assert np.array_equal(wl_f, np.arange(360.0, 831.0))
+    return wl, s, attrs, wl_f, f
+
+
+def de_under(light, wl, s, wl_f, f):
+    """ΔE00 per pixel under `light` between the stored spectra as a renderer sees them and the
+    method at 1 nm."""
+    W, white = bc.renderer_weights(light, wl)
+    Wf, _ = bc.renderer_weights(light, wl_f)
+    white_xy = colour.XYZ_to_xy(white)
+    return colour.delta_E(colour.XYZ_to_Lab(s @ W.T, white_xy), colour.XYZ_to_Lab(f @ Wf.T, white_xy),
+                          method="CIE 2000")
+
+
+def by_light(text, value):
+    """'D65 0.233, A 0.298' -> {'D65': value('0.233'), ...}"""
+    out = {}
+    for item in text.split(","):
+        light, _, v = item.strip().rpartition(" ")
+        out[light] = value(v)
+    return out
+
+
+def check(d, png, name, options, method=()):
+    """options: the budgeted bake's; method: what makes the same method at 1 nm in float (--type
+    float takes no budget)."""
+    wl, s, attrs, wl_f, f = bake_twice(d, png, name, options, method)
     assert "16777216" in attrs["spectex:precisionSample"], attrs
-    recorded = {}
-    for item in attrs["spectex:precisionWorstDe"].split(","):
-        light, _, value = item.strip().rpartition(" ")
-        recorded[light] = float(value)
+    recorded = by_light(attrs["spectex:precisionWorstDe"], float)
     budget = float(attrs["spectex:precisionMaxDe"])
     assert list(recorded) == attrs["spectex:precisionLights"].split(","), attrs
     found = {}
     for light, rec in recorded.items():
-        W, white = bc.renderer_weights(light, wl)
-        Wf, _ = bc.renderer_weights(light, wl_f)
-        white_xy = colour.XYZ_to_xy(white)
-        de = colour.delta_E(colour.XYZ_to_Lab(s @ W.T, white_xy), colour.XYZ_to_Lab(f @ Wf.T, white_xy),
-                            method="CIE 2000")
-        found[light] = float(de.max())
+        found[light] = float(de_under(light, wl, s, wl_f, f).max())
         # Tolerance: none. The recorded figure is rounded up from the chooser's; the two
         # colorimetries differ in summation order and in the 1 nm spectra's float32 storage (a
         # relative 1e-7, against the figure's margin of 1e-4 of itself).
         assert found[light] <= rec, (name, light, found[light], rec)
         assert rec <= budget, (name, light, rec, budget)
     print(name, {k: (round(v, 4), recorded[k]) for k, v in found.items()})
+
+    # The code recorded with each light's figure has that figure: those colours baked alone, the
+    # same two ways, measured here. Tolerance: the figure is the chooser's raised by 1e-4 of itself
+    # and rounded up to 3 decimals, so it lies at most 1e-4 x itself + 0.001 above the colour's.
+    codes = by_light(attrs["spectex:precisionWorstCode"], lambda v: int(v.lstrip("#"), 16))
+    assert list(codes) == list(recorded), attrs
+    px = np.array([[[(c >> 16) & 255, (c >> 8) & 255, c & 255] for c in codes.values()]], dtype=np.uint8)
+    worst_png = os.path.join(d, name + "-worst.png")
+    out = oiio.ImageOutput.create(worst_png)
+    out.open(worst_png, oiio.ImageSpec(px.shape[1], 1, 3, oiio.UINT8))
+    out.write_image(px)
+    out.close()
+    wl, s, _, wl_f, f = bake_twice(d, worst_png, name + "-worst", options, method)
+    at_code = {}
+    for j, (light, rec) in enumerate(recorded.items()):
+        at_code[light] = de = float(de_under(light, wl, s, wl_f, f)[j])
+        assert rec - 1e-4 * rec - 0.001 - 1e-6 <= de <= rec, (name, light, hex(codes[light]), de, rec)
+    print(name, "at the recorded codes", {k: (f"#{codes[k]:06x}", round(v, 5)) for k, v in at_code.items()})
     return found, recorded
 
 

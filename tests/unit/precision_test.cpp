@@ -302,9 +302,32 @@ TEST(PrecisionSlow, ChooserHoldsTheBudgetOnEveryCodeUnderEachLight) {
         EXPECT_GE(worst[j], 0.5 * c.worst_de[j]) << req.lights[j].name;
     }
 
-    // Deterministic, whatever the threads.
+    // And the code recorded with each figure has that figure, measured here in double. Tolerance:
+    // the margin the figure carries (1e-4 of itself) and as much again for the chooser's float
+    // sums (about 1e-6 relative; the margin is their bound).
+    ASSERT_EQ(c.worst_code.size(), 3u);
+    for (size_t j = 0; j < 3; ++j) {
+        const uint32_t code = c.worst_code[j];
+        ASSERT_LE(code, 0xffffffu);
+        float cr = static_cast<float>(lin[code >> 16]),
+              cg = static_cast<float>(lin[(code >> 8) & 255]),
+              cb = static_cast<float>(lin[code & 255]);
+        std::vector<float> e(bins), st(bins);
+        std::vector<uint16_t> hh(bins);
+        f.method->expand_float(&cr, &cg, &cb, 1, e.data(), 1);
+        expand_half_bits(*f.method, &cr, &cg, &cb, 1, hh.data(), 1, &f.weight, c.bits);
+        half_to_floats(hh.data(), st.data(), hh.size());
+        const RendererView view = renderer_view(req.observer, req.lights[j], f.method->lambda());
+        const double de = de_of(view, e.data(), st.data(), 1, 0);
+        EXPECT_NEAR(de, c.worst_de[j] / 1.0001, 2e-4 * c.worst_de[j])
+            << req.lights[j].name << " code " << std::hex << code;
+    }
+
+    // Deterministic, whatever the threads: the bits and the codes.
     req.threads = 1;
-    EXPECT_EQ(choose_precision(req).bits, c.bits);
+    const PrecisionChoice one = choose_precision(req);
+    EXPECT_EQ(one.bits, c.bits);
+    EXPECT_EQ(one.worst_code, c.worst_code);
     // A tighter budget keeps at least as many bits in total.
     req.threads = 2;
     req.max_de = 0.1;
