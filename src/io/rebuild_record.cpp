@@ -41,9 +41,11 @@ std::string encode_rebuild_table(const std::vector<float>& table, size_t row, bo
     const uint32_t mask = half ? 0xffffu : 0xffffffffu;
     // Differences along each row, then the bytes in planes, little-endian whatever the host's.
     std::string planes(n * size, '\0');
+    uint32_t prev = 0;
     for (size_t i = 0; i < n; ++i) {
         const uint32_t u = bits_of(table[i], half);
-        const uint32_t d = (row && i % row) ? (u - bits_of(table[i - 1], half)) & mask : u;
+        const uint32_t d = (row && i % row) ? (u - prev) & mask : u;
+        prev = u;
         for (size_t b = 0; b < size; ++b)
             planes[b * n + i] = static_cast<char>((d >> (8 * b)) & 0xff);
     }

@@ -277,16 +277,18 @@ void choose_precision_bits(const BakeRequest& r, const BakeTables& t, BakeSettin
     PrecisionCacheReport rep;
     const PrecisionChoice pc = choose_precision_cached(req, r.no_cache ? "" : cache_folder(), &rep);
     s.precision.bits = pc.bits;
-    std::string worst;
-    for (size_t j = 0; j < pc.light.size(); ++j)
-        worst += (worst.empty() ? "" : ", ") + pc.light[j] + " " + format_de_up(pc.worst_de[j]);
-    s.precision.worst_de = worst;
-    std::string codes;
-    for (size_t j = 0; j < pc.light.size() && j < pc.worst_code.size(); ++j) {
-        char hex[16];
-        std::snprintf(hex, sizeof hex, "#%06x", static_cast<unsigned>(pc.worst_code[j] & 0xffffff));
-        codes += (codes.empty() ? "" : ", ") + pc.light[j] + " " + hex;
+    std::string worst, codes;
+    for (size_t j = 0; j < pc.light.size(); ++j) {
+        const std::string sep = j ? ", " : "";
+        worst += sep + pc.light[j] + " " + format_de_up(pc.worst_de[j]);
+        if (j < pc.worst_code.size()) {
+            char hex[16];
+            std::snprintf(hex, sizeof hex, "#%06x",
+                          static_cast<unsigned>(pc.worst_code[j] & 0xffffff));
+            codes += sep + pc.light[j] + " " + hex;
+        }
     }
+    s.precision.worst_de = worst;
     s.precision.worst_code = codes;
     // The grid's own error over the budget: every bit is kept, and the file is still that far from
     // the method at 1 nm. Said, with the way out; the header records the figure.

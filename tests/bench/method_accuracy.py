@@ -719,6 +719,7 @@ def main():
         for g in tuning:
             out.append(f"\n## TUNING: {g}\n")
             out.append(md_table({name: per[name][g] for name in per}))
+    names = held_names()
     for g, rows in held_rows.items():
         out.append(f"\n## HELD-OUT: {g}\n")
         out.append(md_table(rows))
@@ -731,7 +732,7 @@ def main():
                        "every method; the code alone is ΔE00 "
                        + ", ".join(f"{d:.2f}" for d in clip[grp["clipped_mask"]])
                        + " from the measured colour under D65) and the worst of the patches sRGB holds:\n")
-            out.append(md_worst(rows, groups[g]["clipped_mask"], held_names()[g]))
+            out.append(md_worst(rows, groups[g]["clipped_mask"], names[g]))
     learned = [name for name in per if "measured" in name]
     if learned:
         out.append("\n- " + ", ".join(learned) + ": the measured vertex prior learned from all of TUNING "

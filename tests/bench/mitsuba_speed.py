@@ -37,7 +37,8 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent.parent
 
-CHILD = r"""
+# What both children start with: the plugin of this tree, the variant, and the mode's texture.
+PREAMBLE = r"""
 import json, sys, time, warnings
 warnings.filterwarnings("ignore")
 sys.path.insert(0, sys.argv[1])  # this tree's plugin before an installed one
@@ -48,14 +49,17 @@ mode, filename, res, spp, runs, variant = sys.argv[2], sys.argv[3], int(sys.argv
 mi.set_variant(variant)
 import spectex_mitsuba
 spectex_mitsuba.register()
+texture = {"type": "bitmap", "filename": filename} if mode == "bitmap" else \
+    {"type": "spectex", "filename": filename, "mode": mode}
+"""
+
+CHILD = PREAMBLE + r"""
 def peak_kib():
     # VmHWM: this process's own high-water mark. ru_maxrss is not: Linux carries it across exec
     # from the parent (the benchmark, which made a 4096^2 texture in NumPy).
     with open("/proc/self/status") as f:
         return next(int(line.split()[1]) for line in f if line.startswith("VmHWM:"))
 base = peak_kib()
-texture = {"type": "bitmap", "filename": filename} if mode == "bitmap" else \
-    {"type": "spectex", "filename": filename, "mode": mode}
 scene = {
     "type": "scene",
     "integrator": {"type": "direct"},
@@ -92,19 +96,8 @@ print(json.dumps({"load": load, "first": first, "walls": walls,
 # The texture alone: eval() at the render's lookups (res^2 * spp positions, pixel by pixel, each
 # pixel's spp in a row as the render orders them; 4 wavelengths a lookup, spread over 360-830 nm),
 # outside any scene, so that its cost is seen apart from the rest of the render's kernel.
-LOOKUPS = r"""
-import json, sys, time, warnings
-warnings.filterwarnings("ignore")
-sys.path.insert(0, sys.argv[1])
-import drjit as dr
-import mitsuba as mi
-mode, filename, res, spp, runs, variant = sys.argv[2], sys.argv[3], int(sys.argv[4]), int(sys.argv[5]), \
-    int(sys.argv[6]), sys.argv[7]
-mi.set_variant(variant)
-import spectex_mitsuba
-spectex_mitsuba.register()
-texture = mi.load_dict({"type": "bitmap", "filename": filename} if mode == "bitmap" else
-                       {"type": "spectex", "filename": filename, "mode": mode})
+LOOKUPS = PREAMBLE + r"""
+texture = mi.load_dict(texture)
 n = res * res * spp
 pixel = dr.arange(mi.UInt32, n) // spp
 sampler = mi.load_dict({"type": "independent"})

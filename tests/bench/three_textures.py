@@ -92,7 +92,9 @@ def candidate_opts(candidate, src):
     if opts and "--zip-level" not in opts:
         import OpenImageIO as oiio
 
-        spec = oiio.ImageInput.open(str(src)).spec()
+        inp = oiio.ImageInput.open(str(src))
+        spec = inp.spec()
+        inp.close()
         opts += ["--zip-level", "6" if spec.width * spec.height <= 512 * 512 else "1"]
     return opts
 
