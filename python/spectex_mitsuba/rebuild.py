@@ -11,7 +11,7 @@ with a CRC-32 over them. A renderer can then hold three numbers a texel instead 
     again = rebuild(record, rgb)               # [..., 3] -> [..., bins], the method's spectra
 
 `again` is the file's spectra to within the file's own rounding (its half bits) and the table's
-(a half file's table is in half: 2^-11 of each vertex value): the file holds the method's spectrum
+(a half file's table is in half: 2^-11 of each vertex value, 2^-25 below 2^-14): the file holds the method's spectrum
 of each texel's colour, rounded. Needs NumPy and zlib only (no Mitsuba), so that another
 renderer's pipeline can test its own implementation against it.
 """

@@ -25,7 +25,8 @@ constexpr size_t kRebuildTableLimit = size_t(1) << 17;
 // base64. Smooth spectra make small differences and planes of like bytes: the default's table
 // takes 33 KB of header instead of the 121 KB of its float32 base64, which on a 512 x 256 texture
 // is the difference between 0.59x and 0.65x the basis' bytes. A half file's table in half is
-// what a renderer holding it in half evaluates (2^-11 of each value, within the file's rounding).
+// what a renderer holding it in half evaluates (2^-11 of each value, 2^-25 below 2^-14: within
+// the file's rounding).
 constexpr const char* kRebuildTableHalf = "half-delta-zlib";
 constexpr const char* kRebuildTableFloat = "float-delta-zlib";
 

@@ -82,8 +82,9 @@ def test_the_record_rebuilds_the_method_at_the_source_colours(tmp, args):
     record evaluated at that colour gives it to within that rounding and the table's own. Bound:
     one step of the bin's kept bits (rounding to nearest is half a step; the colour-aware rounding
     moves a bin to its other neighbour, one step), plus the table's rounding, in a half file to
-    half (2^-11 of each value, so at most 2^-11 of the weighted sum of the values' magnitudes),
-    plus float32 against float64: 2e-6 of the value, and for a float file 2e-5 (the source
+    half (2^-11 of each value, so at most 2^-11 of the weighted sum of the values' magnitudes;
+    values below 2^-14 are half's subnormals, 2^-25 at most, inside the slack), plus float32
+    against float64: 2e-6 absolute, and for a float file 2e-5 (the source
     linearised in float32, 1e-7 of the colour, times the lattice's slope in its darkest cells, up
     to about 100 per unit of RGB)."""
     exr = bake(CHART, os.path.join(tmp, f"chart{len(args)}{''.join(args)}.exr".replace(":", "_")), *args)
