@@ -11,11 +11,15 @@ integrator, a uniform `constant` D65 emitter, 64 spp. The rectangle's reflectanc
              that records its table).
 
 Each mode runs in a process of its own (so that each peak is its own): it loads the scene (timed:
-the texture's load is nearly all of it), renders once untimed (tracing and compiling the kernel;
-reported), then --runs times, each synchronised and timed as wall time. The process's peak
-resident memory (VmHWM) covers loading and rendering. Prints each mode's figures and the
-ratios to `bitmap`; exits 1 if the rgb mode misses a limit: peak memory 1.5x, load 3x, median
-render 1.5x the bitmap's (--max-memory, --max-load, --max-render). With --lookups, each mode's
+the texture's load is nearly all of it) and renders once (tracing and compiling the kernel;
+reported). The process's peak resident memory (VmHWM) covers loading and rendering. The render
+times are then taken in one more process holding every mode's scene: --runs rounds, each
+rendering every scene once in turn, synchronised and timed as wall time, after an untimed first
+round. A mode's render ratio is the median over the rounds of its time over the bitmap's in the
+same round: on a shared machine the speed drifts by 15 % and more between processes and
+minutes, and a ratio of neighbouring renders cancels most of it. Prints each mode's figures and
+the ratios to `bitmap`; exits 1 if the rgb mode misses a limit: peak memory 1.5x, load 3x, render
+1.5x the bitmap's (--max-memory, --max-load, --max-render). With --lookups, each mode's
 texture is also timed alone, in a process of its own: eval() at the render's lookups, outside any
 scene (in the render the BSDF evaluates it twice a sample, and the rest of the kernel is shared).
 
@@ -37,7 +41,8 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent.parent
 
-# What both children start with: the plugin of this tree, the variant, and the mode's texture.
+# What every child starts with: the plugin of this tree, the variant, the mode's texture, a scene
+# around a texture and a timed render.
 PREAMBLE = r"""
 import json, sys, time, warnings
 warnings.filterwarnings("ignore")
@@ -49,8 +54,30 @@ mode, filename, res, spp, runs, variant = sys.argv[2], sys.argv[3], int(sys.argv
 mi.set_variant(variant)
 import spectex_mitsuba
 spectex_mitsuba.register()
-texture = {"type": "bitmap", "filename": filename} if mode == "bitmap" else \
-    {"type": "spectex", "filename": filename, "mode": mode}
+def texture_of(mode, filename):
+    return {"type": "bitmap", "filename": filename} if mode == "bitmap" else \
+        {"type": "spectex", "filename": filename, "mode": mode}
+texture = texture_of(mode, filename)
+def make_scene(texture):
+    return mi.load_dict({
+        "type": "scene",
+        "integrator": {"type": "direct"},
+        "sensor": {
+            "type": "orthographic",
+            "to_world": mi.ScalarTransform4f().look_at(origin=[0, 0, 1], target=[0, 0, 0], up=[0, 1, 0]),
+            "film": {"type": "hdrfilm", "width": res, "height": res, "rfilter": {"type": "box"}},
+            "sampler": {"type": "independent", "sample_count": spp},
+        },
+        "light": {"type": "constant", "radiance": {"type": "d65"}},
+        "plane": {"type": "rectangle", "to_world": mi.ScalarTransform4f().scale([1, -1, 1]),
+                  "bsdf": {"type": "diffuse", "reflectance": texture}},
+    })
+def render(scene, seed):
+    t = time.perf_counter()
+    img = mi.render(scene, spp=spp, seed=seed)
+    dr.eval(img)
+    dr.sync_thread()
+    return time.perf_counter() - t, img
 """
 
 CHILD = PREAMBLE + r"""
@@ -60,37 +87,27 @@ def peak_kib():
     with open("/proc/self/status") as f:
         return next(int(line.split()[1]) for line in f if line.startswith("VmHWM:"))
 base = peak_kib()
-scene = {
-    "type": "scene",
-    "integrator": {"type": "direct"},
-    "sensor": {
-        "type": "orthographic",
-        "to_world": mi.ScalarTransform4f().look_at(origin=[0, 0, 1], target=[0, 0, 0], up=[0, 1, 0]),
-        "film": {"type": "hdrfilm", "width": res, "height": res, "rfilter": {"type": "box"}},
-        "sampler": {"type": "independent", "sample_count": spp},
-    },
-    "light": {"type": "constant", "radiance": {"type": "d65"}},
-    "plane": {"type": "rectangle", "to_world": mi.ScalarTransform4f().scale([1, -1, 1]),
-              "bsdf": {"type": "diffuse", "reflectance": texture}},
-}
 t = time.perf_counter()
-scene = mi.load_dict(scene)
+scene = make_scene(texture)
 load = time.perf_counter() - t
 
-def render(seed):
-    t = time.perf_counter()
-    img = mi.render(scene, spp=spp, seed=seed)
-    dr.eval(img)
-    dr.sync_thread()
-    return time.perf_counter() - t, img
-
-first, img = render(0)
-walls = [render(k + 1)[0] for k in range(runs)]
+first, img = render(scene, 0)
 import numpy as np
 mean = np.asarray(img).reshape(-1, np.asarray(img).shape[-1]).mean(axis=0).tolist()
-print(json.dumps({"load": load, "first": first, "walls": walls,
-                  "peak_mib": peak_kib() / 1024,
+print(json.dumps({"load": load, "first": first, "peak_mib": peak_kib() / 1024,
                   "base_mib": base / 1024, "mean": mean}))
+"""
+
+# Every mode's scene in one process, rendered in turn: argv[2] is "mode=filename,mode=filename,...".
+ROUNDS = PREAMBLE + r"""
+scenes = {m: make_scene(texture_of(m, f)) for m, f in (x.split("=", 1) for x in mode.split(","))}
+for s in scenes.values():
+    render(s, 0)
+walls = {m: [] for m in scenes}
+for k in range(runs):
+    for m, s in scenes.items():
+        walls[m].append(render(s, k + 1)[0])
+print(json.dumps(walls))
 """
 
 # The texture alone: eval() at the render's lookups (res^2 * spp positions, pixel by pixel, each
@@ -132,7 +149,7 @@ def main():
     ap.add_argument("--size", type=int, default=2048, help="texture size (default 2048)")
     ap.add_argument("--res", type=int, default=512, help="image size (default 512)")
     ap.add_argument("--spp", type=int, default=64)
-    ap.add_argument("--runs", type=int, default=3, help="timed renders of each scene (default 3)")
+    ap.add_argument("--runs", type=int, default=5, help="timed rounds of renders (default 5)")
     ap.add_argument("--modes", default="bitmap,spectra,rgb", help="which to run (default all three)")
     ap.add_argument("--max-memory", type=float, default=1.5)
     ap.add_argument("--max-load", type=float, default=3.0)
@@ -146,7 +163,7 @@ def main():
     from speed_vs_error import photographic_png
 
     print(f"{a.variant}, {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f}; "
-          f"{a.res}x{a.res} at {a.spp} spp, texture {a.size}x{a.size}, {a.runs} timed renders each")
+          f"{a.res}x{a.res} at {a.spp} spp, texture {a.size}x{a.size}, {a.runs} timed rounds of renders")
     results = {}
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(a.keep or tmp)
@@ -161,28 +178,35 @@ def main():
                 sys.exit(f"spectex bake failed: {r.stderr.strip()}")
             print(f"bake (defaults): {time.perf_counter() - t:.2f} s")
         print(f"PNG {png.stat().st_size / 1e6:.1f} MB, EXR {exr.stat().st_size / 1e6:.1f} MB")
-        for mode in a.modes.split(","):
-            results[mode] = res = run_mode(mode, png if mode == "bitmap" else exr, a)
-            res["median"] = statistics.median(res["walls"])
+        modes = a.modes.split(",")
+        source = {m: png if m == "bitmap" else exr for m in modes}
+        for mode in modes:
+            results[mode] = res = run_mode(mode, source[mode], a)
             print(f"  {mode:8s} peak {res['peak_mib']:7.0f} MiB (before the scene {res['base_mib']:.0f}), "
                   f"load {res['load']:6.2f} s, first render {res['first']:6.2f} s, "
-                  f"render median {res['median']:.3f} s (runs {', '.join(f'{w:.3f}' for w in res['walls'])}), "
                   f"image mean {', '.join(f'{x:.4f}' for x in res['mean'][:3])}")
             if a.lookups:
-                lk = run_mode(mode, png if mode == "bitmap" else exr, a, LOOKUPS)
+                lk = run_mode(mode, source[mode], a, LOOKUPS)
                 res["lookups"] = statistics.median(lk["walls"])
                 print(f"  {mode:8s} texture alone: {a.res * a.res * a.spp:,} lookups, median {res['lookups']:.3f} s "
                       f"(runs {', '.join(f'{w:.3f}' for w in lk['walls'])})")
+        walls = run_mode(",".join(f"{m}={source[m]}" for m in modes), "-", a, ROUNDS)
+        for mode in modes:
+            results[mode]["walls"] = walls[mode]
+            results[mode]["median"] = statistics.median(walls[mode])
+            print(f"  {mode:8s} render median {results[mode]['median']:.3f} s "
+                  f"(rounds {', '.join(f'{w:.3f}' for w in walls[mode])})")
     if "bitmap" not in results:
         return 0
     b = results["bitmap"]
     status = 0
-    print("\nratios to bitmap (peak memory, load, median render):")
+    print("\nratios to bitmap (peak memory, load, render: the median over the rounds):")
     for mode in results:
         if mode == "bitmap":
             continue
         m = results[mode]
-        ratios = (m["peak_mib"] / b["peak_mib"], m["load"] / b["load"], m["median"] / b["median"])
+        per_round = statistics.median(x / y for x, y in zip(m["walls"], b["walls"]))
+        ratios = (m["peak_mib"] / b["peak_mib"], m["load"] / b["load"], per_round)
         print(f"  {mode:8s} memory {ratios[0]:.2f}x, load {ratios[1]:.2f}x, render {ratios[2]:.2f}x"
               + (f"; texture alone {m['lookups'] / b['lookups']:.2f}x" if "lookups" in m and "lookups" in b else ""))
         if mode == "rgb":
