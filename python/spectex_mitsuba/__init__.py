@@ -14,9 +14,10 @@ MIP-mapping).
 ``mode`` says what the texture holds:
 
 - ``"rgb"``: for a bake that records how its spectra are rebuilt from RGB (the basis and the
-  lattice: ``spectex:rebuild*``, rebuild.py), 16 bytes a texel (its linear RGB, for the lattice
-  located in the lattice once at load, and alpha) and the record's table; the method is evaluated
-  at the sampled wavelengths at lookup (rgb_mode.py).
+  lattice: ``spectex:rebuild*``, rebuild.py), the record's table and, a texel, the basis 16 bytes
+  (its linear RGB and alpha) and the lattice 8 (its place in the lattice, found once at load) and
+  4 more for alpha when the file has it; the method is evaluated at the sampled wavelengths at
+  lookup (rgb_mode.py).
   The file is read a strip at a time (exr_strips.py; tiled and other compressions through
   ``mi.Bitmap``). A file without a record, or whose record fails its checks, is refused.
 - ``"spectra"``: every bin as float32, read with ``mi.Bitmap`` (any file).
@@ -55,6 +56,9 @@ _T_CHANNEL = re.compile(r"^T\.([0-9]+(?:[.,][0-9]*)?(?:[eE][+-]?[0-9]+)?)nm$")
 _WRAP_MODES = ("repeat", "mirror", "clamp")
 _MODES = ("auto", "rgb", "spectra")
 _FILTERS = ("bilinear", "nearest")
+# The 6 Kuhn simplices of a lattice cell, as (the axis of the first step, of the second): a located
+# texel records its simplex as its place in this list, a * 2 + b - (b > a).
+_SIMPLICES = tuple((a, b) for a in range(3) for b in range(3) if a != b)
 
 
 class SpectexError(ValueError):
@@ -331,21 +335,15 @@ def _make_class(mi):
             self._texels = t.data if t.data is not None else mi.Float(t.texels.reshape(-1))
             t.texels = t.data = None  # the Dr.Jit array is what is evaluated, and held once
             self._grid = mi.Float(lams.astype(np.float32))
-            # The table as pairs of neighbouring bins (k, k + 1), so that one packet gather reads
-            # both values a wavelength between them needs.
+            # The table as pairs of neighbouring bins (k, k + 1), so that one gather reads both
+            # values a wavelength between them needs.
             rows = rec.table.reshape(-1, self.bins).astype(np.float32)
             nxt = rows[:, np.minimum(np.arange(self.bins) + 1, self.bins - 1)]
             cols = max(1, self.bins - 1)
             self._pair_cols = cols
             pairs = np.stack([rows[:, :cols], nxt[:, :cols]], axis=-1)
-            # A half file's lattice as pairs of halves in one 32-bit word: one gather of half the
-            # bytes (a render 10-15 % faster). Rounding the vertex spectra to half moves them by at
-            # most 2^-11 of their value, within the file's own rounding (at most 10 bits kept); a
-            # float file, and the basis, keep float pairs. Only one of the two is made.
-            self._pairs = self._pairs16 = None
-            if rec.rule == "lattice" and t.half:
-                h = pairs.astype(np.float16).view(np.uint16).astype(np.uint32)
-                self._pairs16 = mi.UInt32((h[..., 0] | (h[..., 1] << 16)).reshape(-1))
+            if rec.rule == "lattice":
+                self._simplex_tables(rec.size, pairs, t.half)
             else:
                 self._pairs = mi.Float(pairs.reshape(-1))
             if rec.rule == "lattice":
@@ -356,6 +354,34 @@ def _make_class(mi):
                 self._loc_upper = mi.Float(loc.upper)
                 self._loc_inv_gap = mi.Float(loc.inv_gap)
                 self._locate_texels()
+
+        def _simplex_tables(self, n, pairs, half):
+            """The lattice's table arranged so that a texel reads its 4 vertices at a bin pair in
+            two gathers: `_ends` holds each cell's low and high corner (v0 and v3, which every
+            simplex of the cell has), `_mids` each of its 6 simplices' other two (v1, v2), both
+            [.., bin pair, 4 values]. A half file's as 64-bit words of 4 halves: a 64-bit gather
+            costs about 1.25 32-bit ones where measured (docs/mitsuba.md), so a lookup reads its
+            table in 32 gathers of 64 bits, not 64 of 32. Rounding the vertex spectra to half
+            moves them by at most 2^-11 of their value (2^-25 below 2^-14), within the file's own
+            rounding (at most 10 bits kept); a float file's stay float32. 0.86 MB for the default
+            9^3 lattice at 31 bins; at most 6 MB (12 MB in float) for any lattice a record holds (2^17
+            values)."""
+            c = n - 1
+            cells = np.arange(c ** 3)
+            v0 = ((cells // (c * c)) * n + (cells // c) % c) * n + cells % c
+            step = (n * n, n, 1)
+            ends = np.concatenate([pairs[v0], pairs[v0 + n * n + n + 1]], axis=-1)  # [cell, bin, 4]
+            mids = np.stack([np.concatenate([pairs[v0 + step[a]], pairs[v0 + step[a] + step[b]]], axis=-1)
+                             for a, b in _SIMPLICES], axis=1)  # [cell, simplex, bin, 4]
+            self._half_tables = half
+            if half:
+                def words(x):
+                    h = x.astype(np.float16).view(np.uint16).astype(np.uint64)
+                    return mi.UInt64((h[..., 0] | h[..., 1] << np.uint64(16) | h[..., 2] << np.uint64(32)
+                                      | h[..., 3] << np.uint64(48)).reshape(-1))
+                self._ends, self._mids = words(ends), words(mids)
+            else:
+                self._ends, self._mids = mi.Float(ends.reshape(-1)), mi.Float(mids.reshape(-1))
 
         # -- sampling positions ------------------------------------------------------------------
         def _corners_scalar(self, u, v):
@@ -443,9 +469,9 @@ def _make_class(mi):
 
         # -- the RGB mode: the method evaluated at the sampled wavelengths -------------------------
         def _locate_jit(self, rgb):
-            """Each colour's Kuhn simplex in the lattice (rebuild.py): its cell's low vertex v0, the
-            axes of its first two steps (a, b: 0 red, 1 green, 2 blue) and the local coordinates
-            sorted, ta >= tb >= tc."""
+            """Each colour's Kuhn simplex in the lattice (rebuild.py): its cell (index over the
+            cells, (r * c + g) * c + b with c = size - 1), the axes of its first two steps (a, b: 0
+            red, 1 green, 2 blue) and the local coordinates sorted, ta >= tb >= tc."""
             cell, frac = [], []
             for x in rgb:
                 x = dr.clip(x, 0.0, 1.0)  # RGB integrated from finite spectra: never NaN
@@ -465,29 +491,44 @@ def _make_class(mi):
             ta, tb, a, b = order(ta, tb, a, b)
             tb, tc, b, c = order(tb, tc, b, c)
             ta, tb, a, b = order(ta, tb, a, b)
-            n = self._rgb.record.size
-            v0 = (cell[0] * n + cell[1]) * n + cell[2]
-            return v0, a, b, ta, tb, tc
+            n = self._rgb.record.size - 1
+            return (cell[0] * n + cell[1]) * n + cell[2], a, b, ta, tb, tc
+
+        def _texel_bits(self):
+            """A located texel's 64 bits: its simplex (cell * 6 + its place in _SIMPLICES) in the
+            top `row` bits, and below it its three sorted coordinates in `q` bits each: 17 for the
+            9^3 lattice, 14 for the largest a record can hold. The rebuilt spectrum is S(v0) plus
+            each coordinate times the step between two of its vertices (values in [0, 1]), so a
+            coordinate rounded to 2^-(q+1) moves it by at most 3 * 2^-(q+1): 1.1e-5 at 17 bits."""
+            c = self._rgb.record.size - 1
+            row = max(1, (6 * c ** 3 - 1).bit_length())
+            return row, (64 - row) // 3
 
         def _locate_texels(self):
             """Replaces each texel's RGB by its place in the lattice, once, a million texels at a
-            time: (ta, tb, tc, the bits of v0 * 16 + a * 3 + b); alpha moves to an array of its
-            own. A lookup then reads one packet and no breakpoints. Written into a new array: the
-            RGB one was filled through a NumPy view, and Dr.Jit copies such an array whole before
-            a scatter into it (a second copy that stayed)."""
+            time: 8 bytes (_texel_bits); alpha moves to an array of its own. A lookup then reads one
+            64-bit word and no breakpoints. Written into a new array: the RGB one was filled
+            through a NumPy view, and Dr.Jit copies such an array whole before a scatter into it
+            (a second copy that stayed)."""
             count = self.width * self.height
             rgb = self._texels
             if self.premultiplied:
                 self._alpha = dr.gather(mi.Float, rgb, dr.arange(mi.UInt32, count) * 4 + 3)
                 dr.eval(self._alpha)
-            located = dr.empty(mi.Float, count * 4)
+            located = dr.empty(mi.UInt64, count)
+            _, q = self._texel_bits()
+            top = float((1 << q) - 1)
 
             def chunk(start, stop):  # its temporaries go with it
                 idx = dr.arange(mi.UInt32, start, stop)
                 tv = dr.gather(mi.Vector4f, rgb, idx)
-                v0, a, b, ta, tb, tc = self._locate_jit([tv.x, tv.y, tv.z])
-                packed = dr.reinterpret_array(mi.Float, v0 * 16 + a * 3 + b)
-                dr.scatter(located, mi.Vector4f(ta, tb, tc, packed), idx)
+                cell, a, b, ta, tb, tc = self._locate_jit([tv.x, tv.y, tv.z])
+                row = cell * 6 + a * 2 + b - dr.select(b > a, mi.UInt32(1), mi.UInt32(0))
+                # Rounding keeps ta >= tb >= tc, so the weights stay >= 0 and sum to 1.
+                bits = mi.UInt64(row) << (3 * q)
+                for k, t in enumerate((ta, tb, tc)):
+                    bits |= mi.UInt64(mi.UInt32(dr.round(t * top))) << (k * q)
+                dr.scatter(located, bits, idx)
                 dr.eval(located)
 
             for start in range(0, count, 1 << 20):
@@ -496,22 +537,12 @@ def _make_class(mi):
             del rgb
             dr.flush_malloc_cache()  # the RGB array and the chunks' temporaries
 
-        def _step_jit(self, axis):
-            n = self._rgb.record.size
-            return dr.select(axis == 0, mi.UInt32(n * n), dr.select(axis == 1, mi.UInt32(n), mi.UInt32(1)))
-
-        def _simplex_of(self, texel_value):
-            """Vertices and barycentric weights of a located texel (_locate_texels)."""
-            ta, tb, tc = texel_value.x, texel_value.y, texel_value.z
-            packed = dr.reinterpret_array(mi.UInt32, texel_value.w)
-            code = packed & 15
-            a = code // 3
-            v0 = packed >> 4
-            v1 = v0 + self._step_jit(a)
-            v2 = v1 + self._step_jit(code - a * 3)
-            n = self._rgb.record.size
-            v3 = v0 + mi.UInt32(n * n + n + 1)
-            return (v0, v1, v2, v3), (1.0 - ta, ta - tb, tb - tc, tc)
+        def _simplex_of(self, bits):
+            """The simplex (cell * 6 + place) and barycentric weights of a located texel's bits."""
+            row, q = self._texel_bits()
+            mask = (1 << q) - 1
+            ta, tb, tc = (mi.Float(mi.UInt32((bits >> (k * q)) & mask)) * (1.0 / mask) for k in range(3))
+            return mi.UInt32(bits >> (3 * q)), (1.0 - ta, ta - tb, tb - tc, tc)
 
         def _eval_rgb_jit(self, si, active):
             rec = self._rgb.record
@@ -525,7 +556,8 @@ def _make_class(mi):
             weights, texels = [], []
             alpha = mi.Float(0.0)
             for texel, wgt in corners:
-                texels.append(dr.gather(mi.Vector4f, self._texels, texel, active))
+                texels.append(dr.gather(mi.Vector4f if rec.rule == "basis" else mi.UInt64, self._texels, texel,
+                                        active))
                 if self.premultiplied:  # the basis' texel holds alpha; the lattice's has it apart
                     wgt = wgt * (texels[-1].w if rec.rule == "basis" else
                                  dr.gather(mi.Float, self._alpha, texel, active))
@@ -541,34 +573,39 @@ def _make_class(mi):
                 # Lerp last: sum_v w_v lerp(lo_v, hi_v, t) = lerp(sum_v w_v lo_v, sum_v w_v hi_v, t),
                 # two FMAs a vertex (5-6 % faster a render than a lerp per vertex, alternating runs
                 # of tests/bench/mitsuba_speed.py).
-                if self._pairs16 is not None:
+                cols = self._pair_cols
+                if self._half_tables:
                     # A half's bits moved to a float's place are its value times 2^-112 (no sign:
                     # the lattice's spectra are in [0, 1]); the weight carries the 2^112 instead
                     # (one product per texel and vertex, not per wavelength), so each product is
                     # of the value's own size and never flushed to zero as one below 2^-126 would be.
                     unit = 5.192296858534828e33
 
-                    def pair(k, i):
-                        u = dr.gather(mi.UInt32, self._pairs16, k * self._pair_cols + i, active)
+                    def halves(u):
                         return (dr.reinterpret_array(mi.Float, (u & 0x7FFF) << 13),
                                 dr.reinterpret_array(mi.Float, (u >> 3) & (0x7FFF << 13)))
+
+                    def vertices(simplex, i):  # the 4 vertices' (lo, hi) at bin pair i, v0 to v3
+                        ends = dr.gather(mi.UInt64, self._ends, (simplex // 6) * cols + i, active)
+                        mids = dr.gather(mi.UInt64, self._mids, simplex * cols + i, active)
+                        return [halves(mi.UInt32(w & 0xFFFFFFFF)) for w in (ends, mids)] + \
+                            [halves(mi.UInt32(w >> 32)) for w in (mids, ends)]
                 else:
                     unit = 1.0
 
-                    def pair(k, i):
-                        p = dr.gather(mi.Point2f, self._pairs, k * self._pair_cols + i, active)
-                        return p.x, p.y
+                    def vertices(simplex, i):
+                        e = dr.gather(mi.Vector4f, self._ends, (simplex // 6) * cols + i, active)
+                        m = dr.gather(mi.Vector4f, self._mids, simplex * cols + i, active)
+                        return [(e.x, e.y), (m.x, m.y), (m.z, m.w), (e.z, e.w)]
                 lo_sum = [mi.Float(0.0) for _ in at]
                 hi_sum = [mi.Float(0.0) for _ in at]
-                for wgt, tv in zip(weights, texels):
-                    verts, ws = self._simplex_of(tv)
-                    scale = wgt * unit
-                    for v, w in zip(verts, ws):
-                        ws_v = scale * w
-                        for j, (i, t, step) in enumerate(at):
-                            lo, hi = pair(v, i)
-                            lo_sum[j] = dr.fma(ws_v, lo, lo_sum[j])
-                            hi_sum[j] = dr.fma(ws_v, hi, hi_sum[j])
+                for wgt, bits in zip(weights, texels):
+                    simplex, ws = self._simplex_of(bits)
+                    ws = [wgt * unit * w for w in ws]
+                    for j, (i, t, step) in enumerate(at):
+                        for w, (lo, hi) in zip(ws, vertices(simplex, i)):
+                            lo_sum[j] = dr.fma(w, lo, lo_sum[j])
+                            hi_sum[j] = dr.fma(w, hi, hi_sum[j])
                 values = [dr.lerp(lo, hi, t) for lo, hi, (i, t, step) in zip(lo_sum, hi_sum, at)]
             spec = mi.UnpolarizedSpectrum(*values)
             if self.premultiplied:

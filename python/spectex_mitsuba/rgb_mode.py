@@ -2,13 +2,14 @@
 
 A bake of the basis or the lattice records how its spectra are rebuilt from RGB (rebuild.py). The
 texture then streams the file's spectral channels a strip at a time, integrates each texel back to
-the linear RGB its spectrum was made from, and keeps 16 bytes a texel (float32) and the record's
-table: the basis keeps RGB and alpha; the lattice keeps the RGB located in the lattice once, at
-load (its three sorted local coordinates and its simplex: a lookup then reads no breakpoints,
-about a quarter faster) and alpha beside it. Mitsuba's own spectral ``bitmap`` keeps three float32
-coefficients. float16 colours would add 2^-11 of the colour, which the lattice's slope in its
-darkest cells multiplies beyond the file's own rounding; float32 keeps the rebuilt spectrum within
-it. Peak memory while loading is one strip of the file's samples, never the whole file.
+the linear RGB its spectrum was made from (float32, 16 bytes a texel with alpha), and keeps the
+record's table and: for the basis, that RGB and alpha; for the lattice, 8 bytes, the RGB located
+in the lattice once, at load (its simplex and its three sorted local coordinates: a lookup then
+reads no breakpoints, about a quarter faster), and alpha beside it when the file has one.
+Mitsuba's own spectral ``bitmap`` keeps three float32 coefficients. float16 colours would add
+2^-11 of the colour, which the lattice's slope in its darkest cells multiplies beyond the file's
+own rounding; the local coordinates are kept to 2^-18 of the cell instead, whatever its size.
+Peak memory while loading is one strip of the file's samples, never the whole file, and the RGB.
 
 Before it is trusted, the record must match its CRC-32 and the file's channels, and the spectra
 it rebuilds must be the file's on every 4th texel of one row in 64 (within four steps of each
@@ -140,8 +141,8 @@ def load(filename, alloc):
         bits = _kept_bits(attrs, record.bins, sample_bits)
         t.half = sample_bits == 10
         if t.half and record.rule == "lattice":
-            # Held in half (within a half file's own rounding): the table rows are then packed two
-            # bins to a 32-bit word, and the JIT and scalar variants and the check all use these.
+            # Held in half (within a half file's own rounding): the JIT variants pack it four halves
+            # to a 64-bit word, and the scalar variants and the check use the same numbers.
             record.table = record.table.astype(np.float16).astype(np.float32)
         t.attrs = dict(attrs)
         t.width, t.height, t.lams, t.record, t.premultiplied = width, height, lams, record, premultiplied

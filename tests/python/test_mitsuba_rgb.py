@@ -223,16 +223,22 @@ def write_spectra(path, lams, cube, alpha=None):
     out.close()
 
 
-@pytest.mark.parametrize("png", [CHART, LEAF])
-def test_the_rgb_mode_blends_the_rebuilt_spectra_as_the_spectra_mode_blends_bins(tmp, png):
+@pytest.mark.parametrize("png,args", [(CHART, []), (LEAF, []), (LEAF, ["--type", "float"]),
+                                      (CHART, ["--lattice-size", "13", "--wavelengths", "400:700:10"]),
+                                      (LEAF, ["--lattice-size", "2"])])
+def test_the_rgb_mode_blends_the_rebuilt_spectra_as_the_spectra_mode_blends_bins(tmp, png, args):
     """Bilinear and nearest, every wrap mode, uv outside [0, 1]: the RGB mode equals the spectra
     mode of a file holding exactly the spectra the record rebuilds (alpha premultiplied on the
-    leaf). Bound 5e-5: float32 evaluation, RGB recovered in float32 and divided by alpha."""
-    exr = bake(png, os.path.join(tmp, os.path.basename(png) + ".exr"))
+    leaf), for the half and the float table, and for the default lattice, a 13^3 one (14 bits of
+    simplex, 16 of each coordinate in a texel's 64) and the smallest. Bound 5e-5: float32
+    evaluation, RGB recovered in float32 and divided by alpha, and each texel's coordinates rounded
+    to 2^-17 at worst (16 bits), which moves a value by at most 3 * 2^-17 = 2.3e-5."""
+    exr = bake(png, os.path.join(tmp, os.path.basename(png) + ".exr"), *args)
     record = rebuild.parse_record(header(exr))
-    # The plugin holds a half file's lattice in half (2^-11 of each value, within the file's own
-    # rounding): the twin is made from the same numbers.
-    record.table = record.table.astype(np.float16).astype(np.float32)
+    if "--type" not in args:
+        # The plugin holds a half file's lattice in half (2^-11 of each value, within the file's
+        # own rounding): the twin is made from the same numbers.
+        record.table = record.table.astype(np.float16).astype(np.float32)
     lams, spectra, alpha = read(exr)
     rgb = rebuild.file_rgb(record, spectra)
     if alpha is not None:
