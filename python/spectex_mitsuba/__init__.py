@@ -27,7 +27,10 @@ MIP-mapping).
 ``eval`` returns the reflectance at ``si.wavelengths`` (in mode "rgb", of the rebuilt bins, which
 are the file's to within its own rounding): linear in wavelength between the file's bins (any
 grid, uniform or not), the end bins' values held outside the grid; bilinear or nearest in uv with Mitsuba's ``bitmap`` conventions (``uv = (0, 0)`` is the first pixel of the first row,
-texel centres at ``(x + 0.5) / width``; ``repeat``, ``mirror``, ``clamp``).
+texel centres at ``(x + 0.5) / width``; ``repeat``, ``mirror``, ``clamp``), or ``"stochastic"``:
+one of the bilinear 4 texels picked by a hash of uv with probability its weight (times its alpha
+when premultiplied), the bilinear filter on average over a pixel's samples at the cost of one
+texel (docs/mitsuba.md).
 
 Alpha: an ``A`` channel means premultiplied (associated) spectra, OpenEXR's convention and what
 ``spectex bake`` writes by default, unless the header's ``spectex:alpha`` says ``unassociated``.
@@ -41,6 +44,7 @@ differentiable parameters.
 """
 import math
 import re
+import struct
 import warnings
 
 import numpy as np
@@ -55,7 +59,7 @@ __version__ = "0.1.0"
 _T_CHANNEL = re.compile(r"^T\.([0-9]+(?:[.,][0-9]*)?(?:[eE][+-]?[0-9]+)?)nm$")
 _WRAP_MODES = ("repeat", "mirror", "clamp")
 _MODES = ("auto", "rgb", "spectra")
-_FILTERS = ("bilinear", "nearest")
+_FILTERS = ("bilinear", "nearest", "stochastic")
 # The 6 Kuhn simplices of a lattice cell, as (the axis of the first step, of the second): a located
 # texel records its simplex as its place in this list, a * 2 + b - (b > a).
 _SIMPLICES = tuple((a, b) for a in range(3) for b in range(3) if a != b)
@@ -208,6 +212,21 @@ def _wrap_index(i, n, mode, dr=None, Int=None):
     m = i % p
     m = dr.select(m < 0, m + p, m)
     return dr.select(m < n, m, p - 1 - m)
+
+
+def _mix32(h):
+    """murmur3's 32-bit finaliser, every input bit moving every output bit (Python ints or Dr.Jit
+    UInt32, which wraps by itself)."""
+    h = ((h ^ (h >> 16)) * 0x85EBCA6B) & 0xFFFFFFFF
+    h = ((h ^ (h >> 13)) * 0xC2B2AE35) & 0xFFFFFFFF
+    return h ^ (h >> 16)
+
+
+def _pick_bits(ubits, vbits):
+    """filter_type "stochastic"'s 24 random bits for a lookup (times 2^-24: a number in [0, 1),
+    exact in float32): a hash of the bits of its u and v (float32), so that the BSDF's two
+    evaluations at one point (its sample and its eval_pdf) pick the same texel."""
+    return _mix32(((ubits * 0x9E3779B1) & 0xFFFFFFFF) ^ vbits) >> 8
 
 
 class SpectexTexture:
@@ -396,7 +415,49 @@ def _make_class(mi):
             for dy, wy in ((0, 1 - fy), (1, fy)):
                 for dx, wx in ((0, 1 - fx), (1, fx)):
                     out.append((_wrap_index(x0 + dx, w, mode), _wrap_index(y0 + dy, h, mode), wx * wy))
+            if self.filter_type == "stochastic":
+                bits = [struct.unpack("<I", struct.pack("<f", c))[0] for c in (u, v)]
+                p = [wgt * (self._alpha_scalar(x, y) if self.premultiplied else 1.0) for x, y, wgt in out]
+                r = _pick_bits(*bits) * 2.0 ** -24 * sum(p)
+                total = 0.0
+                for (x, y, _), pk in zip(out[:3], p[:3]):
+                    total += pk
+                    if r < total:
+                        return [(x, y, 1.0)]
+                return [out[3][:2] + (1.0,)]
             return out
+
+        def _alpha_scalar(self, x, y):
+            if self._rgb is not None:
+                return float(self._rgb.texels[y, x][3])
+            return float(self._alpha_np[y, x])
+
+        def _alpha_jit(self, texel, active):
+            """A premultiplied file's alpha at a texel (the basis holds it in its texel)."""
+            if self._rgb is not None and self._rgb.record.rule == "basis":
+                return dr.gather(mi.Float, self._texels, texel * 4 + 3, active)
+            return dr.gather(mi.Float, self._alpha, texel, active)
+
+        def _corners(self, uv, active):
+            """The texels a lookup blends, with their weights: Mitsuba's bilinear or nearest, or
+            ("stochastic") one of the bilinear 4 with weight 1, picked with probability its
+            bilinear weight (times its alpha in a premultiplied file) by a hash of uv. Its
+            expectation over a pixel's samples is then the bilinear filter's value, blended as
+            spectra (premultiplied, then divided by the blended alpha) whatever the method, at
+            the cost of one texel."""
+            corners = self._corners_jit(uv)
+            if self.filter_type != "stochastic":
+                return corners
+            p = [wgt * self._alpha_jit(texel, active) if self.premultiplied else wgt for texel, wgt in corners]
+            bits = _pick_bits(dr.reinterpret_array(mi.UInt32, uv.x), dr.reinterpret_array(mi.UInt32, uv.y))
+            r = mi.Float(bits) * 2.0 ** -24 * (p[0] + p[1] + p[2] + p[3])
+            # The last texel whose cumulative sum is still above r, going down: a texel of weight 0
+            # is never picked (the sums are the same floats in the same order as the total).
+            texel = corners[3][0]
+            cum = [p[0], p[0] + p[1], p[0] + p[1] + p[2]]
+            for k in (2, 1, 0):
+                texel = dr.select(r < cum[k], corners[k][0], texel)
+            return [(texel, mi.Float(1.0))]
 
         def _corners_jit(self, uv):
             Int = mi.Int32
@@ -447,7 +508,7 @@ def _make_class(mi):
                 return self._eval_rgb_scalar(si) if scalar else self._eval_rgb_jit(si, active)
             if scalar:
                 return self._eval_scalar(si)
-            corners = self._corners_jit(si.uv)
+            corners = self._corners(si.uv, active)
             n = self.bins
             values = []
             for j in range(len(si.wavelengths)):
@@ -546,7 +607,7 @@ def _make_class(mi):
 
         def _eval_rgb_jit(self, si, active):
             rec = self._rgb.record
-            corners = self._corners_jit(si.uv)
+            corners = self._corners(si.uv, active)
             at = [self._bin_jit(si.wavelengths[j]) for j in range(len(si.wavelengths))]
 
             def table(k, i, t):  # row k of the table at the sampled wavelength

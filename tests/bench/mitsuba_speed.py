@@ -55,8 +55,10 @@ mi.set_variant(variant)
 import spectex_mitsuba
 spectex_mitsuba.register()
 def texture_of(mode, filename):
-    return {"type": "bitmap", "filename": filename} if mode == "bitmap" else \
-        {"type": "spectex", "filename": filename, "mode": mode}
+    if mode == "bitmap":
+        return {"type": "bitmap", "filename": filename}
+    mode, _, filt = mode.partition(":")  # "rgb:stochastic": that mode with that filter_type
+    return {"type": "spectex", "filename": filename, "mode": mode, "filter_type": filt or "bilinear"}
 texture = texture_of(mode, filename)
 def make_scene(texture):
     return mi.load_dict({
@@ -150,7 +152,9 @@ def main():
     ap.add_argument("--res", type=int, default=512, help="image size (default 512)")
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--runs", type=int, default=5, help="timed rounds of renders (default 5)")
-    ap.add_argument("--modes", default="bitmap,spectra,rgb", help="which to run (default all three)")
+    ap.add_argument("--modes", default="bitmap,spectra,rgb",
+                    help="which to run (default bitmap,spectra,rgb); MODE:FILTER gives a spectex mode a "
+                         "filter_type, e.g. rgb:stochastic")
     ap.add_argument("--max-memory", type=float, default=1.5)
     ap.add_argument("--max-load", type=float, default=3.0)
     ap.add_argument("--max-render", type=float, default=1.5)

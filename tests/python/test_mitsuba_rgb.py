@@ -261,6 +261,69 @@ def test_the_rgb_mode_blends_the_rebuilt_spectra_as_the_spectra_mode_blends_bins
             assert d.max() < 5e-5, (filt, wrap, d.max())
 
 
+@pytest.mark.parametrize("png", [CHART, LEAF])
+def test_the_stochastic_filter_picks_one_bilinear_texel_and_is_the_bilinear_filter_on_average(tmp, png):
+    """filter_type "stochastic" (both modes; the leaf's alpha premultiplied):
+    - each lookup is exactly one of its 4 bilinear texels' spectra (the nearest filter at that
+      texel's centre; 1e-6: float32 evaluation of the same numbers);
+    - the same uv gives the same texel, and scalar_spectral picks the texel the JIT variant picks
+      (but where the pick's random number is within float32's rounding of a boundary, which its
+      float64 weights can move: at least 99 % of lookups);
+    - over 64 uv jittered by up to 0.05 texel around each of 4000 points, the mean is the bilinear
+      filter's mean at the same uv: the mean of the differences over the points within 5 of its
+      standard errors at each wavelength. The points are where the texels differ (the leaf's alpha
+      edges, the chart's patch borders): a pick that ignored alpha (probability the bilinear
+      weight alone) is off by over 20 standard errors on the leaf."""
+    exr = os.path.join(tmp, "stochastic_" + os.path.basename(png) + ".exr")
+    if not os.path.exists(exr):
+        bake(png, exr)
+    _, spectra, alpha = read(exr)
+    height, width = spectra.shape[:2]
+    key = alpha if alpha is not None else spectra.sum(axis=2)
+    block = np.stack([key[:-1, :-1], key[:-1, 1:], key[1:, :-1], key[1:, 1:]])
+    ys, xs = np.nonzero(block.max(axis=0) - block.min(axis=0) > 0.05)
+    rng = np.random.default_rng(5)
+    n, k = 4000, 64
+    at = rng.integers(0, len(xs), n)
+    uv = np.stack([(xs[at] + 0.5 + rng.uniform(0.1, 0.9, n)) / width,
+                   (ys[at] + 0.5 + rng.uniform(0.1, 0.9, n)) / height], axis=1)
+    jit = (uv[:, None, :] + rng.uniform(-0.05, 0.05, (n, k, 2)) / [width, height]).reshape(-1, 2)
+    lams = np.tile([450.0, 520.0, 600.0, 650.0], (n * k, 1))
+    picked = {}
+    for mode in ("rgb", "spectra"):
+        st = load(exr, mode, filter_type="stochastic")
+        got = eval_at(st, jit, lams)
+        assert np.array_equal(got, eval_at(st, jit, lams))
+        # The 4 texels' centres, each looked up with the nearest filter.
+        x0 = np.floor(jit[:, 0] * width - 0.5)
+        y0 = np.floor(jit[:, 1] * height - 0.5)
+        near = load(exr, mode, filter_type="nearest")
+        corners = [eval_at(near, np.stack([(x0 + dx + 0.5) / width, (y0 + dy + 0.5) / height], axis=1), lams)
+                   for dy in (0, 1) for dx in (0, 1)]
+        dist = np.array([np.abs(got - c).max(axis=1) for c in corners])
+        assert dist.min(axis=0).max() < 1e-6, (mode, dist.min(axis=0).max())
+        picked[mode] = (corners, dist.argmin(axis=0))
+        bilinear = eval_at(load(exr, mode), jit, lams)
+        d = (got - bilinear).reshape(n, k, 4).mean(axis=1)
+        z = np.abs(d.mean(axis=0)) / (d.std(axis=0) / np.sqrt(n))
+        assert np.all(z < 5), (mode, z)
+    mi.set_variant("scalar_spectral")
+    spectex_mitsuba.register()
+    scalar = mi.load_dict({"type": "spectex", "filename": exr, "mode": "rgb", "filter_type": "stochastic"})
+    si = mi.SurfaceInteraction3f()
+    corners, which = picked["rgb"]
+    same = 0
+    for j in range(400):
+        si.uv = mi.Point2f(float(jit[j, 0]), float(jit[j, 1]))
+        si.wavelengths = mi.Spectrum(450.0, 520.0, 600.0, 650.0)
+        value = np.array(scalar.eval(si)).reshape(-1)
+        # The texel whose JIT spectrum is nearest (the scalar variant rebuilds in float64 from the
+        # float64 table: within the half table's 2^-11 of it); texels of equal spectra are one.
+        mine = int(np.argmin([np.abs(value - c[j]).max() for c in corners]))
+        same += np.abs(corners[mine][j] - corners[which[j]][j]).max() < 1e-6
+    assert same >= 396, same
+
+
 def test_auto_holds_rgb_for_a_bake_and_the_bins_for_other_files(tmp):
     exr = bake(CHART, os.path.join(tmp, "auto.exr"))
     assert load(exr).holds == "rgb"
