@@ -598,15 +598,6 @@ class ExrStrips:
             yield y0, n, [(c, min(c + per_task, end), c * rpc - y0)
                           for c in range(first, end, per_task)]
 
-    def _tasks(self, rows):
-        """(strip y0, strip rows, [(first chunk, last chunk, row in strip)])."""
-        rpc, per_task = self.rows_per_chunk, max(1, TASK_BYTES // max(1, self._row_bytes * self.rows_per_chunk))
-        for y0 in range(0, self.height, rows):
-            n = min(rows, self.height - y0)
-            first, end = y0 // rpc, -(-(y0 + n) // rpc)
-            yield y0, n, [(c, min(c + per_task, end), c * rpc - y0)
-                          for c in range(first, end, per_task)]
-
     def strips(self, names, rows=64, threads=None, planar=False):
         """Yield (y0, array) for consecutive strips covering the data window top to bottom:
         array is float32 of shape [n_rows, width, len(names)] with the named channels in the
