@@ -600,7 +600,7 @@ def _make_class(mi):
 
         def _simplex_of(self, bits):
             """The simplex (cell * 6 + place) and barycentric weights of a located texel's bits."""
-            row, q = self._texel_bits()
+            _, q = self._texel_bits()
             mask = (1 << q) - 1
             ta, tb, tc = (mi.Float(mi.UInt32((bits >> (k * q)) & mask)) * (1.0 / mask) for k in range(3))
             return mi.UInt32(bits >> (3 * q)), (1.0 - ta, ta - tb, tb - tc, tc)
