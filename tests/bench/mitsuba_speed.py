@@ -8,7 +8,11 @@ integrator, a uniform `constant` D65 emitter, 64 spp. The rectangle's reflectanc
   - bitmap:  Mitsuba's `bitmap` texture of the PNG (Mitsuba upsamples the RGB itself),
   - spectra: the PNG baked by `spectex bake` with its defaults, every bin held (mode "spectra"),
   - rgb:     the same file held as RGB and the file's table (mode "rgb", the default for a file
-             that records its table).
+             that records its table),
+  - rgb:stochastic: the same with filter_type "stochastic" (one of the bilinear 4 texels picked at
+             random with its weight: the bilinear filter on average, one texel's cost).
+
+The limits below are checked on rgb, with the default bilinear filter.
 
 Each mode runs in a process of its own (so that each peak is its own): it loads the scene (timed:
 the texture's load is nearly all of it) and renders once (tracing and compiling the kernel;
@@ -152,9 +156,9 @@ def main():
     ap.add_argument("--res", type=int, default=512, help="image size (default 512)")
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--runs", type=int, default=5, help="timed rounds of renders (default 5)")
-    ap.add_argument("--modes", default="bitmap,spectra,rgb",
-                    help="which to run (default bitmap,spectra,rgb); MODE:FILTER gives a spectex mode a "
-                         "filter_type, e.g. rgb:stochastic")
+    ap.add_argument("--modes", default="bitmap,spectra,rgb,rgb:stochastic",
+                    help="which to run (default bitmap,spectra,rgb,rgb:stochastic); MODE:FILTER gives a "
+                         "spectex mode a filter_type (bilinear otherwise)")
     ap.add_argument("--max-memory", type=float, default=1.5)
     ap.add_argument("--max-load", type=float, default=3.0)
     ap.add_argument("--max-render", type=float, default=1.5)
