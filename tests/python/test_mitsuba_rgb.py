@@ -261,9 +261,10 @@ def test_the_rgb_mode_blends_the_rebuilt_spectra_as_the_spectra_mode_blends_bins
             assert d.max() < 5e-5, (filt, wrap, d.max())
 
 
-@pytest.mark.parametrize("png", [CHART, LEAF])
-def test_the_stochastic_filter_picks_one_bilinear_texel_and_is_the_bilinear_filter_on_average(tmp, png):
-    """filter_type "stochastic" (both modes; the leaf's alpha premultiplied):
+@pytest.mark.parametrize("png,args", [(CHART, []), (LEAF, []), (LEAF, ["--method", "basis"])])
+def test_the_stochastic_filter_picks_one_bilinear_texel_and_is_the_bilinear_filter_on_average(tmp, png, args):
+    """filter_type "stochastic" (both modes; the lattice, and the basis whose texel holds alpha; the
+    leaf's alpha premultiplied):
     - each lookup is exactly one of its 4 bilinear texels' spectra (the nearest filter at that
       texel's centre; 1e-6: float32 evaluation of the same numbers);
     - the same uv gives the same texel, and scalar_spectral picks the texel the JIT variant picks
@@ -274,9 +275,9 @@ def test_the_stochastic_filter_picks_one_bilinear_texel_and_is_the_bilinear_filt
       standard errors at each wavelength. The points are where the texels differ (the leaf's alpha
       edges, the chart's patch borders): a pick that ignored alpha (probability the bilinear
       weight alone) is off by over 20 standard errors on the leaf."""
-    exr = os.path.join(tmp, "stochastic_" + os.path.basename(png) + ".exr")
+    exr = os.path.join(tmp, "stochastic_" + "_".join([os.path.basename(png)] + args) + ".exr")
     if not os.path.exists(exr):
-        bake(png, exr)
+        bake(png, exr, *args)
     _, spectra, alpha = read(exr)
     height, width = spectra.shape[:2]
     key = alpha if alpha is not None else spectra.sum(axis=2)
