@@ -104,9 +104,9 @@ print(json.dumps({"load": load, "first": first, "peak_mib": peak_kib() / 1024,
                   "base_mib": base / 1024, "mean": mean}))
 """
 
-# Every mode's scene in one process, rendered in turn: argv[2] is "mode=filename,mode=filename,...".
+# Every mode's scene in one process, rendered in turn: argv[2] is {mode: filename} as JSON.
 ROUNDS = PREAMBLE + r"""
-scenes = {m: make_scene(texture_of(m, f)) for m, f in (x.split("=", 1) for x in mode.split(","))}
+scenes = {m: make_scene(texture_of(m, f)) for m, f in json.loads(mode).items()}
 for s in scenes.values():
     render(s, 0)
 walls = {m: [] for m in scenes}
@@ -198,7 +198,7 @@ def main():
                 res["lookups"] = statistics.median(lk["walls"])
                 print(f"  {mode:8s} texture alone: {a.res * a.res * a.spp:,} lookups, median {res['lookups']:.3f} s "
                       f"(runs {', '.join(f'{w:.3f}' for w in lk['walls'])})")
-        walls = run_mode(",".join(f"{m}={source[m]}" for m in modes), "-", a, ROUNDS)
+        walls = run_mode(json.dumps({m: str(source[m]) for m in modes}), "-", a, ROUNDS)
         for mode in modes:
             results[mode]["walls"] = walls[mode]
             results[mode]["median"] = statistics.median(walls[mode])
