@@ -524,7 +524,7 @@ def _make_class(mi):
             if self._alpha is not None:
                 alpha = mi.Float(0.0)
                 for texel, wgt in corners:
-                    alpha += wgt * dr.gather(mi.Float, self._alpha, texel, active)
+                    alpha += wgt * self._alpha_jit(texel, active)
                 spec = dr.select(alpha > 0, spec / dr.select(alpha > 0, alpha, 1.0), 0.0)
             return spec
 
@@ -620,8 +620,7 @@ def _make_class(mi):
                 texels.append(dr.gather(mi.Vector4f if rec.rule == "basis" else mi.UInt64, self._texels, texel,
                                         active))
                 if self.premultiplied:  # the basis' texel holds alpha; the lattice's has it apart
-                    wgt = wgt * (texels[-1].w if rec.rule == "basis" else
-                                 dr.gather(mi.Float, self._alpha, texel, active))
+                    wgt = wgt * (texels[-1].w if rec.rule == "basis" else self._alpha_jit(texel, active))
                     alpha += wgt
                 weights.append(wgt)
             if rec.rule == "basis":
@@ -695,7 +694,7 @@ def _make_class(mi):
             for x, y, wgt in self._corners_scalar(float(si.uv[0]), float(si.uv[1])):
                 spec += wgt * self._cube_np[y, x]
                 if self._alpha_np is not None:
-                    alpha += wgt * float(self._alpha_np[y, x])
+                    alpha += wgt * self._alpha_scalar(x, y)
             lams = [float(si.wavelengths[j]) for j in range(len(si.wavelengths))]
             out = np.interp(lams, self.wavelengths_nm, spec) if self.bins > 1 else np.full(len(lams), spec[0])
             if self._alpha_np is not None:

@@ -45,7 +45,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent.parent
 
-# What every child starts with: the plugin of this tree, the variant, the mode's texture, a scene
+# What every child starts with: the plugin of this tree, the variant, a mode's texture, a scene
 # around a texture and a timed render.
 PREAMBLE = r"""
 import json, sys, time, warnings
@@ -63,7 +63,6 @@ def texture_of(mode, filename):
         return {"type": "bitmap", "filename": filename}
     mode, _, filt = mode.partition(":")  # "rgb:stochastic": that mode with that filter_type
     return {"type": "spectex", "filename": filename, "mode": mode, "filter_type": filt or "bilinear"}
-texture = texture_of(mode, filename)
 def make_scene(texture):
     return mi.load_dict({
         "type": "scene",
@@ -94,7 +93,7 @@ def peak_kib():
         return next(int(line.split()[1]) for line in f if line.startswith("VmHWM:"))
 base = peak_kib()
 t = time.perf_counter()
-scene = make_scene(texture)
+scene = make_scene(texture_of(mode, filename))
 load = time.perf_counter() - t
 
 first, img = render(scene, 0)
@@ -120,7 +119,7 @@ print(json.dumps(walls))
 # pixel's spp in a row as the render orders them; 4 wavelengths a lookup, spread over 360-830 nm),
 # outside any scene, so that its cost is seen apart from the rest of the render's kernel.
 LOOKUPS = PREAMBLE + r"""
-texture = mi.load_dict(texture)
+texture = mi.load_dict(texture_of(mode, filename))
 n = res * res * spp
 pixel = dr.arange(mi.UInt32, n) // spp
 sampler = mi.load_dict({"type": "independent"})
