@@ -26,11 +26,13 @@ MIP-mapping).
 
 ``eval`` returns the reflectance at ``si.wavelengths`` (in mode "rgb", of the rebuilt bins, which
 are the file's to within its own rounding): linear in wavelength between the file's bins (any
-grid, uniform or not), the end bins' values held outside the grid; bilinear or nearest in uv with Mitsuba's ``bitmap`` conventions (``uv = (0, 0)`` is the first pixel of the first row,
+grid, uniform or not), the end bins' values held outside the grid; bilinear or nearest in uv
+with Mitsuba's ``bitmap`` conventions (``uv = (0, 0)`` is the first pixel of the first row,
 texel centres at ``(x + 0.5) / width``; ``repeat``, ``mirror``, ``clamp``), or ``"stochastic"``:
 one of the bilinear 4 texels picked by a hash of uv with probability its weight (times its alpha
 when premultiplied), the bilinear filter on average over a pixel's samples at the cost of one
-texel (docs/mitsuba.md).
+texel (docs/mitsuba.md). A coordinate that is NaN or infinite, or whose texel position overflows
+float32, is read as 0, so a lookup always returns a reflectance.
 
 Alpha: an ``A`` channel means premultiplied (associated) spectra, OpenEXR's convention and what
 ``spectex bake`` writes by default, unless the header's ``spectex:alpha`` says ``unassociated``.
@@ -212,6 +214,17 @@ def _wrap_index(i, n, mode, dr=None, Int=None):
     m = i % p
     m = dr.select(m < 0, m + p, m)
     return dr.select(m < n, m, p - 1 - m)
+
+
+def _on_texture(x, n):
+    """A texture coordinate as a lookup reads it: one that is not finite, or whose texel position
+    x * n is not (in float32, as the JIT variants compute it), has no texel and is read as 0. A
+    lookup then stays a reflectance, in every variant and filter, where Mitsuba's bilinear
+    `bitmap` returns NaN (which a pixel filter spreads) and Python's floor() raises."""
+    return x if math.isfinite(x) and abs(x) * n <= _FLOAT32_MAX else 0.0
+
+
+_FLOAT32_MAX = 3.4028234663852886e38
 
 
 def _mix32(h):
@@ -405,6 +418,7 @@ def _make_class(mi):
         # -- sampling positions ------------------------------------------------------------------
         def _corners_scalar(self, u, v):
             w, h, mode = self.width, self.height, self.wrap_mode
+            u, v = _on_texture(u, w), _on_texture(v, h)
             if self.filter_type == "nearest":
                 x, y = math.floor(u * w), math.floor(v * h)
                 return [(_wrap_index(x, w, mode), _wrap_index(y, h, mode), 1.0)]
@@ -445,6 +459,8 @@ def _make_class(mi):
             expectation over a pixel's samples is then the bilinear filter's value, blended as
             spectra (premultiplied, then divided by the blended alpha) whatever the method, at
             the cost of one texel."""
+            # _on_texture: a coordinate with no texel position is read as 0.
+            uv = mi.Point2f(*(dr.select(dr.isfinite(x * n), x, 0.0) for x, n in zip(uv, (self.width, self.height))))
             corners = self._corners_jit(uv)
             if self.filter_type != "stochastic":
                 return corners

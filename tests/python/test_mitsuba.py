@@ -602,3 +602,28 @@ def test_documented_lamp_lights_white_below_it_as_the_comment_says(documented_li
     bound = 5 * sem + 2e-3 * want + 2e-4 * white_y
     print(f"lamp: |rendered - integrated| / bound = {np.max(np.abs(mean - want) / bound):.2f}")
     assert np.all(np.abs(mean - want) <= bound), (mean, want, sem)
+
+
+@pytest.mark.parametrize("variant", ["scalar_spectral", JIT])
+def test_a_coordinate_with_no_texel_is_read_as_0_in_every_filter(chart, variant):
+    """NaN, an infinity, or a coordinate whose texel position overflows float32 (3e38 x 512) has no
+    texel: it is read as 0, in both modes and every filter and wrap mode, so a lookup stays the
+    reflectance at that coordinate (before, the scalar variants raised from floor() and aborted
+    the render, and the bilinear JIT lookup returned NaN)."""
+    use(variant)
+    bad = [np.nan, np.inf, -np.inf, 3e38, -3e38]
+    good = [0.3, 0.61]
+    # Each bad value as u with a good v, and as v with a good u, then both bad.
+    uv = np.array([(b, good[1]) for b in bad] + [(good[0], b) for b in bad] + [(b, b) for b in bad])
+    want_uv = np.where(np.isfinite(uv) & (np.abs(uv) < 1e30), uv, 0.0)
+    lams = np.tile([450.0, 520.0, 610.0, 680.0], (len(uv), 1))
+    for mode in ("rgb", "spectra"):
+        for filt in ("bilinear", "nearest", "stochastic"):
+            for wrap in ("repeat", "mirror", "clamp"):
+                tex = mi.load_dict({"type": "spectex", "filename": chart, "mode": mode, "filter_type": filt,
+                                    "wrap_mode": wrap})
+                got = eval_texture(tex, uv, lams)
+                want = eval_texture(tex, want_uv, lams)
+                assert np.all(np.isfinite(got)), (mode, filt, wrap, got)
+                # The same texels and weights: equal to float32 rounding.
+                assert np.abs(got - want).max() < 1e-6, (mode, filt, wrap)
