@@ -45,7 +45,9 @@ their ``_polarized`` forms) are supported; an RGB or mono variant is refused. Th
 differentiable parameters.
 """
 import math
+import os
 import re
+import stat
 import struct
 import warnings
 
@@ -54,6 +56,7 @@ import numpy as np
 from .rebuild import RebuildError
 from . import rebuild as _rebuild
 from . import rgb_mode as _rgb_mode
+from .exr_strips import file_kind
 
 __all__ = ["register", "SpectexTexture", "read_spectral_exr", "SpectexError", "RebuildError"]
 __version__ = "0.1.0"
@@ -127,6 +130,7 @@ def _open_spectral_exr(filename):
     float), the channel index of each wavelength, the channel index of A or None, premultiplied
     bool, metadata dict of str, the bitmap that owns the pixels)."""
     mi = _mi()
+    _check_regular_file(str(filename))
     try:
         bitmap = mi.Bitmap(str(filename))
     except Exception as e:  # Mitsuba's message names the cause; ours names the file as given
@@ -216,6 +220,19 @@ def _wrap_index(i, n, mode, dr=None, Int=None):
     return dr.select(m < n, m, p - 1 - m)
 
 
+def _check_regular_file(filename):
+    """Raises SpectexError unless filename is a regular file (after links), before any reader opens
+    it: a FIFO would hold the scene's load until something writes to it, and a device such as
+    /dev/zero never ends. (The strips reader also opens without blocking and checks again.)"""
+    try:
+        mode = os.stat(filename).st_mode
+    except OSError as e:
+        raise SpectexError(f"spectex texture: {filename}: cannot read: {e.strerror or e}") from None
+    if not stat.S_ISREG(mode):
+        raise SpectexError(f"spectex texture: {filename}: a texture must be a regular file, not "
+                           f"{file_kind(mode)}")
+
+
 def _on_texture(x, n):
     """A texture coordinate as a lookup reads it: one that is not finite, or whose texel position
     x * n is not (in float32, as the JIT variants compute it), has no texel and is read as 0. A
@@ -263,6 +280,7 @@ def _make_class(mi):
             if "filename" not in props:
                 raise SpectexError("spectex texture: the property 'filename' is required")
             self.filename = str(props["filename"])
+            _check_regular_file(self.filename)
             self.filter_type = str(props["filter_type"]) if "filter_type" in props else "bilinear"
             self.wrap_mode = str(props["wrap_mode"]) if "wrap_mode" in props else "repeat"
             if self.filter_type not in _FILTERS:

@@ -24,7 +24,9 @@ file's bytes can possibly hold before anything is allocated.
 import array
 import collections
 import concurrent.futures
+import errno
 import os
+import stat
 import struct
 import threading
 import zlib
@@ -400,14 +402,29 @@ def _convert(buf, rows, width, channels, plan, dst, planar=False):
         np.copyto(dst, lines.transpose(0, 2, 1), casting="unsafe")
 
 
+def file_kind(mode):
+    """What a path that is not a regular file is, in words (st_mode from os.stat)."""
+    for test, kind in ((stat.S_ISDIR, "a directory"), (stat.S_ISCHR, "a character device"),
+                       (stat.S_ISBLK, "a block device"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+                       (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return kind
+    return "anything but a regular file"
+
+
 class ExrStrips:
     """A single-part scanline OpenEXR file read a strip of rows at a time (see the module)."""
 
     def __init__(self, path):
         self.path = os.fspath(path)
-        self._fd = os.open(self.path, os.O_RDONLY | getattr(os, "O_BINARY", 0))
+        # O_NONBLOCK: opening a FIFO would wait for a writer; it is refused below instead (a
+        # regular file's reads ignore the flag).
+        self._fd = os.open(self.path, os.O_RDONLY | getattr(os, "O_BINARY", 0) | getattr(os, "O_NONBLOCK", 0))
         try:
-            self._file_size = os.fstat(self._fd).st_size
+            st = os.fstat(self._fd)
+            if not stat.S_ISREG(st.st_mode):
+                raise OSError(errno.EINVAL, f"an OpenEXR file must be a regular file, not {file_kind(st.st_mode)}")
+            self._file_size = st.st_size
             self._parse()
         except (ExrDamaged, ExrUnsupported, OSError):
             self.close()
