@@ -220,6 +220,18 @@ def _wrap_index(i, n, mode, dr=None, Int=None):
     return dr.select(m < n, m, p - 1 - m)
 
 
+def _resolve(mi, filename):
+    """The file as Mitsuba's file resolver finds it, as its `bitmap` texture does: a scene file's
+    relative path is relative to the scene's folder (mi.load_file adds it) and to the search paths,
+    not to the working folder; a path it does not find is kept as given (and refused, naming it)."""
+    resolver = getattr(mi, "file_resolver", None)
+    try:
+        resolver = resolver() if resolver is not None else mi.Thread.thread().file_resolver()
+        return str(resolver.resolve(filename))
+    except Exception:  # an older Mitsuba without a resolver in Python: the path as given
+        return filename
+
+
 def _check_regular_file(filename):
     """Raises SpectexError unless filename is a regular file (after links), before any reader opens
     it: a FIFO would hold the scene's load until something writes to it, and a device such as
@@ -279,7 +291,7 @@ def _make_class(mi):
             _check_variant()
             if "filename" not in props:
                 raise SpectexError("spectex texture: the property 'filename' is required")
-            self.filename = str(props["filename"])
+            self.filename = _resolve(mi, str(props["filename"]))
             _check_regular_file(self.filename)
             self.filter_type = str(props["filter_type"]) if "filter_type" in props else "bilinear"
             self.wrap_mode = str(props["wrap_mode"]) if "wrap_mode" in props else "repeat"

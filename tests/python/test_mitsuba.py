@@ -9,6 +9,7 @@ patch by patch with the integral they estimate.
 """
 import os
 import re
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -653,3 +654,24 @@ def test_a_path_that_is_not_a_regular_file_is_refused_without_waiting(tmp):
             assert len(lines) == 2, (path, variant, r.stdout, r.stderr)
             for line in lines:
                 assert f"{path}: a texture must be a regular file, not {kind}" in line, line
+
+
+def test_a_scene_files_relative_path_is_found_from_the_scenes_folder(tmp, chart, monkeypatch):
+    """As Mitsuba's `bitmap`: a texture's relative filename in a scene file is looked up from the
+    scene's folder (the file resolver), not the working folder (it was refused as missing when the
+    render ran from anywhere else)."""
+    scene_dir = os.path.join(tmp, "scene")
+    os.makedirs(os.path.join(scene_dir, "textures"), exist_ok=True)
+    shutil.copy(chart, os.path.join(scene_dir, "textures", "chart.exr"))
+    scene = os.path.join(scene_dir, "scene.xml")
+    with open(scene, "w") as f:
+        f.write('<scene version="3.0.0"><shape type="rectangle"><bsdf type="diffuse">'
+                '<texture type="spectex" name="reflectance"><string name="filename" value="textures/chart.exr"/>'
+                '</texture></bsdf></shape></scene>')
+    elsewhere = os.path.join(tmp, "elsewhere")
+    os.makedirs(elsewhere, exist_ok=True)
+    monkeypatch.chdir(elsewhere)
+    for variant in ("scalar_spectral", JIT):
+        use(variant)
+        text = str(mi.load_file(scene).shapes()[0].bsdf())  # the BSDF prints its texture's file
+        assert os.path.join(scene_dir, "textures", "chart.exr") in text, text
