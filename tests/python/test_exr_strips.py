@@ -255,20 +255,16 @@ def test_unsupported_files(tmp):
             ExrStrips(path)
 
 
-def test_a_path_that_is_not_a_regular_file_is_refused_without_waiting(tmp):
+def test_a_path_that_is_not_a_regular_file_is_refused_without_waiting(not_regular_files):
     """The reader opens without blocking: a FIFO (which a blocking open holds until a writer comes)
     raises OSError at once naming what it is, as do a folder and a device. The check runs in a
     child with a deadline, so a hang fails the test instead of stalling the suite."""
-    fifo = os.path.join(tmp, "pipe.exr")
-    os.mkfifo(fifo)
-    folder = os.path.join(tmp, "folder.exr")
-    os.mkdir(folder)
     code = ("import importlib.util, sys\n"
             "spec = importlib.util.spec_from_file_location('m', sys.argv[1])\n"
             "m = importlib.util.module_from_spec(spec); spec.loader.exec_module(m)\n"
             "try:\n    m.ExrStrips(sys.argv[2])\nexcept OSError as e:\n    print(e.strerror or e)\n")
     module = os.path.join(SOURCE, "python", "spectex_mitsuba", "exr_strips.py")
-    for path, kind in ((fifo, "a FIFO (named pipe)"), (folder, "a directory"), ("/dev/zero", "a character device")):
+    for path, kind in not_regular_files:
         r = subprocess.run([sys.executable, "-c", code, module, path], capture_output=True, text=True, timeout=60)
         assert r.stdout.strip().endswith(f"must be a regular file, not {kind}"), (path, r.stdout, r.stderr)
 

@@ -631,22 +631,18 @@ def test_a_coordinate_with_no_texel_is_read_as_0_in_every_filter(chart, variant)
                 assert np.abs(got - want).max() < 1e-6, (mode, filt, wrap)
 
 
-def test_a_path_that_is_not_a_regular_file_is_refused_without_waiting(tmp):
+def test_a_path_that_is_not_a_regular_file_is_refused_without_waiting(not_regular_files):
     """A FIFO held the scene's load until something wrote to it (a hang); a folder and a device
     are refused the same way, in one line naming the path and what it is, and so is
     read_spectral_exr. Each load runs in a child process with a deadline, so a hang fails the
     test instead of stalling the suite."""
-    fifo = os.path.join(tmp, "pipe.exr")
-    os.mkfifo(fifo)
-    folder = os.path.join(tmp, "folder.exr")
-    os.mkdir(folder)
     code = ("import sys, mitsuba as mi; mi.set_variant(sys.argv[1]); import spectex_mitsuba; "
             "spectex_mitsuba.register()\n"
             "try:\n    mi.load_dict({'type': 'spectex', 'filename': sys.argv[2], 'mode': sys.argv[3]})\n"
             "except Exception as e:\n    print(str(e).strip().splitlines()[-1])\n"
             "try:\n    spectex_mitsuba.read_spectral_exr(sys.argv[2])\n"
             "except Exception as e:\n    print(str(e).strip().splitlines()[-1])\n")
-    for path, kind in ((fifo, "a FIFO (named pipe)"), (folder, "a directory"), ("/dev/zero", "a character device")):
+    for path, kind in not_regular_files:
         for variant, mode in (("scalar_spectral", "auto"), (JIT, "rgb"), (JIT, "spectra")):
             r = subprocess.run([sys.executable, "-c", code, variant, path, mode], capture_output=True, text=True,
                                timeout=60)
