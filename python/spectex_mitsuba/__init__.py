@@ -130,7 +130,6 @@ def _open_spectral_exr(filename):
     float), the channel index of each wavelength, the channel index of A or None, premultiplied
     bool, metadata dict of str, the bitmap that owns the pixels)."""
     mi = _mi()
-    _check_regular_file(str(filename))
     try:
         bitmap = mi.Bitmap(str(filename))
     except Exception as e:  # Mitsuba's message names the cause; ours names the file as given
@@ -174,6 +173,7 @@ def read_spectral_exr(filename):
 
     Returns (wavelengths [N] float64 ascending, T [H, W, N] float32, alpha [H, W] float32 or None,
     premultiplied bool, metadata dict of str)."""
+    _check_regular_file(str(filename))  # the texture checks its file once, when it is made
     lams, pixels, index, a, premultiplied, metadata, bitmap = _open_spectral_exr(filename)
     cube = np.empty(pixels.shape[:2] + (len(index),), dtype=np.float32)
     _fill_spectra(filename, pixels, index, cube)
