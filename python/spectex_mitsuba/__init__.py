@@ -25,8 +25,11 @@ MIP-mapping).
   fails its checks is set aside with a warning, never used.
 
 ``eval`` returns the reflectance at ``si.wavelengths`` (in mode "rgb", of the rebuilt bins, which
-are the file's to within its own rounding): linear in wavelength between the file's bins (any
-grid, uniform or not), the end bins' values held outside the grid; bilinear or nearest in uv
+are the file's to within its own rounding). Between the file's bins (any grid, uniform or not;
+the end bins' values held outside it), ``wavelength_filter`` ``"stochastic"`` (the default) reads
+one of the two bins around a wavelength, the upper with probability its linear weight, by a hash of
+uv and the wavelength's bits: the linear filter on average over a pixel's samples, at half its
+table reads (docs/mitsuba.md); ``"linear"`` interpolates. In uv: bilinear or nearest
 with Mitsuba's ``bitmap`` conventions (``uv = (0, 0)`` is the first pixel of the first row,
 texel centres at ``(x + 0.5) / width``; ``repeat``, ``mirror``, ``clamp``), or ``"stochastic"``:
 one of the bilinear 4 texels picked by a hash of uv with probability its weight (times its alpha
@@ -65,6 +68,7 @@ _T_CHANNEL = re.compile(r"^T\.([0-9]+(?:[.,][0-9]*)?(?:[eE][+-]?[0-9]+)?)nm$")
 _WRAP_MODES = ("repeat", "mirror", "clamp")
 _MODES = ("auto", "rgb", "spectra")
 _FILTERS = ("bilinear", "nearest", "stochastic")
+_WAVELENGTH_FILTERS = ("stochastic", "linear")
 # The 6 Kuhn simplices of a lattice cell, as (the axis of the first step, of the second): a located
 # texel records its simplex as its place in this list, a * 2 + b - (b > a).
 _SIMPLICES = tuple((a, b) for a in range(3) for b in range(3) if a != b)
@@ -264,11 +268,28 @@ def _mix32(h):
     return h ^ (h >> 16)
 
 
+def _lookup_seed(ubits, vbits):
+    """A lookup's 32 hashed bits of its u and v (their float32 bits): the same for the BSDF's two
+    evaluations at one point (its sample and its eval_pdf), so that both pick the same texel and
+    bins."""
+    return _mix32(((ubits * 0x9E3779B1) & 0xFFFFFFFF) ^ vbits)
+
+
 def _pick_bits(ubits, vbits):
     """filter_type "stochastic"'s 24 random bits for a lookup (times 2^-24: a number in [0, 1),
-    exact in float32): a hash of the bits of its u and v (float32), so that the BSDF's two
-    evaluations at one point (its sample and its eval_pdf) pick the same texel."""
-    return _mix32(((ubits * 0x9E3779B1) & 0xFFFFFFFF) ^ vbits) >> 8
+    exact in float32)."""
+    return _lookup_seed(ubits, vbits) >> 8
+
+
+def _bin_bits(seed, lbits):
+    """wavelength_filter "stochastic"'s 24 random bits for one of a lookup's wavelengths (lbits: its
+    float32 bits): hashed again with the lookup's seed, so that they are independent of the texel's
+    pick and of the other wavelengths'."""
+    return _mix32(seed ^ lbits) >> 8
+
+
+def _f32_bits(x):
+    return struct.unpack("<I", struct.pack("<f", x))[0]
 
 
 class SpectexTexture:
@@ -298,6 +319,11 @@ def _make_class(mi):
             if self.filter_type not in _FILTERS:
                 raise SpectexError(f"spectex texture: {self.filename}: filter_type '{self.filter_type}' is not one "
                                    f"of {', '.join(_FILTERS)}")
+            self.wavelength_filter = str(props["wavelength_filter"]) if "wavelength_filter" in props \
+                else "stochastic"
+            if self.wavelength_filter not in _WAVELENGTH_FILTERS:
+                raise SpectexError(f"spectex texture: {self.filename}: wavelength_filter '{self.wavelength_filter}' "
+                                   f"is not one of {', '.join(_WAVELENGTH_FILTERS)}")
             if self.wrap_mode not in _WRAP_MODES:
                 raise SpectexError(f"spectex texture: {self.filename}: wrap_mode '{self.wrap_mode}' is not one of "
                                    f"{', '.join(_WRAP_MODES)}")
@@ -397,17 +423,23 @@ def _make_class(mi):
             self._texels = t.data if t.data is not None else mi.Float(t.texels.reshape(-1))
             t.texels = t.data = None  # the Dr.Jit array is what is evaluated, and held once
             self._grid = mi.Float(lams.astype(np.float32))
-            # The table as pairs of neighbouring bins (k, k + 1), so that one gather reads both
-            # values a wavelength between them needs.
             rows = rec.table.reshape(-1, self.bins).astype(np.float32)
-            nxt = rows[:, np.minimum(np.arange(self.bins) + 1, self.bins - 1)]
-            cols = max(1, self.bins - 1)
-            self._pair_cols = cols
-            pairs = np.stack([rows[:, :cols], nxt[:, :cols]], axis=-1)
-            if rec.rule == "lattice":
-                self._simplex_tables(rec.size, pairs, t.half)
+            self._half_tables = rec.rule == "lattice" and t.half
+            if self.wavelength_filter == "linear":
+                # The table as pairs of neighbouring bins (k, k + 1), so that one gather reads both
+                # values a wavelength between them needs.
+                nxt = rows[:, np.minimum(np.arange(self.bins) + 1, self.bins - 1)]
+                cols = max(1, self.bins - 1)
+                self._pair_cols = cols
+                pairs = np.stack([rows[:, :cols], nxt[:, :cols]], axis=-1)
+                if rec.rule == "lattice":
+                    self._simplex_tables(rec.size, pairs)
+                else:
+                    self._pairs = mi.Float(pairs.reshape(-1))
+            elif rec.rule == "lattice":
+                self._quad_tables(rec.size, rows)
             else:
-                self._pairs = mi.Float(pairs.reshape(-1))
+                self._rows = mi.Float(rows.reshape(-1))
             if rec.rule == "lattice":
                 loc = t.locator
                 self._loc_m = loc.m
@@ -417,33 +449,47 @@ def _make_class(mi):
                 self._loc_inv_gap = mi.Float(loc.inv_gap)
                 self._locate_texels()
 
-        def _simplex_tables(self, n, pairs, half):
-            """The lattice's table arranged so that a texel reads its 4 vertices at a bin pair in
-            two gathers: `_ends` holds each cell's low and high corner (v0 and v3, which every
-            simplex of the cell has), `_mids` each of its 6 simplices' other two (v1, v2), both
-            [.., bin pair, 4 values]. A half file's as 64-bit words of 4 halves: a 64-bit gather
-            costs about 1.25 32-bit ones where measured (docs/mitsuba.md), so a lookup reads its
-            table in 32 gathers of 64 bits, not 64 of 32. Rounding the vertex spectra to half
-            moves them by at most 2^-11 of their value (2^-25 below 2^-14), within the file's own
-            rounding (at most 10 bits kept); a float file's stay float32. 0.86 MB for the default
-            9^3 lattice at 31 bins; at most 6 MB (12 MB in float) for any lattice a record holds (2^17
-            values)."""
+        def _cells(self, n):
+            """Each cell's low corner (its vertex index) and the index steps along r, g and b."""
             c = n - 1
             cells = np.arange(c ** 3)
-            v0 = ((cells // (c * c)) * n + (cells // c) % c) * n + cells % c
-            step = (n * n, n, 1)
+            return ((cells // (c * c)) * n + (cells // c) % c) * n + cells % c, (n * n, n, 1)
+
+        def _words(self, x):
+            """The table's values [..., 4] as they are held: for a half file, 64-bit words of 4
+            halves (a 64-bit gather costs about 1.25 32-bit ones where measured, docs/mitsuba.md);
+            rounding the vertex spectra to half moves them by at most 2^-11 of their value (2^-25
+            below 2^-14), within the file's own rounding (at most 10 bits kept). A float file's stay
+            float32."""
+            if not self._half_tables:
+                return mi.Float(x.reshape(-1))
+            h = x.astype(np.float16).view(np.uint16).astype(np.uint64)
+            return mi.UInt64((h[..., 0] | h[..., 1] << np.uint64(16) | h[..., 2] << np.uint64(32)
+                              | h[..., 3] << np.uint64(48)).reshape(-1))
+
+        def _simplex_tables(self, n, pairs):
+            """wavelength_filter "linear": the lattice's table arranged so that a texel reads its 4
+            vertices at a bin pair in two gathers: `_ends` holds each cell's low and high corner (v0
+            and v3, which every simplex of the cell has), `_mids` each of its 6 simplices' other two
+            (v1, v2), both [.., bin pair, 4 values] (_words): a lookup reads its table in 32
+            gathers, not 64. 0.86 MB for the default 9^3 lattice at 31 bins in half; at most 6 MB
+            (12 MB in float) for any lattice a record holds (2^17 values)."""
+            v0, step = self._cells(n)
             ends = np.concatenate([pairs[v0], pairs[v0 + n * n + n + 1]], axis=-1)  # [cell, bin, 4]
             mids = np.stack([np.concatenate([pairs[v0 + step[a]], pairs[v0 + step[a] + step[b]]], axis=-1)
                              for a, b in _SIMPLICES], axis=1)  # [cell, simplex, bin, 4]
-            self._half_tables = half
-            if half:
-                def words(x):
-                    h = x.astype(np.float16).view(np.uint16).astype(np.uint64)
-                    return mi.UInt64((h[..., 0] | h[..., 1] << np.uint64(16) | h[..., 2] << np.uint64(32)
-                                      | h[..., 3] << np.uint64(48)).reshape(-1))
-                self._ends, self._mids = words(ends), words(mids)
-            else:
-                self._ends, self._mids = mi.Float(ends.reshape(-1)), mi.Float(mids.reshape(-1))
+            self._ends, self._mids = self._words(ends), self._words(mids)
+
+        def _quad_tables(self, n, rows):
+            """wavelength_filter "stochastic": each simplex's 4 vertices (v0 to v3) at each bin in one
+            entry (_words), [cell, simplex, bin, 4]: a texel reads one word a wavelength, 16 gathers a
+            lookup. 0.76 MB for the default 9^3 lattice at 31 bins in half; under 6.3 MB (12.6 MB in
+            float) for any lattice a record holds (2^17 values)."""
+            v0, step = self._cells(n)
+            quads = np.stack([np.stack([rows[v0], rows[v0 + step[a]], rows[v0 + step[a] + step[b]],
+                                        rows[v0 + n * n + n + 1]], axis=-1)
+                              for a, b in _SIMPLICES], axis=1)
+            self._quads = self._words(quads)
 
         # -- sampling positions ------------------------------------------------------------------
         def _corners_scalar(self, u, v):
@@ -460,7 +506,7 @@ def _make_class(mi):
                 for dx, wx in ((0, 1 - fx), (1, fx)):
                     out.append((_wrap_index(x0 + dx, w, mode), _wrap_index(y0 + dy, h, mode), wx * wy))
             if self.filter_type == "stochastic":
-                bits = [struct.unpack("<I", struct.pack("<f", c))[0] for c in (u, v)]
+                bits = [_f32_bits(c) for c in (u, v)]
                 p = [wgt * (self._alpha_scalar(x, y) if self.premultiplied else 1.0) for x, y, wgt in out]
                 r = _pick_bits(*bits) * 2.0 ** -24 * sum(p)
                 total = 0.0
@@ -489,14 +535,11 @@ def _make_class(mi):
             expectation over a pixel's samples is then the bilinear filter's value, blended as
             spectra (premultiplied, then divided by the blended alpha) whatever the method, at
             the cost of one texel."""
-            # _on_texture: a coordinate with no texel position is read as 0.
-            uv = mi.Point2f(*(dr.select(dr.isfinite(x * n), x, 0.0) for x, n in zip(uv, (self.width, self.height))))
             corners = self._corners_jit(uv)
             if self.filter_type != "stochastic":
                 return corners
             p = [wgt * self._alpha_jit(texel, active) if self.premultiplied else wgt for texel, wgt in corners]
-            bits = _pick_bits(dr.reinterpret_array(mi.UInt32, uv.x), dr.reinterpret_array(mi.UInt32, uv.y))
-            r = mi.Float(bits) * 2.0 ** -24 * (p[0] + p[1] + p[2] + p[3])
+            r = mi.Float(self._seed_jit(uv) >> 8) * 2.0 ** -24 * (p[0] + p[1] + p[2] + p[3])
             # The last texel whose cumulative sum is still above r, going down: a texel of weight 0
             # is never picked (the sums are the same floats in the same order as the total).
             texel = corners[3][0]
@@ -504,6 +547,13 @@ def _make_class(mi):
             for k in (2, 1, 0):
                 texel = dr.select(r < cum[k], corners[k][0], texel)
             return [(texel, mi.Float(1.0))]
+
+        def _texture_uv(self, uv):
+            """_on_texture: a coordinate with no texel position is read as 0."""
+            return mi.Point2f(*(dr.select(dr.isfinite(x * n), x, 0.0) for x, n in zip(uv, (self.width, self.height))))
+
+        def _seed_jit(self, uv):
+            return _lookup_seed(dr.reinterpret_array(mi.UInt32, uv.x), dr.reinterpret_array(mi.UInt32, uv.y))
 
         def _corners_jit(self, uv):
             Int = mi.Int32
@@ -532,21 +582,40 @@ def _make_class(mi):
             """Lower bin index i (so that i + 1 is valid) and the weight t of bin i + 1."""
             n = self.bins
             if n == 1:
-                return mi.UInt32(0), mi.Float(0.0), 0
+                return mi.UInt32(0), mi.Float(0.0)
             lams = self.wavelengths_nm
             if self._uniform:
                 step = float(lams[1] - lams[0])
                 pos = (lam - float(lams[0])) / step
                 i = mi.UInt32(dr.clip(dr.floor(pos), 0, n - 2))
                 t = dr.clip(pos - mi.Float(i), 0.0, 1.0)
-                return i, t, 1
+                return i, t
             # Non-uniform grid: i = the last bin whose wavelength is <= lam, found by bisection.
             i = dr.binary_search(0, n - 1, lambda k: dr.gather(mi.Float, self._grid, k) <= lam)
             i = dr.clip(mi.UInt32(i), 1, n - 1) - 1
             l0 = dr.gather(mi.Float, self._grid, i)
             l1 = dr.gather(mi.Float, self._grid, i + 1)
             t = dr.clip((lam - l0) / (l1 - l0), 0.0, 1.0)
-            return i, t, 1
+            return i, t
+
+        def _bin_pick_jit(self, lam, seed):
+            """wavelength_filter "stochastic": the bin read at a wavelength, i + 1 with probability t
+            and i otherwise (_bin_jit's i and t), by a hash of the lookup's uv and the wavelength's
+            bits. Its expectation is the linear filter's value at every wavelength."""
+            i, t = self._bin_jit(lam)
+            if self.bins == 1:
+                return i
+            r = mi.Float(_bin_bits(seed, dr.reinterpret_array(mi.UInt32, lam))) * 2.0 ** -24
+            return dr.select(r < t, i + 1, i)
+
+        def _wavelengths_jit(self, si, uv):
+            """Each sampled wavelength as the lookup reads it: (i, t) for the linear filter, the bin
+            picked for the stochastic one."""
+            lams = [si.wavelengths[j] for j in range(len(si.wavelengths))]
+            if self.wavelength_filter == "linear":
+                return [self._bin_jit(lam) for lam in lams]
+            seed = self._seed_jit(uv)
+            return [self._bin_pick_jit(lam, seed) for lam in lams]
 
         # -- Texture interface -------------------------------------------------------------------
         def eval(self, si, active=True):
@@ -554,17 +623,20 @@ def _make_class(mi):
                 return self._eval_rgb_scalar(si) if scalar else self._eval_rgb_jit(si, active)
             if scalar:
                 return self._eval_scalar(si)
-            corners = self._corners(si.uv, active)
-            n = self.bins
+            uv = self._texture_uv(si.uv)
+            corners = self._corners(uv, active)
+            n, step = self.bins, min(1, self.bins - 1)
             values = []
-            for j in range(len(si.wavelengths)):
-                i, t, step = self._bin_jit(si.wavelengths[j])
+            for at in self._wavelengths_jit(si, uv):
                 acc = mi.Float(0.0)
                 for texel, wgt in corners:
-                    base = texel * n + i
-                    a = dr.gather(mi.Float, self._data, base, active)
-                    b = dr.gather(mi.Float, self._data, base + step, active)
-                    acc += wgt * dr.lerp(a, b, t)
+                    if self.wavelength_filter == "linear":
+                        i, t = at
+                        a = dr.gather(mi.Float, self._data, texel * n + i, active)
+                        b = dr.gather(mi.Float, self._data, texel * n + i + step, active)
+                        acc += wgt * dr.lerp(a, b, t)
+                    else:
+                        acc += wgt * dr.gather(mi.Float, self._data, texel * n + at, active)
                 values.append(acc)
             spec = mi.UnpolarizedSpectrum(*values)
             if self._alpha is not None:
@@ -653,13 +725,10 @@ def _make_class(mi):
 
         def _eval_rgb_jit(self, si, active):
             rec = self._rgb.record
-            corners = self._corners(si.uv, active)
-            at = [self._bin_jit(si.wavelengths[j]) for j in range(len(si.wavelengths))]
-
-            def table(k, i, t):  # row k of the table at the sampled wavelength
-                pair = dr.gather(mi.Point2f, self._pairs, k * self._pair_cols + i, active)
-                return dr.lerp(pair.x, pair.y, t)
-
+            uv = self._texture_uv(si.uv)
+            corners = self._corners(uv, active)
+            at = self._wavelengths_jit(si, uv)
+            linear = self.wavelength_filter == "linear"
             weights, texels = [], []
             alpha = mi.Float(0.0)
             for texel, wgt in corners:
@@ -673,32 +742,50 @@ def _make_class(mi):
                 r = sum(w * tv.x for w, tv in zip(weights, texels))
                 g = sum(w * tv.y for w, tv in zip(weights, texels))
                 b = sum(w * tv.z for w, tv in zip(weights, texels))
-                values = [r * table(mi.UInt32(0), i, t) + g * table(mi.UInt32(1), i, t) + b * table(mi.UInt32(2), i, t)
-                          for i, t, step in at]
+
+                def table(k, a):  # row k of the table at the wavelength as read
+                    if linear:
+                        pair = dr.gather(mi.Point2f, self._pairs, k * self._pair_cols + a[0], active)
+                        return dr.lerp(pair.x, pair.y, a[1])
+                    return dr.gather(mi.Float, self._rows, k * self.bins + a, active)
+                values = [r * table(0, a) + g * table(1, a) + b * table(2, a) for a in at]
             else:
+                values = self._lattice_jit(weights, texels, at, active)
+            spec = mi.UnpolarizedSpectrum(*values)
+            if self.premultiplied:
+                spec = dr.select(alpha > 0, spec / dr.select(alpha > 0, alpha, 1.0), 0.0)
+            return spec
+
+        def _lattice_jit(self, weights, texels, at, active):
+            """The lattice's spectra of the located texels, blended with their weights, at each
+            wavelength as read (_wavelengths_jit)."""
+            linear = self.wavelength_filter == "linear"
+            cols = self._pair_cols if linear else self.bins
+            if self._half_tables:
+                # A half's bits moved to a float's place are its value times 2^-112 (no sign: the
+                # lattice's spectra are in [0, 1]); the weight carries the 2^112 instead (one product
+                # per texel and vertex, not per wavelength), so each product is of the value's own
+                # size and never flushed to zero as one below 2^-126 would be.
+                unit = 5.192296858534828e33
+
+                def halves(u):
+                    return (dr.reinterpret_array(mi.Float, (u & 0x7FFF) << 13),
+                            dr.reinterpret_array(mi.Float, (u >> 3) & (0x7FFF << 13)))
+
+                def split(word):  # a word's 4 halves, lowest first
+                    return halves(mi.UInt32(word & 0xFFFFFFFF)) + halves(mi.UInt32(word >> 32))
+            else:
+                unit = 1.0
+            if linear:
                 # Lerp last: sum_v w_v lerp(lo_v, hi_v, t) = lerp(sum_v w_v lo_v, sum_v w_v hi_v, t),
                 # two FMAs a vertex (5-6 % faster a render than a lerp per vertex, alternating runs
                 # of tests/bench/mitsuba_speed.py).
-                cols = self._pair_cols
                 if self._half_tables:
-                    # A half's bits moved to a float's place are its value times 2^-112 (no sign:
-                    # the lattice's spectra are in [0, 1]); the weight carries the 2^112 instead
-                    # (one product per texel and vertex, not per wavelength), so each product is
-                    # of the value's own size and never flushed to zero as one below 2^-126 would be.
-                    unit = 5.192296858534828e33
-
-                    def halves(u):
-                        return (dr.reinterpret_array(mi.Float, (u & 0x7FFF) << 13),
-                                dr.reinterpret_array(mi.Float, (u >> 3) & (0x7FFF << 13)))
-
                     def vertices(simplex, i):  # the 4 vertices' (lo, hi) at bin pair i, v0 to v3
-                        ends = dr.gather(mi.UInt64, self._ends, (simplex // 6) * cols + i, active)
-                        mids = dr.gather(mi.UInt64, self._mids, simplex * cols + i, active)
-                        return [halves(mi.UInt32(w & 0xFFFFFFFF)) for w in (ends, mids)] + \
-                            [halves(mi.UInt32(w >> 32)) for w in (mids, ends)]
+                        e = split(dr.gather(mi.UInt64, self._ends, (simplex // 6) * cols + i, active))
+                        m = split(dr.gather(mi.UInt64, self._mids, simplex * cols + i, active))
+                        return [(e[0], e[1]), (m[0], m[1]), (m[2], m[3]), (e[2], e[3])]
                 else:
-                    unit = 1.0
-
                     def vertices(simplex, i):
                         e = dr.gather(mi.Vector4f, self._ends, (simplex // 6) * cols + i, active)
                         m = dr.gather(mi.Vector4f, self._mids, simplex * cols + i, active)
@@ -708,15 +795,27 @@ def _make_class(mi):
                 for wgt, bits in zip(weights, texels):
                     simplex, ws = self._simplex_of(bits)
                     ws = [wgt * unit * w for w in ws]
-                    for j, (i, t, step) in enumerate(at):
+                    for j, (i, t) in enumerate(at):
                         for w, (lo, hi) in zip(ws, vertices(simplex, i)):
                             lo_sum[j] = dr.fma(w, lo, lo_sum[j])
                             hi_sum[j] = dr.fma(w, hi, hi_sum[j])
-                values = [dr.lerp(lo, hi, t) for lo, hi, (i, t, step) in zip(lo_sum, hi_sum, at)]
-            spec = mi.UnpolarizedSpectrum(*values)
-            if self.premultiplied:
-                spec = dr.select(alpha > 0, spec / dr.select(alpha > 0, alpha, 1.0), 0.0)
-            return spec
+                return [dr.lerp(lo, hi, t) for lo, hi, (i, t) in zip(lo_sum, hi_sum, at)]
+            # One bin a wavelength: the simplex's 4 vertices there in one word (or 4 floats).
+            if self._half_tables:
+                def vertices(simplex, k):
+                    return split(dr.gather(mi.UInt64, self._quads, simplex * cols + k, active))
+            else:
+                def vertices(simplex, k):
+                    q = dr.gather(mi.Vector4f, self._quads, simplex * cols + k, active)
+                    return q.x, q.y, q.z, q.w
+            sums = [mi.Float(0.0) for _ in at]
+            for wgt, bits in zip(weights, texels):
+                simplex, ws = self._simplex_of(bits)
+                ws = [wgt * unit * w for w in ws]
+                for j, k in enumerate(at):
+                    for w, value in zip(ws, vertices(simplex, k)):
+                        sums[j] = dr.fma(w, value, sums[j])
+            return sums
 
         def _eval_rgb_scalar(self, si):
             t = self._rgb
@@ -728,11 +827,38 @@ def _make_class(mi):
                     wgt *= float(texel[3])
                     alpha += wgt
                 spec += wgt * _rebuild.rebuild(t.record, texel[:3])
-            lams = [float(si.wavelengths[j]) for j in range(len(si.wavelengths))]
-            out = np.interp(lams, self.wavelengths_nm, spec) if self.bins > 1 else np.full(len(lams), spec[0])
+            out = self._at_wavelengths_scalar(spec, si)
             if self.premultiplied:
                 out = out / alpha if alpha > 0 else np.zeros_like(out)
             return mi.UnpolarizedSpectrum(*[float(o) for o in out])
+
+        def _at_wavelengths_scalar(self, spec, si):
+            """A blended spectrum [bins] at the sampled wavelengths, as _wavelengths_jit reads it
+            (its bins and weights in float32, so that the stochastic filter picks the bin the JIT
+            variants pick)."""
+            lams = [float(si.wavelengths[j]) for j in range(len(si.wavelengths))]
+            if self.bins == 1:
+                return np.full(len(lams), spec[0])
+            if self.wavelength_filter == "linear":
+                return np.interp(lams, self.wavelengths_nm, spec)
+            f32, n = np.float32, self.bins
+            grid = self.wavelengths_nm.astype(np.float32)
+            seed = _lookup_seed(*(_f32_bits(_on_texture(float(c), size))
+                                  for c, size in zip(si.uv, (self.width, self.height))))
+            out = []
+            for lam in lams:
+                lam32 = f32(lam)
+                if self._uniform:
+                    pos = (lam32 - f32(self.wavelengths_nm[0])) / f32(self.wavelengths_nm[1] - self.wavelengths_nm[0])
+                    i = int(min(max(math.floor(pos), 0), n - 2))
+                else:
+                    # dr.binary_search over [0, n - 1]: the first bin above lam, n - 1 at most.
+                    i = min(max(int(np.searchsorted(grid[:n - 1], lam32, side="right")), 1), n - 1) - 1
+                t = pos - f32(i) if self._uniform else (lam32 - grid[i]) / (grid[i + 1] - grid[i])
+                t = min(max(float(t), 0.0), 1.0)
+                r = _bin_bits(seed, _f32_bits(lam)) * 2.0 ** -24
+                out.append(spec[i + 1] if r < t else spec[i])
+            return np.array(out)
 
         def _eval_scalar(self, si):
             spec = np.zeros(self.bins)
@@ -741,8 +867,7 @@ def _make_class(mi):
                 spec += wgt * self._cube_np[y, x]
                 if self._alpha_np is not None:
                     alpha += wgt * self._alpha_scalar(x, y)
-            lams = [float(si.wavelengths[j]) for j in range(len(si.wavelengths))]
-            out = np.interp(lams, self.wavelengths_nm, spec) if self.bins > 1 else np.full(len(lams), spec[0])
+            out = self._at_wavelengths_scalar(spec, si)
             if self._alpha_np is not None:
                 out = out / alpha if alpha > 0 else np.zeros_like(out)
             return mi.UnpolarizedSpectrum(*[float(o) for o in out])
@@ -770,7 +895,8 @@ def _make_class(mi):
             return (f"SpectexTexture[filename='{self.filename}', holds {self.holds}, {self.width}x{self.height}, "
                     f"{self.bins} bins "
                     f"{self.wavelengths_nm[0]:g}-{self.wavelengths_nm[-1]:g} nm, filter_type={self.filter_type}, "
-                    f"wrap_mode={self.wrap_mode}, alpha={'premultiplied' if self.premultiplied else 'none/straight'}]")
+                    f"wavelength_filter={self.wavelength_filter}, wrap_mode={self.wrap_mode}, "
+                    f"alpha={'premultiplied' if self.premultiplied else 'none/straight'}]")
 
         def __repr__(self):
             return self.to_string()

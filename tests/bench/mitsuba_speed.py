@@ -9,10 +9,14 @@ integrator, a uniform `constant` D65 emitter, 64 spp. The rectangle's reflectanc
   - spectra: the PNG baked by `spectex bake` with its defaults, every bin held (mode "spectra"),
   - rgb:     the same file held as RGB and the file's table (mode "rgb", the default for a file
              that records its table),
+  - rgb::linear: the same with wavelength_filter "linear" (the value between two bins
+             interpolated, where the default reads one of them, picked at random with its weight),
   - rgb:stochastic: the same with filter_type "stochastic" (one of the bilinear 4 texels picked at
              random with its weight: the bilinear filter on average, one texel's cost).
 
-The limits below are checked on rgb, with the default bilinear filter.
+The limits below are checked on rgb, with the default filters (bilinear in uv, stochastic in
+wavelength). Beside the times, each mode's noise: a pixel's standard deviation, from the last
+two rounds' images (their difference over sqrt(2), RMS over the image), against the bitmap's.
 
 Each mode runs in a process of its own (so that each peak is its own): it loads the scene (timed:
 the texture's load is nearly all of it) and renders once (tracing and compiling the kernel;
@@ -61,8 +65,11 @@ spectex_mitsuba.register()
 def texture_of(mode, filename):
     if mode == "bitmap":
         return {"type": "bitmap", "filename": filename}
-    mode, _, filt = mode.partition(":")  # "rgb:stochastic": that mode with that filter_type
-    return {"type": "spectex", "filename": filename, "mode": mode, "filter_type": filt or "bilinear"}
+    # "rgb:stochastic": that mode with that filter_type; "rgb::linear": with that wavelength_filter
+    mode, _, filt = mode.partition(":")
+    filt, _, wfilt = filt.partition(":")
+    return {"type": "spectex", "filename": filename, "mode": mode, "filter_type": filt or "bilinear",
+            "wavelength_filter": wfilt or "stochastic"}
 def make_scene(texture):
     return mi.load_dict({
         "type": "scene",
@@ -105,14 +112,21 @@ print(json.dumps({"load": load, "first": first, "peak_mib": peak_kib() / 1024,
 
 # Every mode's scene in one process, rendered in turn: argv[2] is {mode: filename} as JSON.
 ROUNDS = PREAMBLE + r"""
+import numpy as np
 scenes = {m: make_scene(texture_of(m, f)) for m, f in json.loads(mode).items()}
 for s in scenes.values():
     render(s, 0)
 walls = {m: [] for m in scenes}
+last = {m: [] for m in scenes}
 for k in range(runs):
     for m, s in scenes.items():
-        walls[m].append(render(s, k + 1)[0])
-print(json.dumps(walls))
+        wall, img = render(s, k + 1)
+        walls[m].append(wall)
+        last[m] = (last[m] + [np.asarray(img)[..., :3].astype(np.float64)])[-2:]
+# A pixel's noise: the RMS over pixels of the difference of the last two rounds' images (other
+# seeds) over sqrt(2), as a share of the image's mean.
+noise = {m: float(np.sqrt(np.mean((a - b) ** 2) / 2) / np.mean(a)) for m, (a, b) in last.items()}
+print(json.dumps({"walls": walls, "noise": noise}))
 """
 
 # The texture alone: eval() at the render's lookups (res^2 * spp positions, pixel by pixel, each
@@ -155,9 +169,10 @@ def main():
     ap.add_argument("--res", type=int, default=512, help="image size (default 512)")
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--runs", type=int, default=5, help="timed rounds of renders (default 5)")
-    ap.add_argument("--modes", default="bitmap,spectra,rgb,rgb:stochastic",
-                    help="which to run (default bitmap,spectra,rgb,rgb:stochastic); MODE:FILTER gives a "
-                         "spectex mode a filter_type (bilinear otherwise)")
+    ap.add_argument("--modes", default="bitmap,spectra,rgb,rgb::linear,rgb:stochastic",
+                    help="which to run (default bitmap,spectra,rgb,rgb::linear,rgb:stochastic); MODE:FILTER gives "
+                         "a spectex mode a filter_type (bilinear otherwise), MODE:FILTER:WFILTER also a "
+                         "wavelength_filter (stochastic otherwise)")
     ap.add_argument("--max-memory", type=float, default=1.5)
     ap.add_argument("--max-load", type=float, default=3.0)
     ap.add_argument("--max-render", type=float, default=1.5)
@@ -197,24 +212,28 @@ def main():
                 res["lookups"] = statistics.median(lk["walls"])
                 print(f"  {mode:8s} texture alone: {a.res * a.res * a.spp:,} lookups, median {res['lookups']:.3f} s "
                       f"(runs {', '.join(f'{w:.3f}' for w in lk['walls'])})")
-        walls = run_mode(json.dumps({m: str(source[m]) for m in modes}), "-", a, ROUNDS)
+        rounds = run_mode(json.dumps({m: str(source[m]) for m in modes}), "-", a, ROUNDS)
         for mode in modes:
-            results[mode]["walls"] = walls[mode]
-            results[mode]["median"] = statistics.median(walls[mode])
+            walls = rounds["walls"][mode]
+            results[mode]["walls"] = walls
+            results[mode]["median"] = statistics.median(walls)
+            results[mode]["noise"] = rounds["noise"][mode]
             print(f"  {mode:8s} render median {results[mode]['median']:.3f} s "
-                  f"(rounds {', '.join(f'{w:.3f}' for w in walls[mode])})")
+                  f"(rounds {', '.join(f'{w:.3f}' for w in walls)}); a pixel's noise "
+                  f"{100 * rounds['noise'][mode]:.2f} % of the mean")
     if "bitmap" not in results:
         return 0
     b = results["bitmap"]
     status = 0
-    print("\nratios to bitmap (peak memory, load, render: the median over the rounds):")
+    print("\nratios to bitmap (peak memory, load, render: the median over the rounds; a pixel's noise):")
     for mode in results:
         if mode == "bitmap":
             continue
         m = results[mode]
         per_round = statistics.median(x / y for x, y in zip(m["walls"], b["walls"]))
         ratios = (m["peak_mib"] / b["peak_mib"], m["load"] / b["load"], per_round)
-        print(f"  {mode:8s} memory {ratios[0]:.2f}x, load {ratios[1]:.2f}x, render {ratios[2]:.2f}x"
+        print(f"  {mode:8s} memory {ratios[0]:.2f}x, load {ratios[1]:.2f}x, render {ratios[2]:.2f}x, "
+              f"noise {m['noise'] / b['noise']:.3f}x"
               + (f"; texture alone {m['lookups'] / b['lookups']:.2f}x" if "lookups" in m and "lookups" in b else ""))
         if mode == "rgb":
             for what, r, limit in zip(("memory", "load", "render"), ratios, (a.max_memory, a.max_load, a.max_render)):

@@ -122,12 +122,16 @@ def rebuilt_cube(exr, cube, alpha=None):
     return spectex_mitsuba.rebuild.rebuild(record, rgb)
 
 
+@pytest.mark.parametrize("wfilter", ["linear", "stochastic"])
 @pytest.mark.parametrize("mode", ["spectra", "rgb"])
 @pytest.mark.parametrize("variant", ["scalar_spectral", JIT])
 @pytest.mark.parametrize("kind", ["half", "float_10nm", "tiled", "mipmap", "nonuniform"])
-def test_eval_is_the_files_spectra_linear_in_wavelength(tmp, variant, kind, mode):
+def test_eval_is_the_files_spectra_linear_in_wavelength(tmp, variant, kind, mode, wfilter):
     """mode spectra: the file's bins; mode rgb: the bins the file's record rebuilds from the RGB
-    of each texel (the tiled and MIP-mapped files are read by mi.Bitmap, the others in strips)."""
+    of each texel (the tiled and MIP-mapped files are read by mi.Bitmap, the others in strips).
+    wavelength_filter "linear": linear between the two bins around each wavelength; "stochastic"
+    (the default): one of those two bins, exactly (how often each is read:
+    test_the_stochastic_wavelength_filter_is_the_linear_filter_on_average)."""
     args = {"half": [], "float_10nm": ["--type", "float", "--wavelengths", "380:780:10"],
             "tiled": ["--tile", "64"], "mipmap": ["--mipmap"]}.get(kind)
     if kind == "nonuniform":
@@ -143,7 +147,8 @@ def test_eval_is_the_files_spectra_linear_in_wavelength(tmp, variant, kind, mode
     if mode == "rgb":
         cube = rebuilt_cube(exr, cube)
     use(variant)
-    tex = mi.load_dict({"type": "spectex", "filename": exr, "filter_type": "nearest", "mode": mode})
+    tex = mi.load_dict({"type": "spectex", "filename": exr, "filter_type": "nearest", "mode": mode,
+                        "wavelength_filter": wfilter})
     rng = np.random.default_rng(7)
     n = 300 if variant == JIT else 60
     xy = np.stack([rng.integers(0, 512, n), rng.integers(0, 256, n)], axis=1)
@@ -160,7 +165,17 @@ def test_eval_is_the_files_spectra_linear_in_wavelength(tmp, variant, kind, mode
     # moves the rebuilt spectrum by up to that share of the lattice's slope: 2e-5 more.
     step = np.array([np.abs(np.diff(cube[xy[k, 1], xy[k, 0]])).max() for k in range(n)])
     tol = 2e-6 + 1e-5 * step[:, None] + (2e-5 if mode == "rgb" else 0.0)
-    assert (np.abs(got - want) < tol).all(), np.abs(got - want).max()
+    if wfilter == "linear":
+        assert (np.abs(got - want) < tol).all(), np.abs(got - want).max()
+        return
+    # The two bins around each wavelength (the end bins' values held outside the grid).
+    i = np.clip(np.searchsorted(lams_file, lams, side="right") - 1, 0, len(lams_file) - 2)
+    spectra = cube[xy[:, 1], xy[:, 0]]
+    lo, hi = (np.take_along_axis(spectra, i + d, axis=1) for d in (0, 1))
+    d = np.minimum(np.abs(got - lo), np.abs(got - hi))
+    assert (d < tol).all(), d.max()
+    assert ((np.abs(got - lo) < tol) & (np.abs(lo - hi) > 0.01)).any()  # both are read
+    assert ((np.abs(got - hi) < tol) & (np.abs(lo - hi) > 0.01)).any()
 
 
 def test_spatial_filtering_is_mitsubas_bitmap(tmp, chart):
@@ -459,7 +474,7 @@ def test_foreign_fichet_file_from_colour_science(tmp, bit_depth):
     lams_file, stored, _ = read_exr(path)
     assert np.allclose(lams_file, wl)
     use(JIT)
-    tex = mi.load_dict({"type": "spectex", "filename": path, "filter_type": "nearest"})
+    tex = mi.load_dict({"type": "spectex", "filename": path, "filter_type": "nearest", "wavelength_filter": "linear"})
     xy = np.stack([rng.integers(0, 8, 50), rng.integers(0, 6, 50)], axis=1)
     uv = (xy + 0.5) / [8, 6]
     lams = rng.uniform(380, 720, (50, 4))

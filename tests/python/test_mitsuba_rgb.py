@@ -53,7 +53,7 @@ def read(path):
     buf = oiio.ImageBuf(path)
     names = list(buf.spec().channelnames)
     px = buf.get_pixels(oiio.FLOAT).astype(np.float64)
-    ts = sorted((float(n[2:-2]), k) for k, n in enumerate(names) if n.startswith("T."))
+    ts = sorted((float(n[2:-2].replace(",", ".")), k) for k, n in enumerate(names) if n.startswith("T."))
     alpha = px[:, :, names.index("A")] if "A" in names else None
     return np.array([t[0] for t in ts]), px[:, :, [t[1] for t in ts]], alpha
 
@@ -227,10 +227,12 @@ def write_spectra(path, lams, cube, alpha=None):
                                       (CHART, ["--lattice-size", "13", "--wavelengths", "400:700:10"]),
                                       (LEAF, ["--lattice-size", "2"])])
 def test_the_rgb_mode_blends_the_rebuilt_spectra_as_the_spectra_mode_blends_bins(tmp, png, args):
-    """Bilinear and nearest, every wrap mode, uv outside [0, 1]: the RGB mode equals the spectra
-    mode of a file holding exactly the spectra the record rebuilds (alpha premultiplied on the
-    leaf), for the half and the float table, and for the default lattice, a 13^3 one (14 bits of
-    simplex, 16 of each coordinate in a texel's 64) and the smallest. Bound 5e-5: float32
+    """Bilinear and nearest, every wrap mode, both wavelength filters, uv outside [0, 1]: the RGB
+    mode equals the spectra mode of a file holding exactly the spectra the record rebuilds (alpha
+    premultiplied on the leaf), for the half and the float table, and for the default lattice, a
+    13^3 one (14 bits of simplex, 16 of each coordinate in a texel's 64) and the smallest. The
+    stochastic wavelength filter's pick is a hash of uv and wavelength, so both modes read the same
+    bin. Bound 5e-5: float32
     evaluation, RGB recovered in float32 and divided by alpha, and each texel's coordinates rounded
     to 2^-17 at worst (16 bits), which moves a value by at most 3 * 2^-17 = 2.3e-5."""
     exr = bake(png, os.path.join(tmp, os.path.basename(png) + ".exr"), *args)
@@ -254,11 +256,12 @@ def test_the_rgb_mode_blends_the_rebuilt_spectra_as_the_spectra_mode_blends_bins
     wl = rng.uniform(360, 830, (4000, 4))
     for filt in ("bilinear", "nearest"):
         for wrap in ("repeat", "mirror", "clamp"):
-            ours = load(exr, "rgb", filter_type=filt, wrap_mode=wrap)
-            assert ours.holds == "rgb"
-            theirs = load(twin, "spectra", filter_type=filt, wrap_mode=wrap)
-            d = np.abs(eval_at(ours, uv, wl) - eval_at(theirs, uv, wl))
-            assert d.max() < 5e-5, (filt, wrap, d.max())
+            for wfilt in ("stochastic", "linear"):  # the stochastic one picks the same bins in both modes
+                ours = load(exr, "rgb", filter_type=filt, wrap_mode=wrap, wavelength_filter=wfilt)
+                assert ours.holds == "rgb"
+                theirs = load(twin, "spectra", filter_type=filt, wrap_mode=wrap, wavelength_filter=wfilt)
+                d = np.abs(eval_at(ours, uv, wl) - eval_at(theirs, uv, wl))
+                assert d.max() < 5e-5, (filt, wrap, wfilt, d.max())
 
 
 @pytest.mark.parametrize("png,args", [(CHART, []), (LEAF, []), (LEAF, ["--method", "basis"])])
@@ -325,6 +328,89 @@ def test_the_stochastic_filter_picks_one_bilinear_texel_and_is_the_bilinear_filt
     assert same >= 396, same
 
 
+@pytest.mark.parametrize("png,args", [(CHART, []), (LEAF, []), (CHART, ["--method", "basis"]),
+                                      (CHART, ["--type", "float"]), (CHART, ["--wavelengths-file", "uneven"])])
+def test_the_stochastic_wavelength_filter_is_the_linear_filter_on_average(tmp, png, args):
+    """wavelength_filter "stochastic" (the default) against "linear", both modes (the lattice in half
+    and in float, the basis, premultiplied alpha, an uneven grid), bilinear in uv. At each of 2000
+    random (uv, wavelengths), 64 lookups with uv moved by under 1e-3 texel (so that the pick's hash
+    changes and the spectra hardly do):
+    - each lookup is the value the linear filter gives at one of the two bins around the wavelength
+      (the same uv; 1e-5: float32 evaluation of the same numbers);
+    - where the two bins differ by over 1e-3 and the weight t of the upper one is in [0.05, 0.95],
+      the upper one is read with probability t: over the 64 lookups its share s gives
+      z = (s - t) / sqrt(t (1 - t) / 64), whose mean over the points is within 5 of its standard
+      errors (1 / sqrt(points)) of 0 and its mean square (1 for a fair pick) in [0.8, 1.2]: a pick
+      that ignored its wavelength or its uv would be 0 or 1 at every point (mean square about 64);
+    - the 4 wavelengths of a lookup pick independently: the correlation of their picks' residuals
+      s - t under 5 / sqrt(lookups) in absolute value (a pick shared by the 4 would be near 1);
+    - the same inputs give the same values, and scalar_spectral picks the bin the JIT variant
+      picks in at least 99 % of 400 lookups (its t in float64 can fall on the other side of the
+      random number within float32's rounding)."""
+    exr = os.path.join(tmp, "wfilter_" + "_".join([os.path.basename(png)] + args) + ".exr")
+    if "uneven" in args:
+        args = [os.path.join(tmp, "uneven.txt") if a == "uneven" else a for a in args]
+        with open(args[-1], "w") as f:  # uneven steps, one not a whole number
+            f.write("\n".join(f"{w:g}" for w in [380, 383.7, 400, 430, 450, 470, 500, 520, 545, 580, 600, 610, 640,
+                                                 680, 700, 730, 780]) + "\n")
+    if not os.path.exists(exr):
+        bake(png, exr, *args)
+    lams_file, spectra, alpha = read(exr)
+    height, width = spectra.shape[:2]
+    rng = np.random.default_rng(17)
+    n, k = 2000, 64
+    if alpha is not None:  # where the leaf is
+        ys, xs = np.nonzero(alpha[:-1, :-1] > 0.5)
+        at = rng.integers(0, len(xs), n)
+        base = np.stack([(xs[at] + 0.5 + rng.uniform(0, 1, n)) / width,
+                         (ys[at] + 0.5 + rng.uniform(0, 1, n)) / height], axis=1)
+    else:
+        base = rng.uniform(0, 1, (n, 2))
+    uv = (base[:, None, :] + rng.uniform(-1e-3, 1e-3, (n, k, 2)) / [width, height]).reshape(-1, 2)
+    lams = np.repeat(rng.uniform(360, 830, (n, 4)), k, axis=0)
+    lams[:k] = [lams_file[0], lams_file[-1], 300.0, 900.0]  # on and outside the grid's ends
+    i = np.clip(np.searchsorted(lams_file, lams, side="right") - 1, 0, len(lams_file) - 2)
+    t = np.clip((lams - lams_file[i]) / (lams_file[i + 1] - lams_file[i]), 0.0, 1.0)
+    picks = {}
+    for mode in ("rgb", "spectra"):
+        st = load(exr, mode)
+        assert st.holds == mode
+        got = eval_at(st, uv, lams)
+        assert np.array_equal(got, eval_at(st, uv, lams))
+        linear = load(exr, mode, wavelength_filter="linear")
+        lo, hi = (eval_at(linear, uv, lams_file[i + d]) for d in (0, 1))
+        assert np.minimum(np.abs(got - lo), np.abs(got - hi)).max() < 1e-5, mode
+        upper = (np.abs(got - hi) < np.abs(got - lo)).astype(float)
+        picks[mode] = lo, hi, upper
+        clear = (np.abs(hi - lo) > 1e-3).reshape(n, k, 4).all(axis=1)
+        share = upper.reshape(n, k, 4).mean(axis=1)
+        tp = t.reshape(n, k, 4)[:, 0]
+        fair = clear & (tp >= 0.05) & (tp <= 0.95)
+        z = (share - tp)[fair] / np.sqrt(tp * (1 - tp) / k)[fair]
+        assert fair.sum() > 1000, fair.sum()
+        assert abs(z.mean()) * np.sqrt(len(z)) < 5, (mode, z.mean())
+        assert 0.8 < (z ** 2).mean() < 1.2, (mode, (z ** 2).mean())
+        res = np.where(clear.repeat(k, axis=0), upper - t, np.nan)
+        for a in range(4):
+            for b in range(a + 1, 4):
+                ok = ~np.isnan(res[:, a]) & ~np.isnan(res[:, b])
+                c = np.corrcoef(res[ok, a], res[ok, b])[0, 1]
+                assert abs(c) < 5 / np.sqrt(ok.sum()), (mode, a, b, c)
+    mi.set_variant("scalar_spectral")
+    spectex_mitsuba.register()
+    scalar = mi.load_dict({"type": "spectex", "filename": exr, "mode": "rgb"})
+    si = mi.SurfaceInteraction3f()
+    same = 0
+    lo, hi, upper = picks["rgb"]
+    for j in range(0, 400 * k, k):
+        si.uv = mi.Point2f(float(uv[j, 0]), float(uv[j, 1]))
+        si.wavelengths = mi.Spectrum(*[float(x) for x in lams[j]])
+        value = np.array(scalar.eval(si)).reshape(-1)
+        mine = np.abs(value - hi[j]) < np.abs(value - lo[j])
+        same += np.all((mine == upper[j].astype(bool)) | (np.abs(hi[j] - lo[j]) < 1e-3))
+    assert same >= 396, same
+
+
 def test_auto_holds_rgb_for_a_bake_and_the_bins_for_other_files(tmp):
     exr = bake(CHART, os.path.join(tmp, "auto.exr"))
     assert load(exr).holds == "rgb"
@@ -337,6 +423,9 @@ def test_auto_holds_rgb_for_a_bake_and_the_bins_for_other_files(tmp):
         load(jh, "rgb")
     with pytest.raises((RuntimeError, spectex_mitsuba.SpectexError), match="mode 'fast' is not one of"):
         load(exr, "fast")
+    with pytest.raises((RuntimeError, spectex_mitsuba.SpectexError),
+                       match=r"auto\.exr: wavelength_filter 'cubic' is not one of stochastic, linear"):
+        load(exr, wavelength_filter="cubic")
 
 
 @pytest.mark.parametrize("compression", ["piz"])
