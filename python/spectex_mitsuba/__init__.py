@@ -35,7 +35,8 @@ texel centres at ``(x + 0.5) / width``; ``repeat``, ``mirror``, ``clamp``), or `
 one of the bilinear 4 texels picked by a hash of uv with probability its weight (times its alpha
 when premultiplied), the bilinear filter on average over a pixel's samples at the cost of one
 texel (docs/mitsuba.md). A coordinate that is NaN or infinite, or whose texel position overflows
-float32, is read as 0, so a lookup always returns a reflectance.
+float32, is read as 0, and a wavelength that is NaN as 0 nm (the first bin), so a lookup always
+returns a reflectance.
 
 Alpha: an ``A`` channel means premultiplied (associated) spectra, OpenEXR's convention and what
 ``spectex bake`` writes by default, unless the header's ``spectex:alpha`` says ``unassociated``.
@@ -289,7 +290,9 @@ def _bin_bits(seed, lbits):
 
 
 def _f32_bits(x):
-    return struct.unpack("<I", struct.pack("<f", x))[0]
+    """The bits of x as float32 (rounded as Dr.Jit rounds it; past float32's range, infinity)."""
+    with np.errstate(over="ignore"):
+        return int(np.float32(x).view(np.uint32))
 
 
 class SpectexTexture:
@@ -579,10 +582,13 @@ def _make_class(mi):
 
         # -- wavelength lookup -------------------------------------------------------------------
         def _bin_jit(self, lam):
-            """Lower bin index i (so that i + 1 is valid) and the weight t of bin i + 1."""
+            """Lower bin index i (so that i + 1 is valid) and the weight t of bin i + 1. A wavelength
+            that is NaN is read as 0 nm, below the grid (the first bin), so that a lookup stays a
+            reflectance in every filter; an infinite one is past an end, as any other."""
             n = self.bins
             if n == 1:
                 return mi.UInt32(0), mi.Float(0.0)
+            lam = dr.select(dr.isnan(lam), 0.0, lam)
             lams = self.wavelengths_nm
             if self._uniform:
                 step = float(lams[1] - lams[0])
@@ -839,24 +845,28 @@ def _make_class(mi):
             lams = [float(si.wavelengths[j]) for j in range(len(si.wavelengths))]
             if self.bins == 1:
                 return np.full(len(lams), spec[0])
-            if self.wavelength_filter == "linear":
-                return np.interp(lams, self.wavelengths_nm, spec)
+            if self.wavelength_filter == "linear":  # NaN: 0 nm, as _bin_jit reads it
+                return np.interp([0.0 if math.isnan(lam) else lam for lam in lams], self.wavelengths_nm, spec)
             f32, n = np.float32, self.bins
             grid = self.wavelengths_nm.astype(np.float32)
             seed = _lookup_seed(*(_f32_bits(_on_texture(float(c), size))
                                   for c, size in zip(si.uv, (self.width, self.height))))
             out = []
             for lam in lams:
-                lam32 = f32(lam)
-                if self._uniform:
-                    pos = (lam32 - f32(self.wavelengths_nm[0])) / f32(self.wavelengths_nm[1] - self.wavelengths_nm[0])
-                    i = int(min(max(math.floor(pos), 0), n - 2))
-                else:
-                    # dr.binary_search over [0, n - 1]: the first bin above lam, n - 1 at most.
-                    i = min(max(int(np.searchsorted(grid[:n - 1], lam32, side="right")), 1), n - 1) - 1
-                t = pos - f32(i) if self._uniform else (lam32 - grid[i]) / (grid[i + 1] - grid[i])
+                bits = _f32_bits(lam)
+                with np.errstate(over="ignore", invalid="ignore"):
+                    lam32 = f32(0.0 if math.isnan(lam) else lam)
+                    if self._uniform:
+                        lams_nm = self.wavelengths_nm
+                        pos = (lam32 - f32(lams_nm[0])) / f32(lams_nm[1] - lams_nm[0])
+                        i = int(min(max(math.floor(min(max(pos, -1.0), float(n))), 0), n - 2))
+                        t = pos - f32(i)
+                    else:
+                        # dr.binary_search over [0, n - 1]: the first bin above lam, n - 1 at most.
+                        i = min(max(int(np.searchsorted(grid[:n - 1], lam32, side="right")), 1), n - 1) - 1
+                        t = (lam32 - grid[i]) / (grid[i + 1] - grid[i])
                 t = min(max(float(t), 0.0), 1.0)
-                r = _bin_bits(seed, _f32_bits(lam)) * 2.0 ** -24
+                r = _bin_bits(seed, bits) * 2.0 ** -24
                 out.append(spec[i + 1] if r < t else spec[i])
             return np.array(out)
 

@@ -622,6 +622,36 @@ def test_documented_lamp_lights_white_below_it_as_the_comment_says(documented_li
 
 
 @pytest.mark.parametrize("variant", ["scalar_spectral", JIT])
+def test_a_wavelength_off_the_grid_reads_an_end_bin_and_nan_the_first(chart, variant):
+    """A wavelength that is infinite or far outside the grid reads the end bin on its side (the end
+    bins are held outside the grid), and NaN is read as 0 nm, below the grid: the first bin. In
+    both modes, both wavelength filters and every filter in uv, a lookup stays a reflectance
+    (before, the scalar variant's stochastic pick raised from floor(), and the linear filter
+    returned NaN). Bound 1e-6: the same bin's value, read two ways."""
+    use(variant)
+    lams_file = read_exr(chart)[0]
+    first, last = float(lams_file[0]), float(lams_file[-1])
+    # Patch centres of the chart's bottom half: their spectra slope, so the two ends differ.
+    uv = np.array([[(PATCH_X[c] + PATCH_X[c + 1]) / 1024, (PATCH_Y[r] + PATCH_Y[r + 1]) / 512]
+                   for r in range(4) for c in range(6)])
+    bad = [np.nan, np.inf, -np.inf, 1e30, -1e30, 3e38, 0.0]
+    ends = [first, last, first, last, first, last, first]
+    lams = np.array([[b, 550.0, b, 600.0] for b in bad for _ in uv])
+    want_lams = np.array([[e, 550.0, e, 600.0] for e in ends for _ in uv])
+    at = np.tile(uv, (len(bad), 1))
+    for mode in ("rgb", "spectra"):
+        for wfilt in ("stochastic", "linear"):
+            for filt in ("bilinear", "nearest", "stochastic"):
+                tex = mi.load_dict({"type": "spectex", "filename": chart, "mode": mode, "filter_type": filt,
+                                    "wavelength_filter": wfilt})
+                got = eval_texture(tex, at, lams)
+                want = eval_texture(tex, at, want_lams)
+                assert np.all(np.isfinite(got)), (mode, wfilt, filt, got)
+                assert np.abs(got - want).max() < 1e-6, (mode, wfilt, filt, np.abs(got - want).max())
+                assert np.abs(want[:, 0] - eval_texture(tex, at, np.full_like(lams, last))[:, 0]).max() > 0.05
+
+
+@pytest.mark.parametrize("variant", ["scalar_spectral", JIT])
 def test_a_coordinate_with_no_texel_is_read_as_0_in_every_filter(chart, variant):
     """NaN, an infinity, or a coordinate whose texel position overflows float32 (3e38 x 512) has no
     texel: it is read as 0, in both modes and every filter and wrap mode, so a lookup stays the
