@@ -66,8 +66,11 @@ SpectralLattice SpectralLattice::build(const Colorimetry& c, int n, VertexPrior 
     if (prior == VertexPrior::JakobHanika || prior == VertexPrior::Blend)
         jh = fit_jakob_hanika_nodes(c, ax);
 
-    TanhPrior learned;
-    if (prior == VertexPrior::Measured) learned = measured_prior_on_grid(*measured, c.grid);
+    TanhPrior learned, learned_face;  // inside the RGB cube, on its faces
+    if (prior == VertexPrior::Measured) {
+        learned = measured_prior_on_grid(*measured, c.grid);
+        learned_face = measured_prior_on_grid(*measured, c.grid, true);
+    }
 
     TridiagonalHessian H;
     H.size = N;
@@ -100,9 +103,13 @@ SpectralLattice SpectralLattice::build(const Colorimetry& c, int n, VertexPrior 
                     if (prior == VertexPrior::Smooth) {
                         q.setConstant(-0.5 * H.alpha);
                     } else if (prior == VertexPrior::Lhtss || prior == VertexPrior::Measured) {
-                        const LhtssResult lh = tanh_prior_spectrum(
-                            C, c.grid, v, prior == VertexPrior::Measured ? &learned : nullptr,
-                            kVertexTolerance);
+                        const bool face = ir == 0 || ig == 0 || ib == 0 || ir == n - 1 ||
+                                          ig == n - 1 || ib == n - 1;
+                        const TanhPrior* data = prior != VertexPrior::Measured ? nullptr
+                                                : face                         ? &learned_face
+                                                                               : &learned;
+                        const LhtssResult lh =
+                            tanh_prior_spectrum(C, c.grid, v, data, kVertexTolerance);
                         L.prior_unconverged += !lh.converged;
                         L.solver_iterations += lh.iterations;
                         q = -lh.s;

@@ -28,8 +28,9 @@ namespace spectex {
 //   bounded in (0, 1) by construction, then projected like the sigmoid (a no-op to rounding when
 //   its Newton solve converged, and the guarantee of exactness when it did not).
 // Measured: the most probable spectrum with the vertex colour under a Gaussian model of measured
-//   reflectances in LHTSS's tanh space (spectral/measured_prior.h: a learned mean and covariance),
-//   bounded in (0, 1) by construction, then projected like LHTSS.
+//   reflectances in LHTSS's tanh space (spectral/measured_prior.h: a learned mean and covariance;
+//   the vertices on the RGB cube's faces take the table's face mean when it has one), bounded in
+//   (0, 1) by construction, then projected like LHTSS.
 enum class VertexPrior { JakobHanika, Smooth, Blend, Lhtss, Measured };
 // Canonical words first; "jh" and "jakob_hanika" are read too.
 inline constexpr EnumNames<VertexPrior, 7> kVertexPriorNames{

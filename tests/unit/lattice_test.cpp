@@ -609,8 +609,9 @@ Eigen::MatrixXd dense_precision(const MeasuredPrior& p, const WavelengthGrid& g)
 // The measured prior's hard cases: on every grid, observer and illuminant the LHTSS test covers,
 // with the shipped table and with one that has learned directions, every vertex is exact and
 // bounded, the Newton solve converged at every vertex (none left to the projection: the saturated
-// corners and faces included), and each interior vertex is the optimum of its own objective:
-// P (z - mean) lies in the span of the constraint normals diag(s') C', P made densely here.
+// corners and faces included), and each vertex but black and white is the optimum of its own
+// objective: P (z - mean) lies in the span of the constraint normals diag(s') C', P made densely
+// here, mean the table's face mean on the RGB cube's faces.
 TEST(Lattice, MeasuredVerticesConvergeAndAreTheirPriorsOptima) {
     struct Case {
         std::string grid, observer, illuminant;
@@ -631,16 +632,20 @@ TEST(Lattice, MeasuredVerticesConvergeAndAreTheirPriorsOptima) {
             EXPECT_EQ(L.prior_unconverged, 0) << what;
             const Eigen::MatrixXd P = dense_precision(prior, c.grid);
             const TanhPrior t = measured_prior_on_grid(prior, c.grid);
+            const TanhPrior tf = measured_prior_on_grid(prior, c.grid, true);
             const Eigen::Matrix3Xd C = c.rgb_weights();
             const size_t B = static_cast<size_t>(L.bins());
             double worst = 0;
             for (size_t idx = 1; idx + 1 < static_cast<size_t>(n) * n * n; ++idx) {
+                const size_t N = static_cast<size_t>(n), ir = idx / (N * N), ig = idx / N % N,
+                             ib = idx % N;
+                const bool face = std::min({ir, ig, ib}) == 0 || std::max({ir, ig, ib}) == N - 1;
                 const Eigen::VectorXd s = Eigen::Map<const Eigen::VectorXd>(
                     &L.table_double()[idx * B], static_cast<Eigen::Index>(B));
                 ASSERT_GT(s.minCoeff(), 0.0) << what << " vertex " << idx << " touches 0";
                 ASSERT_LT(s.maxCoeff(), 1.0) << what << " vertex " << idx << " touches 1";
                 const Eigen::VectorXd z = (2.0 * s.array() - 1.0).atanh().matrix();
-                const Eigen::VectorXd pz = P * (z - t.mean);
+                const Eigen::VectorXd pz = P * (z - (face ? tf.mean : t.mean));
                 const Eigen::VectorXd sp = (0.5 * (1 - z.array().tanh().square())).matrix();
                 const Eigen::MatrixX3d A = sp.asDiagonal() * C.transpose();
                 const Eigen::Vector3d lam = A.colPivHouseholderQr().solve(pz);
@@ -668,6 +673,48 @@ TEST(Lattice, MeasuredPriorDiffersFromLhtss) {
     EXPECT_THROW(SpectralLattice::build(d65(), 5, VertexPrior::Measured), Error);
 }
 
+// The face mean: the vertices on the RGB cube's faces are those of a prior whose mean is the face
+// mean everywhere, and the others those of the prior without one; with a face mean of 0 and no
+// directions the faces are LHTSS's spectra on a uniform grid (the same optimum: the two roughness
+// weights differ by a constant factor there). 1e-12: the same solve twice; 1e-6: the solver's
+// stationarity tolerance, scaled.
+TEST(Lattice, MeasuredFacesTakeTheFaceMean) {
+    const int n = 5;
+    MeasuredPrior p = shipped_measured(), zero = shipped_measured();
+    zero.face_mean.assign(p.mean.size(), 0.0);
+    p.face_mean.assign(p.mean.size(), 0.0);
+    for (size_t k = 0; k < p.lambda.size(); ++k)  // a face mean of its own, not LHTSS's
+        p.face_mean[k] = 0.4 * std::sin((p.lambda[k] - 380.0) / 60.0);
+    MeasuredPrior inside = p, faces = p;
+    inside.face_mean.clear();
+    faces.mean = p.face_mean;
+    faces.face_mean.clear();
+    const Colorimetry c = d65();
+    const SpectralLattice L = SpectralLattice::build(c, n, VertexPrior::Measured, 0.5, &p);
+    const SpectralLattice Li = SpectralLattice::build(c, n, VertexPrior::Measured, 0.5, &inside);
+    const SpectralLattice Lf = SpectralLattice::build(c, n, VertexPrior::Measured, 0.5, &faces);
+    const SpectralLattice Ls = SpectralLattice::build(c, n, VertexPrior::Measured, 0.5, &zero);
+    const SpectralLattice Lh = SpectralLattice::build(c, n, VertexPrior::Lhtss);
+    const size_t B = static_cast<size_t>(L.bins()), N = n;
+    double face_vs_inside = 0, lhtss_faces = 0;
+    for (size_t idx = 0; idx < N * N * N; ++idx) {
+        const size_t ir = idx / (N * N), ig = idx / N % N, ib = idx % N;
+        const bool face = std::min({ir, ig, ib}) == 0 || std::max({ir, ig, ib}) == N - 1;
+        const SpectralLattice& want = face ? Lf : Li;
+        for (size_t k = 0; k < B; ++k) {
+            const size_t at = idx * B + k;
+            EXPECT_NEAR(L.table_double()[at], want.table_double()[at], 1e-12) << idx << " " << k;
+            face_vs_inside =
+                std::max(face_vs_inside, std::fabs(Li.table_double()[at] - Lf.table_double()[at]));
+            if (face)
+                lhtss_faces =
+                    std::max(lhtss_faces, std::fabs(Ls.table_double()[at] - Lh.table_double()[at]));
+        }
+    }
+    EXPECT_GT(face_vs_inside, 1e-3);  // the two means give other spectra: the check can fail
+    EXPECT_LE(lhtss_faces, 1e-6);
+}
+
 // A damaged or hostile table is refused with the file's name and the cause, never used.
 TEST(MeasuredPrior, DamagedTablesAreRefused) {
     spectex_test::TempDir dir;
@@ -680,6 +727,8 @@ TEST(MeasuredPrior, DamagedTablesAreRefused) {
         {"wavelength,mean\n380,nan\n780,0\n", "finite"},
         {"wavelength,mean\n380,25\n780,0\n", "not a usable number"},
         {"wavelength,mean,f1\n380,0,5000\n780,0,0\n", "not a usable number"},
+        {"wavelength,mean,face_mean\n380,0,25\n780,0,0\n", "not a usable number"},
+        {"wavelength,mean,f1,face_mean\n380,0,0,0\n780,0,0,0\n", "expected f2"},
         {"wavelength,mean\n380,0\n", "at least 2"},
         {"wavelength,mean\n780,0\n380,0\n", "increasing"},
     };
@@ -689,6 +738,13 @@ TEST(MeasuredPrior, DamagedTablesAreRefused) {
     const MeasuredPrior p = read_measured_prior_csv(path);
     EXPECT_EQ(p.factors.size(), 1u);
     EXPECT_EQ(p.mean[1], 0.3);
+    EXPECT_TRUE(p.face_mean.empty());
+    write("wavelength,mean,face_mean,f1\n380,-0.2,0,0.1\n780,0.3,0.05,0.2\n");
+    const MeasuredPrior pf = read_measured_prior_csv(path);
+    EXPECT_EQ(pf.factors.size(), 1u);
+    EXPECT_EQ(pf.face_mean[1], 0.05);
+    EXPECT_EQ(pf.factors[0][1], 0.2);
+    EXPECT_NE(pf.checksum, p.checksum);
     for (const auto& b : bad) {
         write(b.text);
         try {
