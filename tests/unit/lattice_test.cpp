@@ -715,6 +715,19 @@ TEST(Lattice, MeasuredFacesTakeTheFaceMean) {
     EXPECT_LE(lhtss_faces, 1e-6);
 }
 
+// The shipped table keeps LHTSS on the faces (a face mean of 0, which the test above shows gives
+// LHTSS's spectra there), and its own mean inside: what docs/methods.md says it is.
+TEST(MeasuredPrior, TheShippedTableKeepsLhtssOnTheFaces) {
+    const MeasuredPrior& p = shipped_measured();
+    ASSERT_EQ(p.face_mean.size(), p.mean.size());
+    EXPECT_EQ(*std::max_element(p.face_mean.begin(), p.face_mean.end()), 0.0);
+    EXPECT_EQ(*std::min_element(p.face_mean.begin(), p.face_mean.end()), 0.0);
+    double largest = 0;
+    for (double z : p.mean) largest = std::max(largest, std::fabs(z));
+    EXPECT_GT(largest, 0.1);
+    EXPECT_TRUE(p.factors.empty());
+}
+
 // A damaged or hostile table is refused with the file's name and the cause, never used.
 TEST(MeasuredPrior, DamagedTablesAreRefused) {
     spectex_test::TempDir dir;

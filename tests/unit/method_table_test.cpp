@@ -160,7 +160,9 @@ TEST(MethodTable, TheMeasuredPriorsTableIsInItsRecipe) {
         while (std::getline(in, line)) {
             if (!changed && line.rfind("400,", 0) == 0) {  // one value moved by 0.01
                 const size_t comma = line.find(',');
-                line = "400," + std::to_string(std::stod(line.substr(comma + 1)) + 0.01);
+                const size_t next = line.find(',', comma + 1);  // the columns after it stay
+                line = "400," + std::to_string(std::stod(line.substr(comma + 1)) + 0.01) +
+                       (next == std::string::npos ? "" : line.substr(next));
                 changed = true;
             }
             out << line << "\n";
