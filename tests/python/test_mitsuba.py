@@ -7,6 +7,7 @@ filtering is compared with Mitsuba's own `bitmap` texture, and whole renders (ll
 plane, uniform `constant` light, orthographic camera, `direct` integrator, XYZ film) are compared
 patch by patch with the integral they estimate.
 """
+import itertools
 import os
 import re
 import shutil
@@ -97,6 +98,14 @@ def eval_texture(tex, uv, lams):
             out.append(np.array(tex.eval(si)))
         return np.array(out)
     return np.array(tex.eval(surface(uv, lams))).reshape(4, -1).T
+
+
+def textures(filename, **choices):
+    """The spectex texture of `filename` with every combination of the given property values:
+    (properties, texture) pairs, in the current variant."""
+    for values in itertools.product(*choices.values()):
+        props = dict(zip(choices, values))
+        yield props, mi.load_dict({"type": "spectex", "filename": filename, **props})
 
 
 # --- the texture itself -------------------------------------------------------------------------
@@ -639,16 +648,13 @@ def test_a_wavelength_off_the_grid_reads_an_end_bin_and_nan_the_first(chart, var
     lams = np.array([[b, 550.0, b, 600.0] for b in bad for _ in uv])
     want_lams = np.array([[e, 550.0, e, 600.0] for e in ends for _ in uv])
     at = np.tile(uv, (len(bad), 1))
-    for mode in ("rgb", "spectra"):
-        for wfilt in ("stochastic", "linear"):
-            for filt in ("bilinear", "nearest", "stochastic"):
-                tex = mi.load_dict({"type": "spectex", "filename": chart, "mode": mode, "filter_type": filt,
-                                    "wavelength_filter": wfilt})
-                got = eval_texture(tex, at, lams)
-                want = eval_texture(tex, at, want_lams)
-                assert np.all(np.isfinite(got)), (mode, wfilt, filt, got)
-                assert np.abs(got - want).max() < 1e-6, (mode, wfilt, filt, np.abs(got - want).max())
-                assert np.abs(want[:, 0] - eval_texture(tex, at, np.full_like(lams, last))[:, 0]).max() > 0.05
+    for props, tex in textures(chart, mode=("rgb", "spectra"), wavelength_filter=("stochastic", "linear"),
+                               filter_type=("bilinear", "nearest", "stochastic")):
+        got = eval_texture(tex, at, lams)
+        want = eval_texture(tex, at, want_lams)
+        assert np.all(np.isfinite(got)), (props, got)
+        assert np.abs(got - want).max() < 1e-6, (props, np.abs(got - want).max())
+        assert np.abs(want[:, 0] - eval_texture(tex, at, np.full_like(lams, last))[:, 0]).max() > 0.05
 
 
 @pytest.mark.parametrize("variant", ["scalar_spectral", JIT])
@@ -664,16 +670,13 @@ def test_a_coordinate_with_no_texel_is_read_as_0_in_every_filter(chart, variant)
     uv = np.array([(b, good[1]) for b in bad] + [(good[0], b) for b in bad] + [(b, b) for b in bad])
     want_uv = np.where(np.isfinite(uv) & (np.abs(uv) < 1e30), uv, 0.0)
     lams = np.tile([450.0, 520.0, 610.0, 680.0], (len(uv), 1))
-    for mode in ("rgb", "spectra"):
-        for filt in ("bilinear", "nearest", "stochastic"):
-            for wrap in ("repeat", "mirror", "clamp"):
-                tex = mi.load_dict({"type": "spectex", "filename": chart, "mode": mode, "filter_type": filt,
-                                    "wrap_mode": wrap})
-                got = eval_texture(tex, uv, lams)
-                want = eval_texture(tex, want_uv, lams)
-                assert np.all(np.isfinite(got)), (mode, filt, wrap, got)
-                # The same texels and weights: equal to float32 rounding.
-                assert np.abs(got - want).max() < 1e-6, (mode, filt, wrap)
+    for props, tex in textures(chart, mode=("rgb", "spectra"), filter_type=("bilinear", "nearest", "stochastic"),
+                               wrap_mode=("repeat", "mirror", "clamp")):
+        got = eval_texture(tex, uv, lams)
+        want = eval_texture(tex, want_uv, lams)
+        assert np.all(np.isfinite(got)), (props, got)
+        # The same texels and weights: equal to float32 rounding.
+        assert np.abs(got - want).max() < 1e-6, props
 
 
 def test_a_path_that_is_not_a_regular_file_is_refused_without_waiting(not_regular_files):
