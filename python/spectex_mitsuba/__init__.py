@@ -52,7 +52,6 @@ import math
 import os
 import re
 import stat
-import struct
 import warnings
 
 import numpy as np

@@ -181,6 +181,8 @@ def main():
     ap.add_argument("--lookups", action="store_true",
                     help="also time each mode's texture alone: eval() at the render's lookups, outside the scene")
     a = ap.parse_args()
+    if a.runs < 2:
+        ap.error("--runs must be at least 2: a mode's noise is measured from its last two rounds")
     sys.path.insert(0, str(HERE))
     from speed_vs_error import photographic_png
 
