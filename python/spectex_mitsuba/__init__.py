@@ -28,11 +28,12 @@ MIP-mapping).
 are the file's to within its own rounding). Between the file's bins (any grid, uniform or not;
 the end bins' values held outside it), ``wavelength_filter`` ``"stochastic"`` (the default) reads
 one of the two bins around a wavelength, the upper with probability its linear weight, by a hash of
-uv and the wavelength's bits: the linear filter on average over a pixel's samples, at half its
-table reads (docs/mitsuba.md); ``"linear"`` interpolates. In uv: bilinear or nearest
+uv, the wavelength's bits and the texture's ``seed`` (an integer; by default the CRC-32 of
+``filename``, so two files pick independently): the linear filter on average over a pixel's
+samples, at half its table reads (docs/mitsuba.md); ``"linear"`` interpolates. In uv: bilinear or nearest
 with Mitsuba's ``bitmap`` conventions (``uv = (0, 0)`` is the first pixel of the first row,
 texel centres at ``(x + 0.5) / width``; ``repeat``, ``mirror``, ``clamp``), or ``"stochastic"``:
-one of the bilinear 4 texels picked by a hash of uv with probability its weight (times its alpha
+one of the bilinear 4 texels picked by a hash of uv and ``seed`` with probability its weight (times its alpha
 when premultiplied), the bilinear filter on average over a pixel's samples at the cost of one
 texel (docs/mitsuba.md). A coordinate that is NaN or infinite, or whose texel position overflows
 float32, is read as 0, and a wavelength that is NaN as 0 nm (the first bin), so a lookup always
@@ -53,6 +54,7 @@ import os
 import re
 import stat
 import warnings
+import zlib
 
 import numpy as np
 
@@ -268,17 +270,30 @@ def _mix32(h):
     return h ^ (h >> 16)
 
 
-def _lookup_seed(ubits, vbits):
-    """A lookup's 32 hashed bits of its u and v (their float32 bits): the same for the BSDF's two
-    evaluations at one point (its sample and its eval_pdf), so that both pick the same texel and
-    bins."""
-    return _mix32(((ubits * 0x9E3779B1) & 0xFFFFFFFF) ^ vbits)
+def _lookup_seed(ubits, vbits, salt):
+    """A lookup's 32 hashed bits of its u and v (their float32 bits) and the texture's salt: the
+    same for the BSDF's two evaluations at one point (its sample and its eval_pdf), so that both
+    pick the same texel and bins; independent between textures of different salts, so that a BSDF
+    multiplying two of them at one point gets the product of their filtered values on average."""
+    return _mix32(_mix32(((ubits * 0x9E3779B1) & 0xFFFFFFFF) ^ vbits) ^ salt)
 
 
-def _pick_bits(ubits, vbits):
+def _texture_salt(props, filename):
+    """The texture's salt: its integer property 'seed' (any int, taken modulo 2^32), else the CRC-32
+    of its filename as the scene gives it (the same file gets the same picks in both modes and in
+    every render; two files pick independently)."""
+    if "seed" in props:
+        seed = props["seed"]
+        if isinstance(seed, bool) or not isinstance(seed, int):
+            raise SpectexError(f"spectex texture: {filename}: seed '{seed}' is not an integer")
+        return seed & 0xFFFFFFFF
+    return zlib.crc32(filename.encode("utf-8", "surrogateescape"))
+
+
+def _pick_bits(ubits, vbits, salt):
     """filter_type "stochastic"'s 24 random bits for a lookup (times 2^-24: a number in [0, 1),
     exact in float32)."""
-    return _lookup_seed(ubits, vbits) >> 8
+    return _lookup_seed(ubits, vbits, salt) >> 8
 
 
 def _bin_bits(seed, lbits):
@@ -316,6 +331,7 @@ def _make_class(mi):
                 raise SpectexError("spectex texture: the property 'filename' is required")
             self.filename = _resolve(mi, str(props["filename"]))
             _check_regular_file(self.filename)
+            self._salt = _texture_salt(props, str(props["filename"]))
             self.filter_type = str(props["filter_type"]) if "filter_type" in props else "bilinear"
             self.wrap_mode = str(props["wrap_mode"]) if "wrap_mode" in props else "repeat"
             if self.filter_type not in _FILTERS:
@@ -510,7 +526,7 @@ def _make_class(mi):
             if self.filter_type == "stochastic":
                 bits = [_f32_bits(c) for c in (u, v)]
                 p = [wgt * (self._alpha_scalar(x, y) if self.premultiplied else 1.0) for x, y, wgt in out]
-                r = _pick_bits(*bits) * 2.0 ** -24 * sum(p)
+                r = _pick_bits(*bits, self._salt) * 2.0 ** -24 * sum(p)
                 total = 0.0
                 for (x, y, _), pk in zip(out[:3], p[:3]):
                     total += pk
@@ -555,7 +571,8 @@ def _make_class(mi):
             return mi.Point2f(*(dr.select(dr.isfinite(x * n), x, 0.0) for x, n in zip(uv, (self.width, self.height))))
 
         def _seed_jit(self, uv):
-            return _lookup_seed(dr.reinterpret_array(mi.UInt32, uv.x), dr.reinterpret_array(mi.UInt32, uv.y))
+            return _lookup_seed(dr.reinterpret_array(mi.UInt32, uv.x), dr.reinterpret_array(mi.UInt32, uv.y),
+                                self._salt)
 
         def _corners_jit(self, uv):
             Int = mi.Int32
@@ -849,7 +866,7 @@ def _make_class(mi):
             f32, n = np.float32, self.bins
             grid = self.wavelengths_nm.astype(np.float32)
             seed = _lookup_seed(*(_f32_bits(_on_texture(float(c), size))
-                                  for c, size in zip(si.uv, (self.width, self.height))))
+                                  for c, size in zip(si.uv, (self.width, self.height))), self._salt)
             out = []
             for lam in lams:
                 bits = _f32_bits(lam)
@@ -904,7 +921,7 @@ def _make_class(mi):
             return (f"SpectexTexture[filename='{self.filename}', holds {self.holds}, {self.width}x{self.height}, "
                     f"{self.bins} bins "
                     f"{self.wavelengths_nm[0]:g}-{self.wavelengths_nm[-1]:g} nm, filter_type={self.filter_type}, "
-                    f"wavelength_filter={self.wavelength_filter}, wrap_mode={self.wrap_mode}, "
+                    f"wavelength_filter={self.wavelength_filter}, wrap_mode={self.wrap_mode}, seed={self._salt}, "
                     f"alpha={'premultiplied' if self.premultiplied else 'none/straight'}]")
 
         def __repr__(self):

@@ -231,8 +231,8 @@ def test_the_rgb_mode_blends_the_rebuilt_spectra_as_the_spectra_mode_blends_bins
     mode equals the spectra mode of a file holding exactly the spectra the record rebuilds (alpha
     premultiplied on the leaf), for the half and the float table, and for the default lattice, a
     13^3 one (14 bits of simplex, 16 of each coordinate in a texel's 64) and the smallest. The
-    stochastic wavelength filter's pick is a hash of uv and wavelength, so both modes read the same
-    bin. Bound 5e-5: float32
+    stochastic wavelength filter's pick is a hash of uv, wavelength and the texture's seed: given
+    the same seed, the two files read the same bin. Bound 5e-5: float32
     evaluation, RGB recovered in float32 and divided by alpha, and each texel's coordinates rounded
     to 2^-17 at worst (16 bits), which moves a value by at most 3 * 2^-17 = 2.3e-5."""
     exr = bake(png, os.path.join(tmp, os.path.basename(png) + ".exr"), *args)
@@ -257,9 +257,9 @@ def test_the_rgb_mode_blends_the_rebuilt_spectra_as_the_spectra_mode_blends_bins
     for filt in ("bilinear", "nearest"):
         for wrap in ("repeat", "mirror", "clamp"):
             for wfilt in ("stochastic", "linear"):  # the stochastic one picks the same bins in both modes
-                ours = load(exr, "rgb", filter_type=filt, wrap_mode=wrap, wavelength_filter=wfilt)
+                ours = load(exr, "rgb", filter_type=filt, wrap_mode=wrap, wavelength_filter=wfilt, seed=7)
                 assert ours.holds == "rgb"
-                theirs = load(twin, "spectra", filter_type=filt, wrap_mode=wrap, wavelength_filter=wfilt)
+                theirs = load(twin, "spectra", filter_type=filt, wrap_mode=wrap, wavelength_filter=wfilt, seed=7)
                 d = np.abs(eval_at(ours, uv, wl) - eval_at(theirs, uv, wl))
                 assert d.max() < 5e-5, (filt, wrap, wfilt, d.max())
 
@@ -411,6 +411,59 @@ def test_the_stochastic_wavelength_filter_is_the_linear_filter_on_average(tmp, p
     assert same >= 396, same
 
 
+@pytest.mark.parametrize("filters", [{}, {"filter_type": "stochastic", "wavelength_filter": "linear"}])
+def test_two_textures_pick_independently_so_their_product_is_the_product_of_their_filtered_values(tmp, filters):
+    """A BSDF may multiply two spectex textures at one point. Their stochastic picks (the bin of
+    each wavelength by default; the texel with filter_type "stochastic") are hashed with each
+    texture's salt (its seed, else the CRC-32 of its filename), so two files, here the same bake
+    under two names, pick independently: over 64 lookups at each of 10000 points where the texels
+    or bins differ, the mean of the product of the two lookups minus the product of their exact
+    filters' values is within 5 of its standard errors of 0 at each wavelength. Given the same
+    seed, the two pick alike: their lookups are equal, and the same statistic is over 5 standard
+    errors (the product's mean is then the filtered product of the squares: the test has the
+    power to see the difference). The same file loaded twice picks alike; a seed that is not an
+    integer is refused in one line naming the file."""
+    exr = bake(CHART, os.path.join(tmp, "salt_a.exr"))
+    other = os.path.join(tmp, "salt_b.exr")
+    with open(exr, "rb") as f, open(other, "wb") as g:
+        g.write(f.read())
+    _, spectra, _ = read(exr)
+    height, width = spectra.shape[:2]
+    # Points where the 4 bilinear texels differ (the patches' borders) and the spectra change
+    # between bins: the picks matter there.
+    key = spectra.sum(axis=2)
+    block = np.stack([key[:-1, :-1], key[:-1, 1:], key[1:, :-1], key[1:, 1:]])
+    ys, xs = np.nonzero(block.max(axis=0) - block.min(axis=0) > 0.5)
+    rng = np.random.default_rng(23)
+    n, k = 10000, 64
+    at = rng.integers(0, len(xs), n)
+    base = np.stack([(xs[at] + 0.5 + rng.uniform(0.2, 0.8, n)) / width,
+                     (ys[at] + 0.5 + rng.uniform(0.2, 0.8, n)) / height], axis=1)
+    uv = (base[:, None, :] + rng.uniform(-1e-3, 1e-3, (n, k, 2)) / [width, height]).reshape(-1, 2)
+    lams = np.repeat(rng.uniform(400, 700, (n, 4)), k, axis=0)
+    exact = {"filter_type": "bilinear", "wavelength_filter": "linear"}
+    ref = eval_at(load(exr, **exact), uv, lams)
+    target = (ref * ref).reshape(n, k, 4).mean(axis=1)
+
+    def z_of_product(a, b):
+        d = (eval_at(a, uv, lams) * eval_at(b, uv, lams)).reshape(n, k, 4).mean(axis=1) - target
+        return np.abs(d.mean(axis=0)) / (d.std(axis=0) / np.sqrt(n))
+
+    a, b = load(exr, **filters), load(other, **filters)
+    z = z_of_product(a, b)
+    assert np.all(z < 5), z
+    assert not np.array_equal(eval_at(a, uv[:4096], lams[:4096]), eval_at(b, uv[:4096], lams[:4096]))
+    assert np.array_equal(eval_at(a, uv[:4096], lams[:4096]), eval_at(load(exr, **filters), uv[:4096], lams[:4096]))
+    same_a, same_b = load(exr, seed=99, **filters), load(other, seed=99 + 2 ** 32, **filters)  # modulo 2^32
+    assert np.array_equal(eval_at(same_a, uv, lams), eval_at(same_b, uv, lams))
+    z = z_of_product(same_a, same_b)
+    assert np.all(z > 5), z
+    for bad in ("seven", 1.5):
+        with pytest.raises((RuntimeError, spectex_mitsuba.SpectexError),
+                           match=rf"salt_a\.exr: seed '{bad}' is not an integer"):
+            load(exr, seed=bad, **filters)
+
+
 def test_auto_holds_rgb_for_a_bake_and_the_bins_for_other_files(tmp):
     exr = bake(CHART, os.path.join(tmp, "auto.exr"))
     assert load(exr).holds == "rgb"
@@ -436,7 +489,7 @@ def test_files_the_strip_reader_does_not_take_are_read_by_mitsuba(tmp, compressi
     ref = bake(CHART, os.path.join(tmp, "c_zip.exr"))
     rng = np.random.default_rng(2)
     uv, wl = rng.random((2000, 2)), rng.uniform(380, 780, (2000, 4))
-    a, b = load(exr, "rgb"), load(ref, "rgb")
+    a, b = load(exr, "rgb", seed=1), load(ref, "rgb", seed=1)  # two files: the same picks given one seed
     assert np.array_equal(eval_at(a, uv, wl), eval_at(b, uv, wl))
 
 
