@@ -423,6 +423,17 @@ def main():
     if a.svg:
         tradeoff_svg(a.svg, jh, base, [(b, results[(m, s2, face, b)]) for b in BETAS], beta)
         log(f"wrote {a.svg}")
+    # What clipping alone costs: the 8-bit code's distance from the measured colour under D65,
+    # which every exact method reproduces (the code, not the colour).
+    white = colour.XYZ_to_xy(M.WHITE65)
+    clip_de = colour.delta_E(colour.XYZ_to_Lab(R @ M.W65.T, white), colour.XYZ_to_Lab(V @ M.NPM.T, white),
+                             method="CIE 2000")
+    worst_all = {L: int(np.argmax(ev.delta_e(L, R, Lattice9(roughness(GRID) + 1e-9 * np.eye(N), np.zeros(N))
+                                              .spectra(V)))) for L in M.LIGHTS}
+    print("\nThe clipped colours' codes under D65, ΔE00 from the measured colour: max "
+          f"{clip_de[clipped].max():.2f}, median {np.median(clip_de[clipped]):.2f}; LHTSS's worst sample under "
+          + ", ".join(f"{L} is #{i} (clipped: {bool(clipped[i])}, {clip_de[i]:.2f} under D65)"
+                      for L, i in worst_all.items()))
     floor = regression_floor(R, V, group, ev)
     print("\nRegression from the 8-bit colour to each light's colour (quadratic, same split), per set: "
           + ", ".join(f"{x:.3f}" for x in floor))
