@@ -664,6 +664,18 @@ class ExrStrips:
         if self._fd is None:
             raise ValueError(f"{self.path}: the reader is closed")
         fd = os.dup(self._fd)
+        if threads == 1 or sum(len(tasks) for _, _, tasks in strips) <= 1:
+            # One task (a small texture) or one thread: decoded here. Starting a pool's thread
+            # cost more than decoding a 64^2 file (a scene may hold thousands of them).
+            try:
+                for y0, n, tasks in strips:
+                    array = np.empty((len(names), n, self.width) if planar else (n,) + shape, np.float32)
+                    for first, last, row in tasks:
+                        self._decode_task(fd, first, last, array, row, plan, planar)
+                    yield y0, array
+            finally:
+                os.close(fd)
+            return
         pool = concurrent.futures.ThreadPoolExecutor(threads, thread_name_prefix="exr_strips")
 
         def submit():

@@ -53,6 +53,8 @@ def _numbers(text, what):
         raise RebuildError(f"{what} holds NaN or infinity")
     return v
 
+TABLE_ATTR = "spectex:rebuildTable"  # the table's text: the largest attribute of a record
+
 
 def parse_record(attrs):
     """The record of a header (a mapping of attribute name to string), or None when the file has

@@ -144,7 +144,9 @@ def load(filename, alloc):
             # Held in half (within a half file's own rounding): the JIT variants pack it four halves
             # to a 64-bit word, and the scalar variants and the check use the same numbers.
             record.table = record.table.astype(np.float16).astype(np.float32)
-        t.attrs = dict(attrs)
+        # The file's string attributes but the table's text (32 KB for the default lattice), which
+        # the record holds decoded: a scene of thousands of small textures keeps no copy of it.
+        t.attrs = {k: v for k, v in attrs.items() if k != _rebuild.TABLE_ATTR}
         t.width, t.height, t.lams, t.record, t.premultiplied = width, height, lams, record, premultiplied
         t.data, view = alloc(width * height * t.stride)
         t.texels = view.reshape(height, width, t.stride)

@@ -112,3 +112,57 @@ def test_the_rgb_mode_holds_a_texel_in_8_bytes_and_never_the_file(large_noise_ex
           f"at its peak, {(after - before) / mb:.0f} MB after")
     assert peak - before <= texels + 80 * mb
     assert after - before <= held + 48 * mb
+
+
+MANY = r"""
+import sys
+import mitsuba as mi
+mi.set_variant("llvm_ad_spectral")
+import drjit as dr
+import spectex_mitsuba
+spectex_mitsuba.register()
+kind, count, files = sys.argv[1], int(sys.argv[2]), sys.argv[3:]
+
+
+def resident():
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * 4096
+
+
+first = mi.load_dict({"type": kind, "filename": files[0]})  # kernels compiled, libraries loaded
+dr.eval()
+before = resident()
+held = [mi.load_dict({"type": kind, "filename": files[k % len(files)]}) for k in range(count)]
+dr.eval()
+print(resident() - before)
+"""
+
+
+def test_thousands_of_small_textures_cost_about_what_bitmaps_cost(tmp_path):
+    """A scene may hold thousands of small textures baked alike. The method's table (0.76 MB for
+    the default lattice, 12x a 64^2 texture's texels) is held once for all the textures of one
+    table, and neither the table's text nor a thread pool is kept per texture: 600 textures of
+    64^2 (4 files, each loaded 150 times, as a scene names one file in many materials) add at most
+    1.5x the memory 600 `bitmap` textures of the same PNGs add. Measured: 0.96x (35 MB against
+    36 MB); 16x (599 MB) when each texture held its own table, text and pool."""
+    import OpenImageIO as oiio
+
+    rng = np.random.default_rng(9)
+    pngs, exrs = [], []
+    for k in range(4):
+        png, exr = str(tmp_path / f"small{k}.png"), str(tmp_path / f"small{k}.exr")
+        out = oiio.ImageOutput.create(png)
+        out.open(png, oiio.ImageSpec(64, 64, 3, oiio.UINT8))
+        out.write_image(rng.integers(0, 256, size=(64, 64, 3), dtype=np.uint8))
+        out.close()
+        r = subprocess.run([SPECTEX, "bake", png, "-o", exr, "-q"], capture_output=True, text=True)
+        assert r.returncode == 0, r.stderr
+        pngs.append(png)
+        exrs.append(exr)
+    grown = {}
+    for kind, files in (("bitmap", pngs), ("spectex", exrs)):
+        r = subprocess.run([sys.executable, "-c", MANY, kind, "600", *files], capture_output=True, text=True,
+                           timeout=600)
+        assert r.returncode == 0, r.stderr
+        grown[kind] = int(r.stdout.split()[-1])
+    assert grown["spectex"] <= 1.5 * grown["bitmap"], grown

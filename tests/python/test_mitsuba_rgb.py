@@ -464,6 +464,35 @@ def test_two_textures_pick_independently_so_their_product_is_the_product_of_thei
             load(exr, seed=bad, **filters)
 
 
+def test_textures_of_different_tables_held_together_each_read_their_own(tmp):
+    """The method's tables are shared by the textures of one table (same values, lattice, bins,
+    precision and wavelength filter): bakes of one PNG whose tables differ (the LHTSS and the
+    measured vertex prior on the same 31 bins in half, whose tables differ in their values alone; a
+    13^3 lattice; a float file), loaded together with a second texture of the first file, each
+    evaluate exactly as when loaded alone, in both wavelength filters, and the different tables
+    give different values."""
+    import gc
+
+    files = [bake(CHART, os.path.join(tmp, f"tables_{k}.exr"), *args) for k, args in enumerate(
+        [["--wavelengths", "400:700:10"], ["--wavelengths", "400:700:10", "--vertex-prior", "measured"],
+         ["--wavelengths", "400:700:10", "--lattice-size", "13"], ["--type", "float"]])]
+    rng = np.random.default_rng(31)
+    uv, wl = rng.random((3000, 2)), rng.uniform(380, 780, (3000, 4))
+    for wfilt in ("stochastic", "linear"):
+        alone = []
+        for f in files:
+            tex = load(f, "rgb", wavelength_filter=wfilt, seed=3)
+            alone.append(eval_at(tex, uv, wl))
+            del tex
+            gc.collect()
+        held = [load(f, "rgb", wavelength_filter=wfilt, seed=3) for f in files + files[:1]]
+        together = [eval_at(tex, uv, wl) for tex in held]
+        for k, f in enumerate(files + files[:1]):
+            assert np.array_equal(together[k], alone[k % len(files)]), (wfilt, f)
+        for k in range(1, len(files)):
+            assert not np.array_equal(alone[0], alone[k]), (wfilt, files[k])
+
+
 def test_auto_holds_rgb_for_a_bake_and_the_bins_for_other_files(tmp):
     exr = bake(CHART, os.path.join(tmp, "auto.exr"))
     assert load(exr).holds == "rgb"
