@@ -209,6 +209,17 @@ def eval_at(tex, uv, lams):
     return np.array(tex.eval(si)).reshape(4, -1).T
 
 
+def points_where_texels_differ(key, threshold, n, rng, lo, hi):
+    """n uv points, each between the centres of 4 texels whose `key` (an [H, W] image) differs by
+    over `threshold` among them, at an offset in [lo, hi] of a texel from the first one's centre."""
+    height, width = key.shape
+    block = np.stack([key[:-1, :-1], key[:-1, 1:], key[1:, :-1], key[1:, 1:]])
+    ys, xs = np.nonzero(block.max(axis=0) - block.min(axis=0) > threshold)
+    at = rng.integers(0, len(xs), n)
+    return np.stack([(xs[at] + 0.5 + rng.uniform(lo, hi, n)) / width,
+                     (ys[at] + 0.5 + rng.uniform(lo, hi, n)) / height], axis=1)
+
+
 def write_spectra(path, lams, cube, alpha=None):
     """A float Fichet-layout file of exactly these spectra (no record): the RGB mode's spectra
     held by the spectra mode."""
@@ -283,14 +294,9 @@ def test_the_stochastic_filter_picks_one_bilinear_texel_and_is_the_bilinear_filt
         bake(png, exr, *args)
     _, spectra, alpha = read(exr)
     height, width = spectra.shape[:2]
-    key = alpha if alpha is not None else spectra.sum(axis=2)
-    block = np.stack([key[:-1, :-1], key[:-1, 1:], key[1:, :-1], key[1:, 1:]])
-    ys, xs = np.nonzero(block.max(axis=0) - block.min(axis=0) > 0.05)
     rng = np.random.default_rng(5)
     n, k = 4000, 64
-    at = rng.integers(0, len(xs), n)
-    uv = np.stack([(xs[at] + 0.5 + rng.uniform(0.1, 0.9, n)) / width,
-                   (ys[at] + 0.5 + rng.uniform(0.1, 0.9, n)) / height], axis=1)
+    uv = points_where_texels_differ(alpha if alpha is not None else spectra.sum(axis=2), 0.05, n, rng, 0.1, 0.9)
     jit = (uv[:, None, :] + rng.uniform(-0.05, 0.05, (n, k, 2)) / [width, height]).reshape(-1, 2)
     lams = np.tile([450.0, 520.0, 600.0, 650.0], (n * k, 1))
     picked = {}
@@ -431,14 +437,9 @@ def test_two_textures_pick_independently_so_their_product_is_the_product_of_thei
     height, width = spectra.shape[:2]
     # Points where the 4 bilinear texels differ (the patches' borders) and the spectra change
     # between bins: the picks matter there.
-    key = spectra.sum(axis=2)
-    block = np.stack([key[:-1, :-1], key[:-1, 1:], key[1:, :-1], key[1:, 1:]])
-    ys, xs = np.nonzero(block.max(axis=0) - block.min(axis=0) > 0.5)
     rng = np.random.default_rng(23)
     n, k = 10000, 64
-    at = rng.integers(0, len(xs), n)
-    base = np.stack([(xs[at] + 0.5 + rng.uniform(0.2, 0.8, n)) / width,
-                     (ys[at] + 0.5 + rng.uniform(0.2, 0.8, n)) / height], axis=1)
+    base = points_where_texels_differ(spectra.sum(axis=2), 0.5, n, rng, 0.2, 0.8)
     uv = (base[:, None, :] + rng.uniform(-1e-3, 1e-3, (n, k, 2)) / [width, height]).reshape(-1, 2)
     lams = np.repeat(rng.uniform(400, 700, (n, 4)), k, axis=0)
     exact = {"filter_type": "bilinear", "wavelength_filter": "linear"}
