@@ -1,6 +1,7 @@
 """The Mitsuba plugin holds a spectex file's spectra once.
 
-The JIT variants evaluate a Dr.Jit array of every texel's bins in float32 (H x W x N x 4 bytes).
+In mode "spectra" the JIT variants evaluate a Dr.Jit array of every texel's bins as the file holds
+them (H x W x N x 2 bytes for a half file, 4 for a float one; a half file's were float32 before).
 Loading used to select the reflectance channels of the whole decoded file at once, a second copy
 of its samples, before converting them: a 2048^2 file of 81 bins (1.36 GB of spectra) peaked at
 2.7 GB. Now the spectra are written into the Dr.Jit array's own memory a band of rows at a time;
@@ -59,11 +60,6 @@ SIZE = 768
 
 
 @pytest.fixture(scope="module")
-def noise_exr():
-    yield from noise_bake(SIZE)
-
-
-@pytest.fixture(scope="module")
 def large_noise_exr():
     yield from noise_bake(2 * SIZE)
 
@@ -74,21 +70,34 @@ def load_in_a_process(exr, mode):
     return (int(v) for v in r.stdout.split())
 
 
-def test_loading_holds_the_spectra_once(noise_exr):
-    """mode spectra: every bin in float32, the file's samples as mi.Bitmap decodes them meanwhile."""
-    size = SIZE
-    before, peak, after, _ = load_in_a_process(noise_exr, "spectra")
-    bins = 81
-    spectra = size * size * bins * 4  # the Dr.Jit array, float32
-    decoded = size * size * bins * 2  # mi.Bitmap's half samples, while the file is read
+@pytest.mark.parametrize("sample_type", ["half", "float"])
+def test_loading_holds_the_spectra_once(large_noise_exr, tmp_path, sample_type):
+    """mode spectra: every bin as the file holds it (a half file's in half, a float file's in
+    float32), the file's samples as mi.Bitmap decodes them meanwhile."""
+    import OpenImageIO as oiio
+
+    exr = large_noise_exr
+    if sample_type == "float":
+        exr = str(tmp_path / "noise_float.exr")
+        png = large_noise_exr.replace(".exr", ".png")
+        r = subprocess.run([SPECTEX, "bake", png, "-o", exr, "-q", "--type", "float"], capture_output=True, text=True)
+        assert r.returncode == 0, r.stderr
+    spec = oiio.ImageInput.open(exr).spec()
+    bins = sum(1 for name in spec.channelnames if name.startswith("T."))
+    size = 2 * SIZE
+    before, peak, after, _ = load_in_a_process(exr, "spectra")
+    width = 2 if sample_type == "half" else 4
+    spectra = size * size * bins * width  # the Dr.Jit array
+    decoded = size * size * bins * width  # mi.Bitmap's samples, while the file is read
     mb = 1 << 20
     print(f"spectra {spectra / mb:.0f} MB, decoded {decoded / mb:.0f} MB; loading added "
           f"{(peak - before) / mb:.0f} MB at its peak, {(after - before) / mb:.0f} MB after")
-    # Tolerance: 32 MB above the two, for a band of rows in float32 (768 x 81 x 64 x 4: 16 MB),
-    # the statistics' temporaries and the allocator. The old whole-file selection added 81 MB
-    # more here (366 MB against 285 when this was written).
+    # Tolerance: 32 MB above the two, for a band of rows in float32 (1536 x 31 x 64 x 4: 12 MB),
+    # the statistics' temporaries and the allocator. The old whole-file selection added a copy of
+    # the file's samples here.
     assert peak - before <= spectra + decoded + 32 * mb
-    # What stays: the spectra once (plus the same allowance).
+    # What stays: the spectra once (plus the same allowance). A half file held in float32 (as
+    # before) keeps 2x its samples: 293 MB at 31 bins, 115 MB over this bound.
     assert after - before <= spectra + 32 * mb
 
 

@@ -220,12 +220,12 @@ def points_where_texels_differ(key, threshold, n, rng, lo, hi):
                      (ys[at] + 0.5 + rng.uniform(lo, hi, n)) / height], axis=1)
 
 
-def write_spectra(path, lams, cube, alpha=None):
-    """A float Fichet-layout file of exactly these spectra (no record): the RGB mode's spectra
-    held by the spectra mode."""
+def write_spectra(path, lams, cube, alpha=None, sample_type=oiio.FLOAT):
+    """A float (or half) Fichet-layout file of exactly these spectra (no record): the RGB mode's
+    spectra held by the spectra mode."""
     names = [f"T.{lam:g}nm" for lam in lams] + (["A"] if alpha is not None else [])
     data = cube if alpha is None else np.concatenate([cube, alpha[..., None]], axis=2)
-    spec = oiio.ImageSpec(cube.shape[1], cube.shape[0], len(names), oiio.FLOAT)
+    spec = oiio.ImageSpec(cube.shape[1], cube.shape[0], len(names), sample_type)
     spec.channelnames = tuple(names)
     spec.attribute("spectralLayoutVersion", "1.0")
     out = oiio.ImageOutput.create(path)
@@ -492,6 +492,54 @@ def test_textures_of_different_tables_held_together_each_read_their_own(tmp):
             assert np.array_equal(together[k], alone[k % len(files)]), (wfilt, f)
         for k in range(1, len(files)):
             assert not np.array_equal(alone[0], alone[k]), (wfilt, files[k])
+
+
+def test_a_half_files_bins_are_read_exactly_in_the_spectra_mode(tmp):
+    """The JIT variants hold a half file's bins in half, two to a 32-bit word, and widen them at
+    lookup with integer operations: every kind of finite half (zero and negative zero, the smallest
+    and largest subnormal, the smallest normal, 1/3, 1, the largest half, negatives) reads as that
+    half in float32 exactly, at each texel's centre and bin (nearest, linear in wavelength), in an
+    image whose sample count is odd (the last word half used); and the same values in a float file
+    give the same lookups everywhere (bilinear, both wavelength filters, random uv and
+    wavelengths), in the JIT and the scalar variant."""
+    values = np.array([0.0, -0.0, 2.0 ** -24, 1023 * 2.0 ** -24, 2.0 ** -14, 1 / 3, 1.0, 65504.0, -2.5,
+                       -(2.0 ** -24), 0.75, 1e-3, 0.5, 2.0, 0.1], dtype=np.float16)
+    rng = np.random.default_rng(41)
+    cube = rng.choice(values, size=(3, 5, 3)).astype(np.float16)  # 45 samples: odd
+    cube.reshape(-1, 3)[:5] = values.reshape(5, 3)  # every value at least once
+    lams = np.array([450.0, 550.0, 650.0])
+    half, full = os.path.join(tmp, "kinds_half.exr"), os.path.join(tmp, "kinds_float.exr")
+    write_spectra(half, lams, cube.astype(np.float32), sample_type=oiio.HALF)
+    write_spectra(full, lams, cube.astype(np.float32))
+    ys, xs = np.mgrid[0:3, 0:5]
+    centres = np.stack([(xs.reshape(-1) + 0.5) / 5, (ys.reshape(-1) + 0.5) / 3], axis=1)
+    at_bins = np.tile(lams.tolist() + [lams[0]], (15, 1))
+    expect = np.concatenate([cube.reshape(-1, 3), cube.reshape(-1, 3)[:, :1]], axis=1).astype(np.float32)
+    uv, wl = rng.uniform(-0.2, 1.2, (4000, 2)), rng.uniform(400, 700, (4000, 4))
+    for variant in (JIT, "scalar_spectral"):
+        mi.set_variant(variant)
+        spectex_mitsuba.register()
+
+        def tex(path, **props):
+            return mi.load_dict({"type": "spectex", "filename": path, "mode": "spectra", **props})
+
+        def at(t, points, lams_):
+            if variant == JIT:
+                return eval_at(t, points, lams_)
+            si, out = mi.SurfaceInteraction3f(), []
+            for p, w in zip(points, lams_):
+                si.uv = mi.Point2f(float(p[0]), float(p[1]))
+                si.wavelengths = mi.Spectrum(*[float(x) for x in w])
+                out.append(np.array(t.eval(si)).reshape(-1))
+            return np.array(out, dtype=np.float32)
+
+        got = at(tex(half, filter_type="nearest", wavelength_filter="linear"), centres, at_bins)
+        assert np.array_equal(got, expect), (variant, got, expect)
+        n = 4000 if variant == JIT else 300
+        for wfilt in ("stochastic", "linear"):
+            a = at(tex(half, wavelength_filter=wfilt, seed=5), uv[:n], wl[:n])
+            b = at(tex(full, wavelength_filter=wfilt, seed=5), uv[:n], wl[:n])
+            assert np.array_equal(a, b), (variant, wfilt, np.abs(a - b).max())
 
 
 def test_auto_holds_rgb_for_a_bake_and_the_bins_for_other_files(tmp):
