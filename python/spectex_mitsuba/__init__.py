@@ -20,7 +20,8 @@ MIP-mapping).
   lookup (rgb_mode.py).
   The file is read a strip at a time (exr_strips.py; tiled and other compressions through
   ``mi.Bitmap``). A file without a record, or whose record fails its checks, is refused.
-- ``"spectra"``: every bin as the file holds it (half or float32), read with ``mi.Bitmap`` (any file).
+- ``"spectra"``: every bin as the file holds it (half or float32), any file; read a strip at a time
+  as in mode "rgb" (other layouts through ``mi.Bitmap``).
 - ``"auto"`` (default): ``"rgb"`` when the file has a record, ``"spectra"`` otherwise; a record that
   fails its checks is set aside with a warning, never used.
 
@@ -49,11 +50,12 @@ Only the spectral variants (``scalar_spectral``, ``llvm_ad_spectral``, ``cuda_ad
 their ``_polarized`` forms) are supported; an RGB or mono variant is refused. The texture holds no
 differentiable parameters.
 """
+import ctypes
+import hashlib
 import math
 import os
 import re
 import stat
-import hashlib
 import threading
 import warnings
 import weakref
@@ -64,7 +66,7 @@ import numpy as np
 from .rebuild import RebuildError
 from . import rebuild as _rebuild
 from . import rgb_mode as _rgb_mode
-from .exr_strips import file_kind
+from .exr_strips import ExrDamaged, file_kind
 
 __all__ = ["register", "SpectexTexture", "read_spectral_exr", "SpectexError", "RebuildError"]
 __version__ = "0.1.0"
@@ -190,13 +192,77 @@ def read_spectral_exr(filename):
     return lams, cube, alpha, premultiplied, metadata
 
 
+_malloc_trim = None
+
+
+def _give_back_freed_memory():
+    """Returns to the system the heap memory a texture's load freed (strips, temporaries), which
+    glibc keeps in the reader threads' arenas otherwise: 36 MB after a 1536^2 file of 31 bins in
+    the spectra mode, 9 MB in the RGB mode. glibc's malloc_trim; nothing where there is none. About
+    2 ms with a large heap: called after large loads only."""
+    global _malloc_trim
+    if _malloc_trim is None:
+        try:
+            _malloc_trim = ctypes.CDLL(None).malloc_trim
+        except (OSError, AttributeError):
+            _malloc_trim = False
+    if _malloc_trim:
+        _malloc_trim(0)
+
+
+def _spectra_bands(filename):
+    """The spectra mode's source: (wavelengths [N] float64 ascending, width, height, whether every
+    reflectance channel is half, premultiplied, metadata dict of str, bands), bands yielding
+    (first row, spectra [N, rows, W] float32 (each bin's samples contiguous), alpha [rows, W]
+    float32 or None when not premultiplied). Read a strip at a time by exr_strips where it takes
+    the file (scanline NONE, RLE, ZIPS, ZIP: what spectex writes), so that loading never holds the
+    whole file; by mi.Bitmap otherwise (which decodes it whole first)."""
+    reader = _rgb_mode.open_strips(filename)
+    if reader is None:
+        lams, pixels, index, a, premultiplied, metadata, bitmap = _open_spectral_exr(filename)
+        premultiplied = a is not None and premultiplied
+
+        def from_bitmap():
+            for y0 in range(0, pixels.shape[0], _BAND_ROWS):
+                band = pixels[y0:y0 + _BAND_ROWS]
+                yield (y0, np.ascontiguousarray(np.moveaxis(band[:, :, index], 2, 0), dtype=np.float32),
+                       np.asarray(band[:, :, a], dtype=np.float32) if premultiplied else None)
+
+        return (lams, pixels.shape[1], pixels.shape[0], pixels.dtype == np.float16, premultiplied, metadata,
+                from_bitmap())
+    try:
+        names = [c[0] for c in reader.channels]
+        types = {c[0]: c[1] for c in reader.channels}
+        metadata = {k: v for k, v in reader.attributes.items() if isinstance(v, str)}
+        lams, index = _spectral_channels(filename, names)
+        channels = [names[k] for k in index]
+        premultiplied = _is_premultiplied(names, metadata)
+        if premultiplied:
+            channels.append("A")
+        half = all(types[c] == 1 for c in channels[:len(lams)])
+    except BaseException:
+        reader.close()
+        raise
+
+    def from_strips():
+        try:
+            for y0, planes in reader.strips(channels, rows=_BAND_ROWS, planar=True):
+                yield y0, planes[:len(lams)], planes[len(lams)] if premultiplied else None
+        except ExrDamaged as e:
+            raise SpectexError(f"spectex texture: {e}") from None
+        finally:
+            reader.close()
+
+    return lams, reader.width, reader.height, half, premultiplied, metadata, from_strips()
+
+
 def _jit_float_view(mi, n, kind=None):
     """A Dr.Jit array of n elements (kind: mi.Float, the default, or mi.Float16) and a writeable
     NumPy view of its memory, or (None, None) where the backend gives copies (a GPU): the texture's
     spectra are then written into its own array once, without a NumPy array of them besides."""
     import drjit as dr
 
-    data = dr.zeros(kind or mi.Float, n)
+    data = dr.empty(kind or mi.Float, n)  # every element is written by the caller: not cleared first
     dr.eval(data)
     view = data.numpy()
     if view.flags["OWNDATA"] or not view.flags["WRITEABLE"] or n == 0:
@@ -374,6 +440,15 @@ def _make_class(mi):
                 raise SpectexError(f"spectex texture: {self.filename}: mode '{self.mode}' is not one of "
                                    f"{', '.join(_MODES)}")
             self._rgb = None
+            try:
+                self._load()
+            except BaseException:
+                _give_back_freed_memory()
+                raise
+            if self.width * self.height * self.bins >= 1 << 21:  # not after each of many small ones
+                _give_back_freed_memory()
+
+        def _load(self):
             if self.mode != "spectra":
                 try:
                     self._load_rgb()
@@ -389,47 +464,57 @@ def _make_class(mi):
 
         def _load_spectra(self):
             self.holds = "spectra"
-            lams, pixels, index, a, premultiplied, metadata, bitmap = _open_spectral_exr(self.filename)
+            lams, width, height, half, premultiplied, metadata, bands = _spectra_bands(self.filename)
             self.wavelengths_nm = lams
             self.metadata = metadata
-            self.height, self.width = pixels.shape[:2]
-            self.bins = len(index)
-            self.premultiplied = a is not None and premultiplied
-            alpha = np.ascontiguousarray(pixels[:, :, a], dtype=np.float32) if self.premultiplied else None
+            self.height, self.width = height, width
+            self.bins = len(lams)
+            self.premultiplied = premultiplied
             # The spectra once in memory: in the JIT variants straight into the Dr.Jit array the
-            # texture evaluates (a view of its memory), a band of rows at a time, and the bitmap
-            # let go before anything else is made. Selecting the channels of the whole bitmap at
-            # once made a second copy of the file's samples before the float32 conversion: a
-            # 2048^2 file of 81 bins (1.36 GB of spectra) peaked at 2.7 GB, now 2.07 GB (the
-            # bitmap's half samples, 0.68 GB, are the rest, until they are let go).
-            # A half file's bins are held in half by the JIT variants, two to a 32-bit word (the
-            # lookup widens them to float32 exactly, so every value is the same): half the memory
-            # of float32. (Dr.Jit's own Float16 gathers made the render 1.4x slower.)
-            self._half_bins = not scalar and pixels.dtype == np.float16
+            # texture evaluates (a view of its memory), a band of rows at a time as the file is
+            # read. A half file's bins are held in half by the JIT variants, two to a 32-bit word
+            # (the lookup widens them to float32 exactly, so every value is the same): half the
+            # memory of float32. (Dr.Jit's own Float16 gathers made the render 1.4x slower.)
+            self._half_bins = not scalar and half
             count = self.height * self.width * self.bins
             data = view = None
             if not scalar:
                 if self._half_bins:
                     data, words = _jit_float_view(mi, (count + 1) // 2, mi.UInt32)
-                    view = words.view(np.float16)[:count] if words is not None else None
+                    view = None
+                    if words is not None:
+                        words[-1:] = 0  # the last word's second half, when count is odd, is never read
+                        view = words.view(np.float16)[:count]
                 else:
                     data, view = _jit_float_view(mi, count)
             cube = view.reshape(self.height, self.width, self.bins) if view is not None else \
                 np.empty((self.height, self.width, self.bins), dtype=np.float16 if self._half_bins else np.float32)
-            _fill_spectra(self.filename, pixels, index, cube)
-            del pixels, bitmap
+            alpha = np.empty((self.height, self.width), dtype=np.float32) if premultiplied else None
             # mean(): the mean over texels of the mean over Mitsuba's wavelength range (ends held),
             # and max(), both of the straight spectra, a band at a time.
             total = np.zeros(self.bins)
             self._max = 0.0
-            for y0 in range(0, self.height, _BAND_ROWS):
-                straight = cube[y0:y0 + _BAND_ROWS]
-                if self.premultiplied:
-                    a_band = alpha[y0:y0 + _BAND_ROWS, :, None]
+            for y0, planes, a_band in bands:
+                rows = planes.shape[1]
+                cube[y0:y0 + rows] = np.moveaxis(planes, 0, 2)
+                spectra = planes.reshape(self.bins, -1)
+                if a_band is not None:
+                    alpha[y0:y0 + rows] = a_band
                     with np.errstate(divide="ignore", invalid="ignore"):
-                        straight = np.where(a_band > 0, straight / a_band, 0.0)
-                total += straight.reshape(-1, self.bins).sum(axis=0, dtype=np.float64)
-                self._max = max(self._max, float(straight.max()))
+                        inv = np.where(a_band > 0, 1.0 / a_band, 0.0).astype(np.float32).reshape(-1)
+                    # The straight spectra's sums and largest value without making them.
+                    sums = spectra @ inv
+                    top = float(np.max(spectra.max(axis=0) * inv)) if inv.size else 0.0
+                else:
+                    sums = spectra @ np.ones(spectra.shape[1], dtype=np.float32)  # BLAS: 10x a float64 sum
+                    top = float(spectra.max()) if spectra.size else 0.0
+                # A NaN or an infinity anywhere in the band reaches its bin's sum.
+                if not (np.all(np.isfinite(sums)) and math.isfinite(top)) or \
+                        (a_band is not None and not np.all(np.isfinite(a_band))):
+                    raise SpectexError(f"spectex texture: {self.filename}: the reflectance channels hold NaN or Inf")
+                total += sums.astype(np.float64)
+                self._max = max(self._max, top)
+            del bands  # the bitmap, when Mitsuba's reader read the file
             lo, hi = float(mi.MI_CIE_MIN), float(mi.MI_CIE_MAX)
             fine = np.linspace(lo, hi, int(round(hi - lo)) + 1)
             avg_spec = total / max(1, self.height * self.width)
@@ -446,7 +531,6 @@ def _make_class(mi):
                 del cube, view
                 self._grid = mi.Float(lams.astype(np.float32))
                 self._alpha = mi.Float(alpha.reshape(-1)) if alpha is not None else None
-
 
         def _load_rgb(self):
             def alloc(n):

@@ -94,6 +94,20 @@ def _bitmap_source(filename):
     return names, metadata, pixels.shape[1], pixels.shape[0], sample_bits, strips
 
 
+def open_strips(filename):
+    """An ExrStrips reader of the file, or None where it does not take the file (Mitsuba's reader
+    decides then: it reads more layouts, and names what is wrong); SpectexError when the file
+    cannot be opened at all."""
+    from . import SpectexError
+
+    try:
+        return ExrStrips(filename)
+    except (ExrUnsupported, ExrDamaged):
+        return None
+    except OSError as e:
+        raise SpectexError(f"spectex texture: {filename}: cannot read: {e.strerror or e}") from None
+
+
 def load(filename, alloc):
     """Loads `filename` in the RGB mode, or raises RebuildError (no usable record: the caller holds
     the bins instead, or refuses) or SpectexError (the file cannot be read at all).
@@ -102,13 +116,7 @@ def load(filename, alloc):
     from . import SpectexError, _is_premultiplied, _spectral_channels
 
     t = RgbTexels()
-    reader = None
-    try:
-        reader = ExrStrips(filename)
-    except (ExrUnsupported, ExrDamaged):
-        reader = None  # Mitsuba's reader decides: it reads more layouts, and names what is wrong
-    except OSError as e:
-        raise SpectexError(f"spectex texture: {filename}: cannot read: {e.strerror or e}") from None
+    reader = open_strips(filename)
     try:
         if reader is not None:
             names = [c[0] for c in reader.channels]
