@@ -257,9 +257,10 @@ def _spectra_bands(filename):
 
 
 def _jit_float_view(mi, n, kind=None):
-    """A Dr.Jit array of n elements (kind: mi.Float, the default, or mi.Float16) and a writeable
-    NumPy view of its memory, or (None, None) where the backend gives copies (a GPU): the texture's
-    spectra are then written into its own array once, without a NumPy array of them besides."""
+    """A Dr.Jit array of n elements (kind: mi.Float, the default, or mi.UInt32 for words of two
+    halves), not cleared, and a writeable NumPy view of its memory, or (None, None) where the
+    backend gives copies (a GPU): the texture's spectra are then written into its own array once,
+    without a NumPy array of them besides."""
     import drjit as dr
 
     data = dr.empty(kind or mi.Float, n)  # every element is written by the caller: not cleared first

@@ -53,6 +53,7 @@ def _numbers(text, what):
         raise RebuildError(f"{what} holds NaN or infinity")
     return v
 
+
 TABLE_ATTR = "spectex:rebuildTable"  # the table's text: the largest attribute of a record
 
 
