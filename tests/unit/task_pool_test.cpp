@@ -55,10 +55,14 @@ TEST(TaskPool, ParallelForWithOneThreadRunsInOrderOnTheCaller) {
 TEST(TaskPool, ParallelForRethrowsAndStopsStartingIndices) {
     TaskPool pool(2);
     std::atomic<int> ran{0};
+    // Every other index takes 50 us, so that all of them would take over a second: with empty
+    // bodies the other two participants once ran every index while the throwing thread, preempted
+    // on a loaded machine between its throw and its catch, had not yet told them to stop.
     EXPECT_THROW(pool.parallel_for(100000, 3,
                                    [&](size_t i) {
                                        ++ran;
                                        if (i == 5) throw std::runtime_error("index 5");
+                                       std::this_thread::sleep_for(std::chrono::microseconds(50));
                                    }),
                  std::runtime_error);
     // Every participant stops at its next index once one call has thrown; a few calls may already
