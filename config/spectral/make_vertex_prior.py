@@ -92,12 +92,13 @@ def screen(sets):
     return np.concatenate(kept), np.concatenate(group), report
 
 
-def roughness(lam):
-    """Σ_k (z[k+1] - z[k])² · 5 nm / Δλ_k as a dense matrix (the C++ keeps it tridiagonal)."""
+def roughness(lam, weight=None):
+    """Σ_k (z[k+1] - z[k])² · 5 nm / Δλ_k as a dense matrix (the C++ keeps it tridiagonal), each
+    step times weight[k] if given."""
     n = len(lam)
     K = np.zeros((n, n))
     for k in range(n - 1):
-        w = 5.0 / (lam[k + 1] - lam[k])
+        w = 5.0 / (lam[k + 1] - lam[k]) * (1.0 if weight is None else weight[k])
         K[k, k] += w
         K[k + 1, k + 1] += w
         K[k, k + 1] -= w
@@ -256,6 +257,12 @@ class _JakobHanikaFaces(Lattice9):
         return self.gamma * np.arctanh(2 * np.clip(M.jh_spectrum(c)[0], CLIP, 1 - CLIP) - 1)
 
 
+def _increment_weighted(Z, alpha):
+    """roughness() with step k weighted by (var(z[k+1] - z[k]) / their mean)^-alpha over Z's rows."""
+    v = np.var(np.diff(Z, axis=1), axis=0)
+    return roughness(GRID, (v / v.mean()) ** -alpha) + 1e-9 * np.eye(N)
+
+
 def _lab(rgb):
     return colour.XYZ_to_Lab(np.clip(rgb, 1e-6, None) @ M.NPM.T,
                              colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"])
@@ -265,7 +272,10 @@ def also_tried(R, V, group, clipped, ev, beta):
     """Models tried beside the Gaussian of fit() and not kept, cross-validated the same way (leave
     one set out): (label, scores()) pairs. A mean that depends on the vertex's colour; Jakob-Hanika's
     spectra centring the faces (where the clipped colours land); a curvature term added to the
-    roughness (w times the sum of squared second differences of z, on the 5 nm grid)."""
+    roughness (w times the sum of squared second differences of z, on the 5 nm grid); the roughness
+    weighted per wavelength by the training z's increments (each step's weight the variance of
+    z[k+1] - z[k] to the power -alpha, relative to their mean: Brownian motion whose speed is
+    learned)."""
     K = roughness(GRID) + 1e-9 * np.eye(N)
     D2 = np.diff(np.eye(N), 2, axis=0)
     Z = np.arctanh(2 * np.clip(R, CLIP, 1 - CLIP) - 1)
@@ -277,6 +287,10 @@ def also_tried(R, V, group, clipped, ev, beta):
     makers += [(f"curvature w = {w:g}, faces 0, beta = {beta:g}",
                 lambda tr, w=w: Lattice9(K + w * D2.T @ D2, fit(R[tr], 0, 1.0, beta)[0], mu_face=np.zeros(N)))
                for w in (10, 100)]
+    makers += [(f"roughness by the increments' variance, alpha = {al:g}, faces 0, beta = {beta:g}",
+                lambda tr, al=al: Lattice9(_increment_weighted(Z[tr], al), fit(R[tr], 0, 1.0, beta)[0],
+                                           mu_face=np.zeros(N)))
+               for al in (0.25, 0.5, 1.0)]
     out = []
     for label, make in makers:
         S = np.zeros_like(R)
@@ -370,7 +384,7 @@ def main():
     ap.add_argument("-o", "--output", default=str(Path(__file__).resolve().parent / "vertex_prior_measured.csv"))
     ap.add_argument("--svg", help="also draw the trade-off along beta here (docs/images/measured_prior_tradeoff.svg)")
     ap.add_argument("--also-tried", action="store_true",
-                    help="also score the models tried and not kept (docs/methods.md), 10 s more")
+                    help="also score the models tried and not kept (docs/methods.md), about 15 s more")
     a = ap.parse_args()
     sets = training_sets()
     R, group, report = screen(sets)
