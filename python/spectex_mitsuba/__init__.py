@@ -498,21 +498,10 @@ def _make_class(mi):
             for y0, planes, a_band in bands:
                 rows = planes.shape[1]
                 cube[y0:y0 + rows] = np.moveaxis(planes, 0, 2)
-                spectra = planes.reshape(self.bins, -1)
                 if a_band is not None:
                     alpha[y0:y0 + rows] = a_band
-                    with np.errstate(divide="ignore", invalid="ignore"):
-                        inv = np.where(a_band > 0, 1.0 / a_band, 0.0).astype(np.float32).reshape(-1)
-                    # The straight spectra's sums and largest value without making them.
-                    sums = spectra @ inv
-                    top = float(np.max(spectra.max(axis=0) * inv)) if inv.size else 0.0
-                else:
-                    sums = spectra @ np.ones(spectra.shape[1], dtype=np.float32)  # BLAS: 10x a float64 sum
-                    top = float(spectra.max()) if spectra.size else 0.0
-                # A NaN or an infinity anywhere in the band reaches its bin's sum.
-                if not (np.all(np.isfinite(sums)) and math.isfinite(top)) or \
-                        (a_band is not None and not np.all(np.isfinite(a_band))):
-                    raise SpectexError(f"spectex texture: {self.filename}: the reflectance channels hold NaN or Inf")
+                _, sums, top = _rgb_mode.straight_stats(self.filename, planes.reshape(self.bins, -1),
+                                                        None if a_band is None else a_band.reshape(-1))
                 total += sums.astype(np.float64)
                 self._max = max(self._max, top)
             del bands  # the bitmap, when Mitsuba's reader read the file

@@ -108,6 +108,29 @@ def open_strips(filename):
         raise SpectexError(f"spectex texture: {filename}: cannot read: {e.strerror or e}") from None
 
 
+def straight_stats(filename, spectra, alpha):
+    """A band's straight (un-premultiplied) spectra summed: (1 / alpha where alpha > 0, else 0, as
+    float32, or None without alpha; each bin's sum over the band's texels [N]; the largest value),
+    without making the straight spectra. spectra: [N, texels] float32, alpha: [texels] or None.
+    SpectexError naming the file when any sample or alpha is NaN or infinite (a NaN or an infinity
+    anywhere reaches its bin's sum)."""
+    from . import SpectexError
+
+    inv = None
+    if alpha is not None:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = np.where(alpha > 0, 1.0 / alpha, 0.0).astype(np.float32)
+        sums = spectra @ inv
+        top = float(np.max(spectra.max(axis=0) * inv)) if inv.size else 0.0
+    else:
+        sums = spectra @ np.ones(spectra.shape[1], dtype=np.float32)  # BLAS: 10x a float64 sum
+        top = float(spectra.max()) if spectra.size else 0.0
+    if not (np.all(np.isfinite(sums)) and math.isfinite(top)) or \
+            (alpha is not None and not np.all(np.isfinite(alpha))):
+        raise SpectexError(f"spectex texture: {filename}: the reflectance channels hold NaN or Inf")
+    return inv, sums, top
+
+
 def load(filename, alloc):
     """Loads `filename` in the RGB mode, or raises RebuildError (no usable record: the caller holds
     the bins instead, or refuses) or SpectexError (the file cannot be read at all).
@@ -168,22 +191,12 @@ def load(filename, alloc):
             alpha = planes[record.bins].reshape(-1) if premultiplied else None
             out = t.texels[y0:y0 + rows].reshape(-1, t.stride)
             rgb = to_rgb @ spectra  # [3, texels]
+            inv, sums, top = straight_stats(filename, spectra, alpha)
             if alpha is not None:
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    inv = np.where(alpha > 0, 1.0 / alpha, 0.0).astype(np.float32)
                 rgb *= inv
                 out[:, 3] = alpha
-                # The straight spectra's sums and largest value without making them.
-                sums = spectra @ inv
-                top = float(np.max(spectra.max(axis=0) * inv)) if inv.size else 0.0
             else:
                 out[:, 3] = 1.0
-                sums = spectra @ np.ones(spectra.shape[1], dtype=np.float32)  # BLAS: 10x a float64 sum
-                top = float(spectra.max()) if spectra.size else 0.0
-            # A NaN or an infinity anywhere in the strip reaches its channel's sum.
-            if not (np.all(np.isfinite(sums)) and math.isfinite(top)) or \
-                    (alpha is not None and not np.all(np.isfinite(alpha))):
-                raise SpectexError(f"spectex texture: {filename}: the reflectance channels hold NaN or Inf")
             out[:, :3] = rgb.T
             total += sums.astype(np.float64)
             t.max = max(t.max, top)

@@ -585,6 +585,37 @@ def rewrite(src, dst, change):
     return dst
 
 
+@pytest.mark.parametrize("compression", ["zip", "piz"])
+def test_a_sample_that_is_not_finite_is_refused_naming_the_file_in_every_mode(tmp, compression):
+    """A NaN or an infinity in one bin of one texel, or in one alpha, of a premultiplied bake (half)
+    is refused in each mode, with the file's name, whether the strip reader (ZIP) or Mitsuba's
+    (PIZ) reads it: a lookup would return it, and a render would carry it to every pixel it
+    reaches. The same rewrite with the sample left finite loads (the edit alone is no error)."""
+    exr = bake(LEAF, os.path.join(tmp, "nf.exr"))
+
+    def edited(name, channel, value):
+        def change(spec, px):
+            spec.attribute("compression", compression)
+            px = px.copy()
+            px[5, 7, list(spec.channelnames).index(channel)] = value
+            return spec, px
+        return rewrite(exr, os.path.join(tmp, f"{name}_{compression}.exr"), change)
+
+    kept = edited("nf_finite", "T.550nm", 0.25)
+    at, wl = np.array([[7.5 / 256, 5.5 / 256]]), np.full((1, 4), 550.0)
+    for mode in ("rgb", "spectra", "auto"):
+        assert np.all(np.isfinite(eval_at(load(kept, mode), at, wl)))
+    for name, channel, value in (("nf_nan", "T.550nm", np.nan), ("nf_inf", "T.700nm", np.inf),
+                                 ("nf_minus_inf", "T.400nm", -np.inf), ("nf_alpha", "A", np.nan)):
+        path = edited(name, channel, value)
+        for mode in ("rgb", "spectra", "auto"):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                with pytest.raises((RuntimeError, spectex_mitsuba.SpectexError),
+                                   match=rf"{name}_{compression}\.exr.*NaN or Inf"):
+                    load(path, mode)
+
+
 def test_a_damaged_or_moved_record_is_refused_or_set_aside(tmp):
     exr = bake(CHART, os.path.join(tmp, "t.exr"))
     other = bake(CHART, os.path.join(tmp, "t_jh_prior.exr"), "--vertex-prior", "jakob-hanika")
