@@ -124,7 +124,10 @@ void print_text(const VerifyReport& r, const VerifyGates& g,
     else if (r.compared && !method_is_exact(r.method))
         o << "  gates:                colour gates off: " << r.method << " spectra are not exact\n";
     for (const auto& a : gates_applied(r, g)) o << "  gate:                 " << a << "\n";
-    if (failures.empty())
+    if (failures.empty() && r.source_changed)
+        o << "  result:               STALE: " << stale_failure(r)
+          << " (reported, not failed: --report-only)\n";
+    else if (failures.empty())
         o << "  result:               ok\n";
     else
         for (const auto& f : failures)
@@ -180,7 +183,9 @@ constexpr const char* kVerifyDescription =
     "--method jakob-hanika (not exact) get no colour gates unless thresholds are given.\n"
     "A file whose source changed since the bake (its size or bytes differ from the header's\n"
     "spectex:sourceSize and spectex:sourceHash) is STALE: its colours are not compared, and it\n"
-    "fails (the JSON record's \"result\" is \"stale\").\n"
+    "fails (the JSON record's \"result\" is \"stale\", \"passed\" false); with --report-only it "
+    "is\n"
+    "still STALE and not passed, but does not fail the exit status.\n"
     "Exit status: 0 every file passed, 1 a gate failed, a file was stale or could not be read, 2 "
     "usage error.";
 
@@ -339,7 +344,7 @@ int report_outcomes(const VerifyArgs& a, const std::vector<std::string>& files,
                     const std::vector<VerifyOutcome>& outcomes) {
     const bool json_stdout = a.json == "-";
     std::string json_text;
-    size_t failed = 0, unreadable = 0, stale = 0;
+    size_t failed = 0, unreadable = 0, stale = 0, stale_reported = 0;
     for (size_t i = 0; i < files.size(); ++i) {
         const VerifyOutcome& o = outcomes[i];
         if (!o.readable) {
@@ -353,7 +358,8 @@ int report_outcomes(const VerifyArgs& a, const std::vector<std::string>& files,
         for (const auto& w : o.report.warnings)
             print_error("warning: " + quote_path(files[i]) + ": " + w);
         if (!o.failures.empty()) ++failed;
-        if (verify_result_word(o.report, o.failures) == "STALE") ++stale;
+        if (verify_result_word(o.report, o.failures) == "STALE")
+            ++(o.failures.empty() ? stale_reported : stale);
         if (!json_stdout && !a.quiet) {
             if (files.size() == 1)
                 print_text(o.report, a.t, o.failures);
@@ -364,10 +370,14 @@ int report_outcomes(const VerifyArgs& a, const std::vector<std::string>& files,
         for (const auto& f : o.failures) print_error(quote_path(o.report.file) + ": " + f);
     }
     if (files.size() > 1 && !json_stdout && !a.quiet)
-        std::cout << files.size() << " files: " << files.size() - failed - unreadable << " passed, "
-                  << failed << " failed"
-                  << (stale ? " (" + std::to_string(stale) + " with a changed source)" : "") << ", "
-                  << unreadable << " unreadable\n";
+        std::cout << files.size()
+                  << " files: " << files.size() - failed - unreadable - stale_reported
+                  << " passed, " << failed << " failed"
+                  << (stale ? " (" + std::to_string(stale) + " with a changed source)" : "")
+                  << (stale_reported ? ", " + std::to_string(stale_reported) +
+                                           " stale (not compared, not failed: --report-only)"
+                                     : "")
+                  << ", " << unreadable << " unreadable\n";
     std::cout.flush();
     int status = failed || unreadable ? 1 : 0;
     if (json_stdout) {

@@ -113,7 +113,8 @@ std::string stale_failure(const VerifyReport& r) {
 }
 
 std::string verify_result_word(const VerifyReport& r, const std::vector<std::string>& failures) {
-    if (failures.empty()) return "ok";
+    // --report-only leaves no failure, but a file whose source changed was still never compared.
+    if (failures.empty()) return r.source_changed ? "STALE" : "ok";
     return r.source_changed && failures.front() == stale_failure(r) ? "STALE" : "FAILED";
 }
 

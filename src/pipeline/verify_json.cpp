@@ -140,7 +140,7 @@ std::string verify_json(const VerifyReport& r, const VerifyGates& t,
     j["report_only"] = t.report_only;
     put_texts(j, "gates", gates_applied(r, t));
     put_texts(j, "failures", failures);
-    j["passed"] = failures.empty();
+    j["passed"] = failures.empty() && !r.source_changed;  // a stale file was not compared
     std::string word = verify_result_word(r, failures);
     for (char& ch : word) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
     j["result"] = word;  // "ok", "failed" or "stale"

@@ -51,6 +51,36 @@ TEST(ProvenanceTruth, VerifyReportsASourceReplacedSinceTheBakeAsChanged) {
     EXPECT_NE(r.out.find("STALE"), std::string::npos) << r.out;
 }
 
+// --report-only turns the gates off, not the facts: a file whose source changed was never
+// compared, and a script reading "result" or "passed" must not take it for a good bake.
+TEST(ProvenanceTruth, ReportOnlyStillCallsAStaleFileStaleAndNotPassedButExitsZero) {
+    ScratchDir d;
+    write_pattern_png(d / "a.png", 1);
+    write_pattern_png(d / "b.png", 2);
+    ASSERT_EQ(run_spectex({"bake", d / "a.png", d / "b.png", "--output-dir", d / "out"}).status, 0);
+    write_pattern_png(d / "a.png", 7);
+    RunResult r = run_spectex({"verify", d / "out/a.exr", "--source-from-header", "--report-only"});
+    EXPECT_EQ(r.status, 0) << r.out << r.err;
+    EXPECT_NE(r.out.find("result:               STALE: the source"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("(reported, not failed: --report-only)"), std::string::npos) << r.out;
+    EXPECT_EQ(r.out.find("result:               ok"), std::string::npos) << r.out;
+    r = run_spectex({"verify", d / "out/a.exr", d / "out/b.exr", "--source-from-header",
+                     "--report-only", "--json", "-"});
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(occurrences(r.out, "\"result\":\"stale\""), 1u) << r.out;
+    EXPECT_EQ(occurrences(r.out, "\"passed\":false"), 1u) << r.out;
+    EXPECT_EQ(occurrences(r.out, "\"result\":\"ok\""), 1u) << r.out;
+    // Several files: the per-file line and the summary say it too.
+    r = run_spectex(
+        {"verify", d / "out/a.exr", d / "out/b.exr", "--source-from-header", "--report-only"});
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("a.exr: STALE"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("2 files: 1 passed, 0 failed, 1 stale (not compared, not failed: "
+                         "--report-only), 0 unreadable"),
+              std::string::npos)
+        << r.out;
+}
+
 TEST(ProvenanceTruth, VerifyTellsASameSizeReplacementByItsBytesAndIgnoresATouch) {
     ScratchDir d;
     write_pattern_ppm(d / "a.ppm", 1);
