@@ -43,15 +43,33 @@ std::vector<std::string> split_commas(const std::string& line) {
 
 bool to_double(const std::string& s, double* v) { return parse_finite(s, v); }
 
-// "wavelength", "Wavelength (nm)", " WAVELENGTH(nm) ": a name of the wavelength column.
+// "wavelength", "Wavelength (nm)", " WAVELENGTH(nm) ", "Wavelength [nm]", "wavelength_nm",
+// "lambda", "nm", "wl": a name of the wavelength column, as the tables people export spell it.
 bool names_wavelength(const std::string& field) {
     std::string f = lower_ascii(trim(field));
-    if (!f.empty() && f.back() == ')') {
-        const size_t open = f.rfind('(');
-        if (open == std::string::npos) return false;
-        f = trim(f.substr(0, open));
+    for (const auto& [open_c, close_c] : {std::pair<char, char>{'(', ')'}, {'[', ']'}}) {
+        if (!f.empty() && f.back() == close_c) {
+            const size_t open = f.rfind(open_c);
+            if (open == std::string::npos) return false;
+            f = trim(f.substr(0, open));
+            break;
+        }
     }
-    return f == "wavelength";
+    for (const char* unit : {"_nm", " nm", "-nm"})
+        if (f.size() > 3 && f.compare(f.size() - 3, 3, unit) == 0)
+            f = trim(f.substr(0, f.size() - 3));
+    for (const char* name : {"wavelength", "wavelengths", "lambda", "\xce\xbb", "nm", "wl", "wave"})
+        if (f == name) return true;
+    return false;
+}
+
+// A line of finite numbers only: a table's first row when it has no header.
+bool all_numbers(const std::vector<std::string>& fields) {
+    for (const auto& f : fields) {
+        double v;
+        if (!parse_finite(f, &v)) return false;
+    }
+    return true;
 }
 
 // A header row's matches of `expected` (see CsvHeader).
@@ -91,6 +109,13 @@ CsvTable parse_csv_table(const std::string& text, const std::string& source,
         }
         auto fields = split_commas(s);
         std::string where = source + ":" + std::to_string(lineno) + ": ";
+        if (!have_header && header == CsvHeader::WavelengthFirst &&
+            fields.size() == expected.size() && all_numbers(fields)) {
+            // No header: the columns are expected's, in its order, and this line is data.
+            t.columns = expected;
+            t.data.assign(expected.size(), {});
+            have_header = true;
+        }
         if (!have_header) {
             if (fields.size() < 2 || fields.size() > kMaxColumns)
                 throw Error(where + "expected a header line such as 'wavelength,value'");
@@ -103,7 +128,9 @@ CsvTable parse_csv_table(const std::string& text, const std::string& source,
                                 (header == CsvHeader::WavelengthFirst
                                      ? " (a wavelength column, e.g. 'Wavelength (nm)', then " +
                                            std::to_string(expected.size() - 1) + " named column" +
-                                           (expected.size() == 2 ? "" : "s") + ")"
+                                           (expected.size() == 2 ? "" : "s") +
+                                           "; or no header, rows of " +
+                                           std::to_string(expected.size()) + " numbers)"
                                      : ""));
                 }
             }

@@ -18,9 +18,11 @@ struct CsvTable {
 // How a header must match `expected`.
 enum class CsvHeader {
     Exact,  // every name equals expected's (case-insensitive, surrounding blanks ignored)
-    // The first column names a wavelength ("wavelength", any case, optionally followed by a unit
-    // in parentheses: "Wavelength (nm)") and the others are any text that is not a number, as
-    // many as expected has: the tables people export ("Wavelength (nm),Relative Power").
+    // The first column names a wavelength ("wavelength", "lambda", "nm", "wl", any case,
+    // optionally with a unit: "Wavelength (nm)", "Wavelength [nm]", "wavelength_nm") and the
+    // others are any text that is not a number, as many as expected has: the tables people
+    // export ("Wavelength (nm),Relative Power"). Or no header at all: the first line is then as
+    // many finite numbers as expected has columns, and the columns take expected's names.
     WavelengthFirst,
 };
 

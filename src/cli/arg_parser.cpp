@@ -300,7 +300,8 @@ void observer_option(ArgParser& p, const std::string& whose, std::string& observ
     p.option("--observer", "NAME|FILE",
              whose +
                  ": cie1931-2 (default), cie1964-10, or a CSV wavelength,x,y,z (header: a "
-                 "wavelength column, e.g. \"Wavelength (nm)\", then 3 named columns). A singular "
+                 "wavelength column, e.g. \"Wavelength (nm)\", then 3 named columns; or none). "
+                 "A singular "
                  "one (x, y, z linearly dependent) is refused.",
              [&observer](const std::string& v) { observer = v; });
 }

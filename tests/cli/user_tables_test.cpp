@@ -191,6 +191,22 @@ TEST(UserTables, TablesWithADescriptiveHeaderAreRead) {
     write_text(d / "light.csv", light);
     RunResult r = run_spectex({"render", exr, "-o", d / "r.png", "--illuminant", d / "light.csv"});
     EXPECT_EQ(r.status, 0) << r.err;
+    // The same table without a header, and under another usual name of the wavelength column:
+    // the same light, so the same picture.
+    // (The pictures' pixel chunks are compared: their text names the light's file.)
+    auto pixels = [](const std::string& png) {
+        const size_t at = png.find("IDAT");
+        return at == std::string::npos ? std::string() : png.substr(at);
+    };
+    write_text(d / "bare.csv", light.substr(light.find('\n') + 1));
+    write_text(d / "lambda.csv", "lambda [nm],W\n" + light.substr(light.find('\n') + 1));
+    for (const std::string& same : {"bare.csv", "lambda.csv"}) {
+        const std::string png = d / (same + ".png");
+        RunResult s = run_spectex({"render", exr, "-o", png, "--illuminant", d / same});
+        EXPECT_EQ(s.status, 0) << same << ": " << s.err;
+        EXPECT_FALSE(pixels(read_file(png)).empty()) << same;
+        EXPECT_EQ(pixels(read_file(png)), pixels(read_file(d / "r.png"))) << same;
+    }
     // Still refused: a header whose first column is not a wavelength, a number as a column name,
     // binary data.
     write_text(d / "bad1.csv", "Energy,Power\n400,1\n700,1\n");

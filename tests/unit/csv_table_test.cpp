@@ -69,3 +69,43 @@ TEST(CsvTable, BasisWithTheOlderCommentPreambleStillReads) {
     EXPECT_EQ(t.comments.size(), 2u);
     EXPECT_EQ(t.data[3][1], 0.6);
 }
+
+// Light and observer tables as people export them: the wavelength column under any of its usual
+// names, with or without a unit; or no header at all.
+TEST(CsvTable, WavelengthFirstTakesTheUsualNamesAndNoHeader) {
+    const std::vector<std::string> light{"wavelength", "value"};
+    for (const char* name : {"wavelength", "Wavelength (nm)", "WAVELENGTH(nm)", "Wavelength [nm]",
+                             "wavelength_nm", "Wavelength nm", "wavelengths", "lambda",
+                             "Lambda (nm)", "\xce\xbb (nm)", "nm", "wl", "wave"}) {
+        const std::string text = std::string(name) + ",Relative Power\n400,1\n410,2\n";
+        const CsvTable t = parse_csv_table(text, "light.csv", light, CsvHeader::WavelengthFirst);
+        ASSERT_EQ(t.rows(), 2u) << name;
+        EXPECT_DOUBLE_EQ(t.data[0][1], 410) << name;
+        EXPECT_DOUBLE_EQ(t.data[1][1], 2) << name;
+    }
+    // No header: the first row is data, the columns take the expected names.
+    const CsvTable bare = parse_csv_table("# a comment\n400,1\n410,2.5\n", "light.csv", light,
+                                          CsvHeader::WavelengthFirst);
+    ASSERT_EQ(bare.rows(), 2u);
+    EXPECT_EQ(bare.columns, light);
+    EXPECT_DOUBLE_EQ(bare.data[0][0], 400);
+    EXPECT_DOUBLE_EQ(bare.data[1][1], 2.5);
+    const CsvTable observer =
+        parse_csv_table("400,0.01,0.002,0.05\n410,0.04,0.001,0.2\n", "obs.csv",
+                        {"wavelength", "x", "y", "z"}, CsvHeader::WavelengthFirst);
+    EXPECT_EQ(observer.rows(), 2u);
+    // Still refused: a first column that names something else, a number as a column's name, a
+    // headerless row of the wrong width, and a headerless table for the exact headers (the basis).
+    for (const char* bad : {"intensity,value\n400,1\n", "wavelength,5\n400,1\n",
+                            "colour,value\n400,1\n", "400,1,2\n410,1,2\n", "nmx,value\n400,1\n"})
+        EXPECT_THROW(parse_csv_table(bad, "light.csv", light, CsvHeader::WavelengthFirst), Error)
+            << bad;
+    EXPECT_THROW(parse_csv_table("380,0.1,0.2,0.7\n", "basis.csv", {"wavelength", "r", "g", "b"}),
+                 Error);
+    try {
+        parse_csv_table("intensity,value\n400,1\n", "light.csv", light, CsvHeader::WavelengthFirst);
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("or no header, rows of 2 numbers"), std::string::npos)
+            << e.what();
+    }
+}
