@@ -232,7 +232,7 @@ void declare_spectra_options(ArgParser& p, BakeCli& c) {
     p.option("--wavelengths-file", "FILE",
              "Output wavelengths, one per line (any strictly increasing list, at most 4701).",
              [&](const std::string& v) { c.wavelengths_file = v; });
-    add_plan_options(p, c.req.plan, c.plan_lights, c.plan_budget);
+    add_plan_options(p, c.req.plan, c.plan_lights, c.plan_budget, false);
     add_cache_option(p, c.no_cache);
     p.section("Method");
     add_method_options(

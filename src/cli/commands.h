@@ -23,7 +23,9 @@ class ArgParser;
 // The options that `plan` and `bake --wavelengths auto` share: --lights, --max-de,
 // --reconstruction, --range, --grids (plan_command.cpp). The flags say whether lights and a budget
 // were given.
-void add_plan_options(ArgParser& p, PlanSpec& spec, bool& lights_given, bool& budget_given);
+// texture_option: the command has plan's --texture (bake measures the sample only).
+void add_plan_options(ArgParser& p, PlanSpec& spec, bool& lights_given, bool& budget_given,
+                      bool texture_option);
 // --no-cache, which plan and bake --wavelengths auto share.
 void add_cache_option(ArgParser& p, bool& no_cache);
 // Progress of the grid search on stderr, in the batch's style: "<prefix>[5/21] measuring each

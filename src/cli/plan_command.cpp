@@ -22,7 +22,8 @@
 namespace spectex {
 
 // The options that plan and bake --wavelengths auto share.
-void add_plan_options(ArgParser& p, PlanSpec& spec, bool& lights_given, bool& budget_given) {
+void add_plan_options(ArgParser& p, PlanSpec& spec, bool& lights_given, bool& budget_given,
+                      bool texture_option) {
     p.option("--lights", "LIST",
              "Lights of the scene, comma-separated: shipped names (D65, A, FL11...), colour "
              "temperatures (e.g. 3200K) or CSV files (plan's default D65,A,FL11). "
@@ -67,14 +68,15 @@ void add_plan_options(ArgParser& p, PlanSpec& spec, bool& lights_given, bool& bu
         "offered when one needs fewer bins than every uniform candidate (and is measured to hold).",
         [&] { spec.nonuniform = true; });
     p.option("--grids", "LIST",
-             "Candidate grids instead of the default ones (uniform 1, 2, 2.5, 4, 5, 10, 20 nm over "
-             "380:780, "
-             "400:700 and --range), e.g. the grids a renderer supports: 380:780:5,400:700:10. "
-             "The bins of all\ngrids x the lights x the colours (the sample, or 1,048,576 for "
-             "--texture) must stay within the limit\nof 2e10 (8 times the default table), and "
-             "for the lattice and jakob-hanika the tables within 2^27\nsamples; a grid has at "
-             "most 4701 bins (0.1 nm over 360:830): larger requests are usage\nerrors (exit 2) "
-             "before any work.",
+             std::string("Candidate grids instead of the default ones (uniform 1, 2, 2.5, 4, 5, "
+                         "10, 20 nm over 380:780, 400:700 and --range), e.g. the grids a "
+                         "renderer supports: 380:780:5,400:700:10. The bins of all\ngrids x the "
+                         "lights x the colours (the sample") +
+                 (texture_option ? ", or 1,048,576 for --texture" : "") +
+                 ") must stay within the limit\nof 2e10 (8 times the default table), and "
+                 "for the lattice and jakob-hanika the tables within 2^27\nsamples; a grid has "
+                 "at most 4701 bins (0.1 nm over 360:830): larger requests are usage\nerrors "
+                 "(exit 2) before any work.",
              [&](const std::string& v) {
                  spec.candidates.clear();
                  for (const auto& g : split_list(v, "--grids")) {
@@ -340,7 +342,7 @@ int run_plan(const std::vector<std::string>& args) {
         "~/.cache/spectex) under a hash of everything it depends on: the same plan again, or bake\n"
         "--wavelengths auto with the same settings, takes it from there (--no-cache: search "
         "again).");
-    add_plan_options(p, o.spec, o.lights_given, o.budget_given);
+    add_plan_options(p, o.spec, o.lights_given, o.budget_given, true);
     add_method_and_conditions(p, o);
     add_measure_options(p, o);
     p.common({"--lights", "--max-de", "--method", "--nonuniform", "--texture", "--grid-file",

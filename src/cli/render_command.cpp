@@ -64,9 +64,9 @@ int run_render(const std::vector<std::string>& args) {
            [&] { s.adapt = false; });
     p.section("Resources");
     p.option("--max-pixels", "N",
-             "Refuse files with more pixels than this (default 268435456 = 16384^2), and a "
-             "sheet (several\nlights: panels, gaps and label strip) with more: a usage error "
-             "(exit 2), before any pixel is read.",
+             "Refuse files with more pixels than this (default 268435456 = 16384^2: the file "
+             "fails, exit 1,\nas in bake), and a sheet (several lights: panels, gaps and label "
+             "strip) with more (a usage\nerror, exit 2), before any pixel is read.",
              [&](const std::string& v) { s.max_pixels = parse_count("--max-pixels", v); });
     p.option("--threads", "N", "Threads integrating pixels (default: all cores).",
              [&](const std::string& v) { s.threads = parse_int("--threads", v, 0, 1024); });

@@ -24,7 +24,7 @@ it says bake does by default is what bake does.
   Before the pages are read, the rule is run on sentences it must refuse (the text it was written
   against) and on sentences it must let through, so that a change that blunts it fails here too.
 - A page whose commands (code blocks) run build/venv/bin/python also gives tests/bench/setup.sh,
-  the set-up of that venv alone (minutes, where the test command takes an hour); the script exists,
+  the set-up of that venv alone (minutes, where the test command takes half an hour); the script exists,
   is executable and makes the venv with the function .ci/bootstrap uses.
 - A ratio README.md gives for size or time (a number followed by × within 60 characters of
   "bytes", "file", "size", "time", "faster" or "slower", or in a table whose header or row has one
@@ -33,10 +33,14 @@ it says bake does by default is what bake does.
   file's size, and so its time, depends on what the texture holds. Those sentences and rows,
   together, name all three kinds: photograph-like, noise and flat colours (one texture's ratio
   is not the method's).
+- The man page renders without a warning from groff (`groff -man -Tutf8 -ww -z`): a character
+  roff does not know (a raw "Δ") or a broken macro is shown wrong or dropped by `man`.
 Exit 1 with one line per problem.
 """
 import os
 import re
+import shutil
+import subprocess
 import sys
 from bisect import bisect_right
 from pathlib import Path
@@ -355,6 +359,15 @@ for page in pages:
                 problems.append(f"{page.relative_to(root)}: a command runs build/venv/bin/python, but the "
                                 "page does not give tests/bench/setup.sh, which makes that venv alone")
             break
+
+# --- The man page as groff reads it --------------------------------------------------------------
+
+if shutil.which("groff") is None:
+    problems.append("man/spectex.1: groff is not installed (groff-base), so the man page cannot be checked")
+else:
+    r = subprocess.run(["groff", "-man", "-Tutf8", "-ww", "-z", str(man)], capture_output=True, text=True)
+    for line in (r.stderr.strip().splitlines() or ([f"groff exited {r.returncode}"] if r.returncode else [])):
+        problems.append(f"man/spectex.1: groff: {line}")
 
 for p in problems:
     print(p)
