@@ -144,6 +144,8 @@ std::vector<std::string> ArgParser::parse(const std::vector<std::string>& args) 
                 takes = takes ||
                         (next.size() > suffix.size() &&
                          next.compare(next.size() - suffix.size(), suffix.size(), suffix) == 0);
+            if (!takes && !next.empty() && next[0] != '-')
+                declined_.push_back({e->names.back(), next});
             value = takes ? args[++i] : e->bare;
             inline_value = true;
         }
@@ -163,6 +165,24 @@ std::vector<std::string> ArgParser::parse(const std::vector<std::string>& args) 
 }
 
 void ArgParser::common(std::vector<std::string> names) { common_ = std::move(names); }
+
+std::string ArgParser::declined(const std::string& name) const {
+    for (const auto& [option, arg] : declined_)
+        if (option == name) return arg;
+    return "";
+}
+
+std::string ArgParser::declined_hint(const std::string& name, const std::string& arg) const {
+    const std::string d = declined(name);
+    if (d.empty() || d != arg) return "";
+    const Entry* e = find(name);
+    std::string suffixes;
+    for (size_t i = 0; e && i < e->suffixes.size(); ++i)
+        suffixes += (i ? (i + 1 == e->suffixes.size() ? " or " : ", ") : "") + e->suffixes[i];
+    return " (it followed " + name + ", which takes a FILE only when it ends in " + suffixes +
+           " or is given as " + name + "=FILE: it was read as an argument" +
+           (e && e->bare == "-" ? ", and " + name + " alone means standard output)" : ")");
+}
 
 void ArgParser::describe(std::ostringstream& o, const Entry& e) const {
     std::string label = "  " + e.label;

@@ -53,6 +53,12 @@ class ArgParser {
         bool has_value = false;
     };
     const std::vector<Given>& given() const { return given_; }
+    // The argument an option_or_flag left as a positional one because it was not its FILE (no
+    // suffix of it: "--json info.txt"), by the option's long name; "" when none. A command names
+    // it in the error the positional then causes.
+    std::string declined(const std::string& name) const;
+    // " (it followed NAME, ...)" when `arg` is the argument NAME declined, else "".
+    std::string declined_hint(const std::string& name, const std::string& arg) const;
 
   private:
     struct Entry {
@@ -72,6 +78,7 @@ class ArgParser {
     std::vector<Entry> entries_;
     std::vector<std::string> common_;
     std::vector<Given> given_;
+    std::vector<std::pair<std::string, std::string>> declined_;  // (option, argument)
     bool help_ = false;
 };
 

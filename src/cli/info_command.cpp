@@ -197,7 +197,7 @@ int run_info(const std::vector<std::string>& args) {
                 std::cout << "  " << one_line(k) << " " << one_line(v) << "\n";
             }
         } catch (const Error& e) {
-            print_error(name_file(f, e.what()));
+            print_error(name_file(f, e.what()) + p.declined_hint("--json", f));
             status = 1;
         }
     }

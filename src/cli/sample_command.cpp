@@ -167,7 +167,13 @@ int run_sample(const std::vector<std::string>& args) {
         if (p.parse_or_help(args, pos)) return 0;
         if (pos.empty()) throw UsageError("no input file");
         if (pos.size() < 2) throw UsageError("no pixel X,Y given");
-        for (size_t i = 1; i < pos.size(); ++i) xy.push_back(parse_pixel("", pos[i]));
+        for (size_t i = 1; i < pos.size(); ++i) {
+            try {
+                xy.push_back(parse_pixel("", pos[i]));
+            } catch (const UsageError& e) {
+                throw UsageError(e.what() + p.declined_hint("--json", pos[i]));
+            }
+        }
         s.illuminants = distinct_lights(s.illuminants);
         check_observer_setting("--observer", s.observer);
         for (const auto& l : s.illuminants) check_illuminant_setting("--illuminant", l);

@@ -234,6 +234,20 @@ TEST(JsonNames, EveryCommandTakesAFileOrADash) {
         const RunResult onto = with({"--json=" + exr});
         EXPECT_EQ(onto.status, 2) << onto.err;
         EXPECT_EQ(read_file(exr), before);
+        // A FILE without the suffix is read as an argument: the error that follows says why,
+        // and nothing is written under its name.
+        const std::string txt = d / (c.args[0] + "_out.txt");
+        const RunResult declined = with({"--json", txt});
+        EXPECT_NE(declined.status, 0) << declined.err;
+        EXPECT_NE(declined.err.find("it followed --json, which takes a FILE only when it ends in "
+                                    ".json or .jsonl or is given as --json=FILE"),
+                  std::string::npos)
+            << declined.err;
+        EXPECT_FALSE(file_exists(txt));
+        // The hint is for that argument only: another missing input gets none.
+        const RunResult missing = with({"--json", "-", d / "missing.exr"});
+        EXPECT_NE(missing.status, 0);
+        EXPECT_EQ(missing.err.find("it followed --json"), std::string::npos) << missing.err;
     }
     // The commands that always took a value take '-' and a file alike.
     const RunResult plan =
