@@ -122,6 +122,8 @@ void check_outputs_against_reads(const BakeCli& c, BatchPlan& plan,
         return;
     }
     plan.files = select_shard(whole, Shard::parse(c.shard));
+    plan.shard = c.shard;
+    plan.listed = whole.size();
 }
 
 // What bake's set-up tells (pipeline/bake_request), printed as bake prints it: on stderr, warnings

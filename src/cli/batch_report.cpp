@@ -144,7 +144,7 @@ class BatchReport : public BatchListener {
         const BatchCounts& n = outcome.counts;
         if (plan_.progress && plan_.progress_terminal) std::cerr << "\r\033[K";
         const size_t not_attempted = n.total - n.done;
-        if (!plan_.quiet && (n.total > 1 || n.failed || n.skipped)) {
+        if (!plan_.quiet && (n.total > 1 || n.failed || n.skipped || !plan_.shard.empty())) {
             const double el =
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - process_start())
                     .count();
@@ -155,7 +155,11 @@ class BatchReport : public BatchListener {
                           << (outcome.signal ? "interrupted by " + signal_name(outcome.signal)
                                              : std::string("--fail-fast"))
                           << ")";
-            std::cerr << " of " << n.total << " in " << seconds_text(el) << "\n";
+            std::cerr << " of " << n.total << " in " << seconds_text(el);
+            if (!plan_.shard.empty())
+                std::cerr << " (shard " << plan_.shard << " of " << plan_.listed << " listed file"
+                          << (plan_.listed == 1 ? "" : "s") << ")";
+            std::cerr << "\n";
             print_colour_spaces(plan_, outcome.baked, outcome.was_baked);
         }
         // A warning about the data: printed under --quiet too.

@@ -21,6 +21,10 @@ struct BatchPlan {
     bool progress_terminal =
         false;  // progress as one rewritten line (a terminal), else timestamped lines
     bool make_folders = false;  // outputs named by a template or --output-dir: create their folders
+    // --shard "i/n" when files is one shard of a list of `listed` files ("" the whole list): the
+    // summary says so, even of a shard that holds one file or none.
+    std::string shard;
+    size_t listed = 0;
     // With update: each file's check_update, made before the set-up (empty: checked by the
     // workers). When every file is up to date, the settings carry no method: nothing is baked.
     std::vector<UpdateCheck> prechecked;

@@ -116,6 +116,15 @@ TEST(Batch, ShardsCoverEveryInputExactlyOnce) {
     ASSERT_EQ(baked.size(), inputs.size());
     for (const auto& [in, times] : baked) EXPECT_EQ(times, 1) << in;
     EXPECT_EQ(list_dir(d / "out").size(), inputs.size());
+    // A farm log says which shard ran and what it held, even a shard of one file or none (more
+    // shards than files): a silent task cannot be told from one that never started.
+    for (const std::string shard : {"1/20", "20/20"}) {
+        const auto r = run_spectex(
+            {"bake", inputs[0], inputs[1], "--output-dir", d / "few", "--shard", shard});
+        ASSERT_EQ(r.status, 0) << r.err;
+        EXPECT_TRUE(contains(r.err, "failed of ")) << r.err;
+        EXPECT_TRUE(contains(r.err, "(shard " + shard + " of 2 listed files)")) << r.err;
+    }
     EXPECT_EQ(run_spectex({"bake", inputs[0], "--output-dir", d / "o", "--shard", "4/3"}).status,
               2);
     EXPECT_EQ(run_spectex({"bake", inputs[0], "--output-dir", d / "o", "--shard", "0/3"}).status,
