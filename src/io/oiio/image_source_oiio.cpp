@@ -267,6 +267,10 @@ ChannelChoice choose_by_name(const std::vector<std::string>& names, const std::s
 ChannelChoice choose_by_position(const OIIO::ImageSpec& spec) {
     ChannelChoice c;
     int alpha = spec.alpha_channel;
+    // A reader's alpha index past the last channel is not an alpha channel: OpenImageIO 2.4's GIF
+    // reader gives 4 for its 4 channels, and taking it read a fifth channel, shifting every
+    // pixel's channels by one.
+    if (alpha >= spec.nchannels) alpha = -1;
     if (alpha < 0 && spec.nchannels == 2) alpha = 1;
     if (alpha < 0 && spec.nchannels >= 4) alpha = 3;
     if (spec.nchannels == 1) alpha = -1;  // a lone channel is the image, never alpha over nothing
@@ -442,6 +446,12 @@ void OiioImageSource::choose_channels(const OIIO::ImageSpec& spec) {
                                      ? choose_by_name(spec.channelnames, info.path)
                                      : choose_by_position(spec);
     if (!choice.note.empty()) info.notes.push_back(choice.note);
+    for (int i = 0; i < 4; ++i) {
+        const int c = i < 3 ? choice.colour[i] : choice.alpha;
+        if (c >= spec.nchannels || c < (i < 3 ? 0 : -1))
+            throw Error(info.path + ": the reader named channel " + std::to_string(c) + " of " +
+                        std::to_string(spec.nchannels));
+    }
     // Only the span of channels in use is read (a 1000-channel file is not decoded whole).
     int lo = choice.colour[0], hi = choice.colour[0];
     for (int c : {choice.colour[1], choice.colour[2], choice.alpha})
