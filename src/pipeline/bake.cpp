@@ -436,6 +436,12 @@ class PixelStages {
     // under the method's light for the filtered colour and within [0, 1] once divided by alpha,
     // as level 0 is; under other lights it differs from the filter of level 0's spectra by the
     // method's curvature between the texels filtered together.
+    //
+    // Straight output (--alpha unassociated): level 0's planes are the straight colour, and a
+    // level's is the filter of the premultiplied colour divided by the filtered alpha (as maketx
+    // filters unassociated alpha): what cannot be seen is not filtered in. A texel with nothing
+    // seen keeps the plain filter of the straight colour (a cut-out's hidden colour, as level 0
+    // keeps it).
     void write_mipmapped() {
         const size_t n0 = w_ * static_cast<size_t>(info_.height);
         std::array<std::vector<float>, 4> level;
@@ -446,6 +452,13 @@ class PixelStages {
             read_rows(y0, y1, level[0].data() + off, level[1].data() + off, level[2].data() + off,
                       has_alpha_ ? level[3].data() + off : nullptr);
         }
+        const bool straight_out = has_alpha_ && !premultiply_;
+        std::array<std::vector<float>, 3> weighted;  // straight_out: colour times alpha
+        if (straight_out)
+            for (size_t c = 0; c < 3; ++c) {
+                weighted[c].resize(n0);
+                for (size_t i = 0; i < n0; ++i) weighted[c][i] = level[c][i] * level[3][i];
+            }
         std::vector<uint16_t> half;
         std::vector<float> flt;
         int lw = info_.width, lh = info_.height;
@@ -454,8 +467,18 @@ class PixelStages {
                 const int nw = writer_.level_width(l), nh = writer_.level_height(l);
                 for (auto& p : level)
                     if (!p.empty()) p = box_downsample(p, lw, lh, nw, nh);
+                for (auto& p : weighted)
+                    if (!p.empty()) p = box_downsample(p, lw, lh, nw, nh);
                 lw = nw;
                 lh = nh;
+                if (straight_out) {
+                    const size_t n = static_cast<size_t>(lw) * static_cast<size_t>(lh);
+                    for (size_t i = 0; i < n; ++i) {
+                        const float a = level[3][i];
+                        if (!(a > 0.0f)) continue;
+                        for (size_t c = 0; c < 3; ++c) level[c][i] = weighted[c][i] / a;
+                    }
+                }
             }
             for (int y0 = 0; y0 < lh; y0 += tile_height_) {
                 const int y1 = std::min(lh, y0 + tile_height_);

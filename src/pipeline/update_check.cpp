@@ -52,6 +52,9 @@ void hash_settings(Fnv1a64& h, const BakeSettings& s) {
     fnv(h, s.colour_rounding ? "colour-rounding" : "nearest");
     fnv(h, std::to_string(s.tile_width) + "x" + std::to_string(s.tile_height) +
                (s.mipmap ? "mip" : ""));
+    // Straight MIP levels are filtered weighted by alpha: files whose levels let hidden colours
+    // bleed in (made before) are other pixels, so --update rebakes them; every other hash stays.
+    if (s.mipmap && s.alpha == AlphaKind::Unassociated) fnv(h, "straight levels weighted by alpha");
     // The wrapmodes recorded, when they differ from what the output records without --wrap
     // (black,black in a tiled file, nothing in a scanline one): those hashes stay as they were.
     const std::string no_wrap = s.tile_width > 0 || s.mipmap ? "black,black" : "";

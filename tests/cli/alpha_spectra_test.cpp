@@ -188,6 +188,75 @@ TEST(AlphaSpectra, EveryMethodKeepsTheStraightSpectrumOfTheColourOnEveryLevel) {
             }
 }
 
+// What cannot be seen is not filtered in: a checkerboard of opaque red and fully transparent
+// green (and one 4x4 block of transparent cyan) has, on every MIP level, the straight spectrum of
+// red wherever anything is seen, whether the file stores spectra premultiplied or straight
+// (--alpha unassociated): its levels are filtered on the premultiplied colour and divided by the
+// filtered alpha, as maketx does. Filtering the straight colour alone gave yellow at level 1.
+TEST(AlphaSpectra, TransparentColoursNeverBleedIntoMipLevels) {
+    ScratchDir d;
+    const std::string in = d / "checker.png";
+    std::vector<uint8_t> px(16 * 16 * 4);
+    for (int y = 0; y < 16; ++y)
+        for (int x = 0; x < 16; ++x) {
+            uint8_t* p = &px[static_cast<size_t>(4 * (y * 16 + x))];
+            const bool hidden_block = x >= 12 && y < 4;
+            const bool red = !hidden_block && (x + y) % 2 == 0;
+            p[0] = red ? 255 : 0;
+            p[1] = red ? 0 : 255;
+            p[2] = hidden_block ? 255 : 0;
+            p[3] = red ? 255 : 0;
+        }
+    write_image(in, 16, 16, 4, OIIO::TypeDesc::UINT8, px.data(), {{"oiio:UnassociatedAlpha", "1"}});
+    const std::vector<Case> methods = {
+        {"default", {}},
+        {"basis", {"--method", "basis"}},
+        {"lattice", {"--method", "lattice"}},
+        {"jakob-hanika", {"--method", "jakob-hanika", "--jh-resolution", "9"}}};
+    for (const Case& m : methods)
+        for (const std::string alpha : {"associated", "unassociated"}) {
+            SCOPED_TRACE(m.name + ", " + alpha);
+            const std::string out = d / (m.name + "-" + alpha + ".exr");
+            std::vector<std::string> args{"bake", in, "-o", out, "--alpha", alpha, "--mipmap"};
+            args.insert(args.end(), m.args.begin(), m.args.end());
+            const RunResult r = run_spectex(args);
+            ASSERT_EQ(r.status, 0) << r.err;
+            const std::vector<Level> levels = read_levels(out);
+            ASSERT_EQ(levels.size(), 5u);
+            const size_t bins = levels[0].names.size();
+            const std::vector<double> step = steps(read_exr(out), bins);
+            const bool assoc = alpha == "associated";
+            double worst_gap = 0;
+            std::string gap_at;
+            size_t seen = 0;
+            for (size_t l = 1; l < levels.size(); ++l) {
+                const Level& lv = levels[l];
+                for (size_t i = 0; i < lv.alpha.size(); ++i) {
+                    const double a = lv.alpha[i];
+                    if (!(a > 0)) continue;
+                    ++seen;
+                    for (size_t k = 0; k < bins; ++k) {
+                        const double v = lv.spectra[k][i] / (assoc ? a : 1.0);
+                        const double ref = levels[0].spectra[k][0];  // pixel (0, 0): opaque red
+                        // As above: both values' steps, A's half rounding, half's subnormal step.
+                        const double tol = 2 * step[k] + std::ldexp(1.0, -11);
+                        const double floor = std::ldexp(1.0, -24) * (assoc ? 1 / a : 1);
+                        const double gap = std::fabs(v - ref) - (tol * ref + floor + 1e-6);
+                        if (gap > worst_gap) {
+                            worst_gap = gap;
+                            gap_at = lv.names[k] + " level " + std::to_string(l) + " texel " +
+                                     std::to_string(i) + ": " + std::to_string(v) +
+                                     " against red's " + std::to_string(ref) + ", A " +
+                                     std::to_string(a);
+                        }
+                    }
+                }
+            }
+            EXPECT_GT(seen, 50u);
+            EXPECT_LE(worst_gap, 0.0) << "a hidden colour bled in: " << gap_at;
+        }
+}
+
 // A file whose spectra are not premultiplied but says they are (as a bake that expanded A·rgb
 // leaves T/A above 1): verify's range gate divides by A and fails it.
 TEST(AlphaSpectra, VerifyFailsStraightSamplesAboveOneOnceDividedByAlpha) {
