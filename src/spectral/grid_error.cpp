@@ -82,21 +82,6 @@ WavelengthGrid observed_renderer_grid(const Observer& observer) {
     return renderer_grid(std::ceil(lo - 1e-9), std::floor(hi + 1e-9));
 }
 
-namespace {
-
-// Linear interpolation of a table at l; 0 outside it.
-double value_at(const Spectrum& s, double l) {
-    if (s.lambda.empty() || l < s.lambda.front() || l > s.lambda.back()) return 0;
-    const size_t k = static_cast<size_t>(std::upper_bound(s.lambda.begin(), s.lambda.end(), l) -
-                                         s.lambda.begin());
-    if (k >= s.lambda.size()) return s.value.back();
-    if (k == 0) return s.value.front();
-    const double t = (l - s.lambda[k - 1]) / (s.lambda[k] - s.lambda[k - 1]);
-    return (1 - t) * s.value[k - 1] + t * s.value[k];
-}
-
-}  // namespace
-
 LightWeights light_weights(const Observer& observer, const Spectrum& light,
                            const WavelengthGrid& fine) {
     const double lo =
@@ -118,7 +103,7 @@ LightWeights light_weights(const Observer& observer, const Spectrum& light,
     double norm = 0;
     for (Eigen::Index k = 0; k < n; ++k) {
         const double l = fine.lambda[static_cast<size_t>(k)];
-        const double e = value_at(light, l);
+        const double e = light.at_or_dark(l);
         if (!std::isfinite(e) || e < 0)
             throw Error("illuminant " + light.name + " has a negative or non-finite value");
         if (light.lambda.empty() || l < light.lambda.front() || l > light.lambda.back())

@@ -21,13 +21,6 @@ namespace spectex {
 
 namespace {
 
-// XYZ weights of a reflectance on the bins under a light (the perfect reflector has Y = 1).
-Colorimetry light_on_bins(const Observer& observer, const Spectrum& light,
-                          const std::vector<double>& lambda) {
-    return Colorimetry::make(observer, light, WavelengthGrid::from_list(lambda),
-                             primaries_by_name("srgb"));
-}
-
 // The colour of a file's spectra as a renderer sees it (spectral/grid_error.h): the bins
 // reconstructed linearly at 1 nm, end values held, over 360-830 nm (clipped to the observer's
 // table), integrated with the observer under the light. W is 3 x bins; white is the perfect
@@ -410,14 +403,21 @@ void expand_float_premultiplied(const SpectralMethod& method, const float* r, co
 
 std::vector<double> bin_visibility(const Observer& observer, const std::vector<Spectrum>& lights,
                                    const std::vector<double>& lambda) {
-    std::vector<double> vis(lambda.size(), 0.0);
+    // Each bin's XYZ weight under each light, the light dark beyond its table (a grid may reach
+    // past a light's table: 380:830 against A's 300-780), relative to the light's largest.
+    const WavelengthGrid grid = WavelengthGrid::from_list(lambda);
+    const std::vector<double> x = observer.x.sample(grid), y = observer.y.sample(grid),
+                              z = observer.z.sample(grid);
+    std::vector<double> vis(lambda.size(), 0.0), w(lambda.size());
     for (const Spectrum& l : lights) {
-        const Colorimetry c = light_on_bins(observer, l, lambda);
-        const double peak = c.W.cwiseAbs().maxCoeff();
+        double peak = 0;
+        for (size_t k = 0; k < lambda.size(); ++k) {
+            const double e = l.at_or_dark(lambda[k]) * grid.weight[k];
+            w[k] = std::max({std::abs(e * x[k]), std::abs(e * y[k]), std::abs(e * z[k])});
+            peak = std::max(peak, w[k]);
+        }
         if (!(peak > 0)) continue;
-        for (size_t k = 0; k < lambda.size(); ++k)
-            vis[k] = std::max(vis[k],
-                              c.W.col(static_cast<Eigen::Index>(k)).cwiseAbs().maxCoeff() / peak);
+        for (size_t k = 0; k < lambda.size(); ++k) vis[k] = std::max(vis[k], w[k] / peak);
     }
     return vis;
 }

@@ -66,6 +66,16 @@ std::vector<double> Spectrum::sample(const WavelengthGrid& grid) const {
     return out;
 }
 
+double Spectrum::at_or_dark(double l) const {
+    if (lambda.empty() || l < lambda.front() || l > lambda.back()) return 0;
+    const size_t k =
+        static_cast<size_t>(std::upper_bound(lambda.begin(), lambda.end(), l) - lambda.begin());
+    if (k >= lambda.size()) return value.back();
+    if (k == 0) return value.front();
+    const double t = (l - lambda[k - 1]) / (lambda[k] - lambda[k - 1]);
+    return (1 - t) * value[k - 1] + t * value[k];
+}
+
 Spectrum load_illuminant_csv(const std::string& path, const std::string& name) {
     CsvTable t = read_csv_table(path, {"wavelength", "value"}, CsvHeader::WavelengthFirst);
     // A user's file is named once ("ill.csv: illuminant has ..."), a shipped one by its path and

@@ -14,6 +14,9 @@ struct Spectrum {
 
     // Linear interpolation; throws when the grid leaves the table's range (no extrapolation).
     std::vector<double> sample(const WavelengthGrid& grid) const;
+    // Linear interpolation at l; 0 outside the table (a light is dark where it has no values, as
+    // plan and the renderer's colour take it).
+    double at_or_dark(double l) const;
 };
 
 struct Observer {

@@ -214,6 +214,25 @@ TEST(PrecisionSlow, AutoTakesTheDefaultsLightsAndBudgetWithAnyMethod) {
     }
 }
 
+// The default's lights on a grid that reaches past some of their tables (A and FL2 end at 780 nm):
+// they are dark there, as plan takes them, instead of "800 nm lies outside the A table" (exit 2).
+TEST(PrecisionSlow, TheDefaultBakesOnAGridPastItsLightsTables) {
+    ScratchDir d;
+    write_pattern_png(d / "in.png", 3);
+    const std::string out = d / "o.exr";
+    const RunResult r =
+        run_spectex({"bake", d / "in.png", "-o", out, "--wavelengths", "400:800:20"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    const ExrImage img = read_exr(out);
+    EXPECT_EQ(img.attr(key::kPrecisionLights), "D65,A,FL2,FL11,D50,LED-B3");
+    std::istringstream bits(img.attr(key::kPrecisionBits));
+    int b = 0, n = 0;
+    while (bits >> b) ++n;
+    EXPECT_EQ(n, 21) << img.attr(key::kPrecisionBits);
+    const RunResult v = run_spectex({"verify", out, "--source", d / "in.png"});
+    EXPECT_EQ(v.status, 0) << v.out << v.err;
+}
+
 TEST(Precision, UsageErrorsAreRefusedBeforeAnyWork) {
     ScratchDir d;
     std::vector<uint8_t> px(12, 128);

@@ -683,3 +683,37 @@ TEST(PrecisionSlow, AGridOverTheBudgetKeepsEveryBitAtOnce) {
     EXPECT_GT(*std::max_element(c.worst_de.begin(), c.worst_de.end()), 0.25);
     EXPECT_LE(c.evaluations, 2u);
 }
+
+// A grid may reach past a light's table (380:830 against A's 300-780 nm, FL2's 380-780): the light
+// is dark there, as plan and the renderer's colour take it; the default bake on such a grid threw
+// "785 nm lies outside the A table". Inside the tables the visibility is each bin's XYZ weight
+// under the light (Colorimetry's) relative to the light's largest, to rounding.
+TEST(Precision, BinVisibilityTakesALightAsDarkBeyondItsTable) {
+    const Observer obs = load_observer(kDir, "cie1931-2");
+    const Spectrum a = load_illuminant(kDir, "A"), d65 = load_illuminant(kDir, "D65");
+    std::vector<double> wide;
+    for (double l = 380; l <= 830; l += 10) wide.push_back(l);
+    const std::vector<double> vis_a = bin_visibility(obs, {a}, wide);
+    ASSERT_EQ(vis_a.size(), wide.size());
+    double top = 0;
+    for (size_t k = 0; k < wide.size(); ++k) {
+        top = std::max(top, vis_a[k]);
+        if (wide[k] > a.lambda.back())
+            EXPECT_EQ(vis_a[k], 0.0) << wide[k];
+        else
+            EXPECT_GT(vis_a[k], 0.0) << wide[k];
+    }
+    EXPECT_DOUBLE_EQ(top, 1.0);
+    const std::vector<double> vis_both = bin_visibility(obs, {a, d65}, wide);
+    EXPECT_GT(vis_both.back(), 0.0) << "D65's table reaches 830 nm";
+    std::vector<double> inside;
+    for (double l = 400; l <= 700; l += 10) inside.push_back(l);
+    const Colorimetry c =
+        Colorimetry::make(obs, d65, WavelengthGrid::from_list(inside), primaries_by_name("srgb"));
+    const std::vector<double> vis = bin_visibility(obs, {d65}, inside);
+    const double peak = c.W.cwiseAbs().maxCoeff();
+    for (size_t k = 0; k < inside.size(); ++k)
+        EXPECT_NEAR(vis[k], c.W.col(static_cast<Eigen::Index>(k)).cwiseAbs().maxCoeff() / peak,
+                    1e-12)
+            << inside[k];
+}
