@@ -699,6 +699,32 @@ TEST(HardInputs, GifBakesAsThePngOfItsDecodedPixels) {
     EXPECT_TRUE(same_pixels(a, b, &why)) << why;
 }
 
+// A CMYK TIFF holds ink separations, which OpenImageIO hands over as they are (ink0..ink3): read
+// by position they baked as R, G, B with black ink as alpha (100 % cyan: transparent black), exit
+// 0, and verify passed it. Refused, naming the file and what to do, by bake and by verify.
+TEST(HardInputs, InkSeparationsAreRefusedNotReadAsRgba) {
+    ScratchDir d;
+    std::vector<uint8_t> px(16 * 16 * 4, 0);
+    for (size_t i = 0; i < px.size(); i += 4) px[i] = 255;  // cyan ink only
+    const std::string tif = d / "cmyk.tif";
+    write_image(tif, 16, 16, 4, OIIO::TypeDesc::UINT8, px.data(), {{"tiff:ColorSpace", "CMYK"}});
+    {
+        auto in = OIIO::ImageInput::open(tif);
+        ASSERT_TRUE(in);
+        ASSERT_EQ(in->spec().get_int_attribute("tiff:PhotometricInterpretation", -1), 5)
+            << "the test file is not separated";
+    }
+    const RunResult r = run_spectex({"bake", tif, "-o", d / "out.exr"});
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_TRUE(contains(r.err, tif + ": ink separations (CMYK)")) << r.err;
+    EXPECT_FALSE(file_exists(d / "out.exr"));
+    write_pattern_png(d / "p.png", 1, 16, 16);
+    ASSERT_EQ(run_spectex({"bake", d / "p.png", "-o", d / "p.exr"}).status, 0);
+    const RunResult v = run_spectex({"verify", d / "p.exr", "--source", tif});
+    EXPECT_NE(v.status, 0) << v.out;
+    EXPECT_TRUE(contains(v.err + v.out, "ink separations")) << v.err << v.out;
+}
+
 TEST(HardInputs, SampleTypesAndChannelCounts) {
     // 8/16-bit PNG, half and float EXR, with 1 to 4 channels: all bake, spectra in [0, 1], A
     // present exactly when the input has alpha.

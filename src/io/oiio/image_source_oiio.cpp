@@ -442,6 +442,16 @@ void OiioImageSource::describe(const OIIO::ImageSpec& spec, uint64_t max_pixels,
 // Channels: by name where the format has names (OpenEXR), else by position.
 void OiioImageSource::choose_channels(const OIIO::ImageSpec& spec) {
     SourceInfo& info = info_;
+    // Ink separations (a CMYK TIFF: OpenImageIO names its channels ink0..ink3 and converts
+    // nothing): read by position they were taken as R, G, B and A, black ink as alpha. Their
+    // colour depends on the inks and the press; spectex reads RGB only.
+    const int photometric = spec.get_int_attribute("tiff:PhotometricInterpretation", -1);
+    const bool inks = std::any_of(spec.channelnames.begin(), spec.channelnames.end(),
+                                  [](const std::string& n) { return n.rfind("ink", 0) == 0; });
+    if (photometric == 5 || inks)
+        throw Error(info.path + ": ink separations (CMYK" +
+                    (spec.nchannels != 4 ? ", " + std::to_string(spec.nchannels) + " inks" : "") +
+                    "): spectex reads RGB; convert the file to RGB with its ICC profile first");
     const ChannelChoice choice = info.format_name == "openexr"
                                      ? choose_by_name(spec.channelnames, info.path)
                                      : choose_by_position(spec);
