@@ -303,6 +303,7 @@ std::string format_from_signature(const unsigned char* b, size_t n) {
     if (is("\x80\x2a\x5f\xd7", 4)) return "cineon";
     if (is("\0\0\0\x0cjP  ", 8) || is("\xff\x4f\xff\x51", 4)) return "jpeg2000";
     if (is("DDS ", 4)) return "dds";
+    if (is("FOR4", 4) && is("CIMG", 4, 8)) return "iff";
     if (is("SIMPLE  =", 9)) return "fits";
     if (is("\x53\x80\xf6\x34", 4)) return "pic";
     if (is("ftyp", 4, 4) &&
@@ -377,6 +378,14 @@ std::string OiioImageSource::choose_format(const CheckedFile& f, const std::stri
         throw Error(path +
                     ": cannot read: neither its contents nor its name (no extension) say what "
                     "image format it is");
+    // OpenImageIO 2.4's Maya IFF reader expands run-length data without checking it against its
+    // buffers: one damaged byte freed memory twice (a crash) or, in a batch, silently corrupted the
+    // heap the other files were baked with. No file of a format whose reader can do that is opened.
+    if (format == "iff" || format == "z")
+        throw Error(path +
+                    ": Maya IFF is not read: OpenImageIO's IFF reader does not check its "
+                    "run-length data, and a damaged file corrupts memory; convert it to EXR, TIFF "
+                    "or PNG first");
     return format;
 }
 
