@@ -746,6 +746,23 @@ TEST(HardInputs, MayaIffIsRefusedBeforeItsReaderRuns) {
     EXPECT_TRUE(file_exists(d / "out/ok.exr"));
 }
 
+// Tiled inputs are read a band of tile rows at a time, and the bake's strips (rows of about 32 MB
+// of spectral samples) do not fall on tile rows: a tiled TIFF of 48-row tiles, tall enough for
+// several strips, bakes exactly as the scanline TIFF of the same pixels.
+TEST(HardInputs, TiledInputsReadByBandsBakeAsScanlines) {
+    ScratchDir d;
+    const int w = 1500, h = 400;
+    std::vector<uint8_t> px(static_cast<size_t>(w * h * 3));
+    for (size_t i = 0; i < px.size(); ++i) px[i] = static_cast<uint8_t>((i * 2654435761u) >> 24);
+    const std::string tiled = d / "tiled.tif", lines = d / "lines.tif";
+    write_image(tiled, w, h, 3, OIIO::TypeDesc::UINT8, px.data(), {}, 48);
+    write_image(lines, w, h, 3, OIIO::TypeDesc::UINT8, px.data());
+    ExrImage a = bake_ok(tiled, d / "tiled.exr");
+    ExrImage b = bake_ok(lines, d / "lines.exr");
+    std::string why;
+    EXPECT_TRUE(same_pixels(a, b, &why)) << why;
+}
+
 TEST(HardInputs, SampleTypesAndChannelCounts) {
     // 8/16-bit PNG, half and float EXR, with 1 to 4 channels: all bake, spectra in [0, 1], A
     // present exactly when the input has alpha.

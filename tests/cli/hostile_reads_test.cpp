@@ -786,3 +786,38 @@ TEST(HostileReads, HeaderSizesAreReportedForWhatTheyAre) {
     EXPECT_TRUE(has_text(i.err, "'count' of type int is 2 bytes, not 4")) << i.err;
     EXPECT_FALSE(has_text(i.err, "chunks")) << i.err;
 }
+
+// A tiled TIFF's header claims what its tiles do not hold: a 64x64 file whose width and length
+// tags say 16000 (a few hundred bytes). Tiled inputs were read whole, so 4 GB were allocated and
+// zeroed before the first missing tile was found (10 s; std::bad_alloc under a 2 GiB limit): they
+// are read a band of tile rows at a time, and such a file fails at once, naming the file and
+// the reader's reason, in the memory of a band.
+TEST(HostileReads, ATiledTiffClaimingHugeSizeFailsInABandsMemory) {
+    ScratchDir d;
+    std::vector<uint8_t> px(64 * 64 * 4, 200);
+    const std::string tif = d / "claims.tif";
+    write_image(tif, 64, 64, 4, OIIO::TypeDesc::UINT8, px.data(), {}, 64);
+    std::string b = read_file(tif);
+    ASSERT_EQ(b.substr(0, 4), std::string("II*\0", 4));
+    auto u16 = [&](size_t at) {
+        return static_cast<uint32_t>(static_cast<uint8_t>(b[at])) |
+               static_cast<uint32_t>(static_cast<uint8_t>(b[at + 1])) << 8;
+    };
+    const size_t ifd = u16(4) | static_cast<size_t>(u16(6)) << 16;
+    int patched = 0;
+    for (uint32_t k = 0, n = u16(ifd); k < n; ++k) {
+        const size_t e = ifd + 2 + 12 * k;
+        const uint32_t tag = u16(e), type = u16(e + 2);
+        if (tag != 256 && tag != 257) continue;  // ImageWidth, ImageLength
+        const uint32_t v = 16000;
+        for (size_t i = 0; i < (type == 3 ? 2u : 4u); ++i)
+            b[e + 8 + i] = static_cast<char>((v >> (8 * i)) & 0xff);
+        ++patched;
+    }
+    ASSERT_EQ(patched, 2);
+    write_bytes(tif, b);
+    const std::string out = d / "out.exr";
+    const Limited r = run_limited({"bake", tif, "-o", out});
+    expect_refused("tiled TIFF claiming 16000x16000", r, tif, out, "read failed");
+    if (!kSanitized) EXPECT_LT(r.maxrss_kb, 1024 * 1024) << "kB";
+}

@@ -117,7 +117,11 @@ class OiioImageSource final : public ImageSource {
     int color_channels[3] = {0, 0, 0};  // relative to chbegin
     int alpha = -1;                     // relative to chbegin, -1 when none
     bool tiled = false;
-    std::vector<float> whole;  // tiled inputs: the whole first level, read once
+    int tile_height = 0;
+    // Tiled inputs: a band of whole tile rows, rows [band_y0, band_y1) of the image (0-based),
+    // read by read_tiles and kept for the next request that falls in it.
+    std::vector<float> band;
+    int band_y0 = 0, band_y1 = 0;
     std::vector<float> scratch_;
 };
 
@@ -446,6 +450,7 @@ void OiioImageSource::describe(const OIIO::ImageSpec& spec, uint64_t max_pixels,
     }
     choose_channels(spec);
     tiled = spec.tile_width > 0;
+    tile_height = spec.tile_height;
 }
 
 // Channels: by name where the format has names (OpenEXR), else by position.
@@ -558,15 +563,24 @@ void OiioImageSource::read_rgba(int y0, int y1, float* rgba) {
     OIIO::ImageInput* in = I.in.get();
     const float* s;
     if (I.tiled) {
-        // OIIO 2.4's read_scanlines divides by zero on tiled TIFFs when it converts types, and
-        // bands of rows need not be tile-aligned: read the whole level once (the RGB input is the
-        // one thing allowed to be whole in memory: the spectral planes are streamed).
-        if (I.whole.empty()) {
-            I.whole.resize(w * static_cast<size_t>(info_.height) * static_cast<size_t>(nch));
-            if (!in->read_image(0, 0, I.chbegin, I.chend, OIIO::TypeDesc::FLOAT, I.whole.data()))
-                throw Error(info_.path + ": read failed: " + oiio_error(in));
+        // OIIO 2.4's read_scanlines divides by zero on tiled TIFFs when it converts types: tiled
+        // inputs are read by whole tile rows covering the request, never the whole image at once
+        // (a 500-byte tiled TIFF claiming 16000x16000 pixels had 4 GB allocated before its first
+        // tile was found broken).
+        if (y0 < I.band_y0 || y1 > I.band_y1) {
+            const int th = std::max(1, I.tile_height);
+            const int b0 = y0 / th * th;
+            const int b1 = std::min(info_.height, (y1 + th - 1) / th * th);
+            I.band.resize(w * static_cast<size_t>(b1 - b0) * static_cast<size_t>(nch));
+            I.band_y0 = I.band_y1 = 0;
+            if (!in->read_tiles(0, 0, info_.x, info_.x + info_.width, info_.y + b0, info_.y + b1, 0,
+                                1, I.chbegin, I.chend, OIIO::TypeDesc::FLOAT, I.band.data()))
+                throw Error(info_.path + ": read failed at rows " + std::to_string(y0) + "-" +
+                            std::to_string(y1 - 1) + ": " + oiio_error(in));
+            I.band_y0 = b0;
+            I.band_y1 = b1;
         }
-        s = I.whole.data() + static_cast<size_t>(y0) * w * static_cast<size_t>(nch);
+        s = I.band.data() + static_cast<size_t>(y0 - I.band_y0) * w * static_cast<size_t>(nch);
     } else {
         scratch_.resize(w * rows * static_cast<size_t>(nch));
         if (!in->read_scanlines(0, 0, info_.y + y0, info_.y + y1, 0, I.chbegin, I.chend,
