@@ -673,30 +673,37 @@ TEST(HardInputs, PalettePngMatchesTheSameColoursAsRgb) {
     }
 }
 
-// OpenImageIO 2.4's GIF reader calls its four channels' alpha channel 4, one past the last:
-// taken as given it read a fifth channel and shifted every pixel's channels (an opaque blue read as
-// a translucent grey). A GIF bakes as the PNG of the pixels OpenImageIO decodes from it.
-TEST(HardInputs, GifBakesAsThePngOfItsDecodedPixels) {
-    ScratchDir d;
-    const int w = 9, h = 5;
-    std::vector<uint8_t> rgb;
-    for (int i = 0; i < w * h; ++i)
-        for (int c = 0; c < 3; ++c)
-            rgb.push_back(
-                static_cast<uint8_t>(std::vector<int>{26, 128, 230, 200, 40, 90}[(i % 2) * 3 + c]));
-    const std::string gif = d / "g.gif", png = d / "g.png";
-    write_image(gif, w, h, 3, OIIO::TypeDesc::UINT8, rgb.data());
-    auto in = OIIO::ImageInput::open(gif);
-    ASSERT_TRUE(in) << OIIO::geterror();
-    const int nch = in->spec().nchannels;
-    std::vector<uint8_t> decoded(static_cast<size_t>(w * h * nch));
-    ASSERT_TRUE(in->read_image(0, 0, 0, nch, OIIO::TypeDesc::UINT8, decoded.data()));
-    in->close();
-    write_image(png, w, h, nch, OIIO::TypeDesc::UINT8, decoded.data());
-    ExrImage a = bake_ok(gif, d / "gif.exr");
-    ExrImage b = bake_ok(png, d / "png.exr");
-    std::string why;
-    EXPECT_TRUE(same_pixels(a, b, &why)) << why;
+// A file of a format OpenImageIO decodes on its own terms bakes as the PNG of the pixels
+// OpenImageIO decodes from it (all channels, 8-bit). GIF: its reader calls its four channels' alpha
+// channel 4, one past the last: taken as given it read a fifth channel and shifted every pixel's
+// channels (an opaque blue read as a translucent grey). WebP: probing its reader for a second frame
+// left it unable to decode the first ("Couldn't decode subimage 0"): no WebP could be read.
+TEST(HardInputs, GifAndWebpBakeAsThePngOfTheirDecodedPixels) {
+    for (const std::string ext : {"gif", "webp"}) {
+        SCOPED_TRACE(ext);
+        ScratchDir d;
+        const int w = 9, h = 5;
+        std::vector<uint8_t> rgb;
+        for (int i = 0; i < w * h; ++i)
+            for (int c = 0; c < 3; ++c)
+                rgb.push_back(static_cast<uint8_t>(
+                    std::vector<int>{26, 128, 230, 200, 40, 90}[(i % 2) * 3 + c]));
+        const std::string in = d / ("g." + ext), png = d / "g.png";
+        write_image(in, w, h, 3, OIIO::TypeDesc::UINT8, rgb.data());
+        auto src = OIIO::ImageInput::open(in);
+        ASSERT_TRUE(src) << OIIO::geterror();
+        const int nch = src->spec().nchannels;
+        std::vector<uint8_t> decoded(static_cast<size_t>(w * h * nch));
+        ASSERT_TRUE(src->read_image(0, 0, 0, nch, OIIO::TypeDesc::UINT8, decoded.data()));
+        src->close();
+        write_image(png, w, h, nch, OIIO::TypeDesc::UINT8, decoded.data());
+        ExrImage a = bake_ok(in, d / "in.exr");
+        ExrImage b = bake_ok(png, d / "png.exr");
+        std::string why;
+        EXPECT_TRUE(same_pixels(a, b, &why)) << why;
+        const RunResult v = run_spectex({"verify", d / "in.exr", "--source", in});
+        EXPECT_EQ(v.status, 0) << v.out << v.err;
+    }
 }
 
 // A CMYK TIFF holds ink separations, which OpenImageIO hands over as they are (ink0..ink3): read

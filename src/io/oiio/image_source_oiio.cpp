@@ -495,7 +495,12 @@ void OiioImageSource::count_levels() {
     info.miplevels = 1;
     while (in->seek_subimage(0, info.miplevels)) ++info.miplevels;
     info.subimages = 1;
-    while (in->seek_subimage(info.subimages, 0)) ++info.subimages;
+    // Probing one frame past the last leaves OpenImageIO 2.4's WebP reader unable to decode its
+    // first ("Couldn't decode subimage 0": no WebP could be read), and its readers do not say which
+    // hold several (supports("multiimage") is false for TIFF and OpenEXR too): a WebP's frames
+    // beyond the first, never read, are not counted.
+    if (std::string(in->format_name()) != "webp")
+        while (in->seek_subimage(info.subimages, 0)) ++info.subimages;
     if (!in->seek_subimage(0, 0)) throw Error(info.path + ": " + oiio_error(in.get()));
     (void)in->geterror();  // counting levels probed one past the last: forget that error
 }
