@@ -59,6 +59,19 @@ PolicedCounts police_rgba(float* rgba, size_t n, const Linearizer& lin, const Pi
                                 "float, or --out-of-range clamp");
             }
         }
+        // Alpha is a coverage in [0, 1]: outside it, T = A x spectrum leaves [0, 1] too (verify
+        // then fails the file). It follows --out-of-range as the colour does.
+        if (p[3] < 0.0f || p[3] > 1.0f) {
+            if (policy.range == RangePolicy::Error)
+                throw Error(input + ": alpha " + std::to_string(p[3]) + " outside [0, 1] " +
+                            where(i) + " (--out-of-range error)");
+            if (policy.range == RangePolicy::Clamp) {
+                counts.clamped_excursion =
+                    std::max(counts.clamped_excursion, p[3] < 0.0f ? -p[3] : p[3] - 1.0f);
+                p[3] = std::min(1.0f, std::max(0.0f, p[3]));
+                out_of_range = true;
+            }
+        }
         counts.replaced += bad;
         counts.clamped += out_of_range;
         if (changed) changed[i] = bad || out_of_range;

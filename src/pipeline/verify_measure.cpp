@@ -139,10 +139,14 @@ void count_straight_range(const MeasureContext& c, const Band& b, size_t i0, siz
         const float lim = 1.0f + c.straight_tol[static_cast<size_t>(k)];
         for (size_t j = 0; j < m; ++j) {
             const float v = p[j];
+            // With A <= 0 nothing is seen and the stored sample must be 0 (to its rounding); each
+            // sample is counted on one side at most (a negative A counted a positive sample on
+            // both, and the share rose past 100 %).
+            const bool seen = a[j] > 0.0f;
             below0 += v < 0.0f;
-            belowt += v < -1e-6f * a[j];
-            above1 += v > a[j];
-            abovet += v > a[j] * lim;
+            belowt += v < -1e-6f * (seen ? a[j] : 1.0f);
+            above1 += v > (seen ? a[j] : 0.0f);
+            abovet += v > (seen ? a[j] * lim : 1e-6f);
         }
     }
     st.below_zero += below0;

@@ -890,6 +890,45 @@ TEST(HardInputs, HalfInputWithInfinities) {
 // =============================================================================================
 // Wide gamut and colour metadata.
 
+// An alpha outside [0, 1] (a float input's) made T = A x spectrum leave [0, 1]: the bake passed
+// silently and spectex's own verify failed the file, saying 196.875 % of its samples were out
+// (a sample under a negative A was counted below and above). Alpha follows --out-of-range as the
+// colour does, and verify counts each sample once.
+TEST(HardInputs, AlphaOutsideZeroOneFollowsTheRangePolicy) {
+    ScratchDir d;
+    const std::string in = d / "a.exr";
+    std::vector<float> px(4 * 4 * 4);
+    for (size_t i = 0; i < 16; ++i) {
+        px[4 * i] = px[4 * i + 1] = px[4 * i + 2] = 0.5f;
+        px[4 * i + 3] = i == 0 ? 2.0f : i < 13 ? -0.5f : 0.75f;
+    }
+    write_image(in, 4, 4, 4, OIIO::TypeDesc::FLOAT, px.data());
+    std::string err;
+    ExrImage img = bake_ok(in, d / "clamped.exr", {}, &err);
+    EXPECT_TRUE(
+        contains(err, "13 pixels had linear values outside [0, 1] and were clamped (by up to 1)"))
+        << err;
+    EXPECT_EQ(img.pixels.at("A")[0], 1.0f);
+    EXPECT_EQ(img.pixels.at("A")[1], 0.0f);
+    const RunResult v = run_spectex({"verify", d / "clamped.exr", "--source", in});
+    EXPECT_EQ(v.status, 0) << v.out << v.err;
+    const RunResult e = run_spectex({"bake", in, "-o", d / "error.exr", "--out-of-range", "error"});
+    EXPECT_EQ(e.status, 1) << e.err;
+    EXPECT_TRUE(contains(e.err, in + ": alpha 2.000000 outside [0, 1] at pixel (0, 0)")) << e.err;
+    // Kept, then judged as if it had not been: the share of samples out is at most 100 %.
+    ExrImage kept = bake_ok(in, d / "kept.exr", {"--out-of-range", "keep"});
+    EXPECT_EQ(kept.pixels.at("A")[1], -0.5f);
+    hide_attributes(d / "kept.exr", {"spectex:outOfRange"});
+    const RunResult k = run_spectex({"verify", d / "kept.exr"});
+    EXPECT_EQ(k.status, 1) << k.out;
+    const size_t at = k.out.find("outside [0, 1] by more than their rounding");
+    ASSERT_NE(at, std::string::npos) << k.out;
+    const std::string line = k.out.substr(at, k.out.find('\n', at) - at);
+    const size_t open = line.find('(');
+    ASSERT_NE(open, std::string::npos) << line;
+    EXPECT_LE(std::stod(line.substr(open + 1)), 100.0) << line;
+}
+
 TEST(HardInputs, AcesCgSaturatedGreenIsClamped) {
     ScratchDir d;
     const std::string in = d / "green.exr", out = d / "out.exr";
