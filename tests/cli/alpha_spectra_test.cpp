@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -99,6 +100,33 @@ struct Case {
     std::vector<std::string> args;
 };
 
+// How far a straight sample v is from the reference ref beyond what rounding allows (<= 0: within
+// it). The tolerance: each value's step of its bin (at most one step, relative: 2 * step), A's half
+// rounding (2^-11), 1e-6; and half's subnormals (below 2^-14), 2^-24 apart: absolute, so divided by
+// A when the file is associated.
+double gap_beyond_rounding(double v, double ref, double step, double a, bool assoc) {
+    const double tol = 2 * step + std::ldexp(1.0, -11);
+    const double floor = std::ldexp(1.0, -24) * (assoc ? 1 / a : 1);
+    return std::fabs(v - ref) - (tol * ref + floor + 1e-6);
+}
+
+// The largest gap seen, and where (described only when it is the largest).
+struct WorstGap {
+    double gap = 0;
+    std::string at;
+    void see(double g, const std::function<std::string()>& where) {
+        if (g > gap) gap = g, at = where();
+    }
+};
+
+// Every method. Jakob-Hanika on a 9-node table: the method's shape is what matters here, not its
+// accuracy.
+const std::vector<Case> kMethods = {
+    {"default", {}},
+    {"basis", {"--method", "basis"}},
+    {"lattice", {"--method", "lattice"}},
+    {"jakob-hanika", {"--method", "jakob-hanika", "--jh-resolution", "9"}}};
+
 }  // namespace
 
 TEST(AlphaSpectra, EveryMethodKeepsTheStraightSpectrumOfTheColourOnEveryLevel) {
@@ -106,13 +134,7 @@ TEST(AlphaSpectra, EveryMethodKeepsTheStraightSpectrumOfTheColourOnEveryLevel) {
     const std::string in = d / "rgba.png";
     const std::vector<uint8_t> px = rgba_pixels();
     write_image(in, 16, 16, 4, OIIO::TypeDesc::UINT8, px.data(), {{"oiio:UnassociatedAlpha", "1"}});
-    // Jakob-Hanika on a 9-node table: the method's shape is what matters here, not its accuracy.
-    const std::vector<Case> methods = {
-        {"default", {}},
-        {"basis", {"--method", "basis"}},
-        {"lattice", {"--method", "lattice"}},
-        {"jakob-hanika", {"--method", "jakob-hanika", "--jh-resolution", "9"}}};
-    for (const Case& m : methods)
+    for (const Case& m : kMethods)
         for (const std::string alpha : {"associated", "unassociated"})
             for (const bool mip : {false, true}) {
                 const std::string what = m.name + ", " + alpha + (mip ? ", MIP" : "");
@@ -136,8 +158,8 @@ TEST(AlphaSpectra, EveryMethodKeepsTheStraightSpectrumOfTheColourOnEveryLevel) {
                     return static_cast<double>(
                         levels[0].spectra[k][static_cast<size_t>(y * 16 + x)]);
                 };
-                double worst_over = 0, worst_gap = 0;
-                std::string gap_at;
+                double worst_over = 0;
+                WorstGap worst;
                 for (size_t l = 0; l < levels.size(); ++l) {
                     const Level& lv = levels[l];
                     const int span = 1 << l;  // level-0 pixels per texel along an axis
@@ -163,23 +185,18 @@ TEST(AlphaSpectra, EveryMethodKeepsTheStraightSpectrumOfTheColourOnEveryLevel) {
                                 EXPECT_GE(v, 0.0) << lv.names[k] << " level " << l;
                                 if (!one_colour) continue;
                                 const double ref = reference(c, k);
-                                // Half's subnormals (below 2^-14) are 2^-24 apart: absolute,
-                                // so divided by A it is.
-                                const double floor = std::ldexp(1.0, -24) * (assoc ? 1 / a : 1);
-                                const double gap = std::fabs(v - ref) - (tol * ref + floor + 1e-6);
-                                if (gap > worst_gap) {
-                                    worst_gap = gap;
-                                    gap_at = lv.names[k] + " level " + std::to_string(l) + " (" +
-                                             std::to_string(x) + ", " + std::to_string(y) +
-                                             "): " + std::to_string(v) + " against " +
-                                             std::to_string(ref) + " opaque, A " +
-                                             std::to_string(a);
-                                }
+                                const double gap = gap_beyond_rounding(v, ref, step[k], a, assoc);
+                                worst.see(gap, [&] {
+                                    return lv.names[k] + " level " + std::to_string(l) + " (" +
+                                           std::to_string(x) + ", " + std::to_string(y) +
+                                           "): " + std::to_string(v) + " against " +
+                                           std::to_string(ref) + " opaque, A " + std::to_string(a);
+                                });
                             }
                         }
                 }
                 EXPECT_LE(worst_over, 0.0) << "a straight sample above 1 beyond its rounding";
-                EXPECT_LE(worst_gap, 0.0) << "not the opaque pixel's spectrum: " << gap_at;
+                EXPECT_LE(worst.gap, 0.0) << "not the opaque pixel's spectrum: " << worst.at;
                 // verify checks the same rule for associated files, with its own tolerance.
                 if (assoc && !mip) {
                     const RunResult v = run_spectex({"verify", out});
@@ -208,12 +225,7 @@ TEST(AlphaSpectra, TransparentColoursNeverBleedIntoMipLevels) {
             p[3] = red ? 255 : 0;
         }
     write_image(in, 16, 16, 4, OIIO::TypeDesc::UINT8, px.data(), {{"oiio:UnassociatedAlpha", "1"}});
-    const std::vector<Case> methods = {
-        {"default", {}},
-        {"basis", {"--method", "basis"}},
-        {"lattice", {"--method", "lattice"}},
-        {"jakob-hanika", {"--method", "jakob-hanika", "--jh-resolution", "9"}}};
-    for (const Case& m : methods)
+    for (const Case& m : kMethods)
         for (const std::string alpha : {"associated", "unassociated"}) {
             SCOPED_TRACE(m.name + ", " + alpha);
             const std::string out = d / (m.name + "-" + alpha + ".exr");
@@ -226,8 +238,7 @@ TEST(AlphaSpectra, TransparentColoursNeverBleedIntoMipLevels) {
             const size_t bins = levels[0].names.size();
             const std::vector<double> step = steps(read_exr(out), bins);
             const bool assoc = alpha == "associated";
-            double worst_gap = 0;
-            std::string gap_at;
+            WorstGap worst;
             size_t seen = 0;
             for (size_t l = 1; l < levels.size(); ++l) {
                 const Level& lv = levels[l];
@@ -238,22 +249,18 @@ TEST(AlphaSpectra, TransparentColoursNeverBleedIntoMipLevels) {
                     for (size_t k = 0; k < bins; ++k) {
                         const double v = lv.spectra[k][i] / (assoc ? a : 1.0);
                         const double ref = levels[0].spectra[k][0];  // pixel (0, 0): opaque red
-                        // As above: both values' steps, A's half rounding, half's subnormal step.
-                        const double tol = 2 * step[k] + std::ldexp(1.0, -11);
-                        const double floor = std::ldexp(1.0, -24) * (assoc ? 1 / a : 1);
-                        const double gap = std::fabs(v - ref) - (tol * ref + floor + 1e-6);
-                        if (gap > worst_gap) {
-                            worst_gap = gap;
-                            gap_at = lv.names[k] + " level " + std::to_string(l) + " texel " +
-                                     std::to_string(i) + ": " + std::to_string(v) +
-                                     " against red's " + std::to_string(ref) + ", A " +
-                                     std::to_string(a);
-                        }
+                        const double gap = gap_beyond_rounding(v, ref, step[k], a, assoc);
+                        worst.see(gap, [&] {
+                            return lv.names[k] + " level " + std::to_string(l) + " texel " +
+                                   std::to_string(i) + ": " + std::to_string(v) +
+                                   " against red's " + std::to_string(ref) + ", A " +
+                                   std::to_string(a);
+                        });
                     }
                 }
             }
             EXPECT_GT(seen, 50u);
-            EXPECT_LE(worst_gap, 0.0) << "a hidden colour bled in: " << gap_at;
+            EXPECT_LE(worst.gap, 0.0) << "a hidden colour bled in: " << worst.at;
         }
 }
 
