@@ -8,7 +8,9 @@
 #include <cstdlib>
 #include <filesystem>
 #include <memory>
+#include <set>
 
+#include "base/bounded_read.h"
 #include "base/error.h"
 #include "base/task_pool.h"
 #include "base/text.h"
@@ -60,9 +62,18 @@ class Recorded {
   public:
     Recorded(const SpectralExrInfo& info, std::vector<std::string>& warnings)
         : info_(info), warnings_(warnings) {}
+    // A recorded setting: a name, a path or a number, never longer than a path can be. A longer
+    // value is damage or a forgery (a 100,000-character illuminant was printed whole in an
+    // error): it is ignored, with one warning naming the key.
     std::string operator()(const std::string& key) const {
-        for (const auto& [k, v] : info_.attributes)
-            if (k == key) return v;
+        for (const auto& [k, v] : info_.attributes) {
+            if (k != key) continue;
+            if (v.size() <= kMaxRecordedSetting) return v;
+            if (warned_.insert(key).second)
+                warnings_.push_back(key + " is " + std::to_string(v.size()) +
+                                    " characters long, not a value spectex writes: ignored");
+            return std::string();
+        }
         return std::string();
     }
     std::string choose(const std::string& given, const std::string& key,
@@ -70,14 +81,17 @@ class Recorded {
         const std::string rec = (*this)(key);
         if (given.empty()) return rec.empty() ? fallback : rec;
         if (!rec.empty() && lower_ascii(given) != lower_ascii(rec))
-            warnings_.push_back(option + " '" + given + "' overrides the file's '" + rec + "' (" +
+            warnings_.push_back(option + " '" + printable_excerpt(given, 200) +
+                                "' overrides the file's '" + printable_excerpt(rec, 200) + "' (" +
                                 key + ")");
         return given;
     }
 
   private:
+    static constexpr size_t kMaxRecordedSetting = 4096;  // PATH_MAX
     const SpectralExrInfo& info_;
     std::vector<std::string>& warnings_;
+    mutable std::set<std::string> warned_;
 };
 
 // The bake's settings the file records, or those given instead.

@@ -149,7 +149,8 @@ Observer load_observer(const std::string& data_dir, const std::string& name) {
     // A name that is not a shipped table is a file when something exists at that path: it is then
     // read (and refused when it is not a regular file of bounded size) by read_csv_table.
     if (path_exists(name)) return load_observer_csv(name, name);
-    throw Error("unknown observer '" + name + "' (known: cie1931-2, cie1964-10, or a CSV file)");
+    throw Error("unknown observer '" + printable_excerpt(name, 200) +
+                "' (known: cie1931-2, cie1964-10, or a CSV file)");
 }
 
 Spectrum load_illuminant(const std::string& data_dir, const std::string& name_or_file) {
@@ -160,7 +161,9 @@ Spectrum load_illuminant(const std::string& data_dir, const std::string& name_or
     if (const auto kelvin = colour_temperature_of(name_or_file))
         return colour_temperature_light(*kelvin);
     if (path_exists(name_or_file)) return load_illuminant_csv(name_or_file, name_or_file);
-    throw Error("unknown illuminant '" + name_or_file + "' (known: " + shipped_illuminants_list() +
+    // The name may come from a file's header (verify): an excerpt, one printable line.
+    throw Error("unknown illuminant '" + printable_excerpt(name_or_file, 200) +
+                "' (known: " + shipped_illuminants_list() +
                 ", a colour temperature such as 3200K, or a CSV file)");
 }
 

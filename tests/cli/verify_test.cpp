@@ -7,6 +7,7 @@
 #include <ImfHeader.h>
 #include <ImfOutputFile.h>
 #include <ImfTiledOutputFile.h>
+#include <OpenImageIO/imagebuf.h>
 #include <gtest/gtest.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
@@ -500,4 +501,35 @@ TEST(Verify, TooManyLargeFilesAtOnceNameJobsAndTheirBands) {
     EXPECT_TRUE(has_text(r.err, "--jobs: 33 files at once need about 10")) << r.err;
     EXPECT_TRUE(has_text(r.err, "1056 MiB of bands")) << r.err;
     EXPECT_FALSE(has_text(r.err, "--illuminant:")) << r.err;
+}
+
+// A header's recorded settings are names, paths and numbers: a 100,000-character value (damage or
+// a forgery) was printed whole in verify's errors and warnings, or refused the file. It is ignored
+// with one warning naming the key, verify falls back as for a file that records nothing, and no
+// line it prints is longer than a path.
+TEST(Verify, AnAbsurdlyLongRecordedSettingIsIgnoredWithAWarning) {
+    ScratchDir d;
+    write_pattern_png(d / "a.png", 4);
+    ASSERT_EQ(run_spectex({"bake", d / "a.png", "-o", d / "a.exr"}).status, 0);
+    for (const std::string key : {"spectex:illuminant", "spectex:observer",
+                                  "spectex:inputColorSpace", "spectex:config", "spectex:method"}) {
+        SCOPED_TRACE(key);
+        const std::string out = d / "long.exr";
+        {
+            OIIO::ImageBuf buf(d / "a.exr");
+            ASSERT_TRUE(buf.read());
+            buf.specmod().attribute(key, std::string(100000, 'x'));
+            ASSERT_TRUE(buf.write(out)) << buf.geterror();
+        }
+        const RunResult r = run_spectex({"verify", out, "--source", d / "a.png"});
+        EXPECT_EQ(r.status, 0) << r.out << r.err.substr(0, 400);
+        EXPECT_NE(
+            r.err.find(key + " is 100000 characters long, not a value spectex writes: ignored"),
+            std::string::npos)
+            << r.err.substr(0, 400);
+        std::istringstream lines(r.out + r.err);
+        size_t longest = 0;
+        for (std::string line; std::getline(lines, line);) longest = std::max(longest, line.size());
+        EXPECT_LT(longest, 1000u);
+    }
 }
