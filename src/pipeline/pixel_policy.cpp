@@ -23,6 +23,18 @@ PolicedCounts police_rgba(float* rgba, size_t n, const Linearizer& lin, const Pi
                 for (int c = 0; c < 3; ++c) rgba[4 * i + c] /= al;
         }
     }
+    // Under --out-of-range clamp a finite colour beyond 1e12 becomes 1e12 before the transform: a
+    // float input of 1e30 overflowed the sRGB curve to infinity, which the NaN policy then replaced
+    // with 0 (black where the file says brighter than white). 1e12 stays finite through any power
+    // up to 3 and is clamped to 1 below, as any value above 1 is.
+    if (policy.range == RangePolicy::Clamp) {
+        constexpr float kHuge = 1e12f;
+        for (size_t i = 0; i < n; ++i)
+            for (int c = 0; c < 3; ++c) {
+                float& v = rgba[4 * i + c];
+                if (std::isfinite(v) && std::fabs(v) > kHuge) v = std::copysign(kHuge, v);
+            }
+    }
     lin.apply_rgba(rgba, static_cast<long>(n));
     PolicedCounts counts;
     for (size_t i = 0; i < n; ++i) {

@@ -839,6 +839,28 @@ TEST(HardInputs, HostileValuesDefaultPolicies) {
         EXPECT_NEAR(img.at(name, 5, 0), 1.0f, 1e-5) << name;
 }
 
+// A finite value far above 1 in an input whose transform is a power curve (a float TIFF read as
+// sRGB): 1e30 overflowed the curve to infinity, which --nan replace made 0, so a pixel brighter
+// than white baked black. Clamped, it is white; -1e30 in one channel is 0 in that channel.
+TEST(HardInputs, HugeFiniteValuesClampLikeAnyValueAboveOne) {
+    ScratchDir d;
+    const std::string in = d / "huge.tif";
+    std::vector<float> px = {1e30f, 1e30f, 1e30f, -1e30f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f};
+    write_image(in, 3, 1, 3, OIIO::TypeDesc::FLOAT, px.data());
+    std::string err;
+    ExrImage img = bake_ok(in, d / "out.exr", {"--colorspace", "srgb_tx", "--type", "float"}, &err);
+    EXPECT_TRUE(contains(err, "2 pixels had linear values outside [0, 1] and were clamped")) << err;
+    EXPECT_FALSE(contains(err, "NaN/Inf")) << err;
+    for (const auto& [l, name] : spectral_channels(img))
+        EXPECT_NEAR(img.at(name, 0, 0), 1.0f, 1e-5) << name;
+    // Pixel 1 integrates back to red 0 (its green and blue are pixel 2's grey).
+    const RunResult s = run_spectex({"sample", d / "out.exr", "1,0"});
+    ASSERT_EQ(s.status, 0) << s.err;
+    const size_t at = s.out.find("linear Rec.709 ");
+    ASSERT_NE(at, std::string::npos) << s.out;
+    EXPECT_LT(std::fabs(std::stod(s.out.substr(at + 15))), 1e-3) << s.out;
+}
+
 TEST(HardInputs, OutOfRangeKeepKeepsValues) {
     ScratchDir d;
     const std::string in = d / "vals.exr", out = d / "out.exr";
