@@ -166,15 +166,9 @@ std::vector<std::string> ArgParser::parse(const std::vector<std::string>& args) 
 
 void ArgParser::common(std::vector<std::string> names) { common_ = std::move(names); }
 
-std::string ArgParser::declined(const std::string& name) const {
-    for (const auto& [option, arg] : declined_)
-        if (option == name) return arg;
-    return "";
-}
-
 std::string ArgParser::declined_hint(const std::string& name, const std::string& arg) const {
-    const std::string d = declined(name);
-    if (d.empty() || d != arg) return "";
+    if (std::find(declined_.begin(), declined_.end(), std::make_pair(name, arg)) == declined_.end())
+        return "";
     const Entry* e = find(name);
     std::string suffixes;
     for (size_t i = 0; e && i < e->suffixes.size(); ++i)

@@ -53,11 +53,9 @@ class ArgParser {
         bool has_value = false;
     };
     const std::vector<Given>& given() const { return given_; }
-    // The argument an option_or_flag left as a positional one because it was not its FILE (no
-    // suffix of it: "--json info.txt"), by the option's long name; "" when none. A command names
-    // it in the error the positional then causes.
-    std::string declined(const std::string& name) const;
-    // " (it followed NAME, ...)" when `arg` is the argument NAME declined, else "".
+    // " (it followed NAME, ...)" when `arg` is the argument the option_or_flag NAME left as a
+    // positional one because it was not its FILE (no suffix of it: "--json info.txt"), else "". A
+    // command names it in the error the positional then causes.
     std::string declined_hint(const std::string& name, const std::string& arg) const;
 
   private:

@@ -48,11 +48,14 @@ PolicedCounts police_rgba(float* rgba, size_t n, const Linearizer& lin, const Pi
                 bad = true;
             }
         }
-        for (int c = 0; c < 3; ++c) {
+        // Colour (c < 3), and alpha (c = 3), a coverage: outside [0, 1] it makes T = A x spectrum
+        // leave [0, 1] too (verify then fails the file). Both follow --out-of-range.
+        for (int c = 0; c < 4; ++c) {
             if (p[c] < 0.0f || p[c] > 1.0f) {
                 if (policy.range == RangePolicy::Error)
-                    throw Error(input + ": linear value " + std::to_string(p[c]) +
-                                " outside [0, 1] " + where(i) + " (--out-of-range error)");
+                    throw Error(input + (c < 3 ? ": linear value " : ": alpha ") +
+                                std::to_string(p[c]) + " outside [0, 1] " + where(i) +
+                                " (--out-of-range error)");
                 if (policy.range == RangePolicy::Clamp) {
                     counts.clamped_excursion =
                         std::max(counts.clamped_excursion, p[c] < 0.0f ? -p[c] : p[c] - 1.0f);
@@ -61,27 +64,15 @@ PolicedCounts police_rgba(float* rgba, size_t n, const Linearizer& lin, const Pi
                 }
                 // Each spectrum is a combination of r, g, b with weights in [0, 1] summing to one
                 // at every wavelength, so no sample is larger in magnitude than the largest of
-                // them: checking the linear values here keeps every sample finite.
-                if (policy.range == RangePolicy::Keep && policy.keep_limit > 0 &&
+                // them: checking the linear values here keeps every sample finite. (Float alpha
+                // is written as float.)
+                if (c < 3 && policy.range == RangePolicy::Keep && policy.keep_limit > 0 &&
                     std::fabs(p[c]) > policy.keep_limit)
                     throw Error(input + ": linear value " + std::to_string(p[c]) + " " + where(i) +
                                 " is beyond the largest half value (" +
                                 std::to_string(static_cast<int>(policy.keep_limit)) +
                                 "), which --out-of-range keep cannot store; bake with --type "
                                 "float, or --out-of-range clamp");
-            }
-        }
-        // Alpha is a coverage in [0, 1]: outside it, T = A x spectrum leaves [0, 1] too (verify
-        // then fails the file). It follows --out-of-range as the colour does.
-        if (p[3] < 0.0f || p[3] > 1.0f) {
-            if (policy.range == RangePolicy::Error)
-                throw Error(input + ": alpha " + std::to_string(p[3]) + " outside [0, 1] " +
-                            where(i) + " (--out-of-range error)");
-            if (policy.range == RangePolicy::Clamp) {
-                counts.clamped_excursion =
-                    std::max(counts.clamped_excursion, p[3] < 0.0f ? -p[3] : p[3] - 1.0f);
-                p[3] = std::min(1.0f, std::max(0.0f, p[3]));
-                out_of_range = true;
             }
         }
         counts.replaced += bad;
