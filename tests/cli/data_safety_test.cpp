@@ -520,7 +520,7 @@ TEST(DataSafety, SameCommandTwiceIsByteIdentical) {
     }
 }
 
-TEST(DataSafety, ThreadCountDoesNotChangeTheOutput) {
+TEST(DataSafetySlow, ThreadCountDoesNotChangeTheOutput) {
     // --threads 1, 2 and 4 give the same pixels and header, save spectex:commandLine (which records
     // the arguments). As "--threads 1" and "--threads 2" have the same length, the files are also
     // byte-identical once that text is patched.

@@ -255,7 +255,7 @@ TEST(GoldenBakes, TheHashReaderSeesHeaderAndChunks) {
     EXPECT_EQ(hash_exr(read_file(e / "other-name.exr")).hash, a.hash);
 }
 
-TEST(GoldenBakes, FixedBakesGiveTheCommittedBytes) {
+TEST(GoldenBakesSlow, FixedBakesGiveTheCommittedBytes) {
     ScratchDir d;
     make_inputs(d);
     const bool update = std::getenv("SPECTEX_GOLDEN_UPDATE") != nullptr;

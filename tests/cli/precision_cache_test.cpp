@@ -42,11 +42,14 @@ struct Env {
     std::string old_;
 };
 
-// A small bake with a small grid (16 bins): the chooser takes well under a second.
+// A small bake with a small grid (16 bins) under one light, with a budget the grid meets (its own
+// worst is 1.07), so that the bits are a real choice (4 to 9 of half's 10) rather than all kept: a
+// cache that lost them, or handed back full bits, changes the file. The chooser's passes over the
+// cube take about 3 s (three lights took 8 s; the key's other inputs are PlanCacheSlow's).
 RunResult bake(const ScratchDir& d, const std::string& out, const std::vector<std::string>& more) {
-    std::vector<std::string> a = {
-        "bake",       d / "in.png", "-o",  d / out,         "--precision", "auto", "--lights",
-        "D65,A,FL11", "--max-de",   "0.5", "--wavelengths", "400:700:20",  "-v"};
+    std::vector<std::string> a = {"bake",          d / "in.png", "-o",  d / out,    "--precision",
+                                  "auto",          "--lights",   "D65", "--max-de", "2",
+                                  "--wavelengths", "400:700:20", "-v"};
     a.insert(a.end(), more.begin(), more.end());
     return run_spectex(a);
 }
@@ -122,6 +125,10 @@ TEST(PrecisionCacheSlow, DamagedOrHostileEntriesNeverChangeTheOutput) {
     const std::string entry = found[0];
     const std::string text = read_file(entry);
     ASSERT_NE(text.find("bits 16 "), std::string::npos) << text;
+    // A real choice, not every bit kept: an entry ignored in favour of full bits would show.
+    ASSERT_EQ(text.find("bits 16 10 10 10 10 10 10 10 10 10 10 10 10 10 10 10 10"),
+              std::string::npos)
+        << text;
 
     int n = 0;
     auto same_as_fresh = [&](const std::string& what) {
@@ -173,9 +180,9 @@ TEST(PrecisionCacheSlow, PlanAndBakeShareTheBits) {
     ScratchDir d;
     make_input(d);
     const Env env(d / "cache");
-    const RunResult plan = run_spectex({"plan", "--grids", "400:700:20", "--lights", "D65,A,FL11",
+    const RunResult plan = run_spectex({"plan", "--grids", "400:700:20", "--lights", "D65",
                                         "--colours", "sample", "--sample-stride", "51", "--max-de",
-                                        "5", "--precision", "auto", "--precision-de", "0.5"});
+                                        "5", "--precision", "auto", "--precision-de", "2"});
     ASSERT_EQ(plan.status, 0) << plan.err;
     ASSERT_EQ(precision_entries(d / "cache").size(), 1u) << plan.out;
     const RunResult b = bake(d, "a.exr", {});

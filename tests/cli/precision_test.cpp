@@ -267,7 +267,7 @@ TEST(Precision, UsageErrorsAreRefusedBeforeAnyWork) {
 // 0.5, deflated by size, unless --lights, --max-de, --zip-level or --precision say otherwise;
 // full where a budget cannot be kept (float, nearest rounding, a lossy compression). Its bits are
 // said only with -v, and a bake that asked for them says them.
-TEST(Precision, TheDefaultBakeKeepsABudgetWhereItCan) {
+TEST(PrecisionSlow, TheDefaultBakeKeepsABudgetWhereItCan) {
     ScratchDir d;
     std::vector<uint8_t> px(12, 128);
     write_image(d / "in.png", 2, 2, 3, OIIO::TypeDesc::UINT8, px.data());
@@ -452,17 +452,20 @@ TEST(PrecisionSlow, PlanPrintsBitsWithTheGrid) {
     EXPECT_EQ(run_spectex({"plan", "--precision", "auto", "--type", "float"}).status, 2);
 }
 
-TEST(Precision, AutoBakeIsTheSameWhateverTheThreads) {
-    // The coarse rounding works per pixel in blocks of the producer's strips: the stored values
-    // must not depend on how many threads compress or decode.
+TEST(PrecisionSlow, AutoBakeIsTheSameWhateverTheThreads) {
+    // The coarse rounding works per pixel in blocks of the producer's strips, and the chooser's
+    // passes over the cube in tasks: neither the bits, the worst figures and their codes, nor the
+    // stored values may depend on how many threads there are. The budget is one the grid meets (its
+    // worst is 1.38 under A), so the bits are a choice, not all kept. Slow: the chooser's passes
+    // under ASan took 40 s.
     ScratchDir d;
     std::vector<uint8_t> px(96 * 80 * 3);
     for (size_t i = 0; i < px.size(); ++i) px[i] = static_cast<uint8_t>((i * 2654435761u) >> 24);
     const std::string png = d / "noise.png", one = d / "one.exr", three = d / "three.exr";
     write_image(png, 96, 80, 3, OIIO::TypeDesc::UINT8, px.data());
-    const std::vector<std::string> a = {"--precision",   "auto",       "--lights",
-                                        "D65,A",         "--max-de",   "0.5",
-                                        "--wavelengths", "400:700:20", "-q"};
+    const std::vector<std::string> a = {"--precision", "auto",      "--lights",      "D65,A",
+                                        "--max-de",    "2",         "--wavelengths", "400:700:20",
+                                        "-q",          "--no-cache"};  // each bake chooses its bits
     std::vector<std::string> c1 = {"bake", png, "-o", one, "--threads", "1"};
     std::vector<std::string> c3 = {"bake", png, "-o", three, "--threads", "3"};
     c1.insert(c1.end(), a.begin(), a.end());
@@ -471,6 +474,12 @@ TEST(Precision, AutoBakeIsTheSameWhateverTheThreads) {
     ASSERT_EQ(run_spectex(c3).status, 0);
     const ExrImage x = read_exr(one), y = read_exr(three);
     ASSERT_EQ(x.attr(key::kPrecisionBits), y.attr(key::kPrecisionBits));
+    EXPECT_EQ(x.attr(key::kPrecisionWorstDe), y.attr(key::kPrecisionWorstDe));
+    EXPECT_EQ(x.attr(key::kPrecisionWorstCode), y.attr(key::kPrecisionWorstCode));
+    std::istringstream bits(x.attr(key::kPrecisionBits));
+    int bin_bits = 0, below_ten = 0;
+    while (bits >> bin_bits) below_ten += bin_bits < 10;
+    EXPECT_GT(below_ten, 0) << "every bit kept: " << x.attr(key::kPrecisionBits);
     ASSERT_FALSE(spectral_channels(x).empty());
     for (const auto& ch : spectral_channels(x))
         EXPECT_TRUE(x.pixels.at(ch.second) == y.pixels.at(ch.second)) << ch.second;

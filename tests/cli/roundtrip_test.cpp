@@ -341,7 +341,7 @@ TEST(RoundTripSlow, EveryEightBitColourFloatLattice) {
     expect_every_colour_exact_in_float({"--method", "lattice"}, "lattice 9");
 }
 
-TEST(RoundTrip, LatticeSamplesExactOnOtherGridsObserversAndSizes) {
+TEST(RoundTripSlow, LatticeSamplesExactOnOtherGridsObserversAndSizes) {
     // Sizes, priors, a 1 nm grid and a coarse one, CIE 1964 10° and illuminant A: every pixel of a
     // cube-wide sample inside the float bound of its conditions' own colorimetry.
     ScratchDir dir;
@@ -368,7 +368,7 @@ TEST(RoundTrip, LatticeSamplesExactOnOtherGridsObserversAndSizes) {
     }
 }
 
-TEST(RoundTrip, JakobHanikaIsMeasuredNotExact) {
+TEST(RoundTripSlow, JakobHanikaIsMeasuredNotExact) {
     // Plain Jakob-Hanika spectra do not reproduce every colour: the residual is there to be seen
     // (the header says so too), so this test pins that it is small but not zero.
     ScratchDir dir;

@@ -259,7 +259,7 @@ TEST(VerifyGates, SixteenBitSourcesGetABoundFromTheSampleType) {
 }
 
 // Jakob-hanika spectra are not exact: no colour gates by default, thresholds still apply.
-TEST(VerifyGates, InexactMethodsAreMeasuredNotGated) {
+TEST(VerifyGatesSlow, InexactMethodsAreMeasuredNotGated) {
     ScratchDir d;
     const std::string png = make_png(d, "in.png", 32, 16);
     const std::string jh = d / "jh.exr";

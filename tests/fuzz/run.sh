@@ -5,7 +5,7 @@
 #
 #   tests/fuzz/run.sh SOURCE_DIR BUILD_DIR [HARNESS...]
 #
-# Environment: FUZZ_SECONDS (per harness, default 30), CXX (default clang++),
+# Environment: FUZZ_SECONDS (per harness, default 20), CXX (default clang++),
 # FUZZ_JOBS (parallel compile jobs, default 2). New inputs found during a run go to
 # BUILD_DIR/corpus/<harness> (the repo's seeds are never modified); crash reproducers to
 # BUILD_DIR/artifacts/<harness>/.
@@ -15,7 +15,7 @@ build=${2:?usage: run.sh SOURCE_DIR BUILD_DIR [HARNESS...]}
 shift 2
 mkdir -p "$build"
 build=$(cd "$build" && pwd)
-seconds=${FUZZ_SECONDS:-30}
+seconds=${FUZZ_SECONDS:-20}
 cxx=${CXX:-clang++}
 jobs=${FUZZ_JOBS:-2}
 harnesses=("$@")

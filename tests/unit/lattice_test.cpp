@@ -262,7 +262,7 @@ TEST(Lattice, HardColoursExact) {
     }
 }
 
-TEST(Lattice, OtherGridsObserversIlluminants) {
+TEST(LatticeSlow, OtherGridsObserversIlluminants) {
     struct Case {
         std::string grid, observer, illuminant, primaries = "srgb";
     };
@@ -612,7 +612,7 @@ Eigen::MatrixXd dense_precision(const MeasuredPrior& p, const WavelengthGrid& g)
 // corners and faces included), and each vertex but black and white is the optimum of its own
 // objective: P (z - mean) lies in the span of the constraint normals diag(s') C', P made densely
 // here, mean the table's face mean on the RGB cube's faces.
-TEST(Lattice, MeasuredVerticesConvergeAndAreTheirPriorsOptima) {
+TEST(LatticeSlow, MeasuredVerticesConvergeAndAreTheirPriorsOptima) {
     struct Case {
         std::string grid, observer, illuminant;
     };

@@ -323,13 +323,9 @@ TEST(PrecisionSlow, ChooserHoldsTheBudgetOnEveryCodeUnderEachLight) {
             << req.lights[j].name << " code " << std::hex << code;
     }
 
-    // Deterministic, whatever the threads: the bits and the codes.
-    req.threads = 1;
-    const PrecisionChoice one = choose_precision(req);
-    EXPECT_EQ(one.bits, c.bits);
-    EXPECT_EQ(one.worst_code, c.worst_code);
+    // (That the bits and the codes do not depend on the threads: a bake's search with one and with
+    // three, PrecisionSlow.AutoBakeIsTheSameWhateverTheThreads.)
     // A tighter budget keeps at least as many bits in total.
-    req.threads = 2;
     req.max_de = 0.1;
     const PrecisionChoice t = choose_precision(req);
     for (double de : t.worst_de) EXPECT_LE(de, 0.1);
