@@ -17,15 +17,19 @@ constexpr double k25pow7 = 6103515625.0;      // 25^7
 double lab_f(double t) { return t > kEpsilon ? std::cbrt(t) : (kKappa * t + 16.0) / 116.0; }
 
 // The cube root of t > 0 without libm (whose cbrt splits t with frexp and ldexp, the larger part
-// of a whole-cube pass): a first guess from the exponent's bits (within about 3 %), then three
-// Newton steps, each squaring the relative error (3e-2, 1e-3, 1e-6, 1e-12).
+// of a whole-cube pass): a first guess from the exponent's bits (within 3.2 %), then two Halley
+// steps, each cubing the relative error (3e-2, 1e-5, 1e-14; measured over 1e-4 to 4: 6.4e-15).
+// Three Newton steps (one division each too) took 55 % longer and left 1e-12.
 double cube_root(double t) {
     uint64_t i;
     std::memcpy(&i, &t, sizeof i);
     i = i / 3 + 0x2a9f7893782da1ceULL;
     double y;
     std::memcpy(&y, &i, sizeof y);
-    for (int k = 0; k < 3; ++k) y -= (y * y * y - t) / (3.0 * y * y);
+    for (int k = 0; k < 2; ++k) {
+        const double y3 = y * y * y;
+        y *= (y3 + 2.0 * t) / (2.0 * y3 + t);
+    }
     return y;
 }
 
