@@ -231,7 +231,7 @@ TEST(Batch, TwoTasksWritingOneOutputLeaveAValidFile) {
     for (size_t i = 0; i < px.size(); ++i) px[i] = static_cast<uint8_t>((i * 7919) >> 3);
     write_image(d / "in.png", 512, 256, 3, OIIO::TypeDesc::UINT8, px.data());
     std::string cmd =
-        std::string(SPECTEX_BINARY) + " bake " + (d / "in.png") + " -o " + (d / "out.exr") + " -q";
+        spectex_binary() + " bake " + (d / "in.png") + " -o " + (d / "out.exr") + " -q";
     int st = std::system(("(" + cmd + " & " + cmd + " & wait) ; exit 0").c_str());
     ASSERT_EQ(st, 0);
     auto names = list_dir(d.path());

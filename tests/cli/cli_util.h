@@ -22,11 +22,12 @@ extern char** environ;
 constexpr size_t kDefaultBins = 31;
 constexpr const char* kDefaultGrid = "400:700:10";
 
-// The spectex under test is built with AddressSanitizer (tests/sanitize/run.sh defines
-// SPECTEX_TEST_BINARY_SANITIZED for a harness compiled without it; a harness compiled with it runs
-// the binary of the same build). Such a binary reserves terabytes of address space for its shadow
-// and faults in more pages, so memory bounds are set and scaled for it.
-#if defined(SPECTEX_TEST_BINARY_SANITIZED) || defined(__SANITIZE_ADDRESS__)
+// The spectex under test is built with AddressSanitizer: tests/sanitize/run.sh runs this (Release)
+// harness against its instrumented binary with $SPECTEX_TEST_BINARY and
+// SPECTEX_TEST_BINARY_SANITIZED=1 (a harness compiled with ASan runs its own build's binary). Such
+// a binary reserves terabytes of address space for its shadow and faults in more pages, so memory
+// bounds are set and scaled for it.
+#if defined(__SANITIZE_ADDRESS__)
 #define SPECTEX_TEST_ASAN 1
 #elif defined(__has_feature)
 #if __has_feature(address_sanitizer)
@@ -36,11 +37,21 @@ constexpr const char* kDefaultGrid = "400:700:10";
 
 namespace spectex_test {
 
+inline const bool kBinarySanitized = [] {
 #ifdef SPECTEX_TEST_ASAN
-constexpr bool kBinarySanitized = true;
+    return true;
 #else
-constexpr bool kBinarySanitized = false;
+    const char* s = std::getenv("SPECTEX_TEST_BINARY_SANITIZED");
+    return s != nullptr && std::string(s) == "1";
 #endif
+}();
+
+// The spectex under test: SPECTEX_BINARY (this build's), or $SPECTEX_TEST_BINARY (another build's:
+// the sanitized one, or an older commit's to compare).
+inline std::string spectex_binary() {
+    const char* other = std::getenv("SPECTEX_TEST_BINARY");
+    return other && *other ? other : SPECTEX_BINARY;
+}
 
 // Every spectex this binary runs keeps its answers (plans, --precision auto's bits) in a cache of
 // the test run's own, never the user's ~/.cache/spectex: a folder of the build tree named by the
@@ -50,7 +61,7 @@ constexpr bool kBinarySanitized = false;
 inline const bool kTestCacheSet = [] {
     struct stat st {};
     std::string dir = SPECTEX_TEST_CACHE_ROOT;
-    if (::stat(SPECTEX_BINARY, &st) == 0)
+    if (::stat(spectex_binary().c_str(), &st) == 0)
         dir += "/" + std::to_string(st.st_size) + "-" + std::to_string(st.st_mtim.tv_sec) + "." +
                std::to_string(st.st_mtim.tv_nsec);
     ::setenv("SPECTEX_CACHE_DIR", dir.c_str(), 1);
@@ -77,11 +88,9 @@ inline std::vector<char*> c_array(std::vector<std::string>& strings) {
     return v;
 }
 
-// {SPECTEX_BINARY, args...}.
-// $SPECTEX_TEST_BINARY runs the tests against another build (e.g. an older commit's, to compare).
+// {spectex_binary(), args...}.
 inline std::vector<std::string> spectex_argv(const std::vector<std::string>& args) {
-    const char* other = std::getenv("SPECTEX_TEST_BINARY");
-    std::vector<std::string> v{other && *other ? other : SPECTEX_BINARY};
+    std::vector<std::string> v{spectex_binary()};
     v.insert(v.end(), args.begin(), args.end());
     return v;
 }
@@ -161,8 +170,6 @@ inline RunResult run_shell(const std::string& script) {
 }
 
 // The spectex binary the tests run ($SPECTEX_TEST_BINARY or the build's).
-inline std::string spectex_binary() { return spectex_argv({})[0]; }
-
 // A scratch folder removed (with its files) at the end of the test.
 class ScratchDir {
   public:

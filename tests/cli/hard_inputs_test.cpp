@@ -98,7 +98,7 @@ ChildResult run_child(const std::vector<std::string>& args, int as_uid = -1) {
     // As 'nobody' the launcher could not write its report: run spectex directly then.
     std::vector<std::string> argv_s;
     if (as_uid < 0) argv_s = {"/proc/self/exe"};
-    argv_s.push_back(SPECTEX_BINARY);
+    argv_s.push_back(spectex_binary());
     argv_s.insert(argv_s.end(), args.begin(), args.end());
     std::vector<char*> argv = c_array(argv_s);
     std::vector<std::string> env_s = environment_with(

@@ -45,7 +45,7 @@ namespace {
 // An AddressSanitizer binary cannot run under RLIMIT_AS (its shadow): the same 2 GiB bound is
 // set through ASAN_OPTIONS then (allocations over it fail as they would under the limit; a
 // resident size over it is an error).
-constexpr bool kSanitized = kBinarySanitized;
+const bool kSanitized = kBinarySanitized;
 
 // The environment of a limited run: this process's, plus `extra`, plus the memory bound for ASan.
 std::vector<std::string> limited_environment(const std::vector<std::string>& extra) {
@@ -68,9 +68,9 @@ std::vector<std::string> limited_environment(const std::vector<std::string>& ext
 // AddressSanitizer (-O1, instrumented, tests/sanitize/run.sh) the same reads run 3-5x slower: the
 // bounds are scaled, not dropped (a read of a truncated 4 MB EXR took 11-14 s there on a loaded
 // 2-core machine).
-constexpr double kSanitizerScale = kBinarySanitized ? 4.0 : 1.0;
-constexpr double kFailFast = 10.0 * kSanitizerScale;
-constexpr double kTimeout = 20.0 * kSanitizerScale;
+const double kSanitizerScale = kBinarySanitized ? 4.0 : 1.0;
+const double kFailFast = 10.0 * kSanitizerScale;
+const double kTimeout = 20.0 * kSanitizerScale;
 
 bool contains(const std::string& h, const std::string& n) { return h.find(n) != std::string::npos; }
 

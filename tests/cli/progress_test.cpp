@@ -66,8 +66,8 @@ TEST(ProgressSlow, ATerminalGetsOneRewrittenLineWithinTheFile) {
     ScratchDir d;
     write_big_png(d / "big.png", 512, 512);
     // script(1) gives spectex a pseudo-terminal; its output is the terminal's bytes.
-    const std::string cmd = "script -qec \"'" + std::string(SPECTEX_BINARY) + "' bake '" +
-                            d / "big.png" + "' -o '" + d / "out.exr" +
+    const std::string cmd = "script -qec \"'" + spectex_binary() + "' bake '" + d / "big.png" +
+                            "' -o '" + d / "out.exr" +
                             "' --wavelengths 380:780:1 --precision full\" /dev/null > '" +
                             d / "tty.txt" + "' 2>&1";
     ASSERT_EQ(std::system(cmd.c_str()), 0);

@@ -37,7 +37,7 @@ using namespace spectex_test;
 // Under AddressSanitizer (tests/sanitize/run.sh) every process maps its shadow memory and the
 // instrumented code faults in more pages: the bounds on page faults and resident memory measure the
 // sanitizer, not spectex, so they are scaled (what loads, and what is built, is still asserted).
-constexpr double kCostScale = kBinarySanitized ? 8.0 : 1.0;
+const double kCostScale = kBinarySanitized ? 8.0 : 1.0;
 
 namespace {
 

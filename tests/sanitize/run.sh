@@ -1,19 +1,27 @@
 #!/usr/bin/env bash
-# AddressSanitizer + UndefinedBehaviorSanitizer build of spectex, then its unit and CLI tests
-# (ctest -L 'unit|cli' -LE slow) with leak detection on and any UB report fatal.
+# AddressSanitizer + UndefinedBehaviorSanitizer build of spectex, then its unit and CLI tests but
+# the Slow ones, with leak detection on and any UB report fatal.
 #
-#   tests/sanitize/run.sh SOURCE_DIR BUILD_DIR
+#   tests/sanitize/run.sh SOURCE_DIR BUILD_DIR CLI_TESTS
 #
-# BUILD_DIR is kept between runs, so a rerun only rebuilds what changed. Environment:
+# CLI_TESTS is the CLI test harness of an ordinary build (build/tests/spectex_cli_tests): it only
+# starts spectex and reads its outputs with OpenEXR, so it runs against this build's instrumented
+# spectex ($SPECTEX_TEST_BINARY, SPECTEX_TEST_BINARY_SANITIZED=1) instead of being compiled a
+# second time (its 35 files were a quarter of this build). BUILD_DIR is kept between runs, so a
+# rerun only rebuilds what changed. Environment:
 #   CXX          compiler (default clang++ when installed, else g++)
-#   JOBS         parallel build jobs and ctest jobs (default 2)
-#   CTEST_ARGS   extra ctest arguments (e.g. -R CliErrors)
+#   JOBS         parallel build jobs, ctest jobs and CLI test shards (default 2)
+#   CTEST_ARGS   extra ctest arguments for the unit tests (e.g. -R Lattice)
+#   GTEST_FILTER the CLI tests to run (default: all but the Slow ones)
 # OpenImageIO, OpenColorIO and OpenEXR are Debian's (not instrumented): ASan still sees their
 # heap through its malloc, so leaks inside them would be reported; tests/sanitize/lsan.supp lists
 # frames of those libraries only, never spectex's own code.
 set -euo pipefail
-src=$(cd "${1:?usage: run.sh SOURCE_DIR BUILD_DIR}" && pwd)
-build=${2:?usage: run.sh SOURCE_DIR BUILD_DIR}
+usage="usage: run.sh SOURCE_DIR BUILD_DIR CLI_TESTS"
+src=$(cd "${1:?$usage}" && pwd)
+build=${2:?$usage}
+cli_tests=${3:?$usage}
+[ -x "$cli_tests" ] || { echo "run.sh: $cli_tests: no CLI test harness there (build the tests first)" >&2; exit 2; }
 mkdir -p "$build"
 build=$(cd "$build" && pwd)
 jobs=${JOBS:-2}
@@ -24,13 +32,10 @@ fi
 flags="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined"
 
 # Configure once (and again when the flags or compiler change). -g1 (clang: line tables only)
-# gives every report its file and line at a fraction of -g's compile time. The CLI test harness
-# (SPECTEX_SANITIZED_BINARY) is compiled without the sanitizers: it only starts the instrumented
-# spectex binary and reads its files back with OpenEXR, and instrumenting its 30-odd test files
-# cost about a third of this build; the unit tests run the library in-process, so they stay
-# instrumented.
+# gives every report its file and line at a fraction of -g's compile time. Built: spectex, its
+# image module and the unit tests, which run the library in-process.
 stamp="$build/.spectex-sanitize-config"
-want="$CXX|$flags|module|g1|harness"  # "module": the image module links with the sanitizers too
+want="$CXX|$flags|module|g1|no-harness"  # "module": the image module links with the sanitizers too
 if [ ! -f "$build/CMakeCache.txt" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
   cmake -S "$src" -B "$build" -G Ninja \
     -DCMAKE_CXX_COMPILER="$CXX" \
@@ -42,11 +47,10 @@ if [ ! -f "$build/CMakeCache.txt" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$want
     -DCMAKE_MODULE_LINKER_FLAGS="-fsanitize=address,undefined" \
     -DSPECTEX_INTEROP_TESTS=OFF \
     -DSPECTEX_BUILD_BENCHMARKS=OFF \
-    -DSPECTEX_TOOLING_TESTS=OFF \
-    -DSPECTEX_SANITIZED_BINARY=ON
+    -DSPECTEX_TOOLING_TESTS=OFF
   echo "$want" > "$stamp"
 fi
-cmake --build "$build" -j "$jobs"
+cmake --build "$build" -j "$jobs" --target spectex spectex_unit_tests
 
 supp="$src/tests/sanitize/lsan.supp"
 # fast_unwind_on_malloc=1 (the default): every spectex the CLI tests start allocates thousands of
@@ -68,7 +72,30 @@ export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 if [ -f "$supp" ]; then export LSAN_OPTIONS="suppressions=$supp:print_suppressions=0"; fi
 
 cd "$build"
-# -E '^slow\.' as well as -LE slow: the slow CLI tests are discovered with the prefix "slow.", and
-# their "cli;slow" label list is flattened by gtest_discover_tests, so the label alone misses them.
+# -E '^slow\.' as well as -LE slow: the slow unit tests are discovered with the prefix "slow.", and
+# their "unit;slow" label list is flattened by gtest_discover_tests, so the label alone misses them.
 # shellcheck disable=SC2086
-ctest -L 'unit|cli' -LE slow -E '^slow\.' -j "$jobs" --output-on-failure --timeout 1800 ${CTEST_ARGS:-}
+ctest -L unit -LE slow -E '^slow\.' -j "$jobs" --output-on-failure --timeout 1800 ${CTEST_ARGS:-}
+
+# The CLI tests, in JOBS shards of the harness run side by side (GoogleTest deals the tests out in
+# turn). Each shard's log is kept in BUILD_DIR; a failing shard's failures are printed.
+export SPECTEX_TEST_BINARY="$build/src/spectex" SPECTEX_TEST_BINARY_SANITIZED=1
+filter=${GTEST_FILTER:--*Slow*}
+pids=()
+for ((i = 0; i < jobs; ++i)); do
+  GTEST_TOTAL_SHARDS=$jobs GTEST_SHARD_INDEX=$i "$cli_tests" --gtest_filter="$filter" \
+    >"$build/cli-shard-$i.log" 2>&1 &
+  pids+=($!)
+done
+status=0
+for ((i = 0; i < jobs; ++i)); do
+  if wait "${pids[$i]}"; then
+    echo "CLI tests, shard $((i + 1))/$jobs: $(grep -E '^\[  PASSED  \]' "$build/cli-shard-$i.log")"
+  else
+    status=1
+    echo "CLI tests, shard $((i + 1))/$jobs FAILED (log: $build/cli-shard-$i.log):"
+    grep -E -B40 '^\[  FAILED  \] [A-Za-z]' "$build/cli-shard-$i.log" | head -400
+    grep -E '^\[  FAILED  \]|^\[  PASSED  \]' "$build/cli-shard-$i.log"
+  fi
+done
+exit $status
