@@ -188,10 +188,12 @@ namespace {
 
 void quiet_exr_errors(exr_const_context_t, exr_result_t, const char*) {}
 
-// Every chunk the offset tables name lies whole within the file. OpenEXR's partComplete() only
-// looks for offsets never written; a file cut short (a copy interrupted, a full disk) keeps its
-// whole table, pointing past its end, and its first level may still decode.
-bool chunks_within_file(const std::string& path) {
+}  // namespace
+
+// OpenEXR's partComplete() only looks for offsets never written; a file cut short (a copy
+// interrupted, a full disk) keeps its whole table, pointing past its end, and its first level may
+// still decode.
+bool exr_chunks_within_file(const std::string& path) {
     struct stat st;
     if (::stat(path.c_str(), &st) != 0) return false;
     const uint64_t size = static_cast<uint64_t>(st.st_size);
@@ -253,8 +255,6 @@ bool chunks_within_file(const std::string& path) {
     return ok;
 }
 
-}  // namespace
-
 SpectralExrInfo read_spectral_exr_info(const std::string& path) {
     // A regular file (never a FIFO, which would block, or a device), checked before reading.
     check_regular_file(path, file_limits::kImage, "an OpenEXR file");
@@ -273,7 +273,7 @@ SpectralExrInfo read_spectral_exr_info(const std::string& path) {
         info.parts = file.parts();
         for (int part = 0; part < file.parts(); ++part)
             info.complete = info.complete && file.partComplete(part);
-        info.complete = info.complete && chunks_within_file(path);
+        info.complete = info.complete && exr_chunks_within_file(path);
         const Imf::Header& h = file.header(0);
         const Imath::Box2i& dw = h.dataWindow();
         const Imath::Box2i& disp = h.displayWindow();

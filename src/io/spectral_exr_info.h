@@ -42,6 +42,10 @@ struct SpectralExrInfo {
     std::vector<HeaderAttribute> header;  // every attribute of the first part's header, in order
 };
 
+// Every chunk the OpenEXR file's offset tables name lies whole within the file (false for a file
+// cut short, or one OpenEXR cannot open): the tables' bytes are read, not the pixels.
+bool exr_chunks_within_file(const std::string& path);
+
 // Throws Error("<path>: <cause>") for unreadable files and for files with no reflective channels.
 SpectralExrInfo read_spectral_exr_info(const std::string& path);
 

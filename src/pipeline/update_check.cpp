@@ -11,6 +11,7 @@
 #include "io/ocio_config.h"
 #include "io/provenance_keys.h"
 #include "io/source_identity.h"
+#include "io/spectral_exr_info.h"
 #include "spectex/version.h"
 #include "spectral/wavelength_grid.h"
 
@@ -154,7 +155,17 @@ UpdateCheck check_update(const std::string& input, const std::string& output,
         c.reason = "the source's size changed";
         return c;
     }
+    // Up to date but for the pixels: a copy cut short keeps its header (and the bake's records),
+    // so the chunk tables are read too (not the pixels).
+    auto whole = [&] {
+        if (exr_chunks_within_file(output)) return true;
+        c.reason =
+            "the output is incomplete: chunks of the pixel data are missing (a truncated "
+            "or interrupted file)";
+        return false;
+    };
     if (now.mtime_text() == mtime) {
+        if (!whole()) return c;
         c.up_to_date = true;
         c.reason = "up to date: same settings hash, source size and modification time";
         return c;
@@ -163,6 +174,7 @@ UpdateCheck check_update(const std::string& input, const std::string& output,
     // a replacement of the same size does not. The bytes are read, not decoded.
     try {
         if (hash_file(input) == recorded) {
+            if (!whole()) return c;
             c.up_to_date = true;
             c.reason =
                 "up to date: same settings hash and source bytes (its modification time changed)";

@@ -821,3 +821,43 @@ TEST(HostileReads, ATiledTiffClaimingHugeSizeFailsInABandsMemory) {
     expect_refused("tiled TIFF claiming 16000x16000", r, tif, out, "read failed");
     if (!kSanitized) EXPECT_LT(r.maxrss_kb, 1024 * 1024) << "kB";
 }
+
+// A data window edited wider than the chunks hold (the chunk count unchanged): OpenEXR's InputFile
+// decoded each chunk short and filled the rest with zeros or the previous chunk's bytes, so
+// verify passed such a file (exit 0, a red 0.29 below zero) and sample, render and plot showed
+// pixels it does not hold. Every reader refuses it, naming the file and the damaged chunk, for a
+// compressed and an uncompressed file.
+TEST(HostileReads, ADataWindowWiderThanItsChunksIsRefusedByEveryReader) {
+    ScratchDir d;
+    pattern_png(d, "in.png", 16, 16);
+    for (const char* compression : {"zip", "piz", "none"}) {
+        const std::string exr = d / (std::string(compression) + ".exr");
+        ASSERT_EQ(run_spectex({"bake", d / "in.png", "-o", exr, "--method", "basis",
+                               "--wavelengths", "400:700:20", "--compression", compression, "-q"})
+                      .status,
+                  0);
+        EXPECT_EQ(run_spectex({"verify", exr}).status, 0) << compression;
+        // dataWindow 0,0 - 15,15 becomes 0,0 - 31,15: the same 16 rows, twice the width.
+        std::string b = read_file(exr);
+        const std::string key = std::string("dataWindow") + '\0' + "box2i" + '\0';
+        const size_t at = b.find(key);
+        ASSERT_NE(at, std::string::npos);
+        const size_t max_x = at + key.size() + 4 + 8;
+        ASSERT_EQ(b[max_x], 15);
+        b[max_x] = 31;
+        const std::string wide = d / (std::string(compression) + "_wide.exr");
+        write_bytes(wide, b);
+        for (const std::vector<std::string>& args :
+             {std::vector<std::string>{"verify", wide},
+              {"sample", wide, "5,3"},
+              {"render", wide, "-o", d / "r.png"},
+              {"plot", wide, "--pixel", "5,3", "-o", d / "p.svg"}}) {
+            const RunResult r = run_spectex(args);
+            EXPECT_EQ(r.status, 1) << compression << " " << args[0] << ": " << r.out << r.err;
+            EXPECT_TRUE(has_text(r.err, wide + ": cannot read the pixels: the chunk of rows "))
+                << compression << " " << args[0] << ": " << r.err;
+        }
+        EXPECT_FALSE(file_exists(d / "r.png"));
+        EXPECT_FALSE(file_exists(d / "p.svg"));
+    }
+}

@@ -323,6 +323,44 @@ TEST(Update, AnOutputThatDoesNotRecordItsSourceIsRebuilt) {
     EXPECT_TRUE(read_exr(d / "a.exr").has_attr("spectex:sourceHash"));
 }
 
+// A copy cut short keeps its header, and with it the bake's settings hash and the source's
+// identity: --update judged such an output by its header alone and kept it, broken, on every
+// run. The chunk tables are read too, so a scanline and a tiled (MIP) output missing their last
+// bytes are baked again, and a dry run says why.
+TEST(Update, AnOutputCutShortIsBakedAgain) {
+    ScratchDir d;
+    write_pattern_png(d / "a.png", 1);
+    write_pattern_png(d / "b.png", 2);
+    const std::vector<std::string> a_bake = {"bake", d / "a.png", "-o", d / "a.exr"};
+    const std::vector<std::string> b_bake = {"bake", d / "b.png", "-o", d / "b.exr", "--mipmap"};
+    auto with = [](std::vector<std::string> v, const std::vector<std::string>& more) {
+        v.insert(v.end(), more.begin(), more.end());
+        return v;
+    };
+    ASSERT_EQ(run_spectex(a_bake).status, 0);
+    ASSERT_EQ(run_spectex(b_bake).status, 0);
+    const std::string a_whole = read_file(d / "a.exr"), b_whole = read_file(d / "b.exr");
+    auto cut = [&] {
+        write_text(d / "a.exr", a_whole.substr(0, a_whole.size() - 100));
+        write_text(d / "b.exr", b_whole.substr(0, b_whole.size() - 100));
+    };
+    cut();
+    for (const auto& bake : {a_bake, b_bake}) {
+        const RunResult n = run_spectex(with(bake, {"--update", "-n"}));
+        EXPECT_EQ(n.status, 0) << n.err;
+        EXPECT_TRUE(has_text(n.out + n.err, "not up to date: the output is incomplete")) << n.out;
+        const RunResult r = run_spectex(with(bake, {"--update", "--json", "-"}));
+        ASSERT_EQ(r.status, 0) << r.err;
+        EXPECT_EQ(occurrences(r.out, "\"status\":\"ok\""), 1u) << r.out;
+        EXPECT_EQ(run_spectex({"verify", bake[3]}).status, 0) << bake[3];
+    }
+    // Whole again: up to date.
+    for (const auto& bake : {a_bake, b_bake}) {
+        const RunResult r = run_spectex(with(bake, {"--update", "--json", "-"}));
+        EXPECT_EQ(occurrences(r.out, "\"status\":\"skipped\""), 1u) << r.out;
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // What --update decides: the OCIO config by what it does to the files
 
