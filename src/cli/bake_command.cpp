@@ -42,9 +42,11 @@ BatchPlan plan_bake_files(BakeCli& c, const std::vector<std::string>& inputs,
     c.req.data_dir = find_data_dir();
     if (!c.base_dir.empty() && !is_directory(c.base_dir))
         throw UsageError("--base-dir: '" + c.base_dir + "' is not a folder");
-    // --output-dir is created (with its parents) when missing, like mkdir -p; the folders below
-    // it (a mirrored tree, a template's folders) as each file is baked.
-    if (!c.dry_run) make_folders(c.output_dir);
+    if (!c.output_dir.empty() && !c.output.empty() && !has_template_tokens(c.output))
+        throw UsageError(
+            "-o " + c.output +
+            " names one file and --output-dir a folder for each input's output: give "
+            "one, or an -o template inside the folder (e.g. -o '{stem}.spectral.exr')");
     const std::vector<std::string> listed = list_inputs(inputs, c.from_list);
     std::vector<std::string> expanded = expand_inputs(listed);
     const OutputNaming naming{c.output, c.output_dir, c.base_dir};
@@ -300,7 +302,17 @@ int run_bake(const std::vector<std::string>& args) {
         return 2;
     }
     finish_batch_plan(c, plan);
-    return c.dry_run ? run_dry_run(plan, settings) : run_batch(plan, settings);
+    if (c.dry_run) return run_dry_run(plan, settings);
+    // --output-dir is created (with its parents) when missing, like mkdir -p, once the command is
+    // known to run (a usage error leaves no folder behind); the folders below it (a mirrored
+    // tree, a template's folders) as each file is baked.
+    try {
+        make_folders(c.output_dir);
+    } catch (const Error& e) {
+        print_error(e.what());
+        return 1;
+    }
+    return run_batch(plan, settings);
 }
 
 }  // namespace spectex

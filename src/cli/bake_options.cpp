@@ -438,9 +438,11 @@ void check_grid_options(BakeCli& c) {
         if (!c.plan_budget) c.req.plan.max_de = DefaultBake::max_de;
     }
     const bool automatic = c.wavelengths == "auto";
+    // Two grids: neither may win in silence.
+    if (c.wavelengths_given && !c.wavelengths_file.empty())
+        throw UsageError(std::string("--wavelengths") + (automatic ? " auto" : "") +
+                         " and --wavelengths-file are two grids; give one");
     if (automatic) {
-        if (!c.wavelengths_file.empty())
-            throw UsageError("--wavelengths auto and --wavelengths-file are two grids; give one");
         if (!scene_default && (!c.plan_lights || !c.plan_budget))
             throw UsageError(
                 "--wavelengths auto needs --lights and --max-de (the scene's lights and the "

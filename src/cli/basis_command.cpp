@@ -58,6 +58,7 @@ namespace {
 struct BasisArgs {
     FitSpec spec;
     std::string output, wavelengths = "380:780:5", wavelengths_file;
+    bool wavelengths_given = false;
     std::string objective = "smooth";  // --objective, parsed into spec.objective once checked
     bool stream = false;               // -o names a stream other than "-": written through
     bool quiet = false;
@@ -70,7 +71,10 @@ void declare_basis_options(ArgParser& p, BasisArgs& a) {
              "and certificate go to FILE.provenance); - for stdout (the CSV alone).",
              [&](const std::string& v) { a.output = stdout_as_dash(v); });
     p.option("--wavelengths", "START:END:STEP", "Wavelength grid in nm (default 380:780:5).",
-             [&](const std::string& v) { a.wavelengths = v; });
+             [&](const std::string& v) {
+                 a.wavelengths = v;
+                 a.wavelengths_given = true;
+             });
     p.option("--wavelengths-file", "FILE",
              "One wavelength per line (any strictly increasing list).",
              [&](const std::string& v) { a.wavelengths_file = v; });
@@ -121,6 +125,8 @@ void check_basis_args(BasisArgs& a, const std::vector<std::string>& pos) {
     }
     spec.objective = parse_objective_option(a.objective);
     const bool from_file = !a.wavelengths_file.empty();
+    if (from_file && a.wavelengths_given)
+        throw UsageError("--wavelengths and --wavelengths-file are two grids; give one");
     try {
         spec.grid = from_file ? WavelengthGrid::from_file(a.wavelengths_file)
                               : WavelengthGrid::parse_exact(a.wavelengths);

@@ -60,6 +60,47 @@ TEST(Batch, OutputDirAndTemplateAndFailuresDoNotStopOthers) {
     EXPECT_FALSE(file_exists(d / "one.exr"));
 }
 
+// Options that name one thing twice are usage errors, and a usage error creates nothing: -o FILE
+// beside --output-dir was dropped without a word (the output landed as DIR/<stem>.exr), one grid
+// from --wavelengths and another from --wavelengths-file kept the file's, and --output-dir's
+// folders were made before the checks that refused the command (two inputs writing one output).
+TEST(Batch, OptionsNamingOneThingTwiceAreRefusedAndCreateNothing) {
+    ScratchDir d;
+    write_small_png(d / "a.png", 1);
+    write_small_png(d / "b.png", 2);
+    std::ofstream(d / "grid.txt") << "400\n500\n600\n700\n";
+    auto refused = [&](const std::vector<std::string>& args, const std::string& says) {
+        const RunResult r = run_spectex(args);
+        EXPECT_EQ(r.status, 2) << args[0] << " " << says << ": " << r.err;
+        EXPECT_TRUE(contains(r.err, says)) << r.err;
+    };
+    refused({"bake", d / "a.png", "-o", d / "r.exr", "--output-dir", d / "od"},
+            "names one file and --output-dir a folder");
+    EXPECT_FALSE(file_exists(d / "r.exr"));
+    EXPECT_FALSE(file_exists(d / "od"));
+    refused({"bake", d / "a.png", d / "b.png", d / "./a.png", "--output-dir", d / "nd/deeper"},
+            "would write an output another input writes");
+    EXPECT_FALSE(file_exists(d / "nd"));
+    for (const auto& order : {std::vector<std::string>{"--wavelengths", "400:700:20",
+                                                       "--wavelengths-file", d / "grid.txt"},
+                              std::vector<std::string>{"--wavelengths-file", d / "grid.txt",
+                                                       "--wavelengths", "400:700:20"}}) {
+        std::vector<std::string> bake = {"bake", d / "a.png", "-o", d / "w.exr"};
+        bake.insert(bake.end(), order.begin(), order.end());
+        refused(bake, "--wavelengths and --wavelengths-file are two grids");
+        std::vector<std::string> basis = {"basis", "-o", d / "w.csv"};
+        basis.insert(basis.end(), order.begin(), order.end());
+        refused(basis, "--wavelengths and --wavelengths-file are two grids");
+    }
+    EXPECT_FALSE(file_exists(d / "w.exr"));
+    EXPECT_FALSE(file_exists(d / "w.csv"));
+    // A template inside the folder is the way to name outputs there; the folder is made then.
+    const RunResult t = run_spectex(
+        {"bake", d / "a.png", "-o", "{stem}.t.exr", "--output-dir", d / "od", "--method", "basis"});
+    EXPECT_EQ(t.status, 0) << t.err;
+    EXPECT_TRUE(file_exists(d / "od/a.t.exr"));
+}
+
 TEST(Batch, FailFastStops) {
     ScratchDir d;
     std::ofstream(d / "0_broken.png") << "x";
