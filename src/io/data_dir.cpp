@@ -41,7 +41,10 @@ std::string cache_folder() {
     if (const char* env = std::getenv("SPECTEX_CACHE_DIR")) return env;
     if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && xdg[0] == '/')
         return std::string(xdg) + "/spectex";
-    if (const char* home = std::getenv("HOME"); home && home[0] == '/')
+    // A home that is not there (a service account's /nonexistent) is not made: no cache then.
+    struct stat st;
+    if (const char* home = std::getenv("HOME");
+        home && home[0] == '/' && ::stat(home, &st) == 0 && S_ISDIR(st.st_mode))
         return std::string(home) + "/.cache/spectex";
     return "";
 }

@@ -11,7 +11,8 @@ std::string find_data_dir();
 // Where spectex keeps answers worth keeping between runs (the grid search of --wavelengths auto and
 // plan): $SPECTEX_CACHE_DIR when it is set (set and empty: no cache), else $XDG_CACHE_HOME/spectex
 // when XDG_CACHE_HOME is an absolute path (the XDG base directory convention), else
-// $HOME/.cache/spectex; "" (no cache) when none of them is usable.
+// $HOME/.cache/spectex when HOME is an existing folder (spectex never makes a home); "" (no
+// cache) when none of them is usable.
 std::string cache_folder();
 
 // What tells one build of spectex from another: the size and modification time of the running

@@ -156,11 +156,17 @@ TEST(PlanCache, WhereTheCacheIs) {
     EXPECT_EQ(entries(dir / "xdg/spectex").size(), 1u);
     // Else ~/.cache (HOME pointed into the scratch folder); a relative XDG_CACHE_HOME is ignored,
     // as the XDG convention says.
+    ASSERT_EQ(::mkdir((dir / "home").c_str(), 0700), 0);
     const RunResult home = run_env(
         quick_plan(), {"!SPECTEX_CACHE_DIR", "XDG_CACHE_HOME=relative", "HOME=" + dir / "home"});
     ASSERT_EQ(home.status, 0) << home.err;
     EXPECT_EQ(entries(dir / "home/.cache/spectex").size(), 1u);
     EXPECT_FALSE(file_exists("relative"));
+    // A HOME that does not exist (a service account's /nonexistent) is never made: no cache.
+    const RunResult homeless =
+        run_env(quick_plan(), {"!SPECTEX_CACHE_DIR", "!XDG_CACHE_HOME", "HOME=" + dir / "none"});
+    ASSERT_EQ(homeless.status, 0) << homeless.err;
+    EXPECT_FALSE(file_exists(dir / "none"));
     // SPECTEX_CACHE_DIR set and empty: no cache at all.
     const RunResult off = run_env(
         quick_plan(), {"SPECTEX_CACHE_DIR=", "HOME=" + dir / "h2", "XDG_CACHE_HOME=" + dir / "x2"});
