@@ -47,7 +47,7 @@ int run_plot(const std::vector<std::string>& args) {
     observer_option(p, "Observer of the line colours", s.observer);
     p.option("--title", "TEXT", "Title above the plot (default: the file name as given).",
              [&](const std::string& v) { s.title = v; });
-    p.option("--size", "WxH", "Size of the SVG in px (default 820x440).",
+    p.option("--size", "WxH", "Size of the SVG in px: W 500-10000, H 200-10000 (default 820x440).",
              [&](const std::string& v) {
                  const size_t x = v.find('x');
                  if (x == std::string::npos) throw UsageError("--size: '" + v + "' is not WxH");

@@ -314,6 +314,13 @@ VerifyReport verify_file(const std::string& exr_path, const VerifySettings& s) {
     const Recorded recorded(info, r.warnings);
     read_recorded_settings(recorded, s, r);
     r.alpha = reader.alpha();  // "associated" is OpenEXR's convention when nothing says otherwise
+    if (const std::string a = recorded(provenance_key::kAlpha);
+        info.alpha && !a.empty() && a != to_string(AlphaKind::Associated) &&
+        a != to_string(AlphaKind::Unassociated))
+        r.warnings.push_back(std::string(provenance_key::kAlpha) + " '" +
+                             printable_excerpt(a, 200) +
+                             "' is neither associated nor unassociated: A is taken as associated "
+                             "(OpenEXR's convention)");
 
     MeasureContext ctx;
     const Colorimetry col = file_colorimetry(exr_path, info, s, r, ctx);

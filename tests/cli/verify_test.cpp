@@ -533,3 +533,30 @@ TEST(Verify, AnAbsurdlyLongRecordedSettingIsIgnoredWithAWarning) {
         EXPECT_LT(longest, 1000u);
     }
 }
+
+// spectex:alpha says how A relates to the spectra; a value spectex never writes was taken as
+// associated without a word (an edited or foreign header changes what verify measures). It is
+// still taken as OpenEXR's convention, and verify says so.
+TEST(Verify, AnUnknownRecordedAlphaIsAWarning) {
+    ScratchDir d;
+    const std::string leaf =
+        std::string(SPECTEX_TEST_SOURCE_DIR) + "/examples/textures/leaf_rgba.png";
+    ASSERT_EQ(run_spectex({"bake", leaf, "-o", d / "a.exr", "--method", "basis", "--wavelengths",
+                           "400:700:20", "--alpha", "unassociated"})
+                  .status,
+              0);
+    const RunResult clean = run_spectex({"verify", d / "a.exr"});
+    EXPECT_EQ(clean.status, 0) << clean.err;
+    EXPECT_EQ(clean.err.find("is neither associated nor unassociated"), std::string::npos);
+    {
+        OIIO::ImageBuf buf(d / "a.exr");
+        ASSERT_TRUE(buf.read());
+        buf.specmod().attribute("spectex:alpha", "straight");
+        ASSERT_TRUE(buf.write(d / "b.exr")) << buf.geterror();
+    }
+    const RunResult r = run_spectex({"verify", d / "b.exr"});
+    EXPECT_TRUE(has_text(r.err,
+                         "spectex:alpha 'straight' is neither associated nor unassociated: "
+                         "A is taken as associated"))
+        << r.err;
+}
