@@ -20,8 +20,11 @@ namespace spectex {
 
 namespace {
 
+// A sample as stored: a NaN or an infinity is written as such (nan, inf, -inf), as every CSV
+// reader (Python's float, NumPy, pandas) reads it; JSON has no word for them (null there).
 std::string num(double v, const char* fmt = "%.9g") {
-    if (!std::isfinite(v)) return "null";
+    if (std::isnan(v)) return "nan";
+    if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
     char buf[64];
     std::snprintf(buf, sizeof buf, fmt, v);
     return buf;

@@ -10,6 +10,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <random>
 
@@ -661,6 +662,30 @@ TEST(Sample, TakesEveryCoordinateADataWindowMayHold) {
                 out->write_image(OIIO::TypeDesc::FLOAT, px.data()) && out->close());
     RunResult f = run_spectex({"sample", d / "far.exr", "1000000006,0"});
     EXPECT_EQ(f.status, 0) << f.err;
+}
+
+// sample's CSV gives the samples as stored: a NaN and an infinity were both written "null", so
+// the two could not be told apart. The CSV says nan, inf and -inf (what CSV readers parse); the
+// JSON, which has no word for them, keeps null.
+TEST(Sample, NonFiniteSamplesAreNamedInTheCsv) {
+    ScratchDir d;
+    const float nan = std::numeric_limits<float>::quiet_NaN(),
+                inf = std::numeric_limits<float>::infinity();
+    std::vector<float> px = {nan, inf, -inf, 0.5f};
+    OIIO::ImageSpec spec(1, 1, 4, OIIO::TypeDesc::FLOAT);
+    spec.channelnames = {"T.450nm", "T.550nm", "T.650nm", "T.700nm"};
+    spec.attribute("spectralLayoutVersion", "1.0");
+    auto out = OIIO::ImageOutput::create(d / "nf.exr");
+    ASSERT_TRUE(out && out->open(d / "nf.exr", spec) &&
+                out->write_image(OIIO::TypeDesc::FLOAT, px.data()) && out->close());
+    const RunResult r = run_spectex({"sample", d / "nf.exr", "0,0"});
+    EXPECT_EQ(r.status, 0) << r.err;
+    for (const char* line : {"0,0,450,nan\n", "0,0,550,inf\n", "0,0,650,-inf\n", "0,0,700,0.5\n"})
+        EXPECT_TRUE(has_text(r.out, line)) << line << " in\n" << r.out;
+    EXPECT_FALSE(has_text(r.out, "null")) << r.out;
+    const RunResult j = run_spectex({"sample", d / "nf.exr", "0,0", "--json"});
+    EXPECT_EQ(j.status, 0) << j.err;
+    EXPECT_TRUE(has_text(j.out, "null")) << j.out;
 }
 
 TEST(Plot, RefusesAnOutputThatIsNotSvgAndCountsRight) {
