@@ -41,10 +41,15 @@ std::vector<std::string> output_clashes(
                     first_by_id.emplace(std::make_pair(t.existing->dev, t.existing->ino), i);
                 !fresh)
                 first = std::min(first, it->second);
-        if (first != i)
-            clash[i] = files[i].first + ": its output " + files[i].second +
-                       " is also the output of " + files[first].first + " (as " +
-                       files[first].second + ")";
+        if (first == i) continue;
+        // One file named twice (a.png, ./a.png): not two inputs to tell apart.
+        struct stat a, b;
+        const bool same = ::stat(files[i].first.c_str(), &a) == 0 &&
+                          ::stat(files[first].first.c_str(), &b) == 0 && a.st_dev == b.st_dev &&
+                          a.st_ino == b.st_ino;
+        clash[i] = files[i].first + ": its output " + files[i].second + " is also the output of " +
+                   files[first].first + " (as " + files[first].second + ")" +
+                   (same ? ": the same file, given twice; list it once" : "");
     }
     return clash;
 }

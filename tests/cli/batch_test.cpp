@@ -81,6 +81,9 @@ TEST(Batch, OptionsNamingOneThingTwiceAreRefusedAndCreateNothing) {
     refused({"bake", d / "a.png", d / "b.png", d / "./a.png", "--output-dir", d / "nd/deeper"},
             "would write an output another input writes");
     EXPECT_FALSE(file_exists(d / "nd"));
+    // One file under two spellings is said to be that, not two inputs to name apart.
+    refused({"bake", d / "a.png", d / "./a.png", "--output-dir", d / "nd"},
+            "the same file, given twice; list it once");
     for (const auto& order : {std::vector<std::string>{"--wavelengths", "400:700:20",
                                                        "--wavelengths-file", d / "grid.txt"},
                               std::vector<std::string>{"--wavelengths-file", d / "grid.txt",
