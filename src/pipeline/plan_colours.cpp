@@ -52,14 +52,17 @@ PlanColours texture_sample_colours(const PlanSpec& spec) {
         };
         c.codes.push_back({{code(rgb[0]), code(rgb[1]), code(rgb[2])}});
     }
-    c.text = thousands(tc.rgb.size()) + " colours of " + spec.texture + " (" +
-             (tc.rgb.size() < tc.distinct
-                  ? "an even subset of its " + thousands(tc.distinct) + " distinct ones, "
-                  : std::string("every distinct one, ")) +
-             thousands(tc.pixels) + " pixels" +
-             (tc.transparent ? ", " + thousands(tc.transparent) + " with alpha 0 left out"
-                             : std::string()) +
-             "; " + tc.colorspace + ")";
+    c.text =
+        thousands(tc.rgb.size()) + " colours of " + spec.texture + " (" +
+        (tc.rgb.size() < tc.distinct
+             ? "an even subset of its " + thousands(tc.distinct) + " distinct ones, "
+             : std::string("every distinct one, ")) +
+        thousands(tc.pixels) + " pixels" +
+        (tc.transparent ? ", " + thousands(tc.transparent) + " with alpha 0 left out"
+                        : std::string()) +
+        (tc.replaced ? ", " + thousands(tc.replaced) + " with NaN/Inf taken as 0" : std::string()) +
+        (tc.clamped ? ", " + thousands(tc.clamped) + " clamped into [0, 1]" : std::string()) +
+        "; " + tc.colorspace + ")";
     return c;
 }
 

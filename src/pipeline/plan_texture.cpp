@@ -50,7 +50,9 @@ TextureColours texture_colours(const std::string& path, const std::string& data_
         const size_t n = w * static_cast<size_t>(y1 - y0);
         rgba.resize(4 * n);
         src->read_rgba(y0, y1, rgba.data());
-        police_rgba(rgba.data(), n, lin, policy, path, w, y0);
+        const PolicedCounts counts = police_rgba(rgba.data(), n, lin, policy, path, w, y0);
+        out.replaced += counts.replaced;
+        out.clamped += counts.clamped;
         for (size_t i = 0; i < n; ++i) {
             const float* p = &rgba[4 * i];
             ++out.pixels;

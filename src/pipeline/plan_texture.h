@@ -13,6 +13,8 @@ struct TextureColours {
     uint64_t pixels = 0;                    // pixels read
     uint64_t transparent = 0;               // pixels with alpha 0, left out (a bake makes them 0)
     uint64_t distinct = 0;   // distinct colours found (rgb.size() unless over the cap)
+    uint64_t replaced = 0;   // pixels with a NaN or infinity, taken as 0 (as a bake does)
+    uint64_t clamped = 0;    // pixels with a channel clamped into [0, 1]
     std::string colorspace;  // the input colour space chosen, and how
 };
 

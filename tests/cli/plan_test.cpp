@@ -4,6 +4,7 @@
 
 #include <cstdlib>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 
 #include "cli/cli_util.h"
@@ -268,6 +269,22 @@ TEST(Plan, NonuniformUsageErrors) {
 // basis (S_r + S_g + S_b = 1), which every reconstruction holds exactly, so a grey texture meets a
 // budget of 0.05 on the coarsest candidate (only half rounding is left), where the cube needs 5 nm;
 // pixels with alpha 0 (here saturated blue, the cube's worst colour) are left out.
+// A texture's NaN/Inf pixels and its values outside [0, 1] are taken as a bake takes them (0,
+// clamped), which a bake says in a warning and plan said nowhere: the colours line counts them.
+TEST(Plan, TextureColoursSayWhatWasReplacedOrClamped) {
+    ScratchDir d;
+    std::vector<float> px(4 * 4 * 3, 0.5f);
+    px[0] = std::numeric_limits<float>::quiet_NaN();
+    px[3 * 5 + 1] = std::numeric_limits<float>::infinity();
+    px[3 * 10 + 2] = 3.0f;
+    write_image(d / "odd.exr", 4, 4, 3, OIIO::TypeDesc::FLOAT, px.data());
+    const RunResult r = run_spectex({"plan", "--texture", d / "odd.exr", "--method", "basis",
+                                     "--grids", "400:700:20", "--lights", "D65", "--max-de", "5"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_TRUE(has_text(r.out, "16 pixels, 2 with NaN/Inf taken as 0, 1 clamped into [0, 1]"))
+        << r.out;
+}
+
 TEST(Plan, TextureColoursDecide) {
     ScratchDir d;
     std::vector<unsigned char> px(16 * 16 * 4);
