@@ -184,11 +184,7 @@ bool is_emissive(const std::string& name) {
 
 }  // namespace
 
-namespace {
-
-void quiet_exr_errors(exr_const_context_t, exr_result_t, const char*) {}
-
-}  // namespace
+void exr_quiet_errors(exr_const_context_t, exr_result_t, const char*) {}
 
 // OpenEXR's partComplete() only looks for offsets never written; a file cut short (a copy
 // interrupted, a full disk) keeps its whole table, pointing past its end, and its first level may
@@ -198,7 +194,7 @@ bool exr_chunks_within_file(const std::string& path) {
     if (::stat(path.c_str(), &st) != 0) return false;
     const uint64_t size = static_cast<uint64_t>(st.st_size);
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
-    init.error_handler_fn = quiet_exr_errors;
+    init.error_handler_fn = exr_quiet_errors;
     exr_context_t ctx = nullptr;
     if (exr_start_read(&ctx, path.c_str(), &init) != EXR_ERR_SUCCESS) return false;
     bool ok = true;

@@ -1,5 +1,7 @@
 #pragma once
 // Reads the header of a spectral OpenEXR (Fichet 2021 layout, ours or another tool's).
+#include <openexr.h>
+
 #include <string>
 #include <utility>
 #include <vector>
@@ -41,6 +43,10 @@ struct SpectralExrInfo {
     };
     std::vector<HeaderAttribute> header;  // every attribute of the first part's header, in order
 };
+
+// An OpenEXR core error handler that prints nothing (its callers report the error themselves,
+// naming the file).
+void exr_quiet_errors(exr_const_context_t, exr_result_t, const char*);
 
 // Every chunk the OpenEXR file's offset tables name lies whole within the file (false for a file
 // cut short, or one OpenEXR cannot open): the tables' bytes are read, not the pixels.

@@ -21,6 +21,7 @@
 #include "base/task_pool.h"
 #include "io/exr_compression.h"
 #include "io/exr_preflight.h"
+#include "io/exr_zip.h"
 #include "io/provenance_keys.h"
 #include "spectral/expand.h"
 
@@ -33,12 +34,6 @@ AlphaKind alpha_kind(const SpectralExrInfo& info) {
             return AlphaKind::Unassociated;
     return AlphaKind::Associated;
 }
-
-namespace {
-
-void quiet_exr_errors(exr_const_context_t, exr_result_t, const char*) {}
-
-}  // namespace
 
 // OpenEXR's InputFile decodes a chunk that holds less than its header's data window says (a window
 // edited wider, a chunk swapped for a smaller one) without a word: the lines it lacks come back as
@@ -60,7 +55,7 @@ class ChunkReader {
   public:
     ChunkReader(const std::string& path, const Imf::Header& header) : path_(path) {
         exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
-        init.error_handler_fn = quiet_exr_errors;
+        init.error_handler_fn = exr_quiet_errors;
         exr_result_t r = exr_start_read(&ctx_, path_.c_str(), &init);
         if (r != EXR_ERR_SUCCESS) {
             ctx_ = nullptr;
@@ -129,7 +124,7 @@ class ChunkReader {
             const int first = static_cast<int>(y_min_ + c * rows_);
             exr_chunk_info_t ci;
             const unsigned char* data = nullptr;
-            errors[i] = inflate(exr_read_scanline_chunk_info(ctx_, 0, first, &ci), ci, &data);
+            errors[i] = inflate(exr_read_scanline_chunk_info(ctx_, 0, first, &ci), ci, true, &data);
             const size_t lines = static_cast<size_t>(std::min<int64_t>(rows_, y_max_ - first + 1));
             if (errors[i].empty() && ci.unpacked_size != lines * line_bytes_)
                 errors[i] = "its size is not the window's";
@@ -218,7 +213,7 @@ class ChunkReader {
         if (ci.compression == EXR_COMPRESSION_NONE || ci.compression == EXR_COMPRESSION_ZIP ||
             ci.compression == EXR_COMPRESSION_ZIPS) {
             const unsigned char* data = nullptr;
-            return inflate(r, ci, &data);
+            return inflate(r, ci, false, &data);  // InputFile unpacks it
         }
         exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
         r = exr_decoding_initialize(ctx_, 0, &ci, &dec);
@@ -233,10 +228,11 @@ class ChunkReader {
     }
 
     // A chunk stored without compression or in ZIP/ZIPS, read into this thread's scratch and
-    // inflated to exactly its window's size; *data then points at its unpacked bytes (lines one
-    // after another, each line's channels in file order), valid until this thread's next call.
-    // "" when it holds what the header says, else why not.
-    std::string inflate(exr_result_t r, const exr_chunk_info_t& ci,
+    // inflated to exactly its window's size. With `restore`, *data then points at its unpacked
+    // bytes (lines one after another, each line's channels in file order), valid until this
+    // thread's next call; without, the size alone is checked. "" when it holds what the header
+    // says, else why not.
+    std::string inflate(exr_result_t r, const exr_chunk_info_t& ci, bool restore,
                         const unsigned char** data) const {
         if (r != EXR_ERR_SUCCESS) return exr_get_default_error_message(r);
         const bool zip =
@@ -275,15 +271,10 @@ class ChunkReader {
         if (libdeflate_zlib_decompress(t.z, t.in.get(), ci.packed_size, t.tmp.get(),
                                        ci.unpacked_size, nullptr) != LIBDEFLATE_SUCCESS)
             return "it does not inflate to the window's size";
-        // OpenEXR's ZIP: each byte stored as the difference from the one before (plus 128), the
-        // even bytes of the data first, then the odd ones.
-        unsigned char* d = t.tmp.get();
-        const size_t n = ci.unpacked_size;
-        for (size_t i = 1; i < n; ++i) d[i] = static_cast<unsigned char>(d[i - 1] + d[i] - 128);
-        const size_t half = (n + 1) / 2;
-        unsigned char* out = t.out.get();
-        for (size_t i = 0; i < n; ++i) out[i] = (i & 1) ? d[half + i / 2] : d[i / 2];
-        *data = out;
+        if (restore) {  // OpenEXR's ZIP pre-pass undone (io/exr_zip.h)
+            zip_restore(t.tmp.get(), ci.unpacked_size, t.out.get());
+            *data = t.out.get();
+        }
         return "";
     }
 

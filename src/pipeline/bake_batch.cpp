@@ -12,6 +12,7 @@
 #include <cstring>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include "base/error.h"
@@ -43,10 +44,8 @@ std::vector<std::string> output_clashes(
                 first = std::min(first, it->second);
         if (first == i) continue;
         // One file named twice (a.png, ./a.png): not two inputs to tell apart.
-        struct stat a, b;
-        const bool same = ::stat(files[i].first.c_str(), &a) == 0 &&
-                          ::stat(files[first].first.c_str(), &b) == 0 && a.st_dev == b.st_dev &&
-                          a.st_ino == b.st_ino;
+        const std::optional<FileId> a = file_id(files[i].first);
+        const bool same = a && a == file_id(files[first].first);
         clash[i] = files[i].first + ": its output " + files[i].second + " is also the output of " +
                    files[first].first + " (as " + files[first].second + ")" +
                    (same ? ": the same file, given twice; list it once" : "");

@@ -186,6 +186,15 @@ class ScratchDir {
 };
 
 // Writes an image with OpenImageIO: pixels are nchannels interleaved values of `format`.
+// Writes `pixels` (in `format`, packed as `spec` lays them out) under `spec`: channel names, per
+// channel formats, data window, attributes.
+inline void write_image(const std::string& path, const OIIO::ImageSpec& spec, OIIO::TypeDesc format,
+                        const void* pixels) {
+    auto out = OIIO::ImageOutput::create(path);
+    if (!out || !out->open(path, spec) || !out->write_image(format, pixels) || !out->close())
+        throw std::runtime_error("cannot write test image " + path + ": " + OIIO::geterror());
+}
+
 inline void write_image(const std::string& path, int w, int h, int nch, OIIO::TypeDesc format,
                         const void* pixels,
                         const std::vector<std::pair<std::string, std::string>>& attrs = {},
@@ -196,9 +205,7 @@ inline void write_image(const std::string& path, int w, int h, int nch, OIIO::Ty
         spec.tile_height = tile;
     }
     for (const auto& [k, v] : attrs) spec.attribute(k, v);
-    auto out = OIIO::ImageOutput::create(path);
-    if (!out || !out->open(path, spec) || !out->write_image(format, pixels) || !out->close())
-        throw std::runtime_error("cannot write test image " + path + ": " + OIIO::geterror());
+    write_image(path, spec, format, pixels);
 }
 
 // An 8-bit RGB PNG whose pixels depend on `seed`: another seed, another picture of the same size.

@@ -676,9 +676,7 @@ TEST(Sample, NonFiniteSamplesAreNamedInTheCsv) {
     OIIO::ImageSpec spec(1, 1, 4, OIIO::TypeDesc::FLOAT);
     spec.channelnames = {"T.450nm", "T.550nm", "T.650nm", "T.700nm"};
     spec.attribute("spectralLayoutVersion", "1.0");
-    auto out = OIIO::ImageOutput::create(d / "nf.exr");
-    ASSERT_TRUE(out && out->open(d / "nf.exr", spec) &&
-                out->write_image(OIIO::TypeDesc::FLOAT, px.data()) && out->close());
+    write_image(d / "nf.exr", spec, OIIO::TypeDesc::FLOAT, px.data());
     const RunResult r = run_spectex({"sample", d / "nf.exr", "0,0"});
     EXPECT_EQ(r.status, 0) << r.err;
     for (const char* line : {"0,0,450,nan\n", "0,0,550,inf\n", "0,0,650,-inf\n", "0,0,700,0.5\n"})
@@ -715,9 +713,7 @@ TEST(Sample, EverySampleIsOpenExrsOwnReadWhateverTheCompression) {
         std::vector<float> px(static_cast<size_t>(w) * h * 6);
         for (size_t i = 0; i < px.size(); ++i)
             px[i] = static_cast<float>((i * 2654435761u) % 100003) / 100003.0f;
-        auto out = OIIO::ImageOutput::create(path);
-        ASSERT_TRUE(out && out->open(path, spec) &&
-                    out->write_image(OIIO::TypeDesc::FLOAT, px.data()) && out->close());
+        write_image(path, spec, OIIO::TypeDesc::FLOAT, px.data());
         const ExrImage want = read_exr(path);
         std::vector<std::string> args = {"sample", path, "--json", "--"};
         for (int y = 0; y < h; ++y)
