@@ -18,7 +18,8 @@ double lab_f(double t) { return t > kEpsilon ? std::cbrt(t) : (kKappa * t + 16.0
 
 // The cube root of t > 0 without libm (whose cbrt splits t with frexp and ldexp, the larger part
 // of a whole-cube pass): a first guess from the exponent's bits (within 3.2 %), then two Halley
-// steps, each cubing the relative error (3e-2, 1e-5, 1e-14; measured over 1e-4 to 4: 6.4e-15).
+// steps, each cubing the relative error (3e-2, 1e-5, 1e-14; the largest on 20 million t drawn
+// log-uniformly from 1e-4 to 4: 6.4e-15, against libm's cbrt).
 // Three Newton steps (one division each too) took 55 % longer and left 1e-12.
 double cube_root(double t) {
     uint64_t i;
