@@ -246,10 +246,12 @@ SpectralExrLayout output_layout(const BakeSettings& s, const SourceInfo& info, i
 // linear (premultiplied) planes, expand planes to bins, hand them to the writer; and the two
 // orders they run in (scanlines with two strips in flight, or a MIP pyramid).
 //
-// Associated alpha: a linear method (the basis) expands the premultiplied colour, which is
-// alpha times the spectrum of the straight colour. Any other method (SpectralMethod::is_linear)
-// expands the straight colour and multiplies its spectrum by alpha before rounding: a lattice's
-// spectrum of a * rgb is not a times its spectrum of rgb, and divided by alpha it left [0, 1].
+// Associated alpha: every method expands the straight colour and multiplies its spectrum by alpha
+// before rounding: a lattice's spectrum of a * rgb is not a times its spectrum of rgb
+// (SpectralMethod::is_linear), and divided by alpha it left [0, 1]; and the colour-aware rounding
+// to half then holds the colour divided by alpha, as it is read back (round_spectra_to_bits). A
+// linear method (the basis) written as float expands the premultiplied colour: the same spectra,
+// faster.
 class PixelStages {
   public:
     PixelStages(const std::string& input, const BakeSettings& s, const SpectralMethod& method,
@@ -266,7 +268,9 @@ class PixelStages {
           info_(src.info()),
           has_alpha_(info_.alpha != AlphaKind::None),
           premultiply_(has_alpha_ && s.alpha == AlphaKind::Associated),
-          spectra_premultiplied_(premultiply_ && !method.is_linear()),
+          spectra_premultiplied_(premultiply_ &&
+                                 (!method.is_linear() || s.type == SampleType::Half)),
+          alpha_as_half_(has_alpha_ && layout.alpha_type == SampleType::Half),
           policy_{info_.alpha == AlphaKind::Associated, s.nan, s.range,
                   s.type == SampleType::Half ? kHalfMax : 0.0f},
           rgb_weight_(s.half_rgb_weight),
@@ -329,7 +333,7 @@ class PixelStages {
         res_.clamped_excursion = std::max(res_.clamped_excursion, counts.clamped_excursion);
         for (size_t i = 0; i < n; ++i) {
             const float* p = &rgba_[4 * i];
-            float al = p[3];
+            const float al = alpha_as_half_ ? as_stored_half(p[3]) : p[3];
             float k = premultiply_ ? al : 1.0f;
             r[i] = p[0] * k;
             g[i] = p[1] * k;
@@ -486,11 +490,20 @@ class PixelStages {
                 const size_t n = static_cast<size_t>(lw) * static_cast<size_t>(y1 - y0);
                 const float *r = level[0].data() + off, *g = level[1].data() + off,
                             *b = level[2].data() + off;
-                const float* a = has_alpha_ ? level[3].data() + off : nullptr;
+                const float* filtered = has_alpha_ ? level[3].data() + off : nullptr;
+                // The alpha the file stores (level 0's already is: read_rows). The straight colour
+                // is divided by the filtered alpha itself: by the stored one, an opaque colour's
+                // channel of 1 could come out above 1.
+                const float* a = filtered;
+                if (a && alpha_as_half_ && l > 0) {
+                    stored_alpha_.resize(n);
+                    for (size_t i = 0; i < n; ++i) stored_alpha_[i] = as_stored_half(a[i]);
+                    a = stored_alpha_.data();
+                }
                 stop_if_requested();
                 const void* planes = nullptr;
                 if (spectra_premultiplied_) {
-                    straighten(r, g, b, a, n);
+                    straighten(r, g, b, filtered, n);
                     planes = expand(straight_[0].data(), straight_[1].data(), straight_[2].data(),
                                     a, n, half, flt);
                 } else {
@@ -524,7 +537,12 @@ class PixelStages {
     BakeProgress* progress_;
     const SourceInfo& info_;
     const bool has_alpha_, premultiply_;
-    const bool spectra_premultiplied_;  // premultiply_ and a method that is not linear
+    const bool spectra_premultiplied_;  // premultiply_, but a linear method's float output
+    // Alpha stored as half: every alpha is taken as the half the file stores before anything is
+    // multiplied by it, so that T / A read back is the spectrum the rounding held (the float alpha
+    // of an 8-bit code differs from its half by up to 2^-11 of itself, a shift of every channel
+    // that was a third of the budget the coarse rounding leaves).
+    const bool alpha_as_half_;
     const PixelPolicy policy_;
     const std::vector<float>& rgb_weight_;  // the batch's (BakeSettings::half_rgb_weight)
     const std::vector<float>* feedback_;
@@ -534,6 +552,9 @@ class PixelStages {
     int strip_ = 1;
     std::vector<float> rgba_;
     std::array<std::vector<float>, 3> straight_;
+    std::vector<float> stored_alpha_;  // a filtered level's alpha as the file stores it
+
+    static float as_stored_half(float v) { return half_to_float(float_to_half(v)); }
 };
 
 // After the last pixel: close the file, patch in the source's hash (known once it was decoded),

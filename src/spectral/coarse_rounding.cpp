@@ -313,10 +313,11 @@ bool best_pair(const GridScratch& g, const float* e, bool avx, size_t* ba, size_
 }
 
 // The coarse grids' tolerance of a pixel whose exact colour is c, per channel: kColourTolerance
-// or kCoarseRelativeTolerance of the channel's value, whichever is larger.
-void coarse_tolerance(const float* c, float* tau) {
+// times `share` (alpha_tolerance of a premultiplied pixel's alpha, else 1) or
+// kCoarseRelativeTolerance of the channel's value, whichever is larger.
+void coarse_tolerance(const float* c, float share, float* tau) {
     for (size_t j = 0; j < 3; ++j)
-        tau[j] = std::max(kColourTolerance, kCoarseRelativeTolerance * std::fabs(c[j]));
+        tau[j] = std::max(kColourTolerance * share, kCoarseRelativeTolerance * std::fabs(c[j]));
 }
 
 bool within_coarse(const float* e, const float* tau) {
@@ -371,11 +372,12 @@ bool settle_on_grid(const float* s, size_t spectra_stride, const std::vector<uin
 
 size_t round_spectra_to_bits(const float* spectra, size_t spectra_stride, size_t n, size_t bins,
                              const std::vector<float>* rgb_weight, const std::vector<int>& bits,
-                             uint16_t* out, size_t plane_stride) {
+                             uint16_t* out, size_t plane_stride, const float* alpha) {
     bool full = true;
     for (size_t k = 0; k < bins; ++k) full = full && (k >= bits.size() || bits[k] >= 10);
     if (full) {
-        round_spectra_to_half(spectra, spectra_stride, n, bins, rgb_weight, out, plane_stride);
+        round_spectra_to_half(spectra, spectra_stride, n, bins, rgb_weight, out, plane_stride,
+                              alpha);
         return 0;
     }
     std::vector<uint16_t> steps(bins);
@@ -432,7 +434,7 @@ size_t round_spectra_to_bits(const float* spectra, size_t spectra_stride, size_t
                 float e[3] = {er[i], eg[i], eb[i]};
                 const float c[3] = {cr[i], cg[i], cb[i]};
                 float tau[3];
-                coarse_tolerance(c, tau);
+                coarse_tolerance(c, alpha ? alpha_tolerance(alpha[i0 + i]) : 1.0f, tau);
                 if (within_coarse(e, tau)) continue;
                 const float* s = spectra + i0 + i;
                 uint16_t* px = local.data() + i;
@@ -441,7 +443,8 @@ size_t round_spectra_to_bits(const float* spectra, size_t spectra_stride, size_t
                     continue;
                 // Full half, exactly as round_spectra_to_half rounds this pixel.
                 ++widened;
-                round_spectra_to_half(s, spectra_stride, 1, bins, rgb_weight, px, len);
+                round_spectra_to_half(s, spectra_stride, 1, bins, rgb_weight, px, len,
+                                      alpha ? alpha + i0 + i : nullptr);
             }
         }
         for (size_t k = 0; k < bins; ++k)

@@ -30,10 +30,12 @@ bool expansion_uses_f16c();
 
 // Rounds n spectra (bin k of pixel i at spectra[k * spectra_stride + i]) to half, to nearest, or
 // with the colour error feedback of expand_to_half when rgb_weight (bins x 3) is given: the same
-// rule for any method's spectra.
+// rule for any method's spectra. `alpha` (per pixel, or null): the spectra are premultiplied by
+// it, and the colour is held where it is seen, divided by alpha: the tolerance is alpha_tolerance
+// times kColourTolerance (half_bits.h).
 void round_spectra_to_half(const float* spectra, size_t spectra_stride, size_t n, size_t bins,
-                           const std::vector<float>* rgb_weight, uint16_t* out,
-                           size_t plane_stride);
+                           const std::vector<float>* rgb_weight, uint16_t* out, size_t plane_stride,
+                           const float* alpha = nullptr);
 
 void expand_to_float(const ExpansionMatrix& m, const float* r, const float* g, const float* b,
                      size_t n, float* out, size_t plane_stride);

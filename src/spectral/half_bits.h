@@ -25,9 +25,20 @@ constexpr float kCoarseRelativeTolerance = 1.0f / 1024.0f;
 // within that is rounded at full precision instead, exactly as round_spectra_to_half rounds it
 // (within 6.1e-5). All bits 10 is round_spectra_to_half, bit for bit. Returns the
 // number of pixels rounded at full precision.
+// `alpha` (per pixel, or null): spectra premultiplied by it. Its colour is then held divided by
+// alpha, as verify, a renderer and a compositor read it back: the absolute part of the tolerance
+// (6.1e-5) is scaled by alpha_tolerance(alpha) (the relative part holds as it is, both sides
+// scaling alike). Unscaled, a pixel at alpha 1/255 kept its colour to 6.1e-5 x 255 = 0.016 once
+// divided, and 8-bit codes were lost up to alpha 94/255.
 size_t round_spectra_to_bits(const float* spectra, size_t spectra_stride, size_t n, size_t bins,
                              const std::vector<float>* rgb_weight, const std::vector<int>& bits,
-                             uint16_t* out, size_t plane_stride);
+                             uint16_t* out, size_t plane_stride, const float* alpha = nullptr);
+// The share of the colour tolerance a pixel premultiplied by `alpha` keeps: |alpha|, at most 1 (1
+// for NaN; 0 for alpha 0, whose spectra are 0 and round exactly).
+inline float alpha_tolerance(float alpha) {
+    const float a = alpha < 0.0f ? -alpha : alpha;
+    return a < 1.0f ? a : 1.0f;
+}
 // The nearest value to v whose half code is a multiple of 2^(10 - bits) (ties to the even
 // multiple); bits 10 is float_to_half.
 uint16_t round_half_to_bits(float v, int bits);

@@ -247,8 +247,8 @@ void expand_to_half_feedback(const ExpansionMatrix& m, const float* r, const flo
 }  // namespace half_rounding_detail
 
 void round_spectra_to_half(const float* spectra, size_t spectra_stride, size_t n, size_t bins,
-                           const std::vector<float>* rgb_weight, uint16_t* out,
-                           size_t plane_stride) {
+                           const std::vector<float>* rgb_weight, uint16_t* out, size_t plane_stride,
+                           const float* alpha) {
     if (!rgb_weight) {
         for (size_t k = 0; k < bins; ++k)
             to_half(spectra + k * spectra_stride, out + k * plane_stride, n);
@@ -282,7 +282,9 @@ void round_spectra_to_half(const float* spectra, size_t spectra_stride, size_t n
         }
         for (size_t i = 0; i < len; ++i) {
             float e[3] = {er[i], eg[i], eb[i]};
-            if (within_tolerance(e)) continue;
+            const float tol =
+                alpha ? kColourTolerance * alpha_tolerance(alpha[i0 + i]) : kColourTolerance;
+            if (within_tolerance(e, tol)) continue;
             const float* s = spectra + i0 + i;
             uint16_t* px = out + i0 + i;
             for (size_t k = 0; k < bins; ++k)
@@ -297,7 +299,7 @@ void round_spectra_to_half(const float* spectra, size_t spectra_stride, size_t n
                 e[0] += w[0][best] * delta[best];
                 e[1] += w[1][best] * delta[best];
                 e[2] += w[2][best] * delta[best];
-                if (within_tolerance(e)) break;
+                if (within_tolerance(e, tol)) break;
                 delta[best] = flip_delta(h, sk);
             }
         }

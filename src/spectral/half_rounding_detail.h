@@ -78,8 +78,8 @@ inline size_t best_flip(const float* wr, const float* wg, const float* wb, size_
     return best;
 }
 
-inline bool within_tolerance(const float* e) {
-    return std::max({std::fabs(e[0]), std::fabs(e[1]), std::fabs(e[2])}) <= kColourTolerance;
+inline bool within_tolerance(const float* e, float tolerance = kColourTolerance) {
+    return std::max({std::fabs(e[0]), std::fabs(e[1]), std::fabs(e[2])}) <= tolerance;
 }
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))

@@ -383,10 +383,10 @@ size_t expand_half_premultiplied(const SpectralMethod& method, const float* r, c
                                    kBlock);
         if (full)
             round_spectra_to_half(spectra.data(), kBlock, len, bins, rgb_weight, out + i0,
-                                  plane_stride);
+                                  plane_stride, alpha + i0);
         else
             widened += round_spectra_to_bits(spectra.data(), kBlock, len, bins, rgb_weight, bits,
-                                             out + i0, plane_stride);
+                                             out + i0, plane_stride, alpha + i0);
     }
     return widened;
 }

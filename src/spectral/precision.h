@@ -69,7 +69,9 @@ size_t expand_half_bits(const SpectralMethod& method, const float* r, const floa
 // (r, g, b) times alpha[i], in float, then rounded as expand_half_bits rounds (empty bits: as
 // expand_half rounds). method(a * rgb) is not a * method(rgb) for such a method (a lattice can
 // then exceed 1 once divided by alpha); a linear method may expand the premultiplied colour
-// instead, with the same result. Returns what expand_half_bits returns.
+// instead, with the same result. The colour-aware rounding holds each colour divided by its alpha
+// (round_spectra_to_bits), so alpha should be the value the file stores. Returns what
+// expand_half_bits returns.
 size_t expand_half_premultiplied(const SpectralMethod& method, const float* r, const float* g,
                                  const float* b, const float* alpha, size_t n, uint16_t* out,
                                  size_t plane_stride, const std::vector<float>* rgb_weight,
