@@ -187,6 +187,31 @@ bool Linearizer::use_code_table(int bits) {
     return true;
 }
 
+std::vector<float> Linearizer::code_values() const {
+    std::vector<float> v;
+    if (!impl_ || impl_->key.empty()) return v;
+    const size_t n = impl_->key.size();
+    v.resize(3 * n);
+    for (size_t i = 0; i < n; ++i)
+        for (size_t c = 0; c < 3; ++c) v[3 * i + c] = impl_->out[c][i];
+    return v;
+}
+
+std::vector<float> srgb_code_values(const std::string& data_dir,
+                                    const std::string& config_override) {
+    ColourTags tags;
+    tags.hint = "sRGB";
+    tags.hint_from = "8-bit sRGB codes";
+    try {
+        Linearizer lin = Linearizer::make(ColourRequest{data_dir, config_override, "", "", tags});
+        // A config that cannot name sRGB falls back to its file rules, with a warning: not sRGB.
+        if (!lin.warnings().empty() || lin.is_identity() || !lin.use_code_table(8)) return {};
+        return lin.code_values();
+    } catch (const Error&) {
+        return {};  // the bake itself says what is wrong with the config
+    }
+}
+
 bool Linearizer::can_encode() const { return identity_ || (impl_ && impl_->inverse); }
 
 void Linearizer::encode_rgba(float* rgba, long pixels) const {

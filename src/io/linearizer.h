@@ -75,6 +75,10 @@ class Linearizer {
     // values. A value not in the table still goes through OCIO: the result is the same bits.
     // Returns whether the table is used.
     bool use_code_table(int bits);
+    // After use_code_table(bits) returned true: the linear value of every code, channel by
+    // channel (out[3 * i + c] for code i in channel c), exactly what apply_rgba gives a pixel
+    // holding those codes; else empty.
+    std::vector<float> code_values() const;
 
     Linearizer();
     ~Linearizer();
@@ -88,6 +92,15 @@ class Linearizer {
     std::vector<std::string> warnings_;
     bool identity_ = false, default_rule_ = false, scene_linear_ = false;
 };
+
+// The linear value of every 8-bit code of the config's sRGB texture space (the space a PNG read as
+// sRGB gets: OpenImageIO's hint "sRGB" named through the config), channel by channel, as a bake
+// decodes an 8-bit sRGB texture: the colours the precision budget measures
+// (PrecisionRequest::codes). Empty when the config has no such space, or its transform mixes the
+// channels (a bake then decodes each pixel through OpenColorIO, not by code): the budget then
+// measures IEC 61966-2-1's values. config_override as ColourRequest's.
+std::vector<float> srgb_code_values(const std::string& data_dir,
+                                    const std::string& config_override);
 
 // The colour space `req` chooses and the transform_id() of its processor, as Linearizer::make would
 // find them, without building the CPU processors: for --update, which asks it of every file of a

@@ -271,6 +271,7 @@ void choose_precision_bits(const BakeRequest& r, const BakeTables& t, BakeSettin
     req.observer = t.observer;
     for (const auto& l : precision_lights(r, s.illuminant)) req.lights.push_back(t.light(l));
     if (!s.half_rgb_weight.empty()) req.rgb_weight = &s.half_rgb_weight;
+    req.codes = srgb_code_values(s.data_dir, s.config);  // the colours an 8-bit texture bakes
     req.max_de = precision_budget(r);
     req.stride = kPrecisionSampleStride;
     req.threads = r.threads > 0 ? r.threads : hardware_threads();

@@ -11,6 +11,7 @@
 #include "base/error.h"
 #include "base/task_pool.h"
 #include "base/text.h"
+#include "io/linearizer.h"
 #include "pipeline/json_text.h"
 #include "pipeline/light_list.h"
 #include "pipeline/plan_cache.h"
@@ -437,6 +438,8 @@ void plan_precision(const PlanSpec& spec, const Observer& observer, const Wavele
         req.lights.push_back(*illuminant_table(spec.method.fit.data_dir, l));
     const std::vector<float> w = rgb_weight_for(spec, observer, grid);
     req.rgb_weight = &w;
+    // The colours an 8-bit texture bakes, as bake asks it (the same cache entry).
+    req.codes = srgb_code_values(spec.method.fit.data_dir, spec.config);
     req.max_de = spec.precision_de > 0 ? spec.precision_de : spec.max_de;
     req.stride = kPrecisionSampleStride;
     req.threads = threads;

@@ -309,6 +309,10 @@ std::string precision_answer_key(const PrecisionRequest& req) {
     } else {
         k.text("against the unrounded spectra");
     }
+    if (!req.codes.empty()) {  // else IEC 61966-2-1's values, as before there was a choice
+        k.text("8-bit codes as decoded");
+        k.values(std::vector<double>(req.codes.begin(), req.codes.end()));
+    }
     k.number(req.max_de);
     k.number(req.stride);
     return "precision-" + k.hex();

@@ -41,6 +41,18 @@ RendererWeights renderer_weights(const Observer& observer, const Spectrum& light
     return rw;
 }
 
+// The request's codes (PrecisionRequest::codes), or IEC 61966-2-1's in float when it has none.
+std::vector<float> code_values(const PrecisionRequest& req) {
+    if (!req.codes.empty()) {
+        if (req.codes.size() != 3 * 256) throw Error("precision: the codes are not 3 x 256 values");
+        return req.codes;
+    }
+    std::vector<float> v(3 * 256);
+    const auto& table = srgb_code_table();
+    for (size_t i = 0; i < v.size(); ++i) v[i] = static_cast<float>(table[i / 3]);
+    return v;
+}
+
 // The sample's unrounded spectra and their L*a*b* under each light, computed once; measure()
 // rounds them to a bit vector and returns the worst ΔE00 per light.
 class PrecisionJudge {
@@ -50,12 +62,12 @@ class PrecisionJudge {
         if (!req.method) throw Error("precision: no method");
         bins_ = static_cast<size_t>(req.method->bins());
         n_ = codes.size();
-        const auto& table = srgb_code_table();
+        const std::vector<float> table = code_values(req);
         std::vector<float> r(n_), g(n_), b(n_);
         for (size_t i = 0; i < n_; ++i) {
-            r[i] = static_cast<float>(table[codes[i][0]]);
-            g[i] = static_cast<float>(table[codes[i][1]]);
-            b[i] = static_cast<float>(table[codes[i][2]]);
+            r[i] = table[3 * codes[i][0]];
+            g[i] = table[3 * codes[i][1] + 1];
+            b[i] = table[3 * codes[i][2] + 2];
         }
         spectra_.resize(bins_ * n_);
         req.method->expand_float(r.data(), g.data(), b.data(), n_, spectra_.data(), n_);
@@ -210,7 +222,7 @@ class CubeJudge {
             size_t full = 0;
         };
         std::vector<Part> parts(tasks);
-        const auto& lin = srgb_code_table();
+        const std::vector<float> lin = code_values(req_);
         TaskPool::shared().parallel_for(tasks, std::max(1, req_.threads), [&](size_t t) {
             Part& p = parts[t];
             p.worst.assign(L, 0.0);
@@ -218,10 +230,10 @@ class CubeJudge {
             std::vector<float> r(256), g(256), b(256), s(bins_ * 256), back(bins_ * 256);
             std::vector<uint16_t> h(bins_ * 256);
             std::vector<float> sr(ref_colours_ ? 3 * L * 256 : ref_bins_ * 256);
-            for (size_t i = 0; i < 256; ++i) b[i] = static_cast<float>(lin[i]);
+            for (size_t i = 0; i < 256; ++i) b[i] = lin[3 * i + 2];
             for (size_t row = t * kRowsPerTask; row < (t + 1) * kRowsPerTask; ++row) {
-                std::fill(r.begin(), r.end(), static_cast<float>(lin[row >> 8]));
-                std::fill(g.begin(), g.end(), static_cast<float>(lin[row & 255]));
+                std::fill(r.begin(), r.end(), lin[3 * (row >> 8)]);
+                std::fill(g.begin(), g.end(), lin[3 * (row & 255) + 1]);
                 req_.method->expand_float(r.data(), g.data(), b.data(), 256, s.data(), 256);
                 p.full += round_spectra_to_bits(s.data(), 256, 256, bins_, req_.rgb_weight, bits,
                                                 h.data(), 256);

@@ -42,6 +42,14 @@ struct PrecisionRequest {
     // error and the rounding together. Null: the rounded spectra against the unrounded ones on the
     // file's grid (the rounding alone), for a method that cannot be built at 1 nm (a given table).
     const SpectralMethod* reference = nullptr;
+    // The linear value of each 8-bit code as a bake decodes it, channel by channel (codes[3 * i +
+    // c] for code i in channel c; 768 values): what OpenColorIO makes of an 8-bit sRGB texture's
+    // pixels through the config (srgb_code_values, io/linearizer.h). The rounding is not smooth:
+    // the same code decoded by IEC 61966-2-1's formula (OpenColorIO's curve is continuous at its
+    // knee: 12.9232 where the standard says 12.92, 2.5e-4 of the value for codes 1-10) is another
+    // colour, rounded another way, and a code the chooser measured at 0.3932 under FL2 baked at
+    // 0.3953. Empty: the formula's values (srgb_code_table).
+    std::vector<float> codes;
     double max_de = 0.5;  // the budget: worst ΔE00 under each light
     int stride = 8;  // codes 0, stride, 2·stride, … and 255 on each axis (8: 35,937 colours)
     int threads = 1;

@@ -12,7 +12,9 @@ this checks them all, as a renderer sees them: the file's bins reconstructed lin
 each light's own white (both spectra under the same light: no adaptation). --options are the
 candidate's bake options (default: none, spectex bake's default, whose budget is 0.5 under D65, A,
 FL2, FL11, D50, LED-B3); the reference is the same options with --type float. This is the
-independent check of the chooser: NumPy, OpenImageIO's Python reader and colour-science's ΔE00.
+independent check of the chooser: NumPy, OpenImageIO's Python reader and colour-science's ΔE00. With --alpha every
+colour is baked under an alpha of 1..254 (associated: T/A of the bake against T/A of the float
+twin), which the recorded figure (opaque) does not cover.
 The files are read 256 rows at a time, so memory stays near 1 GB. Beside each light's true worst
 it prints the header's spectex:precisionWorstDe and their ratio. The chooser now records the file
 against the method's own spectrum at 1 nm (the grid's error and the rounding together), a wider
@@ -58,17 +60,35 @@ def grid(exr):
 
 
 def rows(exr, step=256):
-    """(y0, pixels × bins, in ascending wavelength) of a spectral EXR, `step` rows at a time."""
+    """(y0, pixels × bins, in ascending wavelength) of a spectral EXR, `step` rows at a time; with an
+    A channel, the bins divided by it (the straight spectrum of an associated file)."""
     import OpenImageIO as oiio
 
     inp = oiio.ImageInput.open(str(exr))
     spec = inp.spec()
     wl, idx = spectral_channels(spec)
+    names = list(spec.channelnames)
     for y0 in range(0, spec.height, step):
         y1 = min(spec.height, y0 + step)
-        px = inp.read_scanlines(0, 0, y0, y1, 0, 0, spec.nchannels, oiio.FLOAT)
-        yield y0, px.reshape(-1, spec.nchannels)[:, idx].astype(np.float64)
+        px = inp.read_scanlines(0, 0, y0, y1, 0, 0, spec.nchannels, oiio.FLOAT).reshape(-1, spec.nchannels)
+        s = px[:, idx].astype(np.float64)
+        if "A" in names:
+            s /= px[:, names.index("A")].astype(np.float64)[:, None]
+        yield y0, s
     inp.close()
+
+
+def cube_alpha_png(path):
+    """All 16,777,216 8-bit sRGB colours, 4096×4096, each under an alpha of 1..254 (every value
+    alike often, neighbouring codes under different ones), straight (PNG)."""
+    import OpenImageIO as oiio
+
+    c = np.arange(1 << 24, dtype=np.uint64)
+    px = np.stack([(c >> 16) & 255, (c >> 8) & 255, c & 255, 1 + (c * 7919) % 254], -1).astype(np.uint8)
+    out = oiio.ImageOutput.create(str(path))
+    out.open(str(path), oiio.ImageSpec(4096, 4096, 4, oiio.UINT8))
+    out.write_image(px.reshape(4096, 4096, 4))
+    out.close()
 
 
 DATA = HERE.parent.parent / "config" / "spectral"
@@ -117,13 +137,18 @@ def main():
     ap.add_argument("--spectex", default=str(HERE.parent.parent / "build/src/spectex"))
     ap.add_argument("--options", default="", help="the candidate's bake options (default: none)")
     ap.add_argument("--budget", type=float, default=0.5, help="the ΔE00 the bake should hold (default 0.5)")
+    ap.add_argument("--alpha", action="store_true",
+                    help="every colour under an alpha of 1..254, the files associated: T/A against T/A")
     a = ap.parse_args()
     opts = shlex.split(a.options)
     t0 = time.time()
     with tempfile.TemporaryDirectory(prefix="spectex-budget-") as d:
         d = Path(d)
         cube, stored, ref = d / "cube.png", d / "stored.exr", d / "float.exr"
-        sve.cube_full_png(cube)
+        if a.alpha:
+            cube_alpha_png(cube)
+        else:
+            sve.cube_full_png(cube)
         subprocess.run([a.spectex, "bake", cube, "-o", stored, "-q", *opts], check=True)
         subprocess.run([a.spectex, "bake", cube, "-o", ref, "-q", *opts, "--type", "float"], check=True)
         recorded = recorded_worst(stored)
@@ -144,7 +169,8 @@ def main():
                 over[L] += int((de > a.budget).sum())
             if y % 1024 == 0:
                 print(f"  rows {y}..: " + ", ".join(f"{L} {worst[L]:.3f}" for L in LIGHTS), file=sys.stderr, flush=True)
-    print(f"# The budget over all 16,777,216 colours: spectex bake {a.options or '(the default)'}\n")
+    under = ", each under an alpha of 1..254 (T/A)" if a.alpha else ""
+    print(f"# The budget over all 16,777,216 colours{under}: spectex bake {a.options or '(the default)'}\n")
     print("| light | worst ΔE00 | colours over " + f"{a.budget:g} | recorded spectex:precisionWorstDe | true / recorded |")
     print("|---|---|---|---|---|")
     for L in LIGHTS:

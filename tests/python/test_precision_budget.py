@@ -147,3 +147,24 @@ def test_a_chosen_budget_bounds_every_colour_too(codes_png):
     d, png = codes_png
     check(d, png, "basis", ["--wavelengths", "400:700:5", "--precision", "auto", "--lights",
                             "D65,A,FL11", "--max-de", "0.3"], method=["--method", "basis"])
+
+
+def test_codes_whose_decoding_differs_from_the_formula_are_bounded_too():
+    # The bake decodes an 8-bit code through the config (OpenColorIO's sRGB curve, continuous at its
+    # knee: 2.5e-4 of the value below IEC 61966-2-1's for codes 1-10, a last float bit elsewhere);
+    # the rounding is not smooth, so a chooser that measured the formula's colours recorded FL2 0.394
+    # where #ff0406 bakes at 0.3953. Every code with at least two channels in the curve's linear
+    # part (0-10), any third channel: 92,416 colours.
+    low = np.arange(11)
+    codes = {(a, b, c) for a in low for b in low for c in range(256)}
+    codes = sorted(codes | {(b, c, a) for a, b, c in codes} | {(c, a, b) for a, b, c in codes})
+    px = np.array(codes, dtype=np.uint8)
+    side = int(np.ceil(np.sqrt(len(px))))
+    px = np.concatenate([px, np.repeat(px[:1], side * side - len(px), 0)]).reshape(side, side, 3)
+    with tempfile.TemporaryDirectory() as d:
+        path = os.path.join(d, "low.png")
+        out = oiio.ImageOutput.create(path)
+        out.open(path, oiio.ImageSpec(side, side, 3, oiio.UINT8))
+        out.write_image(px)
+        out.close()
+        check(d, path, "low", [])

@@ -1,5 +1,6 @@
 #include "io/linearizer.h"
 
+#include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -266,4 +267,44 @@ TEST(Linearizer, ConfigArithmeticToleranceKeepsItsMargins) {
               kConfigArithmeticTolerance / 2);
     EXPECT_GE(worst(ocio + "not_srgb.ocio", "Utility - Gamma 2.2 - Rec.709 - Texture"),
               10 * kConfigArithmeticTolerance);
+}
+
+// The precision budget measures the colours a bake gives 8-bit sRGB codes: OpenColorIO's, through
+// the config, bit for bit (its rounding is not smooth: the formula's colours are other colours).
+TEST(Linearizer, SrgbCodeValuesAreWhatABakeDecodes) {
+    const std::vector<float> v = srgb_code_values(kData, "");
+    ASSERT_EQ(v.size(), 3u * 256u);
+    Linearizer lin = make("srgb_tx");
+    ASSERT_TRUE(lin.use_code_table(8));
+    std::vector<float> rgba;
+    for (int c = 0; c < 256; ++c) {  // the floats OpenImageIO reads an 8-bit file's codes as
+        const unsigned char code = static_cast<unsigned char>(c);
+        float x = 0;
+        ASSERT_TRUE(
+            OIIO::convert_pixel_values(OIIO::TypeDesc::UINT8, &code, OIIO::TypeDesc::FLOAT, &x, 1));
+        rgba.insert(rgba.end(), {x, x, x, 1.0f});
+    }
+    lin.apply_rgba(rgba.data(), 256);
+    size_t differ_from_formula = 0;
+    for (size_t c = 0; c < 256; ++c)
+        for (size_t ch = 0; ch < 3; ++ch) {
+            EXPECT_EQ(v[3 * c + ch], rgba[4 * c + ch]) << c << " " << ch;  // exact: the same bits
+            differ_from_formula +=
+                v[3 * c + ch] != static_cast<float>(iec_srgb_to_linear(c / 255.0));
+        }
+    // Code 1: 1/255/12.9232 (OpenColorIO's continuous knee), not 1/255/12.92.
+    EXPECT_LT(v[3], static_cast<float>(iec_srgb_to_linear(1 / 255.0)));
+    EXPECT_GT(differ_from_formula, 0u);
+
+    // A config that cannot name sRGB: no values (the budget then measures the formula's).
+    char tmpl[] = "/tmp/spectex-ocio-XXXXXX";
+    const std::string dir = mkdtemp(tmpl), path = dir + "/linear_only.ocio";
+    std::ofstream(path) << "ocio_profile_version: 2\n"
+                           "roles:\n  default: lin\n  scene_linear: lin\n"
+                           "file_rules:\n  - !<Rule> {name: Default, colorspace: lin}\n"
+                           "colorspaces:\n  - !<ColorSpace>\n    name: lin\n"
+                           "    aliases: [lin_srgb]\n    isdata: false\n";
+    EXPECT_TRUE(srgb_code_values(kData, path).empty());
+    std::remove(path.c_str());
+    rmdir(dir.c_str());
 }
