@@ -59,8 +59,8 @@ int finish(int status) {
     spectex::finish_library_stderr();  // the libraries' last warnings before the closing line
     if (status == 1 && !g_command_line.empty())
         std::cerr << "spectex: the command was: " << spectex::one_line(g_command_line) << std::endl;
-    // A batch stopped by SIGTERM or SIGINT (io/atomic_file.h): its last line names the signal,
-    // then the process ends by it, as it would have without the batch's report.
+    // A batch stopped by SIGTERM, SIGINT or SIGHUP (io/atomic_file.h): its last line names the
+    // signal, then the process ends by it, as it would have without the batch's report.
     if (const int sig = spectex::termination_requested()) {
         std::cerr << "spectex: interrupted by " << spectex::signal_name(sig)
                   << ": the files finished are kept (each recorded in a --json report), the "

@@ -164,8 +164,8 @@ class BatchReport : public BatchListener {
         }
         // A warning about the data: printed under --quiet too.
         warn_default_rule_to_linear(plan_, settings, outcome.baked, outcome.was_baked);
-        // Stopped by SIGTERM or SIGINT: the records above are the files finished; the last one
-        // says the run was interrupted, and the report is committed like any other.
+        // Stopped by SIGTERM, SIGINT or SIGHUP: the records above are the files finished; the last
+        // one says the run was interrupted, and the report is committed like any other.
         if (outcome.signal && !plan_.json.empty())
             write_json(json_interrupted_record(signal_name(outcome.signal), n.total, n.done,
                                                n.interrupted, settings.settings_hash));
@@ -335,7 +335,8 @@ std::string utc_stamp() {
 int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
     BatchReport report(plan);
     if (!report.open_json()) return 1;
-    // From the first file on, SIGTERM and SIGINT stop the batch instead of ending the process:
+    // From the first file on, SIGTERM, SIGINT and SIGHUP stop the batch instead of ending the
+    // process:
     // the files finished keep their records, the report is committed, and main ends the process
     // by the signal after its last line (io/atomic_file.h).
     defer_termination_requests();

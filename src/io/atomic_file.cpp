@@ -55,13 +55,13 @@ extern "C" void cleanup_and_reraise(int sig) {
     ::raise(sig);
 }
 
-// defer_termination_requests: the first SIGTERM or SIGINT is recorded, not acted on (lock-free
-// atomics only: safe in a handler).
+// defer_termination_requests: the first SIGTERM, SIGINT or SIGHUP is recorded, not acted on
+// (lock-free atomics only: safe in a handler).
 std::atomic<bool> g_defer{false};
 std::atomic<int> g_requested{0};
 
 extern "C" void on_terminating_signal(int sig) {
-    if ((sig == SIGTERM || sig == SIGINT) && g_defer.load()) {
+    if ((sig == SIGTERM || sig == SIGINT || sig == SIGHUP) && g_defer.load()) {
         int none = 0;
         if (g_requested.compare_exchange_strong(none, sig)) return;
     }
@@ -367,7 +367,7 @@ void write_text_atomically(const std::string& path, const std::string& text) {
     f.commit();
 }
 
-void make_folders(const std::string& dir) {
+void make_folders(const std::string& dir, const std::string& what) {
     if (dir.empty()) return;
     for (size_t pos = 0; pos != std::string::npos;) {
         pos = dir.find('/', pos + 1);
@@ -377,7 +377,7 @@ void make_folders(const std::string& dir) {
         const int err = errno;
         struct stat st;
         if (err == EEXIST && ::stat(partial.c_str(), &st) == 0 && S_ISDIR(st.st_mode)) continue;
-        throw Error(partial + ": cannot create the output folder: " +
+        throw Error(partial + ": cannot create " + what + ": " +
                     (err == EEXIST ? std::string("something that is not a folder is there")
                                    : std::strerror(err)));
     }
@@ -390,7 +390,7 @@ namespace spectex {
 std::string store_file_in_folder(const std::string& dir, const std::string& name,
                                  const std::string& text) {
     try {
-        make_folders(dir);
+        make_folders(dir, "the cache folder");
     } catch (const Error& e) {
         return e.what();
     }

@@ -63,8 +63,9 @@ void check_output_path(const std::string& path, bool stream_ok = false);
 // Creates the folder `dir` and its missing parents, like mkdir -p, each with mode 0777 less the
 // umask. Safe when other processes (farm shards) create the same folders at the same time: a
 // folder that appears meanwhile is taken as made. Throws Error naming the folder and the cause
-// (something that is not a folder in the way, permissions, ...).
-void make_folders(const std::string& dir);
+// (something that is not a folder in the way, permissions, ...) and what it was for (`what`: "the
+// output folder", "the cache folder").
+void make_folders(const std::string& dir, const std::string& what = "the output folder");
 
 // Installs the handlers that remove live temporary files on every signal whose default action
 // ends the process (SIGINT, SIGTERM, SIGPIPE, SIGUSR1, SIGALRM, SIGXCPU, crashes, ...) and ignores
@@ -72,13 +73,14 @@ void make_folders(const std::string& dir);
 void install_signal_cleanup();
 
 // A batch stopping at a termination request. From defer_termination_requests() on, the first
-// SIGTERM or SIGINT (a farm pre-empting a task, Ctrl-C) no longer ends the process at once: it is
+// SIGTERM, SIGINT or SIGHUP (a farm pre-empting a task, Ctrl-C, a terminal or ssh session that
+// closed) no longer ends the process at once: it is
 // recorded, the batch starts no new file and the files being baked stop at their next strip
 // (BakeInterrupted; their temporaries are removed as ever), the report is finished, and
 // end_by_signal ends the process by that same signal. A second one, or any other terminating
 // signal, ends it at once (temporaries removed).
 void defer_termination_requests();
-// The signal recorded since defer_termination_requests (SIGTERM or SIGINT), or 0.
+// The signal recorded since defer_termination_requests (SIGTERM, SIGINT or SIGHUP), or 0.
 int termination_requested();
 // "SIGTERM", "SIGINT", ... (else "signal N").
 std::string signal_name(int sig);

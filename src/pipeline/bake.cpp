@@ -310,8 +310,8 @@ class PixelStages {
         int y0 = 0, y1 = 0;
     };
 
-    // A batch told to stop (SIGTERM, SIGINT: io/atomic_file.h) stops this file at its next strip;
-    // the output's temporary file is removed as the exception leaves bake_file.
+    // A batch told to stop (SIGTERM, SIGINT, SIGHUP: io/atomic_file.h) stops this file at its next
+    // strip; the output's temporary file is removed as the exception leaves bake_file.
     void stop_if_requested() const {
         if (const int sig = termination_requested()) throw BakeInterrupted(input_, sig);
     }

@@ -203,14 +203,15 @@ TEST(DataSafety, SigtermKeepsAPreviousOutputIntact) {
     }
 }
 
-// A batch pre-empted by a farm (SIGTERM) or stopped with Ctrl-C (SIGINT): it starts no new file,
+// A batch pre-empted by a farm (SIGTERM), stopped with Ctrl-C (SIGINT) or left by its terminal or
+// ssh session (SIGHUP; it ended the batch with no report at all): it starts no new file,
 // the file being baked stops and its temporary file is removed, the --json report keeps a record
 // of each file finished and ends with one saying the run was interrupted by that signal, the last
 // line on stderr names the signal, and the process ends by the signal (128 + N in a shell).
 // Six 512x512 files with --jobs 1 (each about 0.1 s here, 1 s under the sanitizers); the signal
 // goes once the first output exists, so at least one file is finished and most are not.
 TEST(DataSafety, AnInterruptedBatchKeepsTheRecordsOfTheFilesItFinished) {
-    for (int sig : {SIGTERM, SIGINT}) {
+    for (int sig : {SIGTERM, SIGINT, SIGHUP}) {
         ScratchDir d;
         std::vector<std::string> args{"bake"};
         for (int i = 0; i < 6; ++i) {
@@ -241,7 +242,7 @@ TEST(DataSafety, AnInterruptedBatchKeepsTheRecordsOfTheFilesItFinished) {
         std::istringstream in(report);
         for (std::string line; std::getline(in, line);) lines.push_back(line);
         ASSERT_GE(lines.size(), 2u) << report << "\nstderr:\n" << c.err;
-        const std::string name = sig == SIGTERM ? "SIGTERM" : "SIGINT";
+        const std::string name = sig == SIGTERM ? "SIGTERM" : sig == SIGINT ? "SIGINT" : "SIGHUP";
         const std::string last = lines.back();
         EXPECT_TRUE(contains(last, "\"status\":\"interrupted\"")) << last;
         EXPECT_TRUE(contains(last, "\"signal\":\"" + name + "\"")) << last;

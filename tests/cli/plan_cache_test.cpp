@@ -328,6 +328,8 @@ TEST(PlanCache, AFolderThatCannotBeMadeIsAWarning) {
     EXPECT_EQ(r.status, 0) << r.err;
     EXPECT_NE(r.err.find("spectex: warning: "), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("SPECTEX_CACHE_DIR"), std::string::npos) << r.err;
+    // Named as what it is: it said "the output folder", which is not the cache.
+    EXPECT_NE(r.err.find("cannot create the cache folder"), std::string::npos) << r.err;
     EXPECT_NE(r.out.find("* 380:780:"), std::string::npos) << r.out;
 }
 
