@@ -145,6 +145,8 @@ def _open_spectral_exr(filename):
         bitmap = mi.Bitmap(str(filename))
     except Exception as e:  # Mitsuba's message names the cause; ours names the file as given
         first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        if isinstance(e, MemoryError) or "bad_alloc" in first:  # sized from the header, before reading
+            first = f"not enough memory for the pixels its header claims ({first})"
         raise SpectexError(f"spectex texture: {filename}: cannot read: {first}") from None
     names = [field.name for field in bitmap.struct_()]
     if len(names) != bitmap.channel_count():
