@@ -13,14 +13,34 @@ trap 'rm -rf "$tmp"' EXIT
 # A copy of the data without the shipped answers, and an empty cache: the bits are chosen afresh.
 cp -r "$root/config" "$tmp/config"
 rm -rf "$tmp/config/spectral/precision"
-# The default's grid, and 380:780:5, the grid it stored before (the documented way back to it).
+# A config with no sRGB space: its question measures IEC 61966-2-1's values of the 8-bit codes, as
+# it does for every config whose sRGB mixes channels (an ACES config's, through AP0), so that those
+# get a shipped answer too (spectral/precision.h, PrecisionRequest::codes).
+cat > "$tmp/no_srgb.ocio" <<'OCIO'
+ocio_profile_version: 2
+roles:
+  default: lin
+  scene_linear: lin
+file_rules:
+  - !<Rule> {name: Default, colorspace: lin}
+colorspaces:
+  - !<ColorSpace>
+    name: lin
+    aliases: [lin_srgb]
+    isdata: false
+OCIO
+# The default's grid, and 380:780:5, the grid it stored before (the documented way back to it); the
+# shipped config's codes and the formula's.
 for grid in default 380:780:5; do
-  opts=(); [ "$grid" = default ] || opts=(--wavelengths "$grid")
-  SPECTEX_DATA_DIR="$tmp/config" SPECTEX_CACHE_DIR="$tmp/cache" \
-    "$spectex" bake "$root/examples/textures/colour_chart.png" -o "$tmp/chart.exr" -q "${opts[@]}"
+  for config in shipped "$tmp/no_srgb.ocio"; do
+    opts=(); [ "$grid" = default ] || opts=(--wavelengths "$grid")
+    [ "$config" = shipped ] || opts+=(--config "$config")
+    SPECTEX_DATA_DIR="$tmp/config" SPECTEX_CACHE_DIR="$tmp/cache" OCIO= \
+      "$spectex" bake "$root/examples/textures/colour_chart.png" -o "$tmp/chart.exr" -q "${opts[@]}"
+  done
 done
 entries=("$tmp"/cache/precision-*)
-[ ${#entries[@]} -eq 2 ] && [ -f "${entries[0]}" ] || { echo "make_default.sh: expected two precision entries in the cache" >&2; exit 1; }
+[ ${#entries[@]} -eq 4 ] && [ -f "${entries[0]}" ] || { echo "make_default.sh: expected four precision entries in the cache" >&2; exit 1; }
 rm -f "$here"/precision-*
 for e in "${entries[@]}"; do
   key=$(sed -n 's/^key //p' "$e")
