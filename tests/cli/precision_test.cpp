@@ -385,9 +385,11 @@ TEST(PrecisionSlow, TheShippedAnswerIsTheChoosersAndADamagedOneIsNot) {
     ScratchDir d;
     namespace fs = std::filesystem;
     const fs::path shipped = fs::path(SPECTEX_TEST_DATA_DIR) / "spectral" / "precision";
-    // Two shipped answers: the default's grid (31 bins) and 380:780:5 (81), the grid it stored
-    // before. The default's is checked against the chooser here; the other is taken as it is.
-    std::string name, text;
+    // Four shipped answers: the default's grid (31 bins) and 380:780:5 (81), the grid it stored
+    // before, each for the 8-bit codes as the shipped config decodes them and as IEC 61966-2-1's
+    // formula does (a config whose sRGB mixes channels, or that has none). The default grid's two
+    // are checked against the chooser here; the others are taken as they are.
+    std::vector<std::string> names, texts;
     int answers = 0;
     for (const auto& e : fs::directory_iterator(shipped))
         if (e.path().filename().string().rfind("precision-", 0) == 0) {
@@ -395,38 +397,56 @@ TEST(PrecisionSlow, TheShippedAnswerIsTheChoosersAndADamagedOneIsNot) {
             const std::string t = read_file(e.path().string());
             if (t.find("\nbits " + std::to_string(kDefaultBins) + " ") == std::string::npos)
                 continue;
-            ASSERT_TRUE(name.empty()) << "one shipped answer for the default's grid";
-            name = e.path().filename().string();
-            text = t;
+            names.push_back(e.path().filename().string());
+            texts.push_back(t);
         }
-    EXPECT_EQ(answers, 2);
-    ASSERT_FALSE(name.empty());
+    EXPECT_EQ(answers, 4);
+    ASSERT_EQ(names.size(), 2u) << "two shipped answers for the default's grid";
     fs::copy(SPECTEX_TEST_DATA_DIR, d / "config", fs::copy_options::recursive);
-    // One bin's bits lowered by one.
-    std::string damaged = text;
-    const size_t at = damaged.find("bits ");
-    ASSERT_NE(at, std::string::npos);
-    const size_t digit = damaged.find_first_of("56789", damaged.find(' ', at + 5) + 1);
-    ASSERT_NE(digit, std::string::npos);
-    --damaged[digit];
-    write_text(d / "config" + "/spectral/precision/" + name, damaged);
+    // One bin's bits lowered by one, in both.
+    for (size_t i = 0; i < names.size(); ++i) {
+        std::string damaged = texts[i];
+        const size_t at = damaged.find("bits ");
+        ASSERT_NE(at, std::string::npos);
+        const size_t digit = damaged.find_first_of("56789", damaged.find(' ', at + 5) + 1);
+        ASSERT_NE(digit, std::string::npos);
+        --damaged[digit];
+        write_text(d / "config" + "/spectral/precision/" + names[i], damaged);
+    }
     std::vector<uint8_t> px(12, 90);
     write_image(d / "in.png", 2, 2, 3, OIIO::TypeDesc::UINT8, px.data());
-    const RunResult r =
-        run_spectex({"bake", d / "in.png", "-o", d / "o.exr", "-v"},
-                    {"SPECTEX_DATA_DIR=" + (d / "config"), "SPECTEX_CACHE_DIR=" + (d / "cache")});
-    ASSERT_EQ(r.status, 0) << r.err;
-    EXPECT_FALSE(has(r.err, "from spectex's data")) << r.err;
-    // The answer kept in the cache is the shipped one, byte for byte.
-    int entries = 0;
-    for (const auto& e : fs::directory_iterator(d / "cache"))
-        if (e.path().filename().string().rfind("precision-", 0) == 0) {
-            ++entries;
-            EXPECT_EQ(read_file(e.path().string()), text)
-                << "config/spectral/precision/" << name
-                << " is not the chooser's answer: run config/spectral/precision/make_default.sh";
-        }
-    EXPECT_EQ(entries, 1);
+    // A config with no sRGB: its question measures the formula's codes.
+    write_text(d / "no_srgb.ocio",
+               "ocio_profile_version: 2\nroles:\n  default: lin\n  scene_linear: lin\n"
+               "file_rules:\n  - !<Rule> {name: Default, colorspace: lin}\n"
+               "colorspaces:\n  - !<ColorSpace>\n    name: lin\n    aliases: [lin_srgb]\n"
+               "    isdata: false\n");
+    std::vector<std::string> found;
+    for (const std::string config : {"", "no_srgb"}) {
+        SCOPED_TRACE(config.empty() ? "the shipped config" : "a config with no sRGB");
+        const std::string cache = d / ("cache" + config);
+        std::vector<std::string> args{"bake", d / "in.png", "-o", d / "o.exr", "-v"};
+        if (!config.empty()) args.insert(args.end(), {"--config", d / (config + ".ocio")});
+        const RunResult r = run_spectex(
+            args, {"SPECTEX_DATA_DIR=" + (d / "config"), "SPECTEX_CACHE_DIR=" + cache, "OCIO="});
+        ASSERT_EQ(r.status, 0) << r.err;
+        EXPECT_FALSE(has(r.err, "from spectex's data")) << r.err;
+        // The answer kept in the cache is one of the shipped ones, byte for byte.
+        int entries = 0;
+        for (const auto& e : fs::directory_iterator(cache))
+            if (e.path().filename().string().rfind("precision-", 0) == 0) {
+                ++entries;
+                const std::string t = read_file(e.path().string());
+                EXPECT_TRUE(t == texts[0] || t == texts[1])
+                    << "config/spectral/precision/" << names[0] << " or " << names[1]
+                    << " is not the chooser's answer: run "
+                       "config/spectral/precision/make_default.sh";
+                found.push_back(t);
+            }
+        EXPECT_EQ(entries, 1);
+    }
+    ASSERT_EQ(found.size(), 2u);
+    EXPECT_NE(found[0], found[1]) << "the two configs' questions got one answer";
     // The way back to the default's grid before is answered from the data too: no search.
     const RunResult back =
         run_spectex({"bake", d / "in.png", "-o", d / "o81.exr", "-v", "--wavelengths", "380:780:5"},
