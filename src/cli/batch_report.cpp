@@ -336,9 +336,8 @@ int run_batch(const BatchPlan& plan, const BakeSettings& settings) {
     BatchReport report(plan);
     if (!report.open_json()) return 1;
     // From the first file on, SIGTERM, SIGINT and SIGHUP stop the batch instead of ending the
-    // process:
-    // the files finished keep their records, the report is committed, and main ends the process
-    // by the signal after its last line (io/atomic_file.h).
+    // process: the files finished keep their records, the report is committed, and main ends the
+    // process by the signal after its last line (io/atomic_file.h).
     defer_termination_requests();
     const BatchOutcome outcome = bake_batch(plan, settings, report);
     return report.finish(outcome, settings);
