@@ -415,18 +415,14 @@ TEST(PrecisionSlow, TheShippedAnswerIsTheChoosersAndADamagedOneIsNot) {
     }
     std::vector<uint8_t> px(12, 90);
     write_image(d / "in.png", 2, 2, 3, OIIO::TypeDesc::UINT8, px.data());
-    // A config with no sRGB: its question measures the formula's codes.
-    write_text(d / "no_srgb.ocio",
-               "ocio_profile_version: 2\nroles:\n  default: lin\n  scene_linear: lin\n"
-               "file_rules:\n  - !<Rule> {name: Default, colorspace: lin}\n"
-               "colorspaces:\n  - !<ColorSpace>\n    name: lin\n    aliases: [lin_srgb]\n"
-               "    isdata: false\n");
+    // A config with no sRGB (tests/ocio/not_srgb.ocio): its question measures the formula's codes.
+    const std::string no_srgb = std::string(SPECTEX_TEST_SOURCE_DIR) + "/tests/ocio/not_srgb.ocio";
     std::vector<std::string> found;
     for (const std::string config : {"", "no_srgb"}) {
         SCOPED_TRACE(config.empty() ? "the shipped config" : "a config with no sRGB");
         const std::string cache = d / ("cache" + config);
         std::vector<std::string> args{"bake", d / "in.png", "-o", d / "o.exr", "-v"};
-        if (!config.empty()) args.insert(args.end(), {"--config", d / (config + ".ocio")});
+        if (!config.empty()) args.insert(args.end(), {"--config", no_srgb});
         const RunResult r = run_spectex(
             args, {"SPECTEX_DATA_DIR=" + (d / "config"), "SPECTEX_CACHE_DIR=" + cache, "OCIO="});
         ASSERT_EQ(r.status, 0) << r.err;

@@ -13,8 +13,8 @@ under D65 on the file's bins with the config's own observer and light tables (th
 rounding uses), in linear sRGB with white at (1, 1, 1).
 """
 import os
-import re
 import subprocess
+import sys
 import tempfile
 
 import numpy as np
@@ -22,21 +22,16 @@ import OpenImageIO as oiio
 
 SPECTEX = os.environ["SPECTEX_BINARY"]
 SOURCE = os.environ["SPECTEX_SOURCE_DIR"]
-SPECTRAL = os.path.join(SOURCE, "config", "spectral")
+sys.path.insert(0, os.path.join(SOURCE, "tests", "bench"))
+import budget_cube as bc  # noqa: E402  (its config/spectral tables and channel names)
+
 SRGB_XY = np.array([[0.64, 0.33], [0.30, 0.60], [0.15, 0.06]])
-
-
-def table(name):
-    with open(os.path.join(SPECTRAL, name)) as f:
-        rows = [r.split(",") for r in f.read().splitlines() if r and r[0].isdigit()]
-    data = np.array(rows, dtype=float)
-    return data[:, 0], data[:, 1:]
 
 
 def rgb_weights(wl):
     """3 x bins: linear sRGB (white (1, 1, 1)) of a spectrum sampled at wl, under D65."""
-    owl, cmf = table("observer_cie1931-2.csv")
-    lwl, e = table("illuminant_D65.csv")
+    owl, cmf = bc.table("observer_cie1931-2.csv")
+    lwl, e = bc.table("illuminant_D65.csv")
     W = np.stack([np.interp(wl, owl, cmf[:, i]) for i in range(3)]) * np.interp(wl, lwl, e[:, 0])
     W /= W[1].sum()
     P = np.array([[x / y, 1.0, (1 - x - y) / y] for x, y in SRGB_XY]).T
@@ -54,11 +49,9 @@ def levels(path):
         spec = inp.spec()
         px = np.asarray(inp.read_image(0, mip, 0, spec.nchannels, oiio.FLOAT))
         px = px.reshape(spec.height, spec.width, spec.nchannels)
-        names = list(spec.channelnames)
-        chans = sorted((float(m.group(1).replace(",", ".")), i) for i, n in enumerate(names)
-                       if (m := re.fullmatch(r"T\.(\d+(?:[.,]\d+)?)nm", n)))
-        out.append((np.array([w for w, _ in chans]), px[..., [i for _, i in chans]].astype(np.float64),
-                    px[..., names.index("A")].astype(np.float64)))
+        wl, idx = bc.spectral_channels(spec)
+        out.append((wl, px[..., idx].astype(np.float64),
+                    px[..., list(spec.channelnames).index("A")].astype(np.float64)))
     inp.close()
     return out
 

@@ -297,14 +297,7 @@ TEST(Linearizer, SrgbCodeValuesAreWhatABakeDecodes) {
     EXPECT_GT(differ_from_formula, 0u);
 
     // A config that cannot name sRGB: no values (the budget then measures the formula's).
-    char tmpl[] = "/tmp/spectex-ocio-XXXXXX";
-    const std::string dir = mkdtemp(tmpl), path = dir + "/linear_only.ocio";
-    std::ofstream(path) << "ocio_profile_version: 2\n"
-                           "roles:\n  default: lin\n  scene_linear: lin\n"
-                           "file_rules:\n  - !<Rule> {name: Default, colorspace: lin}\n"
-                           "colorspaces:\n  - !<ColorSpace>\n    name: lin\n"
-                           "    aliases: [lin_srgb]\n    isdata: false\n";
-    EXPECT_TRUE(srgb_code_values(kData, path).empty());
-    std::remove(path.c_str());
-    rmdir(dir.c_str());
+    EXPECT_TRUE(
+        srgb_code_values(kData, std::string(SPECTEX_TEST_SOURCE_DIR) + "/tests/ocio/not_srgb.ocio")
+            .empty());
 }

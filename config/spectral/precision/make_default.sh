@@ -13,26 +13,13 @@ trap 'rm -rf "$tmp"' EXIT
 # A copy of the data without the shipped answers, and an empty cache: the bits are chosen afresh.
 cp -r "$root/config" "$tmp/config"
 rm -rf "$tmp/config/spectral/precision"
-# A config with no sRGB space: its question measures IEC 61966-2-1's values of the 8-bit codes, as
-# it does for every config whose sRGB mixes channels (an ACES config's, through AP0), so that those
-# get a shipped answer too (spectral/precision.h, PrecisionRequest::codes).
-cat > "$tmp/no_srgb.ocio" <<'OCIO'
-ocio_profile_version: 2
-roles:
-  default: lin
-  scene_linear: lin
-file_rules:
-  - !<Rule> {name: Default, colorspace: lin}
-colorspaces:
-  - !<ColorSpace>
-    name: lin
-    aliases: [lin_srgb]
-    isdata: false
-OCIO
+# A config with no sRGB space (tests/ocio/not_srgb.ocio): its question measures IEC 61966-2-1's
+# values of the 8-bit codes, as it does for every config whose sRGB mixes channels (an ACES config's,
+# through AP0), so that those get a shipped answer too (spectral/precision.h, PrecisionRequest::codes).
 # The default's grid, and 380:780:5, the grid it stored before (the documented way back to it); the
 # shipped config's codes and the formula's.
 for grid in default 380:780:5; do
-  for config in shipped "$tmp/no_srgb.ocio"; do
+  for config in shipped "$root/tests/ocio/not_srgb.ocio"; do
     opts=(); [ "$grid" = default ] || opts=(--wavelengths "$grid")
     [ "$config" = shipped ] || opts+=(--config "$config")
     SPECTEX_DATA_DIR="$tmp/config" SPECTEX_CACHE_DIR="$tmp/cache" OCIO= \
