@@ -323,17 +323,22 @@ std::vector<double> SpectralReader::wavelengths() const {
 }
 
 void SpectralReader::read_rows(int y0, int rows, float* planes, size_t plane_stride, float* alpha) {
-    const Imf::Header& h = impl_->file->header();
-    const Imath::Box2i dw = h.dataWindow();
+    const Imath::Box2i dw = impl_->file->header().dataWindow();
     const size_t w = static_cast<size_t>(info_.width);
     std::map<std::string, float*> dest;
     for (size_t k = 0; k < info_.reflective.size(); ++k)
         dest[info_.reflective[k].channel] = planes + k * plane_stride;
     if (alpha && info_.alpha) dest["A"] = alpha;
-    if (impl_->chunks->decode(dw.min.y + y0, rows, dest)) {
-        if (alpha && !info_.alpha) std::fill(alpha, alpha + w * static_cast<size_t>(rows), 1.0f);
-        return;
-    }
+    if (!impl_->chunks->decode(dw.min.y + y0, rows, dest))
+        read_checked(y0, rows, planes, plane_stride, alpha);
+    if (alpha && !info_.alpha) std::fill(alpha, alpha + w * static_cast<size_t>(rows), 1.0f);
+}
+
+// Any file the direct decoder does not take: its chunks checked, then read by InputFile.
+void SpectralReader::read_checked(int y0, int rows, float* planes, size_t plane_stride,
+                                  float* alpha) {
+    const Imath::Box2i dw = impl_->file->header().dataWindow();
+    const size_t w = static_cast<size_t>(info_.width);
     impl_->chunks->rows(dw.min.y + y0, dw.min.y + y0 + rows - 1);
     try {
         Imf::FrameBuffer fb;
@@ -353,7 +358,6 @@ void SpectralReader::read_rows(int y0, int rows, float* planes, size_t plane_str
     } catch (const std::exception& e) {
         throw Error(info_.path + ": cannot read the pixels: " + e.what());
     }
-    if (alpha && !info_.alpha) std::fill(alpha, alpha + w * static_cast<size_t>(rows), 1.0f);
 }
 
 int SpectralReader::band_rows(size_t band_bytes) const {

@@ -47,6 +47,8 @@ class SpectralReader {
     std::vector<PixelSpectrum> read_pixels(const std::vector<std::pair<int, int>>& xy);
 
   private:
+    // read_rows for a file the direct decoder does not take (tiled, other compressions).
+    void read_checked(int y0, int rows, float* planes, size_t plane_stride, float* alpha);
     struct Impl;
     SpectralExrInfo info_;
     AlphaKind alpha_ = AlphaKind::None;
